@@ -80,15 +80,17 @@ for cls in (VibrationWaveform, VibrationSpectrum, BearingFaultFrequencies):
 EOF
 }
 
-if [ "${BKABEM_SETUP_ROS_FORCE:-0}" != 1 ] \
-   && [ "$(cat "$PIP_STAMP" 2>/dev/null)" = "$PIP_KEY" ] \
-   && [ "$(cat "$BUILD_STAMP" 2>/dev/null)" = "$BUILD_KEY" ]; then
+FORCE="${BKABEM_SETUP_ROS_FORCE:-0}"
+pip_done() { [ "$FORCE" != 1 ] && [ "$(cat "$PIP_STAMP" 2>/dev/null)" = "$PIP_KEY" ]; }
+build_done() { [ "$FORCE" != 1 ] && [ "$(cat "$BUILD_STAMP" 2>/dev/null)" = "$BUILD_KEY" ]; }
+
+if pip_done && build_done; then
   if check 2>"$STAMPS/check.log"; then
     exit 0    # up to date: nothing to say
   fi
-  say "stamps say done but the import check failed; redoing the installation:"
+  say "stamps say done but the import check failed:"
   sed 's/^/  | /' "$STAMPS/check.log" >&2
-  rm -f "$PIP_STAMP" "$BUILD_STAMP"
+  rm -f "$PIP_STAMP"   # repair: pip first (cheap); the build follows if that is not enough
 fi
 
 # ---------------------------------------------------------------- prerequisites
@@ -101,24 +103,26 @@ pyinc=$("$PY" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')
 [ -f "$pyinc/Python.h" ] || die "Python.h not found in $pyinc: install the interpreter's headers (Debian: apt-get install python3.11-dev)"
 
 # ---------------------------------------------------------------- pip step
-if [ "$(cat "$PIP_STAMP" 2>/dev/null)" != "$PIP_KEY" ] || [ "${BKABEM_SETUP_ROS_FORCE:-0}" = 1 ]; then
-  rm -f "$PIP_STAMP" "$BUILD_STAMP"
+did_pip=0
+pip_step() {
   say "pip: installing ROS 2 Kilted wheels, mcap, rosbags, rerun-sdk from tools/ros-requirements.txt into $V"
-  t0=$SECONDS
+  local t0=$SECONDS log="$BUILD/pip.log"
+  rm -f "$PIP_STAMP"
   mkdir -p "$BUILD"
-  log="$BUILD/pip.log"
   if ! "$PY" -m pip install --disable-pip-version-check -r "$REQS" >"$log" 2>&1; then
     grep -v "^WARNING: Location .* is ignored" "$log" | tail -n 30 >&2
     die "pip install -r tools/ros-requirements.txt failed (full log: $log)"
   fi
   echo "$PIP_KEY" >"$PIP_STAMP"
+  did_pip=1
   say "pip: done in $((SECONDS - t0)) s"
-fi
+}
 
 # ---------------------------------------------------------------- build step
-if [ "$(cat "$BUILD_STAMP" 2>/dev/null)" != "$BUILD_KEY" ] || [ "${BKABEM_SETUP_ROS_FORCE:-0}" = 1 ]; then
+did_build=0
+build_step() {
+  local t0=$SECONDS f
   rm -f "$BUILD_STAMP"
-  t0=$SECONDS
   # Always a fresh tree: rosidl regenerates every interface on any change anyway, and a
   # reused tree could install generated files of a .msg that was deleted since.
   rm -rf "$BUILD/cmake"
@@ -132,13 +136,6 @@ if [ "$(cat "$BUILD_STAMP" 2>/dev/null)" != "$BUILD_KEY" ] || [ "${BKABEM_SETUP_
   mkdir -p "$BUILD"
   log="$BUILD/build.log"
   : >"$log"
-  run() {
-    echo "+ $*" >>"$log"
-    if ! "$@" >>"$log" 2>&1; then
-      tail -n 40 "$log" >&2
-      die "'$1 ${2:-}' failed while building msg_defs/bkabem_msgs (full log: $log)"
-    fi
-  }
   say "cmake: building msg_defs/bkabem_msgs into $V"
   run cmake -S "$PKG_SRC" -B "$BUILD/cmake" \
       -DCMAKE_BUILD_TYPE=Release \
@@ -147,12 +144,37 @@ if [ "$(cat "$BUILD_STAMP" 2>/dev/null)" != "$BUILD_KEY" ] || [ "${BKABEM_SETUP_
   run cmake --build "$BUILD/cmake" -j "${JOBS:-$(nproc 2>/dev/null || echo 2)}"
   run cmake --install "$BUILD/cmake"
   cp "$BUILD/cmake/install_manifest.txt" "$MANIFEST_COPY"
+  did_build=1
   say "cmake: done in $((SECONDS - t0)) s"
+}
+run() {
+  echo "+ $*" >>"$log"
+  if ! "$@" >>"$log" 2>&1; then
+    tail -n 40 "$log" >&2
+    die "'$1 ${2:-}' failed while building msg_defs/bkabem_msgs (full log: $log)"
+  fi
+}
 
+# The build key contains the pip key: new pins -> reinstall and rebuild.
+pip_done || pip_step
+build_done || build_step
+
+# ---------------------------------------------------------------- check (and repair once)
+if ! check 2>"$STAMPS/check.log"; then
+  if [ "$did_pip" = 0 ]; then   # e.g. a package was removed from the venv since
+    say "import check failed; reinstalling the pinned packages:"
+    sed 's/^/  | /' "$STAMPS/check.log" >&2
+    pip_step
+  fi
+  if ! check 2>"$STAMPS/check.log" && [ "$did_build" = 0 ]; then
+    say "import check still fails; rebuilding bkabem_msgs:"
+    sed 's/^/  | /' "$STAMPS/check.log" >&2
+    build_step
+  fi
   if ! check 2>"$STAMPS/check.log"; then
     sed 's/^/  | /' "$STAMPS/check.log" >&2
-    die "built and installed, but '$PY' cannot import/serialize bkabem_msgs (see above)"
+    die "'$PY' fails the import check (rclpy, bkabem_msgs.msg, mcap, mcap_ros2, rosbags, rerun; see above)"
   fi
-  echo "$BUILD_KEY" >"$BUILD_STAMP"
-  say "ok: $PY imports rclpy and bkabem_msgs.msg (VibrationWaveform, VibrationSpectrum, BearingFaultFrequencies)"
 fi
+echo "$BUILD_KEY" >"$BUILD_STAMP"
+say "ok: $PY imports rclpy and bkabem_msgs.msg (VibrationWaveform, VibrationSpectrum, BearingFaultFrequencies)"
