@@ -1,0 +1,436 @@
+"""Case files: TOML with every parameter of a machine, validated key by key.
+
+A case describes one machine: the bearing type, the dent, the 4-DOF excitation model, the FE rotor with its
+bearing and housing elements, and the operating range. The embedded default ``electric_motor_6010`` ships in
+``bkabem_core/cases/``; user cases are loaded by path. Every key carries its unit as a suffix.
+
+Validation is strict and explains itself: a missing key, an unknown key, a wrong type or a value outside its
+physical range raises :class:`CaseError` naming the key (``section.key``) and the reason. Nothing is clamped.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+from .bearing import Bearing, BearingGeometry, Dent
+from .excitation import FourDofParameters
+
+DEFAULT_CASE = "electric_motor_6010"
+
+
+class CaseError(ValueError):
+    """A case file is invalid. ``key`` is the dotted key at fault (or the file)."""
+
+    def __init__(self, key: str, reason: str, source: str = ""):
+        self.key = key
+        self.reason = reason
+        self.source = source
+        where = f"{source}: " if source else ""
+        super().__init__(f"{where}{key}: {reason}")
+
+
+# --------------------------------------------------------------------------- schema
+# Each entry: key -> (kind, check). kind in {"float", "int", "bool", "str", "float[]"}.
+# check: None or a tuple ("gt", x) / ("ge", x) / ("range_open", lo, hi) / ("in", {...}) / ("range", lo, hi).
+_POS = ("gt", 0.0)
+_NONNEG = ("ge", 0.0)
+
+SCHEMA: dict[str, dict[str, tuple]] = {
+    "case": {
+        "name": ("str", None),
+        "description": ("str", None),
+        "schema_version": ("int", ("in", {1})),
+    },
+    "bearing": {
+        "designation": ("str", None),
+        "bore_diameter_m": ("float", _POS),
+        "outer_diameter_m": ("float", _POS),
+        "pitch_diameter_m": ("float", _POS),
+        "ball_diameter_m": ("float", _POS),
+        "n_balls": ("int", ("ge", 3)),
+        "diametral_clearance_m": ("float", _NONNEG),
+        "inner_conformity": ("float", ("gt", 0.5)),
+        "outer_conformity": ("float", ("gt", 0.5)),
+        "contact_angle_deg": ("float", ("range", 0.0, 45.0)),
+        "static_load_rating_n": ("float", _POS),
+        "youngs_modulus_pa": ("float", _POS),
+        "poisson_ratio": ("float", ("range_open", 0.0, 0.5)),
+        "pressure_viscosity_m2_n": ("float", _NONNEG),
+        "dynamic_viscosity_pa_s": ("float", _NONNEG),
+        "ehl_film": ("bool", None),
+        "first_ball_angle_deg": ("float", ("range", -360.0, 360.0)),
+    },
+    "dent": {
+        "bearing": ("str", ("in", {"de", "nde"})),
+        "race": ("str", ("in", {"outer"})),
+        "length_m": ("float", _POS),
+        "depth_m": ("float", _NONNEG),
+        "angle_deg": ("float", ("range", -360.0, 360.0)),
+        "edge_fraction": ("float", ("range", 0.0, 1.0)),
+    },
+    "excitation": {
+        "rotor_mass_kg": ("float", _POS),
+        "housing_mass_kg": ("float", _POS),
+        "support_stiffness_n_m": ("float", _POS),
+        "support_damping_n_s_m": ("float", _NONNEG),
+        "bearing_damping_n_s_m": ("float", _NONNEG),
+        "gravity_m_s2": ("float", _NONNEG),
+        "reference_speed_hz": ("float", _POS),
+        "settle_time_s": ("float", _NONNEG),
+        "record_cage_periods": ("int", ("ge", 1)),
+        "samples_per_ball_pass": ("int", ("ge", 64)),
+        "rtol": ("float", ("range_open", 0.0, 1e-2)),
+        "atol_m": ("float", _POS),
+        "relative_amplitude_threshold": ("float", ("range", 0.0, 1.0)),
+        "max_order": ("int", ("ge", 0)),
+    },
+    "bearings.*": {
+        "rotor_node": ("int", ("ge", 1)),
+        "housing_node": ("int", ("ge", 1)),
+        "stiffness_vertical_n_m": ("float", _POS),
+        "stiffness_horizontal_n_m": ("float", _POS),
+        "damping_vertical_n_s_m": ("float", _NONNEG),
+        "damping_horizontal_n_s_m": ("float", _NONNEG),
+    },
+    "housings[]": {
+        "name": ("str", ("in", {"de", "nde"})),
+        "node": ("int", ("ge", 1)),
+        "mass_kg": ("float", _POS),
+        "support_stiffness_vertical_n_m": ("float", _POS),
+        "support_stiffness_horizontal_n_m": ("float", _POS),
+        "support_damping_vertical_n_s_m": ("float", _NONNEG),
+        "support_damping_horizontal_n_s_m": ("float", _NONNEG),
+    },
+    "rotor": {
+        "youngs_modulus_pa": ("float", _POS),
+        "poisson_ratio": ("float", ("range_open", 0.0, 0.5)),
+        "density_kg_m3": ("float", _POS),
+        "shear_effects": ("bool", None),
+        "rotary_inertia": ("bool", None),
+        "gyroscopic": ("bool", None),
+        "node_positions_m": ("float[]", None),
+        "outer_diameters_m": ("float[]", _POS),
+        "inner_diameters_m": ("float[]", _NONNEG),
+        "disks": ("table[]", None),
+    },
+    "rotor.disks[]": {
+        "name": ("str", None),
+        "node": ("int", ("ge", 1)),
+        "mass_kg": ("float", _POS),
+        "polar_inertia_kg_m2": ("float", _NONNEG),
+        "diametral_inertia_kg_m2": ("float", _NONNEG),
+    },
+    "operating": {
+        "max_speed_hz": ("float", _POS),
+    },
+}
+TOP_LEVEL = ("case", "bearing", "dent", "excitation", "bearings", "housings", "rotor", "operating")
+BEARING_NAMES = ("de", "nde")
+
+
+def _type_ok(kind: str, value) -> bool:
+    if kind == "float":
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    if kind == "int":
+        return isinstance(value, int) and not isinstance(value, bool)
+    if kind == "bool":
+        return isinstance(value, bool)
+    if kind == "str":
+        return isinstance(value, str)
+    if kind == "float[]":
+        return isinstance(value, list) and all(_type_ok("float", v) for v in value)
+    if kind == "table[]":
+        return isinstance(value, list) and all(isinstance(v, dict) for v in value)
+    raise AssertionError(kind)
+
+
+_KIND_TEXT = {"float": "a number", "int": "an integer", "bool": "true or false", "str": "a string",
+              "float[]": "an array of numbers", "table[]": "an array of tables"}
+
+
+def _check_value(key: str, value, check, source: str):
+    if check is None:
+        return
+    values = value if isinstance(value, list) else [value]
+    for v in values:
+        if isinstance(v, float) and not math.isfinite(v):
+            raise CaseError(key, f"must be finite (got {v})", source)
+        op = check[0]
+        if op == "gt" and not v > check[1]:
+            raise CaseError(key, f"must be > {check[1]:g} (got {v!r})", source)
+        if op == "ge" and not v >= check[1]:
+            raise CaseError(key, f"must be >= {check[1]:g} (got {v!r})", source)
+        if op == "range" and not check[1] <= v <= check[2]:
+            raise CaseError(key, f"must be in [{check[1]:g}, {check[2]:g}] (got {v!r})", source)
+        if op == "range_open" and not check[1] < v < check[2]:
+            raise CaseError(key, f"must be in ({check[1]:g}, {check[2]:g}) (got {v!r})", source)
+        if op == "in" and v not in check[1]:
+            allowed = ", ".join(repr(a) for a in sorted(check[1], key=str))
+            raise CaseError(key, f"must be one of {allowed} (got {v!r})", source)
+
+
+def _check_table(prefix: str, table, schema: dict, source: str):
+    if not isinstance(table, dict):
+        raise CaseError(prefix, "must be a table", source)
+    for k in table:
+        if k not in schema:
+            raise CaseError(f"{prefix}.{k}", f"unknown key (allowed: {', '.join(schema)})", source)
+    for k, (kind, check) in schema.items():
+        key = f"{prefix}.{k}"
+        if k not in table:
+            raise CaseError(key, "missing", source)
+        v = table[k]
+        if not _type_ok(kind, v):
+            raise CaseError(key, f"must be {_KIND_TEXT[kind]} (got {type(v).__name__} {v!r})", source)
+        if isinstance(v, float) and not math.isfinite(v):
+            raise CaseError(key, f"must be finite (got {v})", source)
+        if kind == "float[]" and any(not math.isfinite(x) for x in v):
+            raise CaseError(key, "must hold finite numbers only", source)
+        _check_value(key, v, check, source)
+
+
+def validate_case_dict(raw: dict, source: str = "") -> None:
+    """Validate a parsed case; raise :class:`CaseError` at the first problem."""
+    for k in raw:
+        if k not in TOP_LEVEL:
+            raise CaseError(k, f"unknown section (allowed: {', '.join(TOP_LEVEL)})", source)
+    for sec in ("case", "bearing", "dent", "excitation", "rotor", "operating"):
+        if sec not in raw:
+            raise CaseError(sec, "missing section", source)
+        _check_table(sec, raw[sec], SCHEMA[sec], source)
+    # bearings.de / bearings.nde
+    if "bearings" not in raw:
+        raise CaseError("bearings", "missing section", source)
+    brg = raw["bearings"]
+    if not isinstance(brg, dict):
+        raise CaseError("bearings", "must be a table with sub-tables de and nde", source)
+    for name in brg:
+        if name not in BEARING_NAMES:
+            raise CaseError(f"bearings.{name}", "unknown bearing (allowed: de, nde)", source)
+    for name in BEARING_NAMES:
+        if name not in brg:
+            raise CaseError(f"bearings.{name}", "missing", source)
+        _check_table(f"bearings.{name}", brg[name], SCHEMA["bearings.*"], source)
+    # housings
+    hs = raw.get("housings")
+    if hs is None:
+        raise CaseError("housings", "missing (two [[housings]] tables: de and nde)", source)
+    if not _type_ok("table[]", hs):
+        raise CaseError("housings", "must be an array of tables ([[housings]])", source)
+    for i, h in enumerate(hs):
+        _check_table(f"housings[{i}]", h, SCHEMA["housings[]"], source)
+    names = [h["name"] for h in hs]
+    if sorted(names) != ["de", "nde"]:
+        raise CaseError("housings", f"need exactly one housing named 'de' and one named 'nde' (got {names})", source)
+    for i, d in enumerate(raw["rotor"]["disks"]):
+        _check_table(f"rotor.disks[{i}]", d, SCHEMA["rotor.disks[]"], source)
+    _check_cross(raw, source)
+
+
+def _check_cross(raw: dict, source: str) -> None:
+    b = raw["bearing"]
+    if b["ball_diameter_m"] >= b["pitch_diameter_m"]:
+        raise CaseError("bearing.ball_diameter_m", f"must be smaller than bearing.pitch_diameter_m "
+                        f"({b['ball_diameter_m']} >= {b['pitch_diameter_m']})", source)
+    if not b["bore_diameter_m"] < b["pitch_diameter_m"] < b["outer_diameter_m"]:
+        raise CaseError("bearing.pitch_diameter_m", "must lie between bearing.bore_diameter_m and "
+                        "bearing.outer_diameter_m", source)
+    if b["n_balls"] * b["ball_diameter_m"] >= math.pi * b["pitch_diameter_m"]:
+        raise CaseError("bearing.n_balls", f"{b['n_balls']} balls of {b['ball_diameter_m']} m do not fit on the "
+                        f"pitch circle of {b['pitch_diameter_m']} m", source)
+    # dent length against the outer race
+    r_out = (b["pitch_diameter_m"] + b["ball_diameter_m"] + b["diametral_clearance_m"] / 2.0) / 2.0
+    circ = 2.0 * math.pi * r_out
+    d = raw["dent"]
+    if d["length_m"] >= circ:
+        raise CaseError("dent.length_m", f"must be shorter than the outer-race circumference {circ * 1e3:.1f} mm "
+                        f"(got {d['length_m'] * 1e3:g} mm)", source)
+    if d["length_m"] >= circ / b["n_balls"]:
+        raise CaseError("dent.length_m", f"must be shorter than one ball pitch along the outer race "
+                        f"({circ / b['n_balls'] * 1e3:.2f} mm): longer spalls are outside this model "
+                        f"(got {d['length_m'] * 1e3:g} mm)", source)
+    # rotor geometry
+    r = raw["rotor"]
+    z = r["node_positions_m"]
+    n_nodes = len(z)
+    if n_nodes < 2:
+        raise CaseError("rotor.node_positions_m", "needs at least two shaft nodes", source)
+    if any(z1 <= z0 for z0, z1 in zip(z, z[1:])):
+        raise CaseError("rotor.node_positions_m", "must be strictly increasing", source)
+    for k in ("outer_diameters_m", "inner_diameters_m"):
+        if len(r[k]) != n_nodes - 1:
+            raise CaseError(f"rotor.{k}", f"needs one value per element: {n_nodes - 1} (got {len(r[k])})", source)
+    for i, (do, di) in enumerate(zip(r["outer_diameters_m"], r["inner_diameters_m"])):
+        if di >= do:
+            raise CaseError(f"rotor.inner_diameters_m", f"element {i + 1}: inner diameter {di} must be smaller "
+                            f"than the outer diameter {do}", source)
+    shaft_nodes = set(range(1, n_nodes + 1))
+    for i, dk in enumerate(r["disks"]):
+        if dk["node"] not in shaft_nodes:
+            raise CaseError(f"rotor.disks[{i}].node", f"must be a shaft node 1..{n_nodes} (got {dk['node']})", source)
+    housing_nodes = {h["name"]: h["node"] for h in raw["housings"]}
+    for name, h_node in housing_nodes.items():
+        if h_node in shaft_nodes:
+            raise CaseError(f"housings.{name}.node", f"{h_node} is a shaft node; housings need their own node "
+                            f"label > {n_nodes}", source)
+    if len(set(housing_nodes.values())) != 2:
+        raise CaseError("housings", "the two housings need different nodes", source)
+    for name in BEARING_NAMES:
+        e = raw["bearings"][name]
+        if e["rotor_node"] not in shaft_nodes:
+            raise CaseError(f"bearings.{name}.rotor_node", f"must be a shaft node 1..{n_nodes} "
+                            f"(got {e['rotor_node']})", source)
+        if e["housing_node"] != housing_nodes[name]:
+            raise CaseError(f"bearings.{name}.housing_node", f"must be the node of housing '{name}' "
+                            f"({housing_nodes[name]}, got {e['housing_node']})", source)
+    if raw["bearings"]["de"]["rotor_node"] == raw["bearings"]["nde"]["rotor_node"]:
+        raise CaseError("bearings.nde.rotor_node", "DE and NDE bearings must sit on different shaft nodes", source)
+
+
+# --------------------------------------------------------------------------- the Case object
+@dataclass
+class Case:
+    """A validated machine case.
+
+    Attributes
+    ----------
+    name : str
+    source : str
+        Path of the file, or ``"embedded:<name>"``.
+    raw : dict
+        The parsed TOML (validated), the single source of truth for builders such as ``rotor_from_case``.
+    """
+
+    name: str
+    source: str
+    raw: dict
+
+    # -- loading --
+    @classmethod
+    def load(cls, name_or_path: str | Path | None = None) -> "Case":
+        """Load the embedded case ``name`` (default ``electric_motor_6010``) or a TOML file by path."""
+        if name_or_path is None:
+            name_or_path = DEFAULT_CASE
+        s = str(name_or_path)
+        if not s.endswith(".toml") and "/" not in s and not Path(s).exists():
+            try:
+                text = resources.files("bkabem_core").joinpath("cases", f"{s}.toml").read_text()
+            except FileNotFoundError:
+                raise CaseError("case", f"no embedded case named {s!r} (available: {', '.join(embedded_cases())})")
+            return cls.from_toml(text, source=f"embedded:{s}")
+        p = Path(s)
+        if not p.is_file():
+            raise CaseError("case", f"file not found: {p}")
+        return cls.from_toml(p.read_text(), source=str(p))
+
+    @classmethod
+    def from_toml(cls, text: str, source: str = "") -> "Case":
+        try:
+            raw = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise CaseError("toml", f"not valid TOML: {exc}", source) from None
+        return cls.from_dict(raw, source)
+
+    @classmethod
+    def from_dict(cls, raw: dict, source: str = "") -> "Case":
+        raw = copy.deepcopy(raw)
+        validate_case_dict(raw, source)
+        return cls(name=raw["case"]["name"], source=source, raw=raw)
+
+    # -- identity --
+    @property
+    def case_hash(self) -> str:
+        """SHA-256 (first 16 hex digits) of the canonical JSON of the parameters: the case identity."""
+        blob = json.dumps(self.raw, sort_keys=True, separators=(",", ":")).encode()
+        return hashlib.sha256(blob).hexdigest()[:16]
+
+    # -- builders --
+    def bearing_geometry(self) -> BearingGeometry:
+        b = self.raw["bearing"]
+        return BearingGeometry(
+            designation=b["designation"],
+            ball_diameter_m=float(b["ball_diameter_m"]),
+            pitch_diameter_m=float(b["pitch_diameter_m"]),
+            n_balls=int(b["n_balls"]),
+            diametral_clearance_m=float(b["diametral_clearance_m"]),
+            inner_conformity=float(b["inner_conformity"]),
+            outer_conformity=float(b["outer_conformity"]),
+            contact_angle_rad=math.radians(b["contact_angle_deg"]),
+            youngs_modulus_pa=float(b["youngs_modulus_pa"]),
+            poisson_ratio=float(b["poisson_ratio"]),
+            bore_diameter_m=float(b["bore_diameter_m"]),
+            outer_diameter_m=float(b["outer_diameter_m"]),
+            static_load_rating_n=float(b["static_load_rating_n"]),
+            pressure_viscosity_m2_n=float(b["pressure_viscosity_m2_n"]),
+            dynamic_viscosity_pa_s=float(b["dynamic_viscosity_pa_s"]),
+            first_ball_angle_rad=math.radians(b["first_ball_angle_deg"]),
+        )
+
+    def dent(self) -> Dent:
+        d = self.raw["dent"]
+        return Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]),
+                    angle_rad=math.radians(d["angle_deg"]), edge_fraction=float(d["edge_fraction"]),
+                    bearing=d["bearing"], race=d["race"])
+
+    def bearing(self, location: str | None = None) -> Bearing:
+        """The bearing at ``location`` (``"de"``/``"nde"``; default: the faulty one) with its dent, if any."""
+        dent = self.dent()
+        loc = dent.bearing if location is None else location
+        return Bearing(self.bearing_geometry(), dent if loc == dent.bearing else None)
+
+    def four_dof_parameters(self) -> FourDofParameters:
+        e = self.raw["excitation"]
+        return FourDofParameters(**{k: e[k] for k in FourDofParameters.__dataclass_fields__})
+
+    @property
+    def faulty_bearing(self) -> str:
+        return self.raw["dent"]["bearing"]
+
+    @property
+    def max_speed_hz(self) -> float:
+        return float(self.raw["operating"]["max_speed_hz"])
+
+    def with_overrides(self, overrides: dict) -> "Case":
+        """A new validated case with ``{"section.key": value}`` overrides (e.g. ``{"dent.depth_m": 20e-6}``)."""
+        raw = copy.deepcopy(self.raw)
+        for dotted, value in overrides.items():
+            *path, last = dotted.split(".")
+            node = raw
+            for p in path:
+                if p not in node or not isinstance(node[p], dict):
+                    raise CaseError(dotted, "unknown key", self.source)
+                node = node[p]
+            if last not in node:
+                raise CaseError(dotted, "unknown key", self.source)
+            node[last] = value
+        return Case.from_dict(raw, self.source + " (overridden)")
+
+    def ground_truth(self) -> dict:
+        """What a labelled data set needs: bearing designation and geometry, defect, case identity."""
+        g = self.bearing_geometry()
+        d = self.dent()
+        return {
+            "case": self.name,
+            "case_hash": self.case_hash,
+            "bearing_designation": g.designation,
+            "bearing_geometry": {
+                "ball_diameter_m": g.ball_diameter_m, "pitch_diameter_m": g.pitch_diameter_m,
+                "n_balls": g.n_balls, "diametral_clearance_m": g.diametral_clearance_m,
+                "contact_angle_rad": g.contact_angle_rad,
+            },
+            "defect": {"bearing": d.bearing, "race": d.race, "length_m": d.length_m, "depth_m": d.depth_m,
+                       "angle_rad": d.angle_rad},
+        }
+
+
+def embedded_cases() -> list[str]:
+    """Names of the cases shipped inside the package."""
+    return sorted(p.name[:-5] for p in resources.files("bkabem_core").joinpath("cases").iterdir()
+                  if p.name.endswith(".toml"))
