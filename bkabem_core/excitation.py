@@ -19,6 +19,7 @@ Units: SI (m, s, N, kg, rad).
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 from dataclasses import dataclass
@@ -111,6 +112,9 @@ class Excitation:
         Time spent integrating and transforming [s].
     n_steps : int
         Right-hand-side evaluations of the integrator.
+    housing_resonance_hz : float
+        Housing-on-bearing natural frequency of the 4-DOF model at the static equilibrium (vertical) [Hz];
+        orders near and above it carry the 4-DOF model's own ringing rather than bearing kinematics.
     """
 
     bpfo_per_hz: float
@@ -130,6 +134,7 @@ class Excitation:
     static_displacement_m: np.ndarray
     wall_time_s: float
     n_steps: int
+    housing_resonance_hz: float = float("nan")
 
     def to_dict(self) -> dict:
         """JSON-ready summary (field names of the CLI contract)."""
@@ -146,19 +151,31 @@ class Excitation:
             "static_displacement_m": {"vertical": float(self.static_displacement_m[1]),
                                       "horizontal": float(self.static_displacement_m[0])},
             "n_resolved_orders": int(len(self.all_orders)),
+            "housing_resonance_hz": self.housing_resonance_hz,
             "wall_time_s": self.wall_time_s,
             "integrator_steps": self.n_steps,
         }
 
-    def waveform_m(self, cage_angle_rad, direction: str, include_dc: bool = True):
-        """Relative displacement [m] rebuilt from the kept orders at cage angles [rad] (angle domain)."""
-        theta = np.asarray(cage_angle_rad, dtype=float)
-        z = round(self.bpfo_per_hz / self._ftf_per_hz) if hasattr(self, "_ftf_per_hz") else None
-        if z is None:
-            raise AttributeError("waveform_m needs the ball count; use from compute_excitation")
-        arg = np.multiply.outer(theta * z, self.orders) + self.phase_rad[direction]
-        out = np.cos(arg) @ self.amplitude_m[direction]
-        return out + (self.dc_m[direction] if include_dc else 0.0)
+    def with_selection(self, relative_amplitude_threshold: float, max_order: int = 0) -> "Excitation":
+        """The same result with the kept orders chosen again (no re-integration).
+
+        ``max_order=24, relative_amplitude_threshold=0`` is the paper's choice (BPFO and 23 harmonics).
+        """
+        keep = select_orders(self.all_amplitude_m, relative_amplitude_threshold, max_order)
+        out = copy.copy(self)
+        out.orders = self.all_orders[keep]
+        out.amplitude_m = {d: self.all_amplitude_m[d][keep] for d in DIRECTIONS}
+        out.phase_rad = {d: self.all_phase_rad[d][keep] for d in DIRECTIONS}
+        return out
+
+
+def select_orders(all_amplitude_m: dict, relative_amplitude_threshold: float, max_order: int) -> np.ndarray:
+    """Boolean mask over orders 1..N: ``A_k >= threshold x max A`` in either direction, and ``k <= max_order``."""
+    amp = np.vstack([all_amplitude_m[d] for d in DIRECTIONS])
+    keep = np.max(amp, axis=0) >= relative_amplitude_threshold * amp.max()
+    if max_order > 0:
+        keep &= np.arange(1, amp.shape[1] + 1) <= max_order
+    return keep
 
 
 class FourDofModel:
@@ -275,6 +292,17 @@ class FourDofModel:
         yh = -(p.rotor_mass_kg + p.housing_mass_kg) * p.gravity_m_s2 / p.support_stiffness_n_m
         return np.array([e[0], yh + e[1], 0.0, yh, 0.0, 0.0, 0.0, 0.0]), e
 
+    def housing_resonance_hz(self) -> float:
+        """Vertical housing-on-bearing natural frequency at the static equilibrium [Hz] (rotor held fixed)."""
+        e = self.static_state()[1]
+        saved, self.bearing.dent = self.bearing.dent, None
+        try:
+            _, _, (_, _, kyy) = self.bearing.forces_n(e[0], e[1], 0.0, with_stiffness=True)
+        finally:
+            self.bearing.dent = saved
+        k = float(kyy) + self.p.support_stiffness_n_m
+        return math.sqrt(k / self.p.housing_mass_kg) / TWO_PI
+
     def max_step_s(self) -> float:
         """Largest integrator step that cannot jump over the dent or its edges [s]."""
         bp = 1.0 / (self.z * self.ftf * self.p.reference_speed_hz)
@@ -327,7 +355,7 @@ def compute_excitation(bearing: Bearing, params: FourDofParameters) -> Excitatio
     n = rel.shape[1]
     spec = np.fft.rfft(rel, axis=1) / n
     stride = params.record_cage_periods * model.z            # FFT bins per BPFO order
-    k_max = (spec.shape[1] - 1) // stride
+    k_max = (n // 2 - 1) // stride                              # the Nyquist bin is not an order
     all_orders = np.arange(1, k_max + 1)
     bins = all_orders * stride
     amp = 2.0 * np.abs(spec[:, bins])
@@ -337,9 +365,8 @@ def compute_excitation(bearing: Bearing, params: FourDofParameters) -> Excitatio
     mask[bins] = False
     on = np.sqrt(np.sum(np.abs(spec[:, bins]) ** 2))
     off = np.sqrt(np.sum(np.abs(spec[:, mask]) ** 2))
-    keep = np.max(amp, axis=0) >= params.relative_amplitude_threshold * amp.max()
-    if params.max_order > 0:
-        keep &= all_orders <= params.max_order
+    keep = select_orders({"vertical": amp[0], "horizontal": amp[1]}, params.relative_amplitude_threshold,
+                         params.max_order)
     orders = all_orders[keep]
     ex = Excitation(
         bpfo_per_hz=bearing.fault_multipliers().bpfo,
@@ -359,6 +386,6 @@ def compute_excitation(bearing: Bearing, params: FourDofParameters) -> Excitatio
         static_displacement_m=model.static_state()[1],
         wall_time_s=time.perf_counter() - t_start,
         n_steps=n_steps,
+        housing_resonance_hz=model.housing_resonance_hz(),
     )
-    ex._ftf_per_hz = model.ftf
     return ex

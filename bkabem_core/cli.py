@@ -1,0 +1,363 @@
+"""Command-line interface: ``bkabem <command>``.
+
+Core commands (no ROS needed): ``excitation``, ``spectrum``, ``sweep``, ``validate``, ``synth``, ``demo``.
+Field names of the JSON outputs follow the contract in ``architecture.md``. Bad input: one line on stderr
+naming the argument (or case key) and the reason, exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+import time
+
+import numpy as np
+
+EXIT_BAD_INPUT = 2
+
+
+class UsageError(Exception):
+    """Bad command-line input; the message names the argument and the reason."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with the project's error contract: one line on stderr, exit code 2."""
+
+    def error(self, message):  # noqa: D401 - argparse API
+        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        sys.exit(EXIT_BAD_INPUT)
+
+
+def _finite_float(name: str, minimum: float | None = None, strict: bool = False):
+    def conv(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number (got {text!r})") from None
+        if not math.isfinite(v):
+            raise argparse.ArgumentTypeError(f"{name} must be finite (got {text!r})")
+        if minimum is not None and (v <= minimum if strict else v < minimum):
+            op = ">" if strict else ">="
+            raise argparse.ArgumentTypeError(f"{name} must be {op} {minimum:g} (got {text!r})")
+        return v
+
+    return conv
+
+
+def _pos_int(name: str, minimum: int = 1):
+    def conv(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be an integer (got {text!r})") from None
+        if v < minimum:
+            raise argparse.ArgumentTypeError(f"{name} must be >= {minimum} (got {v})")
+        return v
+
+    return conv
+
+
+# --------------------------------------------------------------------------- helpers
+def _load_case(path):
+    from .case import Case
+
+    return Case.load(path)
+
+
+def _model(case, solver="block"):
+    from .harmonic import BkaBem
+
+    return BkaBem(case, solver=solver)
+
+
+def _print_json(obj) -> None:
+    json.dump(obj, sys.stdout, indent=1)
+    sys.stdout.write("\n")
+
+
+def _excitation_table(ex, max_rows: int = 24) -> str:
+    d = ex.to_dict()
+    lines = [
+        f"4-DOF excitation at {ex.reference_speed_hz:g} Hz  (BPFO {ex.bpfo_per_hz:.4f} x shaft Hz, "
+        f"clearance {ex.clearance_m * 1e6:.1f} um, {len(ex.orders)} orders kept of {len(ex.all_orders)})",
+        f"  DC           vertical {d['dc_m']['vertical'] * 1e6:9.3f} um   horizontal "
+        f"{d['dc_m']['horizontal'] * 1e6:9.4f} um",
+        f"  peak-to-peak vertical {d['peak_to_peak_m']['vertical'] * 1e6:9.3f} um   horizontal "
+        f"{d['peak_to_peak_m']['horizontal'] * 1e6:9.4f} um",
+        f"  {'order':>5} {'f@ref [Hz]':>10} {'A_v [um]':>10} {'phi_v [rad]':>11} {'A_h [um]':>10} {'phi_h [rad]':>11}",
+    ]
+    for i, k in enumerate(ex.orders[:max_rows]):
+        lines.append(f"  {k:5d} {k * ex.bpfo_per_hz * ex.reference_speed_hz:10.3f} "
+                     f"{ex.amplitude_m['vertical'][i] * 1e6:10.4f} {ex.phase_rad['vertical'][i]:11.4f} "
+                     f"{ex.amplitude_m['horizontal'][i] * 1e6:10.4f} {ex.phase_rad['horizontal'][i]:11.4f}")
+    if len(ex.orders) > max_rows:
+        lines.append(f"  ... {len(ex.orders) - max_rows} more orders (--json for all)")
+    return "\n".join(lines)
+
+
+def _spectrum_table(sp, max_rows: int = 12) -> str:
+    from .harmonic import LOCATIONS
+
+    ff = sp.fault_frequencies_hz
+    lines = [f"BKA-BEM spectrum at {sp.speed_hz:g} Hz shaft speed ({sp.speed_hz * 60:.0f} rpm): FTF {ff.ftf:.3f} Hz, "
+             f"BPFO {ff.bpfo:.3f} Hz, BPFI {ff.bpfi:.3f} Hz, BSF {ff.bsf:.3f} Hz"]
+    acc = np.abs(sp.acceleration)
+    disp = np.abs(sp.displacement)
+    head = "  " + f"{'order':>5} {'f [Hz]':>9}" + "".join(f" {loc + ' v/h [m/s2]':>27}" for loc in LOCATIONS)
+    lines.append(head)
+    for i, k in enumerate(sp.orders[:max_rows]):
+        row = f"  {k:5d} {sp.frequency_hz[i]:9.2f}"
+        for li in range(len(LOCATIONS)):
+            row += f" {acc[i, li, 0]:13.4e}/{acc[i, li, 1]:.4e}"
+        lines.append(row)
+    if len(sp.orders) > max_rows:
+        lines.append(f"  ... {len(sp.orders) - max_rows} more orders (--json for all)")
+    rms_a = np.sqrt(0.5 * np.sum(acc ** 2, axis=0))
+    rms_d = np.sqrt(0.5 * np.sum(disp ** 2, axis=0))
+    for li, loc in enumerate(LOCATIONS):
+        lines.append(f"  {loc:12s} overall RMS acceleration v/h {rms_a[li, 0]:.4e}/{rms_a[li, 1]:.4e} m/s2, "
+                     f"displacement v/h {rms_d[li, 0] * 1e6:.4f}/{rms_d[li, 1] * 1e6:.4f} um, "
+                     f"DC v/h {sp.dc_m[li, 0] * 1e6:.3f}/{sp.dc_m[li, 1] * 1e6:.4f} um")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- commands
+def cmd_excitation(args) -> int:
+    case = _load_case(args.case)
+    from .excitation import compute_excitation
+
+    ex = compute_excitation(case.bearing(), case.four_dof_parameters())
+    if args.png:
+        from .plots import plot_excitation
+
+        plot_excitation(ex, args.png)
+    if args.json:
+        _print_json(ex.to_dict())
+    else:
+        print(_excitation_table(ex))
+        if args.png:
+            print(f"wrote {args.png}")
+    return 0
+
+
+def cmd_spectrum(args) -> int:
+    case = _load_case(args.case)
+    model = _model(case)
+    sp = model.spectrum(args.speed_hz)
+    if args.png:
+        from .plots import plot_spectrum
+
+        plot_spectrum(sp, args.png)
+    if args.json:
+        _print_json(sp.to_dict())
+    else:
+        print(_spectrum_table(sp))
+        if args.png:
+            print(f"wrote {args.png}")
+    return 0
+
+
+def cmd_sweep(args) -> int:
+    if args.to_hz < args.from_hz:
+        raise UsageError(f"--to-hz ({args.to_hz:g}) must be >= --from-hz ({args.from_hz:g})")
+    case = _load_case(args.case)
+    model = _model(case)
+    speeds = np.linspace(args.from_hz, args.to_hz, args.steps)
+    t0 = time.perf_counter()
+    sw = model.sweep(speeds, progress=not (args.json or args.csv) and sys.stderr.isatty())
+    elapsed = time.perf_counter() - t0
+    if args.png:
+        from .plots import plot_sweep
+
+        plot_sweep(sw, args.png)
+    from .excitation import DIRECTIONS
+    from .harmonic import LOCATIONS
+
+    acc, disp = sw.acceleration, sw.displacement
+    if args.json:
+        out = {"speeds_hz": speeds.tolist(), "orders": [int(k) for k in sw.orders], "bpfo_per_hz": sw.bpfo_per_hz,
+               "wall_time_s": elapsed}
+        rms_a, rms_d = sw.rms("acceleration"), sw.rms("displacement")
+        for li, loc in enumerate(LOCATIONS):
+            out[loc] = {}
+            for di, d in enumerate(DIRECTIONS):
+                out[loc][d] = {
+                    "displacement_m": np.abs(disp[:, :, li, di]).tolist(),
+                    "acceleration_m_s2": np.abs(acc[:, :, li, di]).tolist(),
+                    "phase_rad": np.angle(disp[:, :, li, di]).tolist(),
+                    "rms_acceleration_m_s2": rms_a[:, li, di].tolist(),
+                    "rms_displacement_m": rms_d[:, li, di].tolist(),
+                }
+        _print_json(out)
+    elif args.csv:
+        w = csv.writer(sys.stdout)
+        w.writerow(["speed_hz", "order", "frequency_hz", "location", "direction", "displacement_m",
+                    "acceleration_m_s2", "phase_rad"])
+        f = sw.frequency_hz
+        for si, s in enumerate(speeds):
+            for ki, k in enumerate(sw.orders):
+                for li, loc in enumerate(LOCATIONS):
+                    for di, d in enumerate(DIRECTIONS):
+                        x = disp[si, ki, li, di]
+                        w.writerow([f"{s:.6g}", int(k), f"{f[si, ki]:.6g}", loc, d, f"{abs(x):.6e}",
+                                    f"{abs(acc[si, ki, li, di]):.6e}", f"{np.angle(x):.6f}"])
+    else:
+        rms = sw.rms("acceleration")
+        print(f"sweep {args.from_hz:g}..{args.to_hz:g} Hz, {args.steps} speeds x {sw.orders.size} orders "
+              f"in {elapsed * 1e3:.1f} ms")
+        print(f"  {'speed [Hz]':>10}" + "".join(f" {loc + ' v/h RMS [m/s2]':>27}" for loc in LOCATIONS))
+        step = max(1, args.steps // 15)
+        for si in range(0, args.steps, step):
+            print(f"  {speeds[si]:10.3f}" + "".join(f" {rms[si, li, 0]:13.4e}/{rms[si, li, 1]:.4e}"
+                                                    for li in range(len(LOCATIONS))))
+        if args.png:
+            print(f"wrote {args.png}")
+    return 0
+
+
+def cmd_validate(args) -> int:
+    try:
+        from . import validation
+    except ImportError as exc:  # pragma: no cover - until the TDSM lands
+        raise UsageError(f"validate is not available: {exc}") from None
+    case = _load_case(args.case)
+    kwargs = {}
+    if args.speed_hz is not None:
+        kwargs["speed_hz"] = args.speed_hz
+    if args.duration is not None:
+        kwargs["duration_s"] = args.duration
+    if args.improvement:
+        kwargs["improvement"] = args.improvement
+    result = validation.validate(case, progress=not args.json and sys.stderr.isatty(), **kwargs)
+    if args.png:
+        validation.plot_validation(result, args.png)
+    if args.json:
+        _print_json(result.to_dict())
+    else:
+        print(result.summary() if hasattr(result, "summary") else json.dumps(result.to_dict(), indent=1))
+    return 0
+
+
+def cmd_demo(args) -> int:
+    """The main job on the embedded case: excitation, spectra at a few speeds, a sweep PNG."""
+    from pathlib import Path
+
+    case = _load_case(args.case)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    model = _model(case)
+    prep = time.perf_counter() - t0
+    ex = model.excitation
+    print(f"case {case.name} ({case.source}, hash {case.case_hash}); prepared in {prep:.2f} s "
+          f"(4-DOF excitation {model.preparation_time_s['excitation']:.2f} s, {ex.n_steps} RHS evaluations)")
+    print(_excitation_table(ex))
+    from .plots import plot_excitation, plot_spectrum, plot_sweep
+
+    plot_excitation(ex, str(out / "excitation.png"))
+    for s in args.speeds:
+        sp = model.spectrum(s)
+        print()
+        print(_spectrum_table(sp, max_rows=8))
+    plot_spectrum(model.spectrum(args.speeds[-1]), str(out / "spectrum.png"))
+    speeds = np.linspace(0.5, case.max_speed_hz, 500)
+    t1 = time.perf_counter()
+    sw = model.sweep(speeds)
+    print(f"\nsweep of {speeds.size} speeds x {sw.orders.size} orders in {(time.perf_counter() - t1) * 1e3:.0f} ms")
+    plot_sweep(sw, str(out / "sweep.png"))
+    print(f"wrote {out / 'excitation.png'}, {out / 'spectrum.png'}, {out / 'sweep.png'}")
+    return 0
+
+
+# --------------------------------------------------------------------------- parser
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="bkabem", description="BKA-BEM digital-twin vibration source for a faulty ball bearing")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    def add_case(sp):
+        sp.add_argument("--case", default=None,
+                        help="embedded case name or TOML file (default: electric_motor_6010)")
+
+    e = sub.add_parser("excitation", help="4-DOF excitation: DC, amplitudes and phases per BPFO order")
+    add_case(e)
+    e.add_argument("--json", action="store_true", help="machine-readable output")
+    e.add_argument("--png", help="write a figure of the waveform and orders")
+    e.set_defaults(func=cmd_excitation)
+
+    s = sub.add_parser("spectrum", help="BKA-BEM spectrum at one shaft speed")
+    add_case(s)
+    s.add_argument("--speed-hz", required=True, type=_finite_float("--speed-hz", 0.0),
+                   help="shaft speed [Hz]")
+    s.add_argument("--json", action="store_true")
+    s.add_argument("--png")
+    s.set_defaults(func=cmd_spectrum)
+
+    w = sub.add_parser("sweep", help="BKA-BEM spectra over a range of shaft speeds")
+    add_case(w)
+    w.add_argument("--from-hz", required=True, type=_finite_float("--from-hz", 0.0), help="first speed [Hz]")
+    w.add_argument("--to-hz", required=True, type=_finite_float("--to-hz", 0.0), help="last speed [Hz]")
+    w.add_argument("--steps", required=True, type=_pos_int("--steps", 1), help="number of speeds")
+    w.add_argument("--png", help="order map and RMS vs speed")
+    g = w.add_mutually_exclusive_group()
+    g.add_argument("--json", action="store_true")
+    g.add_argument("--csv", action="store_true", help="tidy CSV: one row per speed, order, location, direction")
+    w.set_defaults(func=cmd_sweep)
+
+    v = sub.add_parser("validate", help="time-domain reference (TDSM) against BKA-BEM at one speed")
+    add_case(v)
+    v.add_argument("--speed-hz", type=_finite_float("--speed-hz", 0.0, strict=True), default=None)
+    v.add_argument("--duration", type=_finite_float("--duration", 0.0, strict=True), default=None,
+                   help="simulated time after the transient [s]")
+    v.add_argument("--improvement", default=None, help="excitation improvement to compare (see docs/validation.md)")
+    v.add_argument("--json", action="store_true")
+    v.add_argument("--png")
+    v.set_defaults(func=cmd_validate)
+
+    try:
+        from .synth_cli import add_synth_arguments, synth_main
+    except ImportError:
+        pass
+    else:
+        y = sub.add_parser("synth", help="synthesise sensor waveforms under a speed profile")
+        add_case(y)
+        add_synth_arguments(y)
+        y.set_defaults(func=synth_main)
+
+    d = sub.add_parser("demo", help="the main job on the embedded case")
+    add_case(d)
+    d.add_argument("--out", default="out/demo", help="folder for the figures")
+    d.add_argument("--speeds", type=_finite_float("--speeds", 0.0), nargs="+", default=[10.0, 25.0, 50.0],
+                   help="shaft speeds [Hz] for the spectrum tables")
+    d.set_defaults(func=cmd_demo)
+
+    try:
+        from bkabem_ros.cli import add_ros_commands
+    except ImportError:
+        pass
+    else:
+        add_ros_commands(sub, add_case)
+    return p
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    from .case import CaseError
+
+    try:
+        return int(args.func(args) or 0)
+    except (UsageError, CaseError) as exc:
+        sys.stderr.write(f"bkabem {args.command}: error: {exc}\n")
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        sys.stderr.write(f"bkabem {args.command}: interrupted\n")
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
