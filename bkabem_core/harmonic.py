@@ -18,10 +18,10 @@ angle(X_k) in the same cosine convention as the excitation. Velocity and acceler
 Solvers
 -------
 ``"block"`` (default): exact. The housing DOFs (point masses that touch the shaft at one node and the ground)
-are condensed into the shaft node they hang on, which leaves a block-tridiagonal system (4 x 4 blocks along
-the shaft); a block LU (Thomas) sweep solves it for every order and speed at once, vectorised with numpy.
-Cost grows with the number of shaft nodes, not with its cube, and Python overhead is paid per node, not per
-order. Used whenever the model has this single-shaft topology (checked at set-up).
+are condensed into the shaft node they hang on, which leaves the block-tridiagonal shaft matrix (4 x 4
+blocks). A block LU sweep with partial pivoting inside the blocks, in a small C kernel, solves all orders and
+speeds of a batch in one call: cost linear in shaft nodes and orders. Used whenever the model has this
+single-shaft topology (checked at set-up); see :class:`ShaftSolver` for why C and what else was measured.
 
 ``"direct"``: the full complex system is solved for every order and speed with numpy's batched LU. Exact, any
 topology; the reference the block solver is tested against.
@@ -206,7 +206,7 @@ class BkaBem:
         self._block = None
         if solver == "block":
             try:
-                self._block = BlockTridiagonalSolver(self.rotor)
+                self._block = ShaftSolver(self.rotor)
             except ValueError:
                 self.solver = "direct"
         t4 = time.perf_counter()
@@ -274,12 +274,34 @@ class BkaBem:
                 "shaft_nodes": len(self.rotor.shaft_node_labels), "orders": int(self.orders.size)}
 
 
-class BlockTridiagonalSolver:
+def _load_kernel():
+    """The compiled block-tridiagonal kernel (bkabem_core/_blocktri.c), or None if it was not built."""
+    import ctypes
+    import importlib.util
+
+    spec = importlib.util.find_spec("bkabem_core._blocktri")
+    if spec is None or not spec.origin or not spec.origin.endswith((".so", ".pyd", ".dylib")):
+        return None
+    lib = ctypes.CDLL(spec.origin)
+    fn = lib.bt_solve_coef
+    ptr, cint = ctypes.c_void_p, ctypes.c_int
+    fn.argtypes = [cint, cint, ptr, ptr, ptr, cint, ptr, ptr, ptr, ptr, ptr, ptr, ptr, ptr, ptr,
+                   ptr, ptr, ptr, ptr, ptr, ptr, ctypes.c_double]
+    fn.restype = cint
+    return fn
+
+
+_KERNEL = _load_kernel()
+
+
+class ShaftSolver:
     """Exact batched solver of ``[K - w^2 M + i w (C + W G)] x = f`` for a single-shaft model.
 
-    The shaft nodes (4 DOFs each, consecutive labels joined by shaft elements) form a block-tridiagonal
-    matrix; every other DOF (housing point masses) must couple to the shaft at a single node and have
-    diagonal M, K, C, G among themselves, so that condensing it adds only to that node's diagonal block.
+    The housing DOFs (point masses that touch the shaft at one node and otherwise only the ground) are
+    condensed exactly into the shaft node they hang on. What remains is the shaft matrix, block-tridiagonal
+    with 4 x 4 blocks; a block LU (Thomas) sweep with partial pivoting inside each block solves every system
+    of the batch (orders x speeds) in one call of a small C kernel (``_blocktri.c``). Members whose smallest
+    pivot is tiny, and every member if the kernel is not built, are solved by LAPACK's dense LU instead.
 
     Parameters
     ----------
@@ -288,138 +310,92 @@ class BlockTridiagonalSolver:
     Raises
     ------
     ValueError
-        If the model does not have this topology (use the direct solver then).
+        If the model does not have this topology (the direct solver is used then).
     """
+
+    #: Smallest pivot (relative to its block's largest entry) accepted from the block sweep.
+    PIVOT_RATIO_MIN = 1e-10
 
     def __init__(self, rotor: Rotor):
         shaft = list(rotor.shaft_node_labels)
-        s_idx = np.concatenate([rotor.node_dofs(n) for n in shaft])
         if any(len(rotor.node_dofs(n)) != 4 for n in shaft):
             raise ValueError("shaft nodes must have 4 DOFs")
+        s_idx = np.concatenate([rotor.node_dofs(n) for n in shaft])
         o_idx = np.setdiff1d(np.arange(rotor.ndof), s_idx)
-        self.n_nodes = len(shaft)
         self.s_idx, self.o_idx = s_idx, o_idx
+        nb = self.n_nodes = len(shaft)
         mats = {"K": rotor.K, "M": rotor.M, "C": rotor.C, "G": rotor.G}
-        nb = self.n_nodes
-        band = np.zeros((nb, nb), dtype=bool)
-        for a in mats.values():
-            ss = a[np.ix_(s_idx, s_idx)].reshape(nb, 4, nb, 4)
-            band |= np.any(ss != 0.0, axis=(1, 3))
-        ii, jj = np.nonzero(band)
-        if np.any(np.abs(ii - jj) > 1):
-            raise ValueError("shaft matrix is not block-tridiagonal")
-        self.blocks = {}
+        self._full = mats
+        coef = {}
         for name, a in mats.items():
-            ss = a[np.ix_(s_idx, s_idx)].reshape(nb, 4, nb, 4).transpose(0, 2, 1, 3)   # (nb, nb, 4, 4)
+            ss = a[np.ix_(s_idx, s_idx)].reshape(nb, 4, nb, 4).transpose(0, 2, 1, 3)    # (nb, nb, 4, 4)
+            far = np.abs(np.subtract.outer(np.arange(nb), np.arange(nb))) > 1
+            if np.any(ss[far] != 0.0):
+                raise ValueError("shaft matrix is not block-tridiagonal")
             k = np.arange(nb)
-            self.blocks[name] = (ss[k, k], ss[k[:-1], k[1:]], ss[k[1:], k[:-1]])        # diag, upper, lower
+            coef[name] = [ss[k, k].ravel(), ss[k[:-1], k[1:]].ravel(), ss[k[1:], k[:-1]].ravel()]
             oo = a[np.ix_(o_idx, o_idx)]
             if np.any(oo - np.diag(np.diag(oo)) != 0.0):
                 raise ValueError("non-shaft DOFs must be uncoupled among themselves")
-        self.oo = {n: np.diag(a[np.ix_(o_idx, o_idx)]).copy() for n, a in mats.items()}
-        self.so = {n: a[np.ix_(s_idx, o_idx)].reshape(nb, 4, len(o_idx)) for n, a in mats.items()}
-        self.os = {n: a[np.ix_(o_idx, s_idx)].reshape(len(o_idx), nb, 4) for n, a in mats.items()}
-        # each non-shaft DOF may touch one shaft node only
-        touch = np.zeros((nb, len(o_idx)), dtype=bool)
-        for n in mats:
-            touch |= np.any(self.so[n] != 0.0, axis=1) | np.any(self.os[n] != 0.0, axis=2).T
-        if np.any(touch.sum(axis=0) > 1):
-            raise ValueError("a housing DOF couples to more than one shaft node")
-        self.o_node = np.array([int(np.argmax(touch[:, o])) if touch[:, o].any() else 0
-                                for o in range(len(o_idx))], dtype=int)
-        oi = np.arange(len(o_idx))
-        self.so_loc = {n: self.so[n][self.o_node, :, oi] for n in mats}            # (no, 4)
-        self.os_loc = {n: self.os[n][oi, self.o_node, :] for n in mats}            # (no, 4)
-        self._k, self._m, self._c, self._g = rotor.K, rotor.M, rotor.C, rotor.G
-        # one flat coefficient vector per matrix: [diag blocks, upper, lower, oo, so, os]
-        coef = {}
-        for n in mats:
-            dg, uu, ll = self.blocks[n]
-            coef[n] = np.concatenate([dg.ravel(), uu.ravel(), ll.ravel(), self.oo[n], self.so_loc[n].ravel(),
-                                      self.os_loc[n].ravel()])
-        self._coef_k, self._coef_m, self._coef_c, self._coef_g = (coef[n] for n in ("K", "M", "C", "G"))
-        sizes = [nb * 16, (nb - 1) * 16, (nb - 1) * 16, len(o_idx), len(o_idx) * 4, len(o_idx) * 4]
+            coef[name].append(np.diag(oo).copy())
+        so = {k: a[np.ix_(s_idx, o_idx)] for k, a in mats.items()}
+        os_ = {k: a[np.ix_(o_idx, s_idx)] for k, a in mats.items()}
+        touch = np.zeros((s_idx.size, o_idx.size), dtype=bool)
+        for k in mats:
+            touch |= (so[k] != 0.0) | (os_[k].T != 0.0)
+        nodes = []
+        for o in range(o_idx.size):
+            rows = np.nonzero(touch[:, o])[0]
+            if rows.size and rows.max() // 4 != rows.min() // 4:
+                raise ValueError("a housing DOF couples to more than one shaft node")
+            nodes.append(int(rows.min() // 4) if rows.size else 0)
+        self.o_node = np.array(nodes, dtype=int)
+        rows = 4 * self.o_node[:, None] + np.arange(4)[None, :]                   # (no, 4)
+        oi = np.arange(o_idx.size)[:, None]
+        for k in mats:
+            coef[k] += [so[k][rows, oi].ravel(), os_[k][oi, rows].ravel()]
+        sizes = [nb * 16, (nb - 1) * 16, (nb - 1) * 16, o_idx.size, o_idx.size * 4, o_idx.size * 4]
         edges = np.cumsum([0] + sizes)
-        self._sl_d, self._sl_u, self._sl_l, self._sl_oo, self._sl_so, self._sl_os = (
-            slice(edges[i], edges[i + 1]) for i in range(6))
+        self._sl = [slice(int(edges[i]), int(edges[i + 1])) for i in range(6)]
+        self._coef = {k: np.concatenate(v) for k, v in coef.items()}
+        # the same coefficients as C-contiguous [K, M, C, G] stacks per part, for the kernel
+        self._c_arrays = [np.ascontiguousarray(np.stack([coef[k][part] for k in ("K", "M", "C", "G")]))
+                          for part in range(6)]
+        self._o_node_c = self.o_node.astype(np.intc)
         self.last_fallbacks = 0
 
-    #: Pivot magnitude (relative to the largest entry of its block row) below which a batch member is
-    #: re-solved with LAPACK's pivoted LU instead of the unpivoted block elimination.
-    PIVOT_RATIO_MIN = 1e-8
-
     def solve(self, w: np.ndarray, big_w: np.ndarray, f: np.ndarray) -> np.ndarray:
-        """Solve for a batch: w, big_w (B,) [rad/s], f (B, ndof) complex [N] -> x (B, ndof) [m].
-
-        Block Thomas sweep along the shaft with Gauss-Jordan elimination of each 4 x 4 block, vectorised over
-        the batch (batch on the last axis so every numpy call works on contiguous data). Batch members in which
-        a pivot is tiny compared with its block are re-solved with the pivoted direct solver.
-        """
-        b = w.size
-        nb, no = self.n_nodes, len(self.o_idx)
-        # every matrix coefficient the sweep needs, for the whole batch, in one expression: (P, B)
-        re = self._coef_k[:, None] - (w * w)[None, :] * self._coef_m[:, None]
-        im = w[None, :] * (self._coef_c[:, None] + big_w[None, :] * self._coef_g[:, None])
-        z = re + 1j * im
-        d = z[self._sl_d].reshape(nb, 4, 4, b)
-        up = z[self._sl_u].reshape(nb - 1, 4, 4, b)
-        lo = z[self._sl_l].reshape(nb - 1, 4, 4, b)
-        z_oo = z[self._sl_oo]
-        zso = z[self._sl_so].reshape(no, 4, b)
-        zos = z[self._sl_os].reshape(no, 4, b)
-        ft = f.T
-        f_s = ft[self.s_idx].reshape(nb, 4, b).copy()
-        f_o = ft[self.o_idx]
-        inv_oo = 1.0 / z_oo
-        for o, node in enumerate(self.o_node):                                      # condense housings
-            d[node] -= zso[o][:, None, :] * (zos[o] * inv_oo[o])[None, :, :]
-            f_s[node] -= zso[o] * (inv_oo[o] * f_o[o])
-        worst = np.full(b, np.inf)
-        xs = []
-        y = f_s[0]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            for i in range(nb):
-                last = i == nb - 1
-                aug = np.concatenate([d[i], y[:, None, :]] if last else [d[i], up[i], y[:, None, :]], axis=1)
-                worst = np.minimum(worst, self._gauss_jordan(aug))
-                xs.append(aug[:, 4:, :])
-                if not last:
-                    # d_{i+1} -= lo_i X_U ;  y_{i+1} = f_{i+1} - lo_i X_y
-                    prod = (lo[i][:, :, None, :] * aug[None, :, 4:, :]).sum(axis=1)     # (4, 5, B)
-                    d[i + 1] -= prod[:, :4]
-                    y = f_s[i + 1] - prod[:, 4]
-            x_s = np.empty((nb, 4, b), dtype=complex)
-            x_s[-1] = xs[-1][:, 0, :]
-            for i in range(nb - 2, -1, -1):
-                x_s[i] = xs[i][:, 4, :] - (xs[i][:, :4, :] * x_s[i + 1][None]).sum(axis=1)
-            x = np.empty((f.shape[1], b), dtype=complex)
-            x[self.s_idx] = x_s.reshape(-1, b)
-            x[self.o_idx] = inv_oo * (f_o - (zos * x_s[self.o_node]).sum(axis=1))
-        x = x.T
-        bad = ~(worst >= self.PIVOT_RATIO_MIN) | ~np.all(np.isfinite(x), axis=1)
-        if np.any(bad):
-            x[bad] = self._direct(w[bad], big_w[bad], f[bad])
-        self.last_fallbacks = int(bad.sum())
-        return x
-
-    @staticmethod
-    def _gauss_jordan(aug: np.ndarray) -> np.ndarray:
-        """In-place Gauss-Jordan on (4, m, B): leaves d^-1 [rhs] in aug[:, 4:]; returns min pivot ratio (B,).
-
-        No pivoting: the ratio |pivot| / max|block| flags the batch members that need the pivoted solver.
-        """
-        scale = np.abs(aug[:, :4]).max(axis=(0, 1))
-        worst = np.full(aug.shape[-1], np.inf)
-        for k in range(4):
-            piv = aug[k, k].copy()
-            worst = np.minimum(worst, np.abs(piv))
-            aug[k] /= piv
-            col = aug[:, k].copy()
-            col[k] = 0.0
-            aug -= col[:, None, :] * aug[k][None]
-        return worst / scale
+        """Solve for a batch: w, big_w (B,) [rad/s], f (B, ndof) complex [N] -> x (B, ndof) [m]."""
+        if _KERNEL is None:
+            self.last_fallbacks = w.size
+            return self._direct(w, big_w, f)
+        b, nb, no = w.size, self.n_nodes, self.o_idx.size
+        w = np.ascontiguousarray(w, dtype=float)
+        big_w = np.ascontiguousarray(big_w, dtype=float)
+        f_s = np.ascontiguousarray(f[:, self.s_idx], dtype=complex)         # (B, nb*4), overwritten with x
+        f_o = np.ascontiguousarray(f[:, self.o_idx], dtype=complex)
+        x_o = np.empty((b, no), dtype=complex)
+        work = [np.empty((b, nb, 4, 4), complex), np.empty((b, max(nb - 1, 1), 4, 4), complex),
+                np.empty((b, max(nb - 1, 1), 4, 4), complex), np.empty((b, max(nb - 1, 1), 4, 4), complex),
+                np.empty((b, nb, 4), complex)]
+        bad = np.zeros(b, dtype=np.intc)
+        cd, cu, cl, coo, cso, cos_ = self._c_arrays
+        _KERNEL(nb, b, cd.ctypes.data, cu.ctypes.data, cl.ctypes.data, no, self._o_node_c.ctypes.data,
+                coo.ctypes.data, cso.ctypes.data, cos_.ctypes.data, w.ctypes.data, big_w.ctypes.data,
+                f_s.ctypes.data, f_o.ctypes.data, x_o.ctypes.data, *(a.ctypes.data for a in work),
+                bad.ctypes.data, self.PIVOT_RATIO_MIN)
+        out = np.empty((b, f.shape[1]), dtype=complex)
+        out[:, self.s_idx] = f_s
+        out[:, self.o_idx] = x_o
+        flagged = bad.astype(bool)
+        if np.any(flagged) or not np.all(np.isfinite(out)):
+            flagged |= ~np.all(np.isfinite(out), axis=1)
+            out[flagged] = self._direct(w[flagged], big_w[flagged], f[flagged])
+        self.last_fallbacks = int(flagged.sum())
+        return out
 
     def _direct(self, w, big_w, f):
-        z = (self._k[None] - (w ** 2)[:, None, None] * self._m[None]
-             + 1j * w[:, None, None] * (self._c[None] + big_w[:, None, None] * self._g[None]))
+        m = self._full
+        z = (m["K"][None] - (w ** 2)[:, None, None] * m["M"][None]
+             + 1j * w[:, None, None] * (m["C"][None] + big_w[:, None, None] * m["G"][None]))
         return np.linalg.solve(z, f[..., None])[..., 0]

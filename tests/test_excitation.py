@@ -78,3 +78,21 @@ def test_housing_resonance_reported(excitation):
     assert 900 < excitation.housing_resonance_hz < 1100
     assert excitation.orders.max() * excitation.bpfo_per_hz * excitation.reference_speed_hz < \
         excitation.housing_resonance_hz / 3
+
+
+def test_fast_bearing_path_equals_the_bearing_model(case):
+    """The integrator's scalar force path is the same physics as Bearing.forces_n (dent included)."""
+    from bkabem_core.excitation import FourDofModel
+
+    bearing = case.bearing()
+    model = FourDofModel(bearing, case.four_dof_parameters())
+    rng = np.random.default_rng(0)
+    hits = 0
+    for _ in range(3000):
+        ex, ey, t = rng.normal(0, 3e-6), -42e-6 + rng.normal(0, 5e-6), rng.uniform(0, 3)
+        theta = 2 * np.pi * model.ftf * case.four_dof_parameters().reference_speed_hz * t
+        fx, fy, (kxx, kxy, kyy) = bearing.forces_n(ex, ey, theta, with_stiffness=True)
+        got = model._bearing(ex, ey, t)
+        assert np.allclose(got, [fx, fy, kxx, kxy, kyy], rtol=1e-9, atol=1e-6)
+        hits += bool(np.any(bearing.dent_depth_m(bearing.ball_angles_rad(theta)) > 0))
+    assert hits > 10           # the dent was exercised
