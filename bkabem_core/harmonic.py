@@ -249,7 +249,7 @@ class BkaBem:
                         frequency_hz=self.orders * self.bpfo_per_hz * speed_hz, displacement=x,
                         dc_m=self._dc.copy(), fault_frequencies_hz=self.fault_multipliers.at_speed(speed_hz))
 
-    def sweep(self, speeds_hz, batch: int = 256, progress: bool = False) -> Sweep:
+    def sweep(self, speeds_hz, batch: int = 16, progress: bool = False) -> Sweep:
         """Responses over many speeds [Hz], computed in batches (memory bounded)."""
         speeds_hz = np.asarray(speeds_hz, dtype=float).ravel()
         parts = []
