@@ -14,18 +14,29 @@ This is the reference BKA-BEM is validated against (paper section 5). Same case 
 
 Integrator
 ----------
-HHT-alpha (``hht_alpha = 0``: Newmark average acceleration, no numerical damping), constant step ``h``, so the
-effective matrix ``S = M/(beta h^2) + (1+alpha) gamma/(beta h) (C + Omega G) + (1+alpha) K`` is inverted once.
-The equations are written for the deviation ``x`` from the static equilibrium, and one step is the affine map
+The equations are written for the deviation ``x`` from the static equilibrium. With ``f`` the 4 nonlinear
+bearing forces (DE x, y; NDE x, y; minus their static values) one constant step ``h`` is the affine map
 
-    z_{n+1} = T z_n + W f_{n+1} + W_p f_n,        z = [x, v, a]  (3 ndof),
+    z_{n+1} = T z_n + W f_{n+1} + W_p f_n,
 
-where ``f`` are the 4 nonlinear bearing forces (DE x, y; NDE x, y; minus their static values). The bearing
-relative displacements ``u = B^T x`` then satisfy ``u = u_pred + H f(u)`` with the precomputed 4 x 4
-flexibility ``H = B^T W_x``: Newton iterates on these 4 unknowns only (a 4 x 4 solve and one ball-force
-evaluation per iteration), the full state is updated once per step. There is no model reduction: the FE has
-60 DOFs, a step is one 180 x 180 matrix-vector product, and reduction would add an error without saving time
-(the cost is Python overhead of the ball-force evaluation, see BENCHMARKS.md).
+precomputed once. Two schemes:
+
+``"exponential"`` (default)
+    ``z = [x, v]``; the linear part (FE rotor, housings, supports, dampers, ``Omega G``) is discretised exactly
+    (matrix exponential) and the bearing forces are linear in time over a step (first-order hold). No mode of
+    the linear part suffers period error or numerical damping at any step, which matters here: the shaft has
+    bending modes at 2-5 kHz with damping ratios of 0.001-0.004 that some BPFO harmonics hit.
+``"newmark"``
+    ``z = [x, v, a]``; HHT-alpha (``hht_alpha = 0``: Newmark average acceleration, exact discrete energy balance
+    for a linear model). Second order too, but its period error shifts the lightly damped shaft resonances: it
+    needs a 4-8 times smaller step for the same accuracy of the resonant orders (docs/validation.md).
+
+In both, the bearing relative displacements ``u = B^T x`` satisfy ``u = u_pred + H f(u)`` with the precomputed
+4 x 4 flexibility ``H``: Newton iterates on these 4 unknowns only (one ball-force evaluation and a 4 x 4 update
+per iteration), and the full state is updated once per step. ``|H K_contact|`` is about 1e-3 at these steps, so
+the Newton update uses ``(I + H K)^-1 ~ I - H K`` (checked at set-up; the exact 4 x 4 solve otherwise). There is
+no model reduction: the FE has 60 DOFs, a step is one 120 x 120 matrix-vector product, and reduction would add
+an error without saving time (the cost is Python overhead of the ball-force evaluation, see BENCHMARKS.md).
 
 The step is chosen as ``h = T_bpfo / N`` (N integer, ``h <= max_step_s``), so every BPFO period holds exactly N
 steps: the steady-state response is BPFO-periodic and its FFT over whole periods has no leakage. The ball
@@ -342,7 +353,7 @@ class Tdsm:
     max_step_s : float
         Largest integration step [s]; the step is ``T_bpfo / ceil(T_bpfo / max_step_s)``.
     hht_alpha : float
-        HHT-alpha parameter in [-1/3, 0]; 0 = Newmark average acceleration (no numerical damping).
+        HHT-alpha parameter in [-1/3, 0] of the ``"newmark"`` scheme; 0 = average acceleration.
     bearing_damping_n_s_m : float, optional
         Viscous damper between rotor and housing at each bearing [N s/m] (default: the case's
         ``[excitation] bearing_damping_n_s_m``).
@@ -355,11 +366,13 @@ class Tdsm:
         1e-9 and 1e-13 give the same spectrum).
     max_newton : int
         Iteration limit per step (a step that does not converge raises ``RuntimeError``).
+    scheme : {"exponential", "newmark"}
+        Time discretisation (module docstring).
     """
 
     def __init__(self, case: Case, speed_hz: float, max_step_s: float = 1.0e-5, hht_alpha: float = 0.0,
                  bearing_damping_n_s_m: float | None = None, bearing_model: str = "hertz",
-                 newton_tol_m: float = 1.0e-9, max_newton: int = 30):
+                 newton_tol_m: float = 1.0e-9, max_newton: int = 30, scheme: str = "exponential"):
         t_setup = time.perf_counter()
         speed_hz = float(speed_hz)
         if not (math.isfinite(speed_hz) and speed_hz > 0.0):
@@ -368,12 +381,15 @@ class Tdsm:
             raise ValueError(f"max_step_s: must be > 0 (got {max_step_s})")
         if not (-1.0 / 3.0 <= hht_alpha <= 0.0):
             raise ValueError(f"hht_alpha: must be in [-1/3, 0] (got {hht_alpha})")
+        if scheme not in ("exponential", "newmark"):
+            raise ValueError(f"scheme: 'exponential' or 'newmark' (got {scheme!r})")
         if bearing_model not in ("hertz", "linear"):
             raise ValueError(f"bearing_model: 'hertz' or 'linear' (got {bearing_model!r})")
         self.case = case
         self.speed_hz = speed_hz
         self.hht_alpha = float(hht_alpha)
         self.bearing_model = bearing_model
+        self.scheme = scheme
         self.newton_tol_m = float(newton_tol_m)
         self.max_newton = int(max_newton)
         exc = case.raw["excitation"]
@@ -434,7 +450,11 @@ class Tdsm:
         self.static = self.static_equilibrium()
         self._u_static = np.concatenate([self.static.relative_m[b] for b in BEARINGS])
         self._f_static = np.concatenate([self.static.force_n[b] for b in BEARINGS])
-        self._build_integrator()
+        if scheme == "newmark":
+            self._build_integrator()
+        else:
+            self._build_exponential()
+        self.state_size = self.T.shape[0]
         # the approximate Newton inverse I - H K needs |H K| << 1 (checked with a 10x stiffer contact)
         _, k_st = self.forces.evaluate(self._u_static, 0)
         self.newton_contraction = float(np.linalg.norm(self.H, 2) * np.linalg.norm(k_st, 2))
@@ -528,6 +548,38 @@ class Tdsm:
         self.Bz = bz
         self.H = bz @ self.W                                                          # (4, 4)
 
+    def _build_exponential(self):
+        """Exact discretisation of the linear part with a first-order-hold bearing force.
+
+        ``y = [x, v]``, ``y' = A y + B_f f(t)``; with ``f`` linear in time over a step,
+        ``y_{n+1} = e^{A h} y_n + (P_0 - P_1) f_n + P_1 f_{n+1}`` where ``P_0 = int_0^h e^{A(h-s)} ds B_f`` and
+        ``P_1 = 1/h int_0^h e^{A(h-s)} s ds B_f`` (one augmented matrix exponential, Van Loan). Every mode of the
+        linear part keeps its exact frequency and damping at any step; the only discretisation error is the
+        linear interpolation of the 4 bearing forces over a step (second order in h).
+        """
+        rot, n, h = self.rotor, self.ndof, self.h
+        cw = rot.C + TWO_PI * self.speed_hz * rot.G
+        minv = np.linalg.inv(rot.M)
+        a = np.zeros((2 * n, 2 * n))
+        a[:n, n:] = np.eye(n)
+        a[n:, :n] = -minv @ rot.K
+        a[n:, n:] = -minv @ cw
+        bf = np.zeros((2 * n, 4))
+        bf[n:] = minv @ self.B
+        aug = np.zeros((2 * n + 8, 2 * n + 8))
+        aug[:2 * n, :2 * n] = a * h
+        aug[:2 * n, 2 * n:2 * n + 4] = bf * h
+        aug[2 * n:2 * n + 4, 2 * n + 4:] = np.eye(4)
+        e = scipy.linalg.expm(aug)
+        phi, p0, p1 = e[:2 * n, :2 * n], e[:2 * n, 2 * n:2 * n + 4], e[:2 * n, 2 * n + 4:]
+        self.T = np.ascontiguousarray(phi)
+        self.W = np.ascontiguousarray(p1)
+        self.Wp = np.ascontiguousarray(p0 - p1)
+        bz = np.zeros((4, 2 * n))
+        bz[:, :n] = self.B.T
+        self.Bz = bz
+        self.H = bz @ self.W
+
     # ------------------------------------------------------------------ helpers
     def auto_settle_s(self, decay: float = 1e-3, minimum_s: float = 0.1) -> float:
         """Start transient to discard [s]: the slowest mode of the model linearised at the static equilibrium
@@ -557,7 +609,8 @@ class Tdsm:
 
     def settings(self) -> dict:
         return {"case": self.case.name, "case_hash": self.case.case_hash, "speed_hz": self.speed_hz,
-                "step_s": self.h, "steps_per_bpfo": self.steps_per_bpfo, "hht_alpha": self.hht_alpha,
+                "step_s": self.h, "steps_per_bpfo": self.steps_per_bpfo, "scheme": self.scheme,
+                "hht_alpha": self.hht_alpha,
                 "bearing_damping_n_s_m": self.bearing_damping_n_s_m, "bearing_model": self.bearing_model,
                 "newton_tol_m": self.newton_tol_m, "films_m": list(self.films_m),
                 "gravity_m_s2": self.gravity_m_s2}
@@ -577,9 +630,9 @@ class Tdsm:
             Store one sample every this many steps (1 = every step).
         progress : bool
             Show a tqdm progress bar.
-        initial_state : ndarray (3 ndof,), optional
-            ``[x, v, a]`` deviation from the static equilibrium at t = 0 (default zeros: start at rest in the
-            static equilibrium). Integrator tests use it.
+        initial_state : ndarray (state_size,), optional
+            Deviation from the static equilibrium at t = 0: ``[x, v]`` (exponential) or ``[x, v, a]`` (newmark;
+            ``a`` must be consistent with x, v). Default zeros: at rest in the static equilibrium.
         record_state : bool
             Also keep the full state of every recorded sample in ``result.state`` (tests).
 
@@ -601,10 +654,10 @@ class Tdsm:
         n_total = n_settle + n_rec
         n_samples = n_rec // record_every
         rec_x = np.empty((n_samples, 12))          # 8 output DOFs, 4 bearing forces
-        states = np.empty((n_samples, 3 * self.ndof)) if record_state else None
+        states = np.empty((n_samples, self.state_size)) if record_state else None
 
         T, W, Wp, Bz, H = self.T, self.W, self.Wp, self.Bz, self.H
-        use_wp = self.hht_alpha != 0.0
+        use_wp = self.scheme == "exponential" or self.hht_alpha != 0.0
         out_idx = self.out_dofs.reshape(-1)
         u_s, f_s = self._u_static, self._f_static
         evaluate = self.forces.evaluate
@@ -612,7 +665,7 @@ class Tdsm:
         exact = self.newton_exact
         eye4 = np.eye(4)
         solve = np.linalg.solve
-        z = np.zeros(3 * self.ndof) if initial_state is None else np.array(initial_state, dtype=float)
+        z = np.zeros(self.state_size) if initial_state is None else np.array(initial_state, dtype=float)
         f_dev, _ = evaluate(u_s + Bz.dot(z), 0)          # deviation force of the initial state
         f_dev = f_dev - f_s
         f_old = f_dev
