@@ -1,0 +1,124 @@
+"""``bkabem record``: record the node's topics from the graph into MCAP, or recover a cut file.
+
+    bkabem record --out run.mcap [--namespace /m1] [--topics speed vibration/de/acceleration ...]
+                  [--duration S] [--chunk-size BYTES] [--chunk-duration S]
+                  [--rotate-size BYTES] [--rotate-duration S]
+    bkabem record --recover CUT.mcap FIXED.mcap
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+__all__ = ["add_parser", "main"]
+
+
+def _size(text: str) -> int:
+    """Bytes with an optional k/M/G suffix (powers of 1024)."""
+    t = text.strip().upper().removesuffix("B")
+    mult = 1
+    for suffix, m in (("K", 1 << 10), ("M", 1 << 20), ("G", 1 << 30)):
+        if t.endswith(suffix):
+            t, mult = t[:-1], m
+            break
+    try:
+        v = int(float(t) * mult)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a size like 1048576, 512k, 64M (got {text!r})") from None
+    if v <= 0:
+        raise argparse.ArgumentTypeError(f"size must be > 0 (got {text!r})")
+    return v
+
+
+def add_parser(sub, add_case=None):
+    """Register ``bkabem record`` on an argparse subparsers object."""
+    from bkabem_core.cli import _finite_float
+
+    p = sub.add_parser("record", help="record the node's topics into a ROS 2 MCAP file (or --recover one)",
+                       description=__doc__)
+    p.add_argument("--out", default="recordings/record.mcap", help="output MCAP file (default recordings/record.mcap)")
+    p.add_argument("--topics", nargs="+", default=None, metavar="TOPIC",
+                   help="topics to record (relative names follow --namespace); default: speed and every "
+                        "bkabem_msgs topic")
+    p.add_argument("--namespace", default="", help="namespace of the node, e.g. /machine_00")
+    p.add_argument("--duration", type=_finite_float("--duration", 0.0, strict=True), default=None,
+                   help="stop after this many seconds (default: until Ctrl-C)")
+    p.add_argument("--chunk-size", type=_size, default=1 << 20,
+                   help="uncompressed chunk size that triggers a write (default 1M)")
+    p.add_argument("--chunk-duration", type=_finite_float("--chunk-duration", 0.0, strict=True), default=1.0,
+                   help="write a chunk at the latest after this many seconds; a crash loses at most this "
+                        "(default 1)")
+    p.add_argument("--rotate-size", type=_size, default=None,
+                   help="start a new file (<stem>_N.mcap) at this size")
+    p.add_argument("--rotate-duration", type=_finite_float("--rotate-duration", 0.0, strict=True), default=None,
+                   help="start a new file after this many seconds of recording")
+    p.add_argument("--recover", nargs=2, metavar=("SRC", "DST"), default=None,
+                   help="rebuild a cut recording SRC (kill -9, power loss) into a complete DST, and exit")
+    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
+                   help="everything after this goes to ROS")
+    p.set_defaults(func=main)
+    return p
+
+
+def main(args) -> int:
+    from bkabem_core.cli import UsageError
+
+    from . import mcap_io
+
+    say = (lambda text: None) if args.quiet else (lambda text: print(text, flush=True))
+    if args.recover:
+        src, dst = args.recover
+        try:
+            res = mcap_io.recover(src, dst)
+        except FileNotFoundError:
+            raise UsageError(f"--recover: {src}: no such file") from None
+        except ValueError as exc:
+            raise UsageError(f"--recover: {exc}") from None
+        except OSError as exc:
+            raise UsageError(f"--recover: {exc.filename or dst}: {exc.strerror}") from None
+        state = f"was cut ({res.error})" if res.truncated else "was complete"
+        say(f"{src} {state}; wrote {dst}: {res.messages} messages on {res.channels} channels, "
+            f"last log time {res.last_log_time_ns} ns")
+        return 0
+
+    from .record import record
+
+    try:
+        stats = record(args.out, topics=args.topics, namespace=args.namespace,
+                       duration_s=args.duration, chunk_size_bytes=args.chunk_size,
+                       chunk_duration_s=args.chunk_duration, rotate_size_bytes=args.rotate_size,
+                       rotate_duration_s=args.rotate_duration, progress=say,
+                       ros_args=args.ros_args)
+    except mcap_io.RecorderError as exc:
+        raise UsageError(f"--out: {exc}") from None
+    files = ", ".join(str(p) for p in stats.paths)
+    say(f"recorded {stats.messages} messages on {len(stats.counts)} topics into {files}")
+    for topic, n in sorted(stats.counts.items()):
+        say(f"  {topic:40s} {n}")
+    if stats.error:
+        sys.stderr.write(f"bkabem record: error: {stats.error}\n")
+        return 1
+    return 0
+
+
+def standalone(argv=None) -> int:
+    """``python -m bkabem_ros.record_cli ARGS`` = ``bkabem record ARGS`` (same errors and exit codes)."""
+    from bkabem_core.cli import UsageError, _Parser
+
+    parser = _Parser(prog="bkabem")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    add_parser(sub)
+    args = parser.parse_args(["record", *(sys.argv[1:] if argv is None else argv)])
+    try:
+        return int(args.func(args) or 0)
+    except UsageError as exc:
+        sys.stderr.write(f"bkabem record: error: {exc}\n")
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(standalone())

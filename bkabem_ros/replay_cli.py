@@ -1,0 +1,126 @@
+"""``bkabem replay FILE.mcap``: republish a recording on ROS 2 and/or convert it for Rerun.
+
+    bkabem replay run.mcap [--rate 2] [--loop] [--start-offset S] [--remap /speed:=/speed_in]
+                           [--clock [HZ]] [--namespace /replayed] [--topics T ...]
+    bkabem replay run.mcap --rerun-save run.rrd          # no ROS needed, as fast as possible
+    bkabem replay run.mcap --rerun-connect [URL]         # to a running viewer (rerun --bind 127.0.0.1)
+    bkabem replay run.mcap --rerun-save run.rrd --publish   # both, with the original timing
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+__all__ = ["add_parser", "main"]
+
+
+def add_parser(sub, add_case=None):
+    """Register ``bkabem replay`` on an argparse subparsers object."""
+    from bkabem_core.cli import _finite_float
+
+    from .rerun_io import DEFAULT_CONNECT_URL
+
+    p = sub.add_parser("replay", help="republish an MCAP recording on ROS 2 and/or convert it for Rerun",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("file", metavar="FILE.mcap", help="recording (bkabem or rosbag2 MCAP)")
+    p.add_argument("--rate", type=_finite_float("--rate", 0.0, strict=True), default=1.0,
+                   help="playback speed factor (default 1)")
+    p.add_argument("--loop", action="store_true", help="start again at the end (until Ctrl-C)")
+    p.add_argument("--start-offset", type=_finite_float("--start-offset", 0.0), default=0.0,
+                   help="skip the first seconds of the recording")
+    p.add_argument("--remap", action="append", default=[], metavar="OLD:=NEW",
+                   help="publish recorded topic OLD as NEW (repeatable)")
+    p.add_argument("--topics", nargs="+", default=None, metavar="TOPIC", help="only these recorded topics")
+    p.add_argument("--namespace", default="", help="prefix for the published topic names")
+    p.add_argument("--clock", nargs="?", type=_finite_float("--clock", 0.0, strict=True), const=100.0,
+                   default=None, metavar="HZ",
+                   help="publish /clock (the recording's time) at HZ (default 100) for use_sim_time")
+    p.add_argument("--wait-subscribers", type=_finite_float("--wait-subscribers", 0.0), default=0.0,
+                   help="wait up to this long (s) until every topic has a subscriber")
+    p.add_argument("--rerun-save", metavar="OUT.rrd", default=None, help="write the recording as a Rerun file")
+    p.add_argument("--rerun-connect", nargs="?", const=DEFAULT_CONNECT_URL, default=None, metavar="URL",
+                   help=f"stream to a Rerun viewer (default {DEFAULT_CONNECT_URL})")
+    p.add_argument("--publish", action="store_true",
+                   help="with --rerun-save/--rerun-connect: also publish on ROS 2 (original timing)")
+    p.add_argument("--info", action="store_true", help="print the topics and counts of FILE and exit")
+    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
+                   help="everything after this goes to ROS")
+    p.set_defaults(func=main)
+    return p
+
+
+def main(args) -> int:
+    from pathlib import Path
+
+    from bkabem_core.cli import UsageError
+
+    from . import replay as rp
+
+    say = (lambda text: None) if args.quiet else (lambda text: print(text, flush=True))
+    path = Path(args.file)
+    if not path.is_file():
+        raise UsageError(f"FILE: {path}: no such file")
+    try:
+        remap = rp.parse_remaps(args.remap)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    try:
+        say(rp.describe(path))
+    except Exception as exc:  # noqa: BLE001 - not an MCAP file
+        raise UsageError(f"FILE: {path}: not a readable MCAP file ({type(exc).__name__}: {exc})") from None
+    if args.info:
+        return 0
+
+    to_rerun = args.rerun_save is not None or args.rerun_connect is not None
+    publish = args.publish or not to_rerun
+    logger = None
+    if to_rerun:
+        from .rerun_io import RerunLogger
+
+        if args.rerun_save is not None:
+            out = Path(args.rerun_save)
+            if not out.parent.is_dir():
+                raise UsageError(f"--rerun-save: directory {out.parent} does not exist")
+        logger = RerunLogger("bkabem", recording_id=path.stem, save_path=args.rerun_save,
+                             connect_url=args.rerun_connect)
+    try:
+        stats = rp.replay(path, rate=args.rate, loop=args.loop, start_offset_s=args.start_offset,
+                          remap=remap, topics=args.topics, clock=args.clock is not None,
+                          clock_hz=args.clock or 100.0, publish=publish, rerun_logger=logger,
+                          namespace=args.namespace, wait_for_subscribers_s=args.wait_subscribers,
+                          progress=say, ros_args=args.ros_args)
+    finally:
+        if logger is not None:
+            logger.close()
+    if publish:
+        say(f"published {stats.messages} messages on {len(stats.published)} topics in {stats.wall_s:.2f} s"
+            + (f", {stats.clock_messages} /clock" if args.clock is not None else ""))
+    if logger is not None:
+        where = args.rerun_save or args.rerun_connect
+        say(f"logged {stats.logged} messages ({logger.samples_logged} waveform samples) to {where}")
+        if args.rerun_save:
+            say(f"open it with: .venv/bin/rerun {args.rerun_save}")
+    return 0
+
+
+def standalone(argv=None) -> int:
+    """``python -m bkabem_ros.replay_cli ARGS`` = ``bkabem replay ARGS`` (same errors and exit codes)."""
+    from bkabem_core.cli import UsageError, _Parser
+
+    parser = _Parser(prog="bkabem")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    add_parser(sub)
+    args = parser.parse_args(["replay", *(sys.argv[1:] if argv is None else argv)])
+    try:
+        return int(args.func(args) or 0)
+    except UsageError as exc:
+        sys.stderr.write(f"bkabem replay: error: {exc}\n")
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(standalone())
