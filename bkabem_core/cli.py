@@ -311,7 +311,8 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--speed-hz", type=_finite_float("--speed-hz", 0.0, strict=True), default=None)
     v.add_argument("--duration", type=_finite_float("--duration", 0.0, strict=True), default=None,
                    help="simulated time after the transient [s]")
-    v.add_argument("--improvement", default=None, help="excitation improvement to compare (see docs/validation.md)")
+    v.add_argument("--improvement", default=None, choices=("nde", "consistent", "full", "parametric", "hbm"),
+                   help="also evaluate this improvement of BKA-BEM (see docs/validation.md)")
     v.add_argument("--json", action="store_true")
     v.add_argument("--png")
     v.set_defaults(func=cmd_validate)
