@@ -123,7 +123,7 @@ def bench_rerun(stream, seconds: float, tmp: Path) -> dict:
     sink = RerunSink(logger)
     for topic, ty, m, stamp in stream:
         sink(topic, ty, m, stamp)
-    logger.close()
+    sink.close()
     cpu, wall = _cpu() - c0, time.perf_counter() - w0
     return {"data_s": seconds, "samples": logger.samples_logged, "cpu_s": round(cpu, 3), "wall_s": round(wall, 3),
             "cpu_percent_of_one_core": round(100 * cpu / seconds, 2),

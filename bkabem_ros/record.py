@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 from . import mcap_io
 
-__all__ = ["DEFAULT_TOPICS", "RecordStats", "TopicRecorder", "record"]
+__all__ = ["DEFAULT_TOPICS", "AttachedSinks", "RecordStats", "TopicRecorder", "attach_sinks", "record"]
 
 #: Topics of the bkabem node (relative; resolved under the namespace). Any other topic with a
 #: bkabem_msgs type is recorded too unless an explicit topic list is given.
@@ -208,7 +208,7 @@ def record(out, *, topics: Iterable[str] | None = None, namespace: str = "",
 def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
                  chunk_size_bytes: int = 1 << 20, chunk_duration_s: float = 1.0,
                  rotate_size_bytes: int | None = None, rotate_duration_s: float | None = None,
-                 recording_id: str | None = None) -> Callable[[], None]:
+                 recording_id: str | None = None) -> AttachedSinks:
     """Attach an MCAP recorder and/or a Rerun logger to a running bkabem node.
 
     ``node`` is a :class:`bkabem_ros.node.VibrationNode` (anything with ``add_sink`` /
@@ -219,8 +219,16 @@ def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
 
     A recording error (unwritable path, disk full) is logged once by the node's logger; the node
     keeps publishing.
+
+    Returns
+    -------
+    AttachedSinks
+        Call it to detach and close; ``.mcap`` (:class:`~bkabem_ros.mcap_io.McapSink`) and
+        ``.rerun`` (:class:`~bkabem_ros.rerun_io.RerunSink`) are the sinks (None if not asked or
+        not started).
     """
     sinks = []
+    attached = AttachedSinks(node, sinks)
     log = node.get_logger()
     if record:
         qos = {}
@@ -234,6 +242,7 @@ def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
         if sink.error is None:
             node.add_sink(sink)
             sinks.append(sink)
+            attached.mcap = sink
             log.info(f"recording to {record} (chunks <= {chunk_duration_s:g} s)")
     if rerun_save or rerun_connect:
         from . import rerun_io  # noqa: PLC0415
@@ -255,17 +264,28 @@ def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
             sink = rerun_io.RerunSink(logger, speed_scale=speed_scale, log_error=log.error)
             node.add_sink(sink)
             sinks.append(sink)
+            attached.rerun = sink
             log.info(f"Rerun: {'saving ' + str(rerun_save) if rerun_save else ''}"
                      f"{' and ' if rerun_save and rerun_connect else ''}"
                      f"{'streaming to ' + rerun_connect if rerun_connect else ''}")
 
-    def cleanup() -> None:
-        for s in sinks:
+    return attached
+
+
+class AttachedSinks:
+    """What :func:`attach_sinks` attached; calling it detaches the sinks and closes the files."""
+
+    def __init__(self, node, sinks: list):
+        self.node = node
+        self.sinks = sinks
+        self.mcap = None
+        self.rerun = None
+
+    def __call__(self) -> None:
+        for s in self.sinks:
             try:
-                node.remove_sink(s)
+                self.node.remove_sink(s)
             except ValueError:
                 pass
             s.close()
-        sinks.clear()
-
-    return cleanup
+        self.sinks.clear()

@@ -308,19 +308,53 @@ class RerunSink:
     """Node sink ``callable(topic, msg_type_name, msg, stamp_ns)`` feeding a :class:`RerunLogger`.
 
     ``speed_scale``: factor from the speed topic's unit to rad/s (1 for rad/s, 2*pi for Hz,
-    2*pi/60 for rpm), or a callable returning it (the node's live ``speed_unit``). Errors in the
-    logger are reported once and switch the sink off.
+    2*pi/60 for rpm), or a callable returning it (the node's live ``speed_unit``). With
+    ``threaded`` (default) the logging runs in a worker thread, so the node's executor only
+    queues the message (the node does not modify messages after publishing them); at most
+    ``max_queue`` messages wait, more are dropped and counted in :attr:`dropped`. Errors in the
+    logger are reported once through ``log_error`` and switch the sink off.
     """
 
-    def __init__(self, logger: RerunLogger, *, speed_scale=1.0, log_error=None):
+    def __init__(self, logger: RerunLogger, *, speed_scale=1.0, log_error=None, threaded: bool = True,
+                 max_queue: int = 5000):
+        import queue  # noqa: PLC0415
+
         self.logger = logger
         self.speed_scale = speed_scale
         self.log_error = log_error
         self.error: Exception | None = None
+        self.dropped = 0
+        self._queue = queue.Queue(maxsize=max_queue) if threaded else None
+        self._thread = None
+        if threaded:
+            self._thread = threading.Thread(target=self._worker, name="rerun-sink", daemon=True)
+            self._thread.start()
 
     def __call__(self, topic: str, msg_type_name, msg, stamp_ns: int | None = None) -> None:
         if self.error is not None:
             return
+        scale = None
+        if str(msg_type_name).endswith("Float64"):
+            scale = self.speed_scale() if callable(self.speed_scale) else self.speed_scale
+        item = (topic, msg_type_name, msg, stamp_ns, scale)
+        if self._queue is None:
+            self._log(item)
+            return
+        try:
+            self._queue.put_nowait(item)
+        except Exception:  # noqa: BLE001 - queue.Full: the viewer/file does not keep up
+            self.dropped += 1
+
+    def _worker(self) -> None:
+        while True:
+            item = self._queue.get()
+            if item is None:
+                return
+            if self.error is None:
+                self._log(item)
+
+    def _log(self, item) -> None:
+        topic, msg_type_name, msg, stamp_ns, scale = item
         try:
             if isinstance(msg, (bytes, bytearray, memoryview)):
                 from rclpy.serialization import deserialize_message  # noqa: PLC0415
@@ -331,8 +365,7 @@ class RerunSink:
             name = msgs.type_name(msg_type_name)
             if name == "std_msgs/msg/Float64" and stamp_ns is not None:
                 if topic.rstrip("/").endswith("speed"):
-                    scale = self.speed_scale() if callable(self.speed_scale) else self.speed_scale
-                    self.logger.log_speed(stamp_ns, float(msg.data) * float(scale))
+                    self.logger.log_speed(stamp_ns, float(msg.data) * float(1.0 if scale is None else scale))
                 return
             self.logger.log_message(topic, name, msg, stamp_ns)
         except Exception as exc:  # noqa: BLE001 - never break the node's publishing
@@ -340,5 +373,18 @@ class RerunSink:
             if self.log_error is not None:
                 self.log_error(f"Rerun logging stopped: {type(exc).__name__}: {exc}")
 
+    def flush(self) -> None:
+        """Wait until everything queued so far is logged."""
+        if self._thread is not None:
+            import time as _time  # noqa: PLC0415
+
+            while not self._queue.empty():
+                _time.sleep(0.005)
+
     def close(self) -> None:
+        """Log what is queued, then close the logger (footer of the .rrd). Idempotent."""
+        if self._thread is not None:
+            self._queue.put(None)
+            self._thread.join()
+            self._thread = None
         self.logger.close()

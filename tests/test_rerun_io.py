@@ -160,8 +160,8 @@ def test_logger_file_verifies_and_holds_every_sample(tmp_path):
     sink = rerun_io.RerunSink(logger)
     for topic, ty, m, stamp in _stream():
         sink(topic, ty, m, stamp)
-    assert sink.error is None
-    logger.close()
+    sink.close()                 # drains the worker thread, then closes the logger (footer)
+    assert sink.error is None and sink.dropped == 0
     _verify(path)
     ents = _rows(path)
     _check_entities(ents)
@@ -282,7 +282,7 @@ def test_stream_to_viewer_bound_to_localhost(tmp_path):
         sink = rerun_io.RerunSink(logger)
         for topic, ty, m, stamp in _stream():
             sink(topic, ty, m, stamp)
-        logger.close()
+        sink.close()
         time.sleep(1.0)
     finally:
         proc.send_signal(signal.SIGINT)
@@ -334,8 +334,8 @@ def test_sink_survives_bad_messages():
 
     sink("/x", "bkabem_msgs/msg/VibrationWaveform", Bad(), 0)
     sink("/x", "bkabem_msgs/msg/VibrationWaveform", _waveform(0, "de", "acceleration"), _stamp(0))
+    sink.close()
     assert len(errors) == 1 and "Rerun logging stopped" in errors[0]
-    logger.close()
 
 
 @pytest.mark.parametrize("speed_scale, want_hz", [(1.0, 25.0), (2 * math.pi, 25.0 * 2 * math.pi)])
@@ -346,6 +346,6 @@ def test_speed_units(tmp_path, speed_scale, want_hz):
     logger = rerun_io.RerunLogger("bkabem-test", save_path=path)
     sink = rerun_io.RerunSink(logger, speed_scale=lambda: speed_scale)
     sink("/speed", "std_msgs/msg/Float64", Float64(data=2 * math.pi * 25.0), T0)
-    logger.close()
+    sink.close()
     vals = _column(_rows(path)["/speed/shaft_hz"]["batches"], "Scalars:scalars")
     np.testing.assert_allclose([v[0] for v in vals], [want_hz])
