@@ -43,6 +43,7 @@ __all__ = [
     "RecorderError",
     "RecoverResult",
     "iter_messages",
+    "file_metadata",
     "iter_raw",
     "qos_dict",
     "qos_yaml",
@@ -855,6 +856,29 @@ def scan(path, topics: Iterable[str] | None = None) -> Channels:
         start = r.log_time if start is None else min(start, r.log_time)
         end = r.log_time if end is None else max(end, r.log_time)
     return Channels(out, start, end)
+
+
+def file_metadata(path) -> dict[str, dict[str, str]]:
+    """MCAP metadata records of a file, by name (e.g. ``{"bkabem": {"recorded_by": ...}}``)."""
+    out: dict[str, dict[str, str]] = {}
+    try:
+        with open(path, "rb") as fh:
+            for m in _open_reader(fh).iter_metadata():
+                out[m.name] = dict(m.metadata)
+        return out
+    except Exception:  # noqa: BLE001 - cut file: read sequentially
+        pass
+    from mcap.records import Metadata  # noqa: PLC0415
+    from mcap.stream_reader import StreamReader  # noqa: PLC0415
+
+    try:
+        with open(path, "rb") as fh:
+            for rec in StreamReader(fh, record_size_limit=1 << 31).records:
+                if isinstance(rec, Metadata):
+                    out[rec.name] = dict(rec.metadata)
+    except Exception:  # noqa: BLE001
+        pass
+    return out
 
 
 def summary(path) -> dict[str, Any]:

@@ -205,6 +205,13 @@ def record(out, *, topics: Iterable[str] | None = None, namespace: str = "",
 
 
 # --------------------------------------------------------------------------- node sinks
+def _speed_unit(node) -> str:
+    try:
+        return str(node.get_parameter("speed_unit").value)
+    except Exception:  # noqa: BLE001 - no such parameter: REP 103
+        return "rad/s"
+
+
 def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
                  chunk_size_bytes: int = 1 << 20, chunk_duration_s: float = 1.0,
                  rotate_size_bytes: int | None = None, rotate_duration_s: float | None = None,
@@ -238,7 +245,8 @@ def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
                                 chunk_size_bytes=chunk_size_bytes, chunk_duration_s=chunk_duration_s,
                                 rotate_size_bytes=rotate_size_bytes, rotate_duration_s=rotate_duration_s,
                                 metadata={"recorded_by": "bkabem node",
-                                          "node": node.get_fully_qualified_name()})
+                                          "node": node.get_fully_qualified_name(),
+                                          "speed_unit": _speed_unit(node)})
         if sink.error is None:
             node.add_sink(sink)
             sinks.append(sink)

@@ -82,12 +82,29 @@ def _qos_from_metadata(meta: Mapping[str, str]):
     return QoSProfile(history=hist, depth=max(depth, 1), reliability=rel, durability=dur)
 
 
+def _linger(pubs, linger_s: float) -> None:
+    from rclpy.duration import Duration  # noqa: PLC0415
+    from rclpy.qos import ReliabilityPolicy  # noqa: PLC0415
+
+    t0 = time.monotonic()
+    for p in pubs:
+        try:
+            if p.qos_profile.reliability == ReliabilityPolicy.RELIABLE:
+                p.wait_for_all_acked(Duration(seconds=1))
+        except Exception:  # noqa: BLE001 - best effort only
+            pass
+    rest = linger_s - (time.monotonic() - t0)
+    if rest > 0:
+        time.sleep(rest)
+
+
 def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float = 0.0,
            remap: Mapping[str, str] | None = None, topics: Iterable[str] | None = None,
            clock: bool = False, clock_hz: float = 100.0, publish: bool = True,
            rerun_logger=None, node=None, namespace: str = "",
            wait_for_subscribers_s: float = 0.0, stop: threading.Event | None = None,
-           progress: Callable[[str], None] | None = None, ros_args: list[str] | None = None) -> ReplayStats:
+           progress: Callable[[str], None] | None = None, ros_args: list[str] | None = None,
+           linger_s: float = 0.3) -> ReplayStats:
     """Replay ``path`` on ROS 2 (``publish``) and/or into a :class:`~bkabem_ros.rerun_io.RerunLogger`.
 
     Parameters
@@ -117,6 +134,9 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
         Before starting, wait up to this long until every publisher has a subscriber.
     stop : threading.Event, optional
         Set it to end the replay early.
+    linger_s : float
+        After the last message, wait for reliable subscribers to acknowledge (at most 1 s) and at
+        least this long, so the end of the file is delivered before the publishers are destroyed.
     """
     if not rate > 0:
         raise ValueError(f"rate: {rate} must be > 0")
@@ -136,6 +156,15 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
     clock_pub = None
     decode = mcap_io._decoder(path) if rerun_logger is not None else None
     schema_texts = mcap_io._schema_texts(path) if rerun_logger is not None else {}
+    speed_scale = 1.0          # speed topic unit -> rad/s, from the node's recording metadata
+    if rerun_logger is not None:
+        from .speed import SPEED_UNITS, normalize_unit  # noqa: PLC0415
+
+        try:
+            speed_scale = SPEED_UNITS[normalize_unit(
+                mcap_io.file_metadata(path).get("bkabem", {}).get("speed_unit", "rad/s"))]
+        except ValueError:
+            speed_scale = 1.0
     if publish:
         import rclpy  # noqa: PLC0415
 
@@ -225,7 +254,11 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
                 if rerun_logger is not None:
                     text = None if mcap_io.message_class(r.type_name) else schema_texts.get(r.type_name)
                     msg = decode(r.type_name, r.data, text)
-                    if rerun_logger.log_message(r.topic, r.type_name, msg, r.log_time):
+                    # publish_time: the node sink stores the node-clock stamp there (sim time too)
+                    if r.type_name.endswith("Float64") and r.topic.rstrip("/").endswith("speed"):
+                        rerun_logger.log_speed(r.publish_time, float(msg.data) * speed_scale)
+                        stats.logged += 1
+                    elif rerun_logger.log_message(r.topic, r.type_name, msg, r.publish_time):
                         stats.logged += 1
             stats.loops += 1
             if not loop:
@@ -237,6 +270,8 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
     finally:
         stats.wall_s = time.monotonic() - wall0
         if publish:
+            # let the last messages reach the subscribers before the publishers go away
+            _linger(pubs.values(), linger_s)
             for p in pubs.values():
                 node.destroy_publisher(p)
             if clock_pub is not None:
