@@ -386,6 +386,20 @@ class PeriodicSolution:
     n_time: int
 
 
+class _State:
+    """Integrator state carried between :meth:`Tdsm._integrate` calls."""
+
+    def __init__(self, z):
+        self.z = z
+        self.f_dev = np.zeros(4)
+        self.f_old = np.zeros(4)
+        self.steps = 0
+        self.newton_total = 0
+        self.newton_max = 0
+        self.interrupted = False
+        self.recorded = 0
+
+
 # --------------------------------------------------------------------------- the model
 class Tdsm:
     """The nonlinear rotor-bearing model of a case at one constant shaft speed, ready to integrate.
@@ -395,8 +409,10 @@ class Tdsm:
     case : Case
     speed_hz : float
         Shaft speed [Hz] (> 0).
-    max_step_s : float
-        Largest integration step [s]; the step is ``T_bpfo / ceil(T_bpfo / max_step_s)``.
+    max_step_s : float, optional
+        Largest integration step [s]; the step is ``T_bpfo / ceil(T_bpfo / max_step_s)``. Default: the smaller
+        of ``MAX_STEP_S`` (10 us) and a quarter of the time a ball takes to cross one smoothed dent edge (33 us
+        at 30 Hz, 13 us at 75 Hz for the embedded case), from the step-size study in docs/validation.md.
     hht_alpha : float
         HHT-alpha parameter in [-1/3, 0] of the ``"newmark"`` scheme; 0 = average acceleration.
     bearing_damping_n_s_m : float, optional
@@ -415,14 +431,19 @@ class Tdsm:
         Time discretisation (module docstring).
     """
 
-    def __init__(self, case: Case, speed_hz: float, max_step_s: float = 1.0e-5, hht_alpha: float = 0.0,
+    #: Largest default step [s] (the ~1 kHz housing modes and orders up to ~10 kHz need no more).
+    MAX_STEP_S = 1.0e-5
+    #: Default steps per dent edge (the cubic STEP ramp where a ball enters or leaves the dent).
+    STEPS_PER_DENT_EDGE = 4
+
+    def __init__(self, case: Case, speed_hz: float, max_step_s: float | None = None, hht_alpha: float = 0.0,
                  bearing_damping_n_s_m: float | None = None, bearing_model: str = "hertz",
                  newton_tol_m: float = 1.0e-9, max_newton: int = 30, scheme: str = "exponential"):
         t_setup = time.perf_counter()
         speed_hz = float(speed_hz)
         if not (math.isfinite(speed_hz) and speed_hz > 0.0):
             raise ValueError(f"speed_hz: must be a finite number > 0 (got {speed_hz})")
-        if not (max_step_s > 0.0):
+        if max_step_s is not None and not (max_step_s > 0.0):
             raise ValueError(f"max_step_s: must be > 0 (got {max_step_s})")
         if not (-1.0 / 3.0 <= hht_alpha <= 0.0):
             raise ValueError(f"hht_alpha: must be in [-1/3, 0] (got {hht_alpha})")
@@ -476,6 +497,13 @@ class Tdsm:
         self.bpfo_hz = fm.bpfo * speed_hz
         self.cage_speed_rad_s = TWO_PI * self.ftf_hz
         self.bpfo_period_s = 1.0 / self.bpfo_hz
+        if max_step_s is None:
+            max_step_s = self.MAX_STEP_S
+            faulty = [b for b in self.bearings if b.dent is not None and b.dent_effective_depth_m > 0.0]
+            if faulty:
+                b = faulty[0]
+                edge = b._dent_edge if b._dent_edge > 0.0 else 0.25 * b.dent_half_angle_rad
+                max_step_s = min(max_step_s, edge / self.cage_speed_rad_s / self.STEPS_PER_DENT_EDGE)
         self.steps_per_bpfo = max(1, math.ceil(self.bpfo_period_s / max_step_s - 1e-9))
         self.h = self.bpfo_period_s / self.steps_per_bpfo
         if case.raw["bearing"].get("ehl_film", False):
@@ -626,15 +654,17 @@ class Tdsm:
         self.H = bz @ self.W
 
     # ------------------------------------------------------------------ helpers
-    def auto_settle_s(self, decay: float = 1e-4, minimum_s: float = 0.1) -> float:
+    def auto_settle_s(self, decay: float = 1e-4, minimum_s: float = 0.1, n_orders: int = 50,
+                      maximum_s: float = 5.0) -> float:
         """Start transient to discard [s], from the modes of the model linearised at the static equilibrium.
 
         Each mode i (eigenvalue ``lambda_i``, right/left vectors ``v_i``, ``w_i`` of the state matrix) is weighted
-        by how strongly it links the bearing forces to the recorded displacements,
-        ``a_i = |C_out v_i| |w_i B_f| / |lambda_i|``; the transient is taken as settled when
-        ``sum a_i exp(-sigma_i t) <= decay sum a_i``. Shaft modes with nodes at the bearings (damping ratios down
-        to 1e-5 here) are neither excited nor seen, so they do not hold the run up. The result is rounded up to
-        whole BPFO periods and is at least ``minimum_s``; ``self.settle_info`` keeps the details.
+        by its share of the forced response at the recorded displacements, which is also the size of its start
+        transient: ``a_i = |C_out v_i| |w_i B_f| / min_k |i w_k - lambda_i|`` over the BPFO harmonics
+        ``w_k`` (k = 0..n_orders). The transient is taken as settled when ``sum a_i exp(-sigma_i t) <= decay
+        sum a_i``. Shaft modes with nodes at the bearings (damping ratios down to 1e-5 here) are neither excited
+        nor seen and do not hold the run up, unless a BPFO harmonic sits on them. The result is rounded up to
+        whole BPFO periods and lies in [minimum_s, maximum_s]; ``self.settle_info`` keeps the details.
         """
         rot = self.rotor
         _, kt = HertzPair(self.bearings, np.zeros(1), self.films_m).evaluate(self._u_static, 0) \
@@ -651,10 +681,14 @@ class Tdsm:
         bf = np.zeros((2 * n, 4))
         bf[n:] = np.linalg.solve(rot.M, self.B)
         c_out = v[self.out_dofs.reshape(-1), :]
-        weight = np.linalg.norm(c_out, axis=0) * np.linalg.norm(w @ bf, axis=1) / np.maximum(np.abs(lam), 1e-9)
+        # a mode's start transient is about its share of the forced response: largest for modes near a BPFO
+        # harmonic, |R_i| / |i w_k - lambda_i| (k = 0..n_orders; k = 0 is the static share |R_i| / |lambda_i|)
+        w_k = TWO_PI * self.bpfo_hz * np.arange(0, n_orders + 1)
+        near = np.min(np.abs(1j * w_k[None, :] - lam[:, None]), axis=1)
+        weight = np.linalg.norm(c_out, axis=0) * np.linalg.norm(w @ bf, axis=1) / np.maximum(near, 1e-9)
         sigma = np.maximum(-lam.real, 0.0)
         total = weight.sum()
-        ts = np.linspace(0.0, 5.0, 5001)
+        ts = np.linspace(0.0, maximum_s, int(round(maximum_s * 1000)) + 1)
         left = np.array([np.sum(weight * np.exp(-sigma * t)) for t in ts[::50]]) / total
         i = int(np.argmax(left <= decay)) if np.any(left <= decay) else len(left) - 1
         lo = ts[::50][max(i - 1, 0)]
@@ -665,7 +699,7 @@ class Tdsm:
         self.settle_info = {"settled_fraction": decay, "raw_settle_s": t_set,
                             "last_mode_hz": float(abs(lam[dominant].imag) / TWO_PI),
                             "last_mode_decay_rate_1_s": float(sigma[dominant])}
-        t = max(minimum_s, t_set)
+        t = min(max(minimum_s, t_set), maximum_s)
         return math.ceil(t / self.bpfo_period_s - 1e-9) * self.bpfo_period_s
 
     def harmonic_balance(self, n_orders: int = 50, n_time: int = 8192, linearised: bool = False,
@@ -790,17 +824,24 @@ class Tdsm:
 
     # ------------------------------------------------------------------ run
     def run(self, duration_s: float, settle_s: float | None = None, record_every: int = 1,
-            progress: bool = True, initial_state=None, record_state: bool = False) -> TdsmResult:
-        """Integrate ``settle_s + duration_s`` from the static equilibrium and record the last ``duration_s``.
+            progress: bool = True, initial_state=None, record_state: bool = False, settle_tol_db: float = 0.02,
+            settle_window_s: float = 0.05, min_settle_s: float = 0.1, max_settle_s: float = 4.0) -> TdsmResult:
+        """Integrate from the static equilibrium, discard the start transient, record ``duration_s``.
 
         Parameters
         ----------
         duration_s : float
             Recorded time [s], rounded up to whole BPFO periods.
         settle_s : float, optional
-            Discarded start transient [s], rounded up to whole BPFO periods (default :meth:`auto_settle_s`).
+            Discarded start transient [s], rounded up to whole BPFO periods. None (default): settle until the
+            BPFO-order spectrum is steady: the run advances in windows of ``settle_window_s`` (whole periods)
+            and stops settling when, between two consecutive windows, no order of any recorded displacement
+            that is within 20 dB of that signal's largest order changes by more than ``settle_tol_db``
+            (after at least ``min_settle_s``; at most ``max_settle_s``, else ``settled`` is False). Needed
+            because the shaft has nearly undamped bending modes (damping ratio ~1e-5) that take seconds to
+            settle when a BPFO harmonic sits next to one (docs/validation.md).
         record_every : int
-            Store one sample every this many steps (1 = every step).
+            Store one sample every this many steps (must divide the steps per BPFO period).
         progress : bool
             Show a tqdm progress bar.
         initial_state : ndarray (state_size,), optional
@@ -813,22 +854,106 @@ class Tdsm:
         """
         if not duration_s > 0:
             raise ValueError(f"duration_s: must be > 0 (got {duration_s})")
-        if settle_s is None:
-            settle_s = self.auto_settle_s()
-        if settle_s < 0:
+        if settle_s is not None and settle_s < 0:
             raise ValueError(f"settle_s: must be >= 0 (got {settle_s})")
         record_every = int(record_every)
         if record_every < 1 or self.steps_per_bpfo % record_every != 0:
             raise ValueError(f"record_every: must divide the {self.steps_per_bpfo} steps per BPFO period "
                              f"(got {record_every})")
         nbp = self.steps_per_bpfo
-        n_settle = math.ceil(settle_s / self.bpfo_period_s - 1e-9) * nbp
-        n_rec = max(1, math.ceil(duration_s / self.bpfo_period_s - 1e-9)) * nbp
-        n_total = n_settle + n_rec
+        periods = lambda t: math.ceil(t / self.bpfo_period_s - 1e-9)
+        n_rec = max(1, periods(duration_s)) * nbp
         n_samples = n_rec // record_every
-        rec_x = np.empty((n_samples, 12))          # 8 output DOFs, 4 bearing forces
+        st = _State(np.zeros(self.state_size) if initial_state is None else np.array(initial_state, dtype=float))
+        f0, _ = self.forces.evaluate(self._u_static + self.Bz.dot(st.z), 0)
+        st.f_dev = f0 - self._f_static
+        st.f_old = st.f_dev.copy()
+        bar = None
+        if progress:
+            from tqdm import tqdm
+            first = periods(settle_s) * nbp if settle_s is not None else periods(min_settle_s) * nbp
+            bar = tqdm(total=first + n_rec, desc=f"TDSM {self.speed_hz:g} Hz", unit="step", unit_scale=True,
+                       mininterval=0.5, leave=False)
+        t0 = time.perf_counter()
+        settle_log = []
+        settled = True
+        n_settle = 0
+        rec_x = np.empty((n_samples, 12))
         states = np.empty((n_samples, self.state_size)) if record_state else None
+        try:
+            # ---- settle
+            if settle_s is not None:
+                self._integrate(st, periods(settle_s) * nbp, bar=bar)
+            else:
+                win = max(2, periods(settle_window_s))
+                buf = np.empty((win * nbp, 12))
+                prev = None
+                settled = False
+                while True:
+                    self._integrate(st, win * nbp, rec=buf, bar=bar)
+                    if st.interrupted:
+                        break
+                    amp = np.abs(np.fft.rfft(buf[:, :8], axis=0)[win::win][:50])          # (orders, 8)
+                    t_now = st.steps * self.h
+                    if prev is not None:
+                        rel = amp >= 0.1 * amp.max(axis=0)
+                        change = float(np.max(np.abs(20 * np.log10(amp[rel] / prev[rel]))))
+                        settle_log.append((t_now, change))
+                        if t_now >= min_settle_s - 1e-12 and change <= settle_tol_db:
+                            settled = True
+                            break
+                    if t_now >= max_settle_s - 1e-12:
+                        break
+                    prev = amp
+                    if bar is not None:
+                        bar.total += win * nbp
+                        bar.refresh()
+            n_settle = st.steps
+            # ---- record
+            if not st.interrupted:
+                self._integrate(st, n_rec, rec=rec_x, rec_every=record_every, states=states, bar=bar)
+        finally:
+            wall = time.perf_counter() - t0
+            if bar is not None:
+                bar.close()
+        n_done = st.recorded if st.steps > n_settle or n_settle == 0 else 0
+        if st.steps == n_settle and st.interrupted:
+            n_done = 0
+        out_idx = self.out_dofs.reshape(-1)
+        q_s = self.static.q_m[out_idx]
+        disp = rec_x[:n_done, :8] + q_s
+        frc = rec_x[:n_done, 8:] + self._f_static
+        u_rec = np.empty((n_done, 2, 2))
+        for i in range(2):
+            # rotor minus housing, directions (vertical, horizontal)
+            u_rec[:, i, :] = disp[:, 4 * i:4 * i + 2] - disp[:, 4 * i + 2:4 * i + 4]
+        res = TdsmResult(
+            speed_hz=self.speed_hz, step_s=self.h, steps_per_bpfo=nbp, record_every=record_every,
+            settle_s=n_settle * self.h,
+            time_s=np.arange(n_done) * record_every * self.h,
+            displacement_m=disp.reshape(n_done, 4, 2),
+            bearing_relative_m=u_rec,
+            bearing_force_n=frc.reshape(n_done, 2, 2)[:, :, ::-1],     # (x, y) -> (vertical, horizontal)
+            bpfo_hz=self.bpfo_hz, static=self.static, steps=st.steps, wall_time_s=wall,
+            setup_time_s=self.setup_time_s,
+            newton_iterations_mean=st.newton_total / max(st.steps, 1), newton_iterations_max=st.newton_max,
+            interrupted=st.interrupted,
+            settings={**self.settings(), "settle_s": n_settle * self.h, "settle": "fixed" if settle_s is not None
+                      else "adaptive", "settle_tol_db": settle_tol_db, "duration_s": n_rec * self.h,
+                      "record_every": record_every},
+        )
+        res.settled = settled
+        res.settle_log = settle_log
+        if states is not None:
+            res.state = states[:n_done]
+        return res
 
+    def _integrate(self, st, n_steps, rec=None, rec_every=1, states=None, bar=None, chunk=4096):
+        """Advance ``st`` by ``n_steps`` steps; sample ``k`` of ``rec`` (and ``states``) is the state before the
+        ``k rec_every``-th step of this call (so sample 0 is the state at the start of the call).
+
+        Sets ``st.interrupted`` on Ctrl-C (the steps done so far are kept) and ``st.recorded``.
+        """
         T, W, Wp, Bz, H = self.T, self.W, self.Wp, self.Bz, self.H
         use_wp = self.scheme == "exponential" or self.hht_alpha != 0.0
         out_idx = self.out_dofs.reshape(-1)
@@ -838,31 +963,26 @@ class Tdsm:
         exact = self.newton_exact
         eye4 = np.eye(4)
         solve = np.linalg.solve
-        z = np.zeros(self.state_size) if initial_state is None else np.array(initial_state, dtype=float)
-        f_dev, _ = evaluate(u_s + Bz.dot(z), 0)          # deviation force of the initial state
-        f_dev = f_dev - f_s
-        f_old = f_dev
-        newton_total = 0
-        newton_max = 0
-        interrupted = False
-        bar = None
-        if progress:
-            from tqdm import tqdm
-            bar = tqdm(total=n_total, desc=f"TDSM {self.speed_hz:g} Hz", unit="step", unit_scale=True,
-                       mininterval=0.5, leave=False)
-        chunk = 4096
-        step = 0
-        if n_settle == 0:                           # the initial state is the first sample
-            rec_x[0, :8] = z[out_idx]
-            rec_x[0, 8:] = f_dev
-            if states is not None:
-                states[0] = z
-        n_ = 0
-        t0 = time.perf_counter()
+        nbp = self.steps_per_bpfo
+        z, f_dev, f_old = st.z, st.f_dev, st.f_old
+        newton_total, newton_max = st.newton_total, st.newton_max
+        n0 = st.steps
+        n_ = n0
+        recorded = 0
+        st.recorded = 0
         try:
-            while step < n_total:
-                stop = min(n_total, step + chunk)
-                for n_ in range(step, stop):
+            k0 = 0
+            while k0 < n_steps:
+                k1 = min(n_steps, k0 + chunk)
+                for k in range(k0, k1):
+                    if rec is not None and k % rec_every == 0:
+                        i = k // rec_every
+                        rec[i, :8] = z[out_idx]
+                        rec[i, 8:] = f_dev
+                        if states is not None:
+                            states[i] = z
+                        recorded = i + 1
+                    n_ = n0 + k
                     j = (n_ + 1) % nbp                 # table step of t_{n+1}
                     zp = T.dot(z)
                     if use_wp:
@@ -893,45 +1013,13 @@ class Tdsm:
                     z = zp + W.dot(f)
                     f_old = f_dev
                     f_dev = f
-                    k_rec = n_ + 1 - n_settle
-                    if k_rec >= 0 and k_rec < n_rec and k_rec % record_every == 0:
-                        i = k_rec // record_every
-                        rec_x[i, :8] = z[out_idx]
-                        rec_x[i, 8:] = f
-                        if states is not None:
-                            states[i] = z
+                    n_ += 1
                 if bar is not None:
-                    bar.update(stop - step)
-                step = stop
+                    bar.update(k1 - k0)
+                k0 = k1
         except KeyboardInterrupt:
-            interrupted = True
-            step = n_
-        finally:
-            wall = time.perf_counter() - t0
-            if bar is not None:
-                bar.close()
-        n_done = min(n_samples, max(0, (step - n_settle) // record_every + 1)) if step >= n_settle else 0
-        q_s = self.static.q_m[out_idx]
-        disp = rec_x[:n_done, :8] + q_s
-        frc = rec_x[:n_done, 8:] + f_s
-        u_rec = np.empty((n_done, 2, 2))
-        for i in range(2):
-            # rotor minus housing, directions (vertical, horizontal)
-            u_rec[:, i, :] = disp[:, 4 * i:4 * i + 2] - disp[:, 4 * i + 2:4 * i + 4]
-        res = TdsmResult(
-            speed_hz=self.speed_hz, step_s=self.h, steps_per_bpfo=nbp, record_every=record_every,
-            settle_s=n_settle * self.h,
-            time_s=np.arange(n_done) * record_every * self.h,
-            displacement_m=disp.reshape(n_done, 4, 2),
-            bearing_relative_m=u_rec,
-            bearing_force_n=frc.reshape(n_done, 2, 2)[:, :, ::-1],     # (x, y) -> (vertical, horizontal)
-            bpfo_hz=self.bpfo_hz, static=self.static, steps=step, wall_time_s=wall,
-            setup_time_s=self.setup_time_s,
-            newton_iterations_mean=newton_total / max(step, 1), newton_iterations_max=newton_max,
-            interrupted=interrupted,
-            settings={**self.settings(), "settle_s": n_settle * self.h, "duration_s": n_rec * self.h,
-                      "record_every": record_every},
-        )
-        if states is not None:
-            res.state = states[:n_done]
-        return res
+            st.interrupted = True
+        st.z, st.f_dev, st.f_old = z, f_dev, f_old
+        st.newton_total, st.newton_max = newton_total, newton_max
+        st.steps = n_
+        st.recorded = recorded
