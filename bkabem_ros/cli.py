@@ -1,0 +1,117 @@
+"""ROS 2 commands of the ``bkabem`` CLI: ``node``, ``speed``, ``echo``, ``fleet`` (+ ``record``/``replay`` when
+their modules exist).
+
+``bkabem_core.cli`` calls :func:`add_ros_commands`. Every command accepts ``--ros-args ...`` as its last
+option; everything after it goes to ROS unchanged (``-p name:=value``, ``--params-file F``, ``-r __ns:=/m1``,
+``--log-level debug``). Bad arguments: one line on stderr, exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+from pathlib import Path
+
+
+def fail(command: str, message: str):
+    """Bad input: one line on stderr, exit code 2. (Not ``raise UsageError``: under ``python -m bkabem_core.cli``
+    the CLI module runs as ``__main__`` and would not catch the class imported from ``bkabem_core.cli``.)"""
+    import sys
+
+    sys.stderr.write(f"bkabem {command}: error: {message}\n")
+    raise SystemExit(2)
+
+
+def _shorthand(p) -> None:
+    """Node options that map to parameters (docs/ros_node.md lists them all)."""
+    from bkabem_core.cli import _finite_float, _pos_int
+
+    p.add_argument("--name", default="bkabem", help="node name (default bkabem)")
+    p.add_argument("--namespace", default=None, help="node namespace, e.g. /machine_00 (topics are relative)")
+    p.add_argument("--params-file", action="append", default=[], metavar="FILE",
+                   help="ROS parameter YAML file (same as --ros-args --params-file FILE); repeatable")
+    p.add_argument("--machine-id", default=None, help="parameter machine_id")
+    p.add_argument("--sample-rate", type=_finite_float("--sample-rate", 0.0, strict=True), default=None,
+                   help="parameter sample_rate [Hz] (default 25600)")
+    p.add_argument("--chunk-duration", type=_finite_float("--chunk-duration", 0.0, strict=True), default=None,
+                   help="parameter chunk_duration [s] (default 0.1)")
+    p.add_argument("--seed", type=_pos_int("--seed", 0), default=None, help="parameter seed")
+    p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None, help="parameter qos")
+    p.add_argument("--speed-unit", choices=("rad/s", "hz", "rpm"), default=None,
+                   help="parameter speed_unit (default rad/s)")
+    p.add_argument("--spectrum-rate", type=_finite_float("--spectrum-rate", 0.0), default=None,
+                   help="parameter spectrum_rate [Hz]")
+    p.add_argument("--wait-for-speed", action="store_true", default=None, help="parameter wait_for_speed=true")
+    p.add_argument("--sim-time", action="store_true", help="parameter use_sim_time=true (follow /clock)")
+
+
+def _overrides(args) -> dict:
+    m = {"case": args.case, "machine_id": args.machine_id, "sample_rate": args.sample_rate,
+         "chunk_duration": args.chunk_duration, "seed": args.seed, "qos": args.qos,
+         "speed_unit": args.speed_unit, "spectrum_rate": args.spectrum_rate, "wait_for_speed": args.wait_for_speed}
+    out = {k: v for k, v in m.items() if v is not None}
+    if getattr(args, "sim_time", False):
+        out["use_sim_time"] = True
+    return out
+
+
+def _ros_args(args) -> list[str]:
+    out = []
+    for f in args.params_file:
+        if not Path(f).is_file():
+            fail("node", f"--params-file: file not found: {f}")
+        out += ["--params-file", f]
+    return out + list(args.ros_args or [])
+
+
+def cmd_node(args) -> int:
+    from .node import run
+
+    on_node = None
+    if getattr(args, "record", None) or getattr(args, "rerun_save", None) or getattr(args, "rerun_connect", None):
+        from .record import attach_sinks
+
+        connect = args.rerun_connect
+        if connect == "default":
+            from .rerun_io import DEFAULT_CONNECT_URL
+
+            connect = DEFAULT_CONNECT_URL
+        if args.record and not Path(args.record).resolve().parent.is_dir():
+            fail("node", f"--record: directory {Path(args.record).parent} does not exist")
+        if args.rerun_save and not Path(args.rerun_save).resolve().parent.is_dir():
+            fail("node", f"--rerun-save: directory {Path(args.rerun_save).parent} does not exist")
+
+        def on_node(node):
+            return attach_sinks(node, record=args.record, rerun_save=args.rerun_save, rerun_connect=connect)
+
+    return run(_ros_args(args), _overrides(args), node_name=args.name, namespace=args.namespace, on_node=on_node)
+
+
+def add_ros_commands(sub, add_case) -> None:
+    """Register ``node``, ``speed``, ``echo``, ``fleet`` and the optional ``record``/``replay``."""
+    n = sub.add_parser("node", help="run the ROS 2 vibration-source node (speed in, waveforms out)",
+                       description="The bkabem ROS 2 node. Topics, parameters, timing: docs/ros_node.md.")
+    add_case(n)
+    _shorthand(n)
+    if importlib.util.find_spec("bkabem_ros.record") is not None:     # sinks of issue 6 (MCAP, Rerun)
+        n.add_argument("--record", default=None, metavar="FILE.mcap",
+                       help="record everything the node receives and publishes into a ROS 2 MCAP file")
+        n.add_argument("--rerun-save", default=None, metavar="FILE.rrd", help="log the streams to a Rerun file")
+        n.add_argument("--rerun-connect", nargs="?", const="default", default=None, metavar="URL",
+                       help="stream to a running Rerun viewer (default URL of bkabem_ros.rerun_io)")
+    n.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
+                   help="everything after this goes to ROS (-p name:=value, --params-file F, -r __ns:=/m1)")
+    n.set_defaults(func=cmd_node)
+
+    from . import echo, fleet, speed
+
+    speed.add_parser(sub, add_case)
+    echo.add_parser(sub, add_case)
+    fleet.add_parser(sub, add_case)
+    for name in ("record", "replay"):
+        try:
+            mod = importlib.import_module(f"bkabem_ros.{name}_cli")
+        except ImportError:
+            continue
+        mod.add_parser(sub, add_case)

@@ -1,0 +1,186 @@
+"""``bkabem fleet``: N machines, each a bkabem node in its own namespace, in one or several processes.
+
+Machine ``i`` (0-based) runs as node ``bkabem`` in namespace ``/<prefix><i:02d>`` (default ``/machine_00``,
+``/machine_01``, ...), with ``machine_id`` = that name without the slash, ``seed = --seed + i`` and case
+``cases[i % len(cases)]`` (``--case`` is repeatable). ``--defect-depths`` (comma list, m) gives each
+machine its own dent depth, cycled like the cases, so that a fleet holds healthy and damaged machines.
+
+Nodes of one process share one executor and one BKA-BEM model per case (the ~2 s preparation is paid
+once per case and process). ``--processes P`` spreads the machines round-robin over P processes
+(default: 1 for up to 4 machines, else the CPU count). Each machine's speed topic is
+``/<prefix><i:02d>/speed``; ``bkabem speed --namespace /machine_03`` drives one of them.
+
+``--seconds S`` stops the fleet after S seconds and prints one line of publish statistics per machine
+(how late each chunk was published after its last sample was due): the way to measure how many machines
+a host sustains (``bench/bench_node.py --fleet`` does it for several N).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+
+def machine_names(n: int, prefix: str = "machine_") -> list[str]:
+    width = max(2, len(str(n - 1)))
+    return [f"{prefix}{i:0{width}d}" for i in range(n)]
+
+
+def plan(n: int, cases: list[str], seed: int, prefix: str, depths: list[float] | None) -> list[dict]:
+    """One dict per machine: name, namespace, parameter overrides."""
+    out = []
+    for i, name in enumerate(machine_names(n, prefix)):
+        ov = {"machine_id": name, "seed": seed + i}
+        if cases:
+            ov["case"] = cases[i % len(cases)]
+        if depths:
+            ov["defect_depth"] = float(depths[i % len(depths)])
+        out.append({"index": i, "name": name, "namespace": "/" + name, "overrides": ov})
+    return out
+
+
+def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seconds: float | None,
+                   report=None) -> int:
+    """Run the given machines as nodes of this process; returns the exit code."""
+    import rclpy
+    from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from bkabem_core.case import CaseError
+
+    from .node import VibrationNode, _exit_log
+
+    rclpy.init(args=["bkabem-fleet", "--ros-args", *ros_args])
+    nodes = []
+    try:
+        try:
+            for m in machines:
+                ov = dict(common)
+                ov.update(m["overrides"])
+                nodes.append(VibrationNode("bkabem", namespace=m["namespace"], start=False,
+                                           parameter_overrides=[Parameter(k, value=v) for k, v in ov.items()]))
+        except (CaseError, InvalidParameterValueException, InvalidParameterTypeException, ValueError) as exc:
+            sys.stderr.write(f"bkabem fleet: error: {exc}\n")
+            return 2
+        executor = SingleThreadedExecutor()
+        for nd in nodes:
+            executor.add_node(nd)
+        for nd in nodes:
+            nd.start()
+        t_end = None if seconds is None else time.monotonic() + seconds
+        try:
+            while rclpy.ok():
+                if t_end is not None and time.monotonic() >= t_end:
+                    break
+                executor.spin_once(timeout_sec=0.1)
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+        for nd in nodes:
+            st = nd.stats()
+            _exit_log(nd, st)
+            if report is not None:
+                report(st)
+        return 0
+    finally:
+        for nd in nodes:
+            nd.destroy_node()
+        rclpy.try_shutdown()
+
+
+def _print_stats(st: dict) -> None:
+    sys.stdout.write("FLEETSTATS " + json.dumps(st) + "\n")
+    sys.stdout.flush()
+
+
+def add_parser(sub, add_case):
+    """Register ``bkabem fleet``."""
+    from bkabem_core.cli import _finite_float, _pos_int
+
+    p = sub.add_parser("fleet", help="start N namespaced bkabem nodes (a fleet of machines)",
+                       description=__doc__.split("\n\n")[0])
+    p.add_argument("--machines", type=_pos_int("--machines", 1), required=True, help="number of machines")
+    p.add_argument("--processes", type=_pos_int("--processes", 1), default=None,
+                   help="processes to spread the machines over (default: 1 up to 4 machines, else CPU count)")
+    p.add_argument("--case", action="append", default=[], metavar="CASE",
+                   help="case (embedded name or TOML); repeat to cycle several cases over the machines")
+    p.add_argument("--defect-depths", default=None, metavar="M[,M...]",
+                   help="dent depths in m, cycled over the machines (e.g. 0,2e-5,5e-5)")
+    p.add_argument("--seed", type=_pos_int("--seed", 0), default=0, help="seed of machine 0 (machine i: seed+i)")
+    p.add_argument("--prefix", default="machine_", help="namespace prefix (default machine_)")
+    p.add_argument("--sample-rate", type=_finite_float("--sample-rate", 0.0, strict=True), default=None)
+    p.add_argument("--chunk-duration", type=_finite_float("--chunk-duration", 0.0, strict=True), default=None)
+    p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None)
+    p.add_argument("--params-file", action="append", default=[], metavar="FILE",
+                   help="parameter YAML applied to every machine (use /** as the node key)")
+    p.add_argument("--seconds", type=_finite_float("--seconds", 0.0, strict=True), default=None,
+                   help="stop after this long and print per-machine publish statistics")
+    p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None)
+    p.add_argument("--worker", default=None, help=argparse.SUPPRESS)   # internal: JSON list of machines
+    p.set_defaults(func=main)
+    return p
+
+
+def main(args) -> int:
+    from .cli import fail
+
+    depths = None
+    if args.defect_depths:
+        try:
+            depths = [float(v) for v in args.defect_depths.split(",")]
+        except ValueError:
+            fail("fleet", f"--defect-depths: {args.defect_depths!r} is not a comma list of numbers")
+    common = {k: v for k, v in {"sample_rate": args.sample_rate, "chunk_duration": args.chunk_duration,
+                                "qos": args.qos}.items() if v is not None}
+    ros_args = []
+    for f in args.params_file:
+        if not os.path.isfile(f):
+            fail("fleet", f"--params-file: file not found: {f}")
+        ros_args += ["--params-file", f]
+    ros_args += list(args.ros_args or [])
+    report = _print_stats if args.seconds is not None else None
+
+    if args.worker is not None:   # child process of a multi-process fleet
+        return run_in_process(json.loads(args.worker), common, ros_args, args.seconds, report)
+
+    machines = plan(args.machines, args.case, args.seed, args.prefix, depths)
+    n_proc = args.processes or (1 if args.machines <= 4 else (os.cpu_count() or 1))
+    n_proc = min(n_proc, args.machines)
+    if n_proc == 1:
+        return run_in_process(machines, common, ros_args, args.seconds, report)
+
+    groups = [machines[i::n_proc] for i in range(n_proc)]
+    base = [sys.executable, "-m", "bkabem_core.cli", "fleet", "--machines", str(args.machines)]
+    for flag, val in (("--sample-rate", args.sample_rate), ("--chunk-duration", args.chunk_duration),
+                      ("--qos", args.qos), ("--seconds", args.seconds)):
+        if val is not None:
+            base += [flag, str(val)]
+    for f in args.params_file:
+        base += ["--params-file", f]
+    procs = []
+    for g in groups:
+        cmd = base + ["--worker", json.dumps(g)]
+        if args.ros_args:
+            cmd += ["--ros-args", *args.ros_args]
+        procs.append(subprocess.Popen(cmd))
+    sys.stderr.write(f"bkabem fleet: {args.machines} machines in {n_proc} processes "
+                     f"(pids {', '.join(str(p.pid) for p in procs)})\n")
+
+    def forward(signum, _frame):
+        for p in procs:
+            if p.poll() is None:
+                p.send_signal(signum)
+
+    old = {s: signal.signal(s, forward) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        codes = [p.wait() for p in procs]
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+    bad = [c for c in codes if c not in (0, -signal.SIGINT, -signal.SIGTERM)]
+    return bad[0] if bad else 0
