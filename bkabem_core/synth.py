@@ -21,8 +21,7 @@ updates arriving between chunks). The method, its error bounds and the realism o
 * **Wavetable.** At each knot the waveform of one ball pass is tabulated (``table_size`` points, pre-emphasised
   for the linear interpolation's droop); samples read it at their phase with linear interpolation in angle and
   blend the two knot tables linearly in time. Interpolation images stay below ``(k_max / table_size)^2``
-  (-64 dB for 50 orders and 2048 points) relative to the largest order. A small C kernel
-  (``bkabem_core/_synthkernel.c``) does this when it is built; a numpy path gives the same samples otherwise.
+  (-64 dB for 50 orders and 2048 points) relative to the largest order.
 * **Channels.** Per bearing and direction: ``acceleration`` of the housing [m/s^2] (accelerometer), ``displacement``
   of the shaft relative to the housing [m] (proximity probe), optionally ``velocity`` of the housing [mm/s].
   Names ``<bearing>_<direction>_<quantity>``, e.g. ``de_vertical_acceleration``.
@@ -626,14 +625,16 @@ class Chunk:
                 "features": feats, "ground_truth": self.ground_truth}
 
 
+_FOLD = 64   # numpy is slow on short rows: (n, C) blocks are processed as (n / 64, 64 C)
+
+
 def _colwise(x: np.ndarray, fn) -> np.ndarray:
-    """``fn`` (np.max/np.min) over the rows of a sample-major (n, C) block, fast for small C (numpy reduces
-    short rows slowly, so 8 rows are folded into one first)."""
+    """``fn`` (np.max or np.min) over the rows of a sample-major (n, C) block."""
     n, c = x.shape
-    q = n // 8 * 8
+    q = n // _FOLD * _FOLD
     r = None
     if q:
-        r = fn(fn(x[:q].reshape(-1, 8 * c), axis=0).reshape(8, c), axis=0)
+        r = fn(fn(x[:q].reshape(-1, _FOLD * c), axis=0).reshape(_FOLD, c), axis=0)
     if q < n:
         t = fn(x[q:], axis=0)
         r = t if r is None else (np.maximum(r, t) if fn is np.max else np.minimum(r, t))
@@ -643,26 +644,36 @@ def _colwise(x: np.ndarray, fn) -> np.ndarray:
 def waveform_features(x: np.ndarray, offset: np.ndarray | None = None) -> dict:
     """Features of a sample-major block ``x`` (n, C): mean, rms, peak, peak_to_peak, crest_factor, kurtosis.
 
-    ``offset`` (C,), e.g. the known static part, is removed first so that the moments of signals riding on a
-    large DC keep their precision in float32 (raw moments about the offset, then central moments)."""
+    ``offset`` (C,), e.g. the known static part, is removed before the mean is taken, so that signals riding on a
+    large DC keep their precision in float32; moments are then central (two passes)."""
     n, c = x.shape
     off = np.zeros(c, x.dtype) if offset is None else np.asarray(offset, x.dtype)
-    xc = np.empty_like(x)
-    q = n // 8 * 8
-    if q:
-        np.subtract(x[:q].reshape(-1, 8 * c), np.tile(off, 8), out=xc[:q].reshape(-1, 8 * c))
-    if q < n:
-        np.subtract(x[q:], off, out=xc[q:])
     ones = np.ones(n, x.dtype)
-    s1 = (ones @ xc).astype(np.float64) / n
+    q = n // _FOLD * _FOLD
+    xc = np.empty_like(x)
+
+    def sub(v):                                   # xc = x - v (rows folded, see _FOLD)
+        if q:
+            np.subtract(x[:q].reshape(-1, _FOLD * c), np.tile(v, _FOLD), out=xc[:q].reshape(-1, _FOLD * c))
+        if q < n:
+            np.subtract(x[q:], v, out=xc[q:])
+
+    sub(off)
+    mu = (ones @ xc) / x.dtype.type(n)
+    centre = (off + mu).astype(x.dtype)
+    sub(centre)
+    s1 = (ones @ xc).astype(np.float64) / n               # ~0 (round-off of the centre)
     x2 = xc * xc
     s2 = (ones @ x2).astype(np.float64) / n
-    x3 = x2 * xc
-    s3 = (ones @ x3).astype(np.float64) / n
     np.multiply(x2, x2, out=x2)
     s4 = (ones @ x2).astype(np.float64) / n
     hi = _colwise(xc, np.max).astype(np.float64)
     lo = _colwise(xc, np.min).astype(np.float64)
+    return _moment_features(s1, s2, 0.0 * s1, s4, hi, lo, centre)
+
+
+def _moment_features(s1, s2, s3, s4, hi, lo, off) -> dict:
+    """Features from raw moments s_p = mean((x - off)^p) and the extremes of x - off."""
     m2 = np.maximum(s2 - s1 * s1, 0.0)
     m4 = np.maximum(s4 - 4 * s1 * s3 + 6 * s1 * s1 * s2 - 3 * s1 ** 4, 0.0)
     rms = np.sqrt(m2)
@@ -737,8 +748,6 @@ class Synthesizer:
         Compute per-chunk features (default True).
     table_size : int or None
         Wavetable points per ball pass (power of 2, default max(2048, 32 x highest order)).
-    kernel : {"auto", "c", "numpy"}
-        Sample loop implementation ("auto": the C kernel when built).
     """
 
     def __init__(self, model: BkaBem, sample_rate_hz: float = 25600.0, chunk_s: float = 0.1, *,
@@ -746,7 +755,7 @@ class Synthesizer:
                  slip: float = 0.0, seed: int | None = 0, max_order: int | None = None, band_limit: str = "error",
                  spectrum: str = "auto", knot_s: float = 0.1, max_speed_step_hz: float = 0.5,
                  min_speed_hz: float = 0.05, initial_speed_hz: float | None = None, dtype=np.float32,
-                 features: bool = True, table_size: int | None = None, kernel: str = "auto"):
+                 features: bool = True, table_size: int | None = None):
         if not isinstance(model, BkaBem):
             raise SynthError("model", f"must be a BkaBem (got {type(model).__name__})")
         fs = _finite("sample_rate_hz", sample_rate_hz, 0.0, strict=True)
@@ -787,12 +796,6 @@ class Synthesizer:
         if initial_speed_hz is not None:
             initial_speed_hz = _finite("initial_speed_hz", initial_speed_hz, 0.0)
         self.initial_speed_hz = initial_speed_hz
-        if kernel not in ("auto", "c", "numpy"):
-            raise SynthError("kernel", f"must be 'auto', 'c' or 'numpy' (got {kernel!r})")
-        if kernel == "c" and _C_KERNEL is None:
-            raise SynthError("kernel", "the C kernel bkabem_core._synthkernel is not built")
-        self._use_c = kernel != "numpy" and _C_KERNEL is not None
-        self.kernel = "c" if self._use_c else "numpy"
         self._spectrum_kind = spectrum
         self._max_order_arg = max_order
         self._table_size_arg = table_size
@@ -1152,18 +1155,12 @@ class Synthesizer:
         xi = bufs["xi"][:m]
         u = bufs["u"][:m]
         np.add(bufs["ar"][:m], lo - a.x, out=xi)                      # samples since knot a
-        if self._slip_walk is None and self._use_c:
-            _C_KERNEL.run(self, a, b, xi, m, c1, c2, nq, length, blend, out)
-            return
         np.multiply(xi, c2, out=u)
         u += c1
         u *= xi
         u += a.u_frac                                                 # ball passes since a.u_int
         if self._slip_walk is not None:
             u += self._slip_walk.warp(a.u_int, u)
-        if self._use_c:
-            _C_KERNEL.run_phase(self, a, b, xi, u, m, nq, length, blend, out)
-            return
         p = bufs["p"][:m]
         u += _PHASE_OFFSET
         u *= nq
@@ -1196,11 +1193,23 @@ class Synthesizer:
         C *= F
         np.add(A, C, out=out)
 
+    @staticmethod
+    def _add_scaled(out: np.ndarray, z: np.ndarray, sigma: np.ndarray) -> None:
+        """out += z * sigma (per channel), rows folded (see _FOLD)."""
+        m, c = out.shape
+        q = m // _FOLD * _FOLD
+        sig = sigma.astype(out.dtype)
+        if q:
+            zz = z[:q].reshape(-1, _FOLD * c)
+            zz *= np.tile(sig, _FOLD)
+            out[:q].reshape(-1, _FOLD * c)[...] += zz
+        if q < m:
+            out[q:] += z[q:] * sig
+
     def _add_noise(self, n0: int, n: int, out: np.ndarray) -> None:
         z = self._noise.get(n0, n)
         if self.snr_db is None:
-            z *= self._noise_sigma.astype(self.dtype)
-            out += z
+            self._add_scaled(out, z, self._noise_sigma)
             return
         ks = self._knots
         pos, i = n0, 0
@@ -1210,7 +1219,7 @@ class Synthesizer:
             a, b = ks[i], ks[i + 1]
             end = min(n0 + n, max(pos + 1, math.ceil(b.x - 1e-9)))
             sigma = g * np.sqrt(0.5 * (a.rms ** 2 + b.rms ** 2))
-            out[pos - n0:end - n0] += z[pos - n0:end - n0] * sigma.astype(self.dtype)
+            self._add_scaled(out[pos - n0:end - n0], z[pos - n0:end - n0], sigma)
             pos = end
 
     # ------------------------------------------------------------------ chunk metadata
@@ -1280,14 +1289,6 @@ class Synthesizer:
                 "orders": [int(k) for k in self.orders], "bpfo_per_hz": self.bpfo_per_hz,
                 "n_balls": self.n_balls, "band_limit": self.band_limit, "spectrum": self.spectrum_method,
                 "knot_s": self.knot_s, "max_speed_step_hz": self.max_speed_step_hz,
-                "min_speed_hz": self.min_speed_hz, "table_size": self.table_size, "kernel": self.kernel,
+                "min_speed_hz": self.min_speed_hz, "table_size": self.table_size,
                 "slip_std_fraction": self.slip, "noise_density": self.noise_density, "snr_db": self.snr_db,
                 "seed": self.seed, "dtype": np.dtype(self.dtype).name, "case_hash": self.case.case_hash}
-
-
-# =========================================================================== optional C kernel
-def _load_c_kernel():
-    return None
-
-
-_C_KERNEL = _load_c_kernel()

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .synth import QUANTITIES, SynthError, Synthesizer, parse_profile
+from .synth import SynthError, Synthesizer, parse_profile
 
 EXIT_BAD_INPUT = 2
 _UNIT_SUFFIX = {"m/s^2": "m_s2", "m": "m", "mm/s": "mm_s"}
