@@ -813,7 +813,7 @@ class Synthesizer:
             if max_order < orders.min():
                 raise SynthError("max_order", f"{max_order} is below the lowest model order {orders.min()}")
         keep = orders <= max_order if max_order is not None else np.ones(orders.size, bool)
-        self.model = model
+        self._model = model
         self.case = model.case
         self.orders = orders[keep]
         self._keep = keep
@@ -847,11 +847,22 @@ class Synthesizer:
         self._emphasis = 1.0 / np.sinc(kk / n) ** 2
         self._gt_base = self._ground_truth_base()
 
+    @property
+    def model(self) -> BkaBem:
+        return self._model
+
+    @model.setter
+    def model(self, model: BkaBem) -> None:
+        self.set_model(model)
+
     def set_model(self, model: BkaBem) -> None:
-        """Switch to another model (e.g. a new defect depth) from the next knot on; phase stays continuous."""
+        """Switch to another model (e.g. a new defect depth) from the next knot on (``synth.model = m`` does the
+        same). Phase stays continuous; the amplitudes move from the old to the new spectrum over one segment."""
         if not isinstance(model, BkaBem):
             raise SynthError("model", f"must be a BkaBem (got {type(model).__name__})")
+        use_modal = self._use_modal
         self._bind_model(model)
+        self._use_modal = use_modal
         self._table_cache = OrderedDict()
 
     def set_noise(self, noise_density: dict | None = None, snr_db: float | None = None) -> None:

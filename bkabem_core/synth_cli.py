@@ -310,7 +310,14 @@ def synth_main(args) -> int:
         writer.finish(arrays, speeds, meta)
     if args.png:
         excerpt = np.concatenate(ring, axis=1)[:, -keep:] if ring else np.zeros((len(synth.channel_names), 1))
-        mean_speed = float(np.mean(st["profile"].speed_hz((n_total - excerpt.shape[1] / 2) / fs)))
+        prof = st["profile"]
+        for length in (1.0, 0.5, 0.25, 0.1, 0.05):              # a window where the speed is nearly steady
+            n_ex = min(excerpt.shape[1], int(length * fs))
+            sp = prof.speed_hz((n_total - np.arange(n_ex)) / fs)
+            if sp.max() - sp.min() <= 0.01 * max(sp.mean(), 1e-9):
+                break
+        excerpt = excerpt[:, -n_ex:]
+        mean_speed = float(prof.speed_hz((n_total - n_ex / 2) / fs))
         _plot(Path(args.png), excerpt, fs, synth, mean_speed,
               f"{case.name} ({synth._gt_base['case_hash']}): {st['profile'].spec}, {fs:g} Hz, seed {synth.seed}")
     print(f"wrote {out}: {len(synth.channel_names)} channels x {n_total} samples at {fs:g} Hz "

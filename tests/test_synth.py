@@ -143,6 +143,15 @@ def test_seed_determinism(model):
     np.testing.assert_array_equal((n1 - n0)[2], 0)          # displacement had no noise density
 
 
+def test_snr_noise_level(model):
+    clean = render(Synthesizer(model, sample_rate_hz=25600, dtype=np.float64), "constant:20", 0.5)
+    noisy = render(Synthesizer(model, sample_rate_hz=25600, dtype=np.float64, snr_db=20.0, seed=2),
+                   "constant:20", 0.5)
+    d = (noisy - clean).std(axis=1)
+    sig = (clean - clean.mean(axis=1, keepdims=True)).std(axis=1)
+    np.testing.assert_allclose(d / sig, 0.1, rtol=0.05)
+
+
 def test_slip_model_statistics():
     walk = _SlipWalk(0.02, seed=5)
     w = walk.values(0, 40000)
@@ -352,7 +361,8 @@ def test_set_model_keeps_phase_continuous(model, case):
     s = Synthesizer(model, sample_rate_hz=25600, chunk_s=0.05)
     a = s.next_chunk(20.0)
     deeper = BkaBem(case.with_overrides({"dent.depth_m": 30e-6}), excitation=None)
-    s.set_model(deeper)
+    s.model = deeper                                        # same as s.set_model(deeper)
+    assert s.model is deeper
     b = s.next_chunk(20.0)
     c = s.next_chunk(20.0)
     x = np.concatenate([a.samples, b.samples, c.samples], axis=1).astype(float)
