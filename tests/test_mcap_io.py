@@ -443,3 +443,90 @@ def test_qos_yaml_from_rclpy_profile():
     assert [q.depth for q in theirs] == [5, 3]
     assert theirs[1].deadline.sec == 1 and theirs[1].deadline.nsec == 5
     assert text.startswith("- history: keep_last\n  depth: 5\n  reliability: best_effort\n")
+
+
+# ----------------------------------------------------------------------------- the node's recording
+def test_node_recording_read_by_independent_readers(tmp_path):
+    """The node with attach_sinks (MCAP + .rrd): rosbags and mcap_ros2 read back exactly what the node
+    published (and the speed it received); QoS = the node's publishers'; the .rrd verifies and holds every
+    published sample."""
+    import rclpy
+    from mcap_ros2.reader import read_ros2_messages
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+    from rosbags.highlevel import AnyReader
+    from std_msgs.msg import Float64
+
+    from bkabem_ros.node import VibrationNode
+    from bkabem_ros.record import attach_sinks
+    from bkabem_ros.rerun_io import rerun_binary
+
+    path, rrd = tmp_path / "node.mcap", tmp_path / "node.rrd"
+    published: list = []
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    try:
+        node = VibrationNode("bkabem", namespace="/m7", context=ctx, start=False, parameter_overrides=[
+            Parameter("sample_rate", value=5120.0), Parameter("spectrum_rate", value=2.0)])
+        node.add_sink(lambda topic, ty, m, stamp: published.append((topic, ty, m, stamp)))
+        detach = attach_sinks(node, record=path, rerun_save=rrd)
+        speed = rclpy.create_node("speed_pub", namespace="/m7", context=ctx)
+        pub = speed.create_publisher(Float64, "speed", 10)
+        speed.create_timer(0.05, lambda: pub.publish(Float64(data=2 * math.pi * 20.0)))
+        ex = SingleThreadedExecutor(context=ctx)
+        ex.add_node(node)
+        ex.add_node(speed)
+        node.start()
+        t_end = time.monotonic() + 2.5
+        while time.monotonic() < t_end:
+            ex.spin_once(timeout_sec=0.05)
+        ex.remove_node(node)
+        ex.remove_node(speed)
+        detach()
+        qos = {p.topic_name: p.qos_profile for p in node.publishers}
+        speed.destroy_node()
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=ctx)
+    want: dict[str, list] = {}
+    for topic, ty, m, stamp in published:
+        want.setdefault(topic, []).append((ty, m, stamp))
+    assert {"/m7/speed", "/m7/vibration/de/acceleration", "/m7/vibration/nde/displacement",
+            "/m7/vibration/de/spectrum", "/m7/vibration/fault_frequencies"} <= set(want)
+    assert len(want["/m7/vibration/de/acceleration"]) >= 15
+
+    got: dict[str, list] = {}
+    with AnyReader([path]) as reader:
+        for conn in reader.connections:
+            assert reader.typestore.hash_rihs01(conn.msgtype) == msgs.type_hash(conn.msgtype)
+            if conn.topic in qos:
+                assert conn.ext.offered_qos_profiles[0].depth == qos[conn.topic].depth
+                assert conn.ext.offered_qos_profiles[0].reliability.name.lower() == \
+                    qos[conn.topic].reliability.name.lower()
+        for conn, _t, raw in reader.messages():
+            got.setdefault(conn.topic, []).append(reader.deserialize(raw, conn.msgtype))
+    assert {k: len(v) for k, v in got.items()} == {k: len(v) for k, v in want.items()}
+    for topic in want:
+        for d, (_ty, m, _s) in zip(got[topic], want[topic]):
+            _same(d, m)
+    got2: dict[str, list] = {}
+    for r in read_ros2_messages(str(path)):
+        got2.setdefault(r.channel.topic, []).append(r)
+        assert r.channel.metadata["topic_type_hash"] == msgs.type_hash(r.schema.name)
+    for topic in want:
+        assert len(got2[topic]) == len(want[topic])
+        for r, (_ty, m, stamp) in zip(got2[topic], want[topic]):
+            _same(r.ros_msg, m)
+            assert r.publish_time_ns == stamp
+    # the same stream in the .rrd
+    v = subprocess.run([rerun_binary(), "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=60)
+    assert v.returncode == 0, v.stderr[-2000:]
+    from rerun.chunk import RrdReader
+
+    rows: dict[str, int] = {}
+    for ch in RrdReader(str(rrd)).stream().collect().stream():
+        if not ch.is_static:
+            rows[ch.entity_path] = rows.get(ch.entity_path, 0) + ch.num_rows
+    waves = want["/m7/vibration/nde/acceleration"]
+    assert rows["/nde/acceleration/horizontal"] == sum(m.samples_per_channel for _ty, m, _s in waves)
+    assert rows["/speed/shaft_hz"] == len(want["/m7/speed"])
