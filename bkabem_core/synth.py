@@ -1002,6 +1002,18 @@ class Synthesizer:
             self._table_cache.popitem(last=False)
         return hit
 
+    def line_spectrum(self, speed_hz: float) -> dict:
+        """The lines the waveform holds at ``speed_hz`` [Hz] (what an FFT of a steady run shows).
+
+        Returns ``orders`` (K,), ``frequency_hz`` (K,), ``amplitude`` (K, C) complex in the channel units (quantity,
+        Nyquist taper and low-speed fade applied; x = Re(A e^{i k 2 pi u}), phase origin cage angle 0, before slip)
+        and ``dc`` (C,), the static part."""
+        f = _finite("speed_hz", speed_hz, 0.0)
+        y = self._amplitudes(f)[0]
+        return {"orders": self.orders.copy(), "frequency_hz": self.orders * self.bpfo_per_hz * f,
+                "amplitude": y.copy(), "dc": self._dc.copy(), "channel_names": self.channel_names,
+                "units": self.units}
+
     def _make_knot(self, x: float, f: float, prev: _Knot | None) -> _Knot:
         if prev is None:
             u_int, u_frac = 0, 0.0
