@@ -10,11 +10,13 @@ Measured over ``--seconds`` after a 3 s warm-up:
 
 - lost chunks: gaps in ``first_sample_index`` per topic (and chunks missing at the end);
 - node CPU share: (utime + stime) of the node process / wall time, in % of one core;
-- publish jitter: the node's own lateness log (time a chunk's messages were handed to DDS minus the time its
-  last sample was due, on the node clock), p50/p99/max, from its exit line;
+- publish jitter: the node's own lateness log, from its exit line: time the chunk's four waveform messages had
+  been handed to DDS minus the time its last sample was due (node clock), p50/p99/max; and the same for the
+  start of the publication (the timer's wake-up delay);
 - delivery: receive time here minus that due time (jitter + DDS + this subscriber);
-- speed-change latency: from publishing a new speed to receiving the first chunk that carries it, and the same
-  measured to that chunk's first-sample stamp (how much of the signal still had the old speed).
+- speed-change latency, from publishing a new speed: to receiving the chunk that ramps to it (the first one
+  that responds), to receiving the first chunk that starts at it, and to the ramp chunk's first-sample stamp
+  (where the change begins in the signal).
 
 Part 2, fleet: ``bkabem fleet --machines N --seconds T`` for each N (machines spread over 2 processes from
 N = 2), no subscribers; the per-machine exit statistics say whether every chunk was published before the
@@ -122,10 +124,11 @@ def pct(a, q):
 
 def parse_exit_stats(lines) -> dict:
     for ln in lines:
-        m = re.search(r"(\d+) chunks .*lateness p50 ([-\d.]+) ms p99 ([-\d.]+) ms max ([-\d.]+) ms", ln)
+        m = re.search(r"(\d+) chunks .*lateness p50 ([-\d.]+) ms p99 ([-\d.]+) ms max ([-\d.]+) ms "
+                      r"\(start p50 ([-\d.]+) ms p99 ([-\d.]+) ms\)", ln)
         if m:
             return {"chunks": int(m.group(1)), "p50_ms": float(m.group(2)), "p99_ms": float(m.group(3)),
-                    "max_ms": float(m.group(4))}
+                    "max_ms": float(m.group(4)), "start_p50_ms": float(m.group(5)), "start_p99_ms": float(m.group(6))}
     return {}
 
 
@@ -220,12 +223,14 @@ def bench_node(rate: float, seconds: float, chunk: float, qos: str) -> dict:
         received += len(r)
         delivered += [(x[0] - x[2]) / 1e6 - chunk * 1e3 for x in r]
     acc = recs[topics[0]]
-    lat_recv, lat_stamp = [], []
+    lat_ramp, lat_recv, lat_stamp = [], [], []
     for t_pub, v in steps:
-        hit = next((x for x in acc if x[0] > t_pub and math.isclose(x[3], v)), None)
-        if hit is not None:
+        i = next((i for i, x in enumerate(acc) if x[0] > t_pub and math.isclose(x[3], v)), None)
+        if i is not None and i > 0:
+            hit, ramp = acc[i], acc[i - 1]          # first chunk at the new speed; the chunk ramping to it
+            lat_ramp.append((ramp[0] - t_pub) / 1e6)
             lat_recv.append((hit[0] - t_pub) / 1e6)
-            lat_stamp.append((hit[2] - t_pub) / 1e6)
+            lat_stamp.append((ramp[2] - t_pub) / 1e6)
     return {
         "sample_rate_hz": rate, "chunk_s": chunk, "qos": qos, "seconds": round(wall1 - wall0, 2),
         "samples_per_s": rate * 8, "messages_received": received, "lost_chunks": lost,
@@ -233,10 +238,12 @@ def bench_node(rate: float, seconds: float, chunk: float, qos: str) -> dict:
         "publish_lateness_ms": node_stats,
         "delivery_ms_p50": round(pct(delivered, 50), 2), "delivery_ms_p99": round(pct(delivered, 99), 2),
         "speed_steps": len(steps),
-        "speed_to_output_ms_median": round(pct(lat_recv, 50), 1), "speed_to_output_ms_max": round(max(lat_recv), 1)
-        if lat_recv else None,
-        "speed_to_first_new_sample_ms_median": round(pct(lat_stamp, 50), 1),
-        "speed_to_first_new_sample_ms_max": round(max(lat_stamp), 1) if lat_stamp else None,
+        "speed_to_ramp_chunk_received_ms_median": round(pct(lat_ramp, 50), 1),
+        "speed_to_ramp_chunk_received_ms_max": round(max(lat_ramp), 1) if lat_ramp else None,
+        "speed_to_new_speed_chunk_received_ms_median": round(pct(lat_recv, 50), 1),
+        "speed_to_new_speed_chunk_received_ms_max": round(max(lat_recv), 1) if lat_recv else None,
+        "speed_to_ramp_start_in_signal_ms_median": round(pct(lat_stamp, 50), 1),
+        "speed_to_ramp_start_in_signal_ms_max": round(max(lat_stamp), 1) if lat_stamp else None,
         "node_exit_code": rc,
     }
 

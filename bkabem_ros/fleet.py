@@ -54,7 +54,7 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
 
     from bkabem_core.case import CaseError
 
-    from .node import VibrationNode, _exit_log
+    from .node import VibrationNode, _exit_log, _quiet_gc
 
     rclpy.init(args=["bkabem-fleet", "--ros-args", *ros_args])
     nodes = []
@@ -71,6 +71,7 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
         executor = SingleThreadedExecutor()
         for nd in nodes:
             executor.add_node(nd)
+        _quiet_gc()
         for nd in nodes:
             nd.start()
         t_end = None if seconds is None else time.monotonic() + seconds
@@ -167,7 +168,8 @@ def main(args) -> int:
         cmd = base + ["--worker", json.dumps(g)]
         if args.ros_args:
             cmd += ["--ros-args", *args.ros_args]
-        procs.append(subprocess.Popen(cmd))
+        # own session: a terminal's Ctrl-C reaches only this parent, which forwards it once to each worker
+        procs.append(subprocess.Popen(cmd, start_new_session=True))
     sys.stderr.write(f"bkabem fleet: {args.machines} machines in {n_proc} processes "
                      f"(pids {', '.join(str(p.pid) for p in procs)})\n")
 

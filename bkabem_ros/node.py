@@ -65,6 +65,7 @@ WAVEFORM_TYPE = "bkabem_msgs/msg/VibrationWaveform"
 SPECTRUM_TYPE = "bkabem_msgs/msg/VibrationSpectrum"
 FAULT_TYPE = "bkabem_msgs/msg/BearingFaultFrequencies"
 SPEED_TYPE = "std_msgs/msg/Float64"
+N_WAVEFORMS = len(BEARINGS) * len(QUANTITIES)   # waveform messages per chunk (first in a chunk's items)
 
 Sink = Callable[[str, str, Any, int], None]
 
@@ -94,7 +95,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("chunk_duration", 0.1, "s",
               "length of one waveform message; samples per chunk = round(sample_rate * chunk_duration)",
               range=(0.005, 2.0)),
-    ParamSpec("seed", 0, "", "seed of the random generator (noise)", range=(0, 2**31 - 1)),
+    ParamSpec("seed", 0, "", "seed of the random parts (noise, slip); the same seed gives the same samples",
+              range=(0, 2**31 - 1)),
     ParamSpec("noise.acceleration", 0.0, "m/s^2",
               "RMS of white Gaussian sensor noise (0 to sample_rate/2) on the acceleration channels",
               live=True, range=(0.0, 1.0e4)),
@@ -226,7 +228,7 @@ class _Prepared:
     stamp_ns: int
     due_ns: int
     speed_rad_s: float
-    items: list  # (publisher, topic, type_name, msg)
+    items: list  # (publisher, type_name, msg, serialized CDR bytes); the 4 waveforms first
 
 
 # --------------------------------------------------------------------------- the node
@@ -325,7 +327,8 @@ class VibrationNode(_node_base()):
         self._last_spectrum_speed: float | None = None
         self._next_spectrum_ns = 0
         self._spectra = 0
-        self._lateness_ns: deque[int] = deque(maxlen=100_000)
+        self._lateness_ns: deque[int] = deque(maxlen=100_000)        # waveforms handed to DDS - due
+        self._start_lateness_ns: deque[int] = deque(maxlen=100_000)  # publication started - due
         self._published_chunks = 0
         self._reanchors = 0
         self._depth_job: _ExcitationJob | None = None
@@ -454,6 +457,8 @@ class VibrationNode(_node_base()):
         if synth.chunk_samples != self.samples_per_chunk:
             raise RuntimeError(f"synth chunk of {synth.chunk_samples} samples, node expects {self.samples_per_chunk}")
         self._synth = synth
+        self._base_speed_step = float(synth.max_speed_step_hz)
+        self._last_end_speed_hz = 0.0
         self._apply_noise()
         return synth
 
@@ -466,6 +471,29 @@ class VibrationNode(_node_base()):
         root = math.sqrt(self.sample_rate / 2.0)
         dens = {q: float(live[f"noise.{q}"]) / root for q in QUANTITIES if float(live[f"noise.{q}"]) > 0.0}
         self._synth.set_noise(noise_density=dens or None)
+
+    #: Seconds of synthesis per amplitude knot assumed when limiting the knots of a fast speed change.
+    KNOT_COST_S = 0.0025
+
+    def _next_chunk(self, end_speed_hz: float):
+        """``synth.next_chunk`` with a bounded cost. The synthesiser places amplitude knots at most
+        ``max_speed_step_hz`` (0.5 Hz) apart; a jump of tens of Hz within one chunk would need dozens of knots
+        (~1-2 ms each) and could make the next publication late. For such jumps the step is widened so that
+        the knots of one chunk take at most ~40 % of a chunk period; phase and speed stay exact, only the
+        amplitude interpolation through the (already non-stationary) transient is coarser."""
+        synth = self._synth
+        base = self._base_speed_step
+        df = abs(end_speed_hz - self._last_end_speed_hz)
+        max_knots = max(4, int(0.4 * (self.samples_per_chunk / self.sample_rate) / self.KNOT_COST_S))
+        widened = df / base > max_knots
+        if widened:
+            synth.max_speed_step_hz = df / max_knots
+        try:
+            chunk = synth.next_chunk(end_speed_hz)
+        finally:
+            synth.max_speed_step_hz = base
+        self._last_end_speed_hz = end_speed_hz
+        return chunk
 
     def _line_spectrum(self, speed_hz: float):
         """Complex channel amplitudes (orders, channels) and static part (channels,) of the synthesiser at a speed:
@@ -567,7 +595,7 @@ class VibrationNode(_node_base()):
         n = self.samples_per_chunk
         stamp = self._t0_ns + int(round(index * 1e9 / self.sample_rate))
         due = self._t0_ns + int(round((index + n) * 1e9 / self.sample_rate))
-        chunk = self._synth.next_chunk(self._speed_rad_s / TWO_PI)
+        chunk = self._next_chunk(self._speed_rad_s / TWO_PI)
         if int(chunk.first_sample_index) != index:
             raise RuntimeError(f"synth produced index {chunk.first_sample_index}, expected {index}")
         speed = float(chunk.shaft_speed_hz) * TWO_PI          # at the first sample
@@ -588,6 +616,10 @@ class VibrationNode(_node_base()):
             self._last_spectrum_speed = speed
             if rate > 0:
                 self._next_spectrum_ns = stamp + int(1e9 / rate)
+        # serialise now, off the publication path: publishing CDR bytes skips the conversion and serialisation
+        from rclpy.serialization import serialize_message
+
+        items = [(pub, type_name, msg, serialize_message(msg)) for pub, type_name, msg in items]
         return _Prepared(index=index, stamp_ns=stamp, due_ns=due, speed_rad_s=speed, items=items)
 
     def _spectrum_items(self, chunk, stamp: int) -> list:
@@ -641,13 +673,16 @@ class VibrationNode(_node_base()):
             pend = self._pending
         half = period / 2
         while pend.due_ns <= now + half:
-            for pub, type_name, msg in pend.items:
-                pub.publish(msg)
-            t_pub = self.get_clock().now().nanoseconds
-            self._lateness_ns.append(t_pub - pend.due_ns)
+            self._start_lateness_ns.append(self.get_clock().now().nanoseconds - pend.due_ns)
+            items = pend.items
+            for pub, _type_name, _msg, raw in items[:N_WAVEFORMS]:
+                pub.publish(raw)
+            self._lateness_ns.append(self.get_clock().now().nanoseconds - pend.due_ns)
+            for pub, _type_name, _msg, raw in items[N_WAVEFORMS:]:      # spectra, fault frequencies
+                pub.publish(raw)
             self._published_chunks += 1
             if self._sinks:
-                for pub, type_name, msg in pend.items:
+                for pub, type_name, msg, _raw in items:
                     self._emit(pub.topic_name, type_name, msg, pend.stamp_ns)
             pend = self._pending = self._prepare(pend.index + self.samples_per_chunk)
             now = self.get_clock().now().nanoseconds
@@ -661,8 +696,13 @@ class VibrationNode(_node_base()):
         self._t0_ns = now - int(round(pend.index * 1e9 / self.sample_rate))
         pend.stamp_ns = now
         pend.due_ns = self._t0_ns + int(round((pend.index + self.samples_per_chunk) * 1e9 / self.sample_rate))
-        for _pub, _t, msg in pend.items:
+        from rclpy.serialization import serialize_message
+
+        items = []
+        for pub, type_name, msg, _raw in pend.items:
             msg.header.stamp = time_msg(now)
+            items.append((pub, type_name, msg, serialize_message(msg)))
+        pend.items = items
         self._next_spectrum_ns = now
         self._reanchors += 1
         self.get_logger().warning(f"clock jumped from {old / 1e9:.6f} s to {now / 1e9:.6f} s: stamps re-anchored "
@@ -704,8 +744,11 @@ class VibrationNode(_node_base()):
 
     # ------------------------------------------------------------------ reporting and shutdown
     def stats(self) -> dict:
-        """Counters and publish lateness (publish time - due time of the chunk's last sample) in ms."""
+        """Counters and publish lateness in ms: ``lateness_*`` = time the chunk's four waveform messages had been
+        handed to DDS minus the time its last sample was due (node clock); ``start_lateness_*`` = time the
+        publication began minus that due time (the timer's wake-up delay)."""
         late = list(self._lateness_ns)
+        start = list(self._start_lateness_ns)
         return {
             "machine_id": self.machine_id,
             "chunks": self._published_chunks,
@@ -718,6 +761,8 @@ class VibrationNode(_node_base()):
             "lateness_ms_p50": _percentile(late, 50) / 1e6,
             "lateness_ms_p99": _percentile(late, 99) / 1e6,
             "lateness_ms_max": (max(late) / 1e6) if late else float("nan"),
+            "start_lateness_ms_p50": _percentile(start, 50) / 1e6,
+            "start_lateness_ms_p99": _percentile(start, 99) / 1e6,
         }
 
     def destroy_node(self):
@@ -730,7 +775,17 @@ class VibrationNode(_node_base()):
 def _stats_line(st: dict) -> str:
     return (f"stats: {st['chunks']} chunks (next index {st['next_index']}), {st['spectra']} spectra, "
             f"{st['speed_messages']} speed messages ({st['speed_rejected']} rejected), publish lateness "
-            f"p50 {st['lateness_ms_p50']:.3f} ms p99 {st['lateness_ms_p99']:.3f} ms max {st['lateness_ms_max']:.3f} ms")
+            f"p50 {st['lateness_ms_p50']:.3f} ms p99 {st['lateness_ms_p99']:.3f} ms max {st['lateness_ms_max']:.3f} ms "
+            f"(start p50 {st['start_lateness_ms_p50']:.3f} ms p99 {st['start_lateness_ms_p99']:.3f} ms)")
+
+
+def _quiet_gc() -> None:
+    """After start-up: move everything allocated so far (model, modules) out of the collector's view, so that
+    a full collection during streaming scans only what the stream allocates (shorter pauses, less jitter)."""
+    import gc
+
+    gc.collect()
+    gc.freeze()
 
 
 def _exit_log(node, st: dict | None = None) -> None:
@@ -768,6 +823,7 @@ def run(ros_args=None, overrides: dict | None = None, *, node_name: str = "bkabe
             return 2
         if on_node is not None:
             cleanup = on_node(node)
+        _quiet_gc()
         node.start()
         executor = SingleThreadedExecutor()
         executor.add_node(node)
