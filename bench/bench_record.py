@@ -1,6 +1,6 @@
 """Benchmark: cost of MCAP recording and Rerun logging at the full 51.2 kHz x 8 channel rate.
 
-    .venv/bin/python bench/bench_record.py [--seconds 20] [--node-seconds 20] [--json]
+    .venv/bin/python bench/bench_record.py [--seconds 20] [--node-seconds 20] [--repeats 3]
 
 Parts
 -----
@@ -147,7 +147,12 @@ node = VibrationNode("bench", namespace="/bench", start=False, parameter_overrid
 cleanup = None
 published = {"n": 0}
 node.add_sink(lambda topic, t, m, s: published.__setitem__("n", published["n"] + 1))
-if mode != "plain":
+if mode == "mcap_inline":
+    from bkabem_ros.mcap_io import McapSink
+    _s = McapSink(out + ".mcap", threaded=False)
+    node.add_sink(_s)
+    cleanup = _s.close
+elif mode != "plain":
     from bkabem_ros.record import attach_sinks
     cleanup = attach_sinks(node, record=out + ".mcap",
                            rerun_save=(out + ".rrd") if mode == "mcap+rerun" else None)
@@ -173,12 +178,12 @@ node.destroy_node(); speed_node.destroy_node(); rclpy.shutdown()
 """
 
 
-def bench_node(seconds: float, tmp: Path) -> dict:
+def bench_node(seconds: float, tmp: Path, repeats: int = 3, modes=None) -> dict:
     import subprocess
 
     res = {}
     root = Path(__file__).resolve().parents[1]
-    for mode in ("plain", "mcap", "plain", "mcap", "mcap+rerun"):
+    for mode in modes or (("plain", "mcap") * repeats + ("mcap+rerun",)):
         out = tmp / f"node_{mode}"
         env = dict(os.environ, ROS_DOMAIN_ID=str(100 + os.getpid() % 100))
         r = subprocess.run([sys.executable, "-c", NODE_CHILD, mode, str(seconds), str(out)], capture_output=True,
@@ -195,9 +200,16 @@ def bench_node(seconds: float, tmp: Path) -> dict:
             step = int(51200 * 0.1)
             d["index_gaps"] = int(sum(1 for a, b in zip(waves, waves[1:]) if b != a + step))
         res.setdefault(mode, []).append({k: (round(v, 3) if isinstance(v, float) else v) for k, v in d.items()})
-    plain = min(x["cpu_percent"] for x in res["plain"])
-    rec = min(x["cpu_percent"] for x in res["mcap"])
+    if modes:
+        return res
+    plain = float(np.median([x["cpu_percent"] for x in res["plain"]]))
+    rec = float(np.median([x["cpu_percent"] for x in res["mcap"]]))
+    # paired differences (runs alternate, so slow phases of the machine hit both alike)
+    pairs = [m["cpu_percent"] - p["cpu_percent"] for p, m in zip(res["plain"], res["mcap"])]
+    res["node_cpu_percent_median"] = round(plain, 2)
+    res["node_with_mcap_cpu_percent_median"] = round(rec, 2)
     res["overhead_mcap_percent_of_one_core"] = round(rec - plain, 2)
+    res["overhead_mcap_paired"] = [round(x, 2) for x in pairs]
     res["overhead_mcap_rerun_percent_of_one_core"] = round(res["mcap+rerun"][0]["cpu_percent"] - plain, 2)
     return res
 
@@ -206,7 +218,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=20.0, help="seconds of data for parts 1-2")
     ap.add_argument("--node-seconds", type=float, default=20.0, help="seconds per node run (part 3); 0: skip")
-    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--repeats", type=int, default=3, help="alternating plain/mcap node runs (part 3)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="bkabem_bench_") as d:
         tmp = Path(d)
@@ -214,7 +226,7 @@ def main() -> int:
         result = {"mcap_sink": bench_mcap(stream, args.seconds, tmp),
                   "rerun_logger": bench_rerun(stream, args.seconds, tmp)}
         if args.node_seconds > 0:
-            result["node"] = bench_node(args.node_seconds, tmp)
+            result["node"] = bench_node(args.node_seconds, tmp, args.repeats)
     result["machine"] = {"cpus": os.cpu_count(), "load_avg_1min": round(os.getloadavg()[0], 2)}
     print(json.dumps(result, indent=1))
     return 0
