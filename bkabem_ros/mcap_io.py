@@ -260,7 +260,7 @@ class McapRecorder:
         try:
             fh = open(path, "wb")  # noqa: SIM115 - closed in _finish_file
         except OSError as exc:
-            raise self._fail(exc, path) from exc
+            raise self._fail(exc, path, opening=True) from exc
         self._fh = fh
         self.paths.append(path)
         comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4,
@@ -290,11 +290,11 @@ class McapRecorder:
         if fh is not None:
             fh.close()
 
-    def _fail(self, exc: OSError, path=None) -> RecorderError:
+    def _fail(self, exc: OSError, path=None, opening: bool = False) -> RecorderError:
         path = path or (self.paths[-1] if self.paths else self.path)
-        reason = exc.strerror or str(exc)
-        err = RecorderError(f"recording to {path} stopped: {reason}"
-                            + (f" [errno {exc.errno}]" if exc.errno else ""))
+        reason = (exc.strerror or str(exc)) + (f" [errno {exc.errno}]" if exc.errno else "")
+        err = RecorderError(f"cannot record to {path}: {reason}" if opening
+                            else f"recording to {path} stopped: {reason}")
         self.error = err
         self._closed = True
         fh, self._fh, self._writer = self._fh, None, None

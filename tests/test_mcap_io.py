@@ -363,7 +363,7 @@ def test_recover_cli(tmp_path):
 def test_unwritable_path_and_full_disk_raise_one_clear_error(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    with pytest.raises(mcap_io.RecorderError, match=r"recording to .*file/x\.mcap stopped: Not a directory"):
+    with pytest.raises(mcap_io.RecorderError, match=r"cannot record to .*file/x\.mcap: Not a directory"):
         mcap_io.McapRecorder(blocker / "x.mcap")
     with pytest.raises(mcap_io.RecorderError, match="No such file or directory"):
         mcap_io.McapRecorder(tmp_path / "missing" / "x.mcap")
