@@ -839,11 +839,12 @@ class Synthesizer:
         self._use_modal = self._spectrum_kind == "modal"
         dc8 = np.asarray(model.dc_m).reshape(-1)
         self._dc = (comb @ dc8)[index] * (power == 0)
-        # wavetable basis: T = [cos(k th) | -sin(k th)] @ [Re Y; Im Y], linear-interpolation droop pre-emphasised
+        # wavetable basis: T = [cos(k th) | -sin(k th) | 1] @ [Re Y; Im Y; DC], linear-interpolation droop
+        # pre-emphasised
         th = TWO_PI * np.arange(n) / n
         kk = self.orders.astype(float)
-        self._basis = np.ascontiguousarray(
-            np.concatenate([np.cos(np.outer(th, kk)), -np.sin(np.outer(th, kk))], axis=1).astype(self.dtype))
+        self._basis = np.ascontiguousarray(np.concatenate(
+            [np.cos(np.outer(th, kk)), -np.sin(np.outer(th, kk)), np.ones((n, 1))], axis=1).astype(self.dtype))
         self._emphasis = 1.0 / np.sinc(kk / n) ** 2
         self._gt_base = self._ground_truth_base()
 
@@ -989,9 +990,12 @@ class Synthesizer:
         y = x[:, self._cindex] * powers[self._power].T * (self._scale * 1.0)[None, :] * wts[:, None]     # (K, C)
         v_iso = x[:, self._iso_rows] * (iw * 1e3 * wts)[:, None]            # housing velocity [mm/s] (K, 4)
         yc = y * self._emphasis[:, None]
-        coef = np.concatenate([yc.real, yc.imag]).astype(self.dtype)
+        k = yc.shape[0]
+        coef = np.empty((2 * k + 1, yc.shape[1]), dtype=self.dtype)   # [Re Y; Im Y; DC] against [cos | -sin | 1]
+        coef[:k] = yc.real
+        coef[k:2 * k] = yc.imag
+        coef[2 * k] = self._dc
         table = self._basis @ coef
-        table += self._dc.astype(self.dtype)
         slope = np.empty_like(table)
         np.subtract(table[1:], table[:-1], out=slope[:-1])
         np.subtract(table[0], table[-1], out=slope[-1])
