@@ -175,6 +175,14 @@ def parse_qos_yaml(text: str) -> list[dict[str, Any]]:
 
 
 # --------------------------------------------------------------------------- recorder
+def _definition(type_name: str) -> tuple[str, str]:
+    """(ros2msg definition text, RIHS01 hash) of a type; ValueError if this environment lacks it."""
+    try:
+        return msgs.message_definition_text(type_name), msgs.type_hash(type_name)
+    except (OSError, KeyError) as exc:
+        raise ValueError(f"no message definition for {type_name}: {exc}") from None
+
+
 class McapRecorder:
     """Write ROS 2 messages into ros2-profile MCAP files, with crash-bounded chunks and rotation.
 
@@ -309,13 +317,12 @@ class McapRecorder:
     def _channel(self, topic: str, type_name: str, qos: str) -> int:
         w = self._writer
         sid = self._schemas.get(type_name)
+        text, rihs = _definition(type_name)
         if sid is None:
-            sid = w.register_schema(name=type_name, encoding="ros2msg",
-                                    data=msgs.message_definition_text(type_name).encode())
+            sid = w.register_schema(name=type_name, encoding="ros2msg", data=text.encode())
             self._schemas[type_name] = sid
         cid = w.register_channel(topic=topic, message_encoding="cdr", schema_id=sid,
-                                 metadata={"offered_qos_profiles": qos,
-                                           "topic_type_hash": msgs.type_hash(type_name)})
+                                 metadata={"offered_qos_profiles": qos, "topic_type_hash": rihs})
         self._channels[topic] = cid
         self._seq[topic] = 0
         self._topics[topic] = (type_name, qos)
@@ -354,6 +361,8 @@ class McapRecorder:
         ------
         RecorderError
             Writing failed just now (disk full, ...). Later calls return False.
+        ValueError
+            No message definition for ``type_name`` here (the recording goes on).
         """
         if self._closed:
             if self.error is not None and not self._error_raised:   # the flusher thread failed
@@ -375,6 +384,7 @@ class McapRecorder:
                 cid = self._channels.get(topic)
                 if cid is None:
                     name = msgs.type_name(type_name)
+                    _definition(name)     # a missing .msg is the caller's problem, not the file's
                     q = qos if isinstance(qos, str) else qos_yaml(qos)
                     cid = self._channel(topic, name, q)
                 if self._maybe_rotate(log_time_ns):
@@ -496,6 +506,7 @@ class McapSink:
         self.recorder: McapRecorder | None = None
         self.error: RecorderError | None = None
         self.dropped = 0
+        self.bad_topics: dict[str, str] = {}
         self._queue = None
         self._thread = None
         try:
@@ -520,11 +531,16 @@ class McapSink:
 
     def _write(self, item) -> None:
         topic, type_name, data, log_t, pub_t = item
+        if topic in self.bad_topics:
+            return
         try:
             self.recorder.add(topic, type_name, data, log_time_ns=log_t, publish_time_ns=pub_t,
                               qos=self._qos_for(topic))
         except RecorderError as exc:
             self._report(exc)
+        except Exception as exc:  # noqa: BLE001 - e.g. no .msg definition for the type: skip the topic
+            self.bad_topics[topic] = f"{type(exc).__name__}: {exc}"
+            self.log_error(f"not recording {topic} ({type_name}): {exc}")
 
     def _writer_loop(self) -> None:
         q = self._queue

@@ -134,6 +134,9 @@ class TopicRecorder:
             except mcap_io.RecorderError as exc:
                 self.error = exc
                 self.log_error(str(exc))
+            except Exception as exc:  # noqa: BLE001 - e.g. no .msg definition: drop this topic only
+                self.log_error(f"not recording {topic} ({type_name}): {exc}")
+                self.node.destroy_subscription(self.subs.pop(topic))
 
         return cb
 

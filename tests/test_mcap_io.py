@@ -530,3 +530,16 @@ def test_node_recording_read_by_independent_readers(tmp_path):
     waves = want["/m7/vibration/nde/acceleration"]
     assert rows["/nde/acceleration/horizontal"] == sum(m.samples_per_channel for _ty, m, _s in waves)
     assert rows["/speed/shaft_hz"] == len(want["/m7/speed"])
+
+
+def test_sink_skips_a_topic_it_cannot_describe(tmp_path):
+    """A type without a .msg definition in this environment: that topic is skipped, the rest recorded."""
+    errors = []
+    path = tmp_path / "s.mcap"
+    sink = mcap_io.McapSink(path, log_error=errors.append)
+    sink("/odd", "nonexistent_msgs/msg/Thing", b"\x00\x01\x00\x00", 1)
+    sink("/odd", "nonexistent_msgs/msg/Thing", b"\x00\x01\x00\x00", 2)
+    sink("/m1/speed", "std_msgs/msg/Float64", _speed(0), 3)
+    sink.close()
+    assert len(errors) == 1 and "not recording /odd" in errors[0]
+    assert [m.topic for m in mcap_io.iter_messages(path)] == ["/m1/speed"]
