@@ -12,7 +12,7 @@ updates arriving between chunks). The method, its error bounds and the realism o
 * **Knots.** The complex amplitudes ``Y_k`` (per channel) are evaluated at *knots*: every chunk border in streaming,
   every ``knot_s`` of run time and every profile breakpoint when rendering a profile, plus subdivisions so that the
   speed moves by at most ``max_speed_step_hz`` between knots. Between knots amplitudes are linear in time.
-* **Spectrum at a knot.** ``spectrum="modal"`` (default): the FE model's pole-residue form (exact in the order
+* **Spectrum at a knot.** ``spectrum="modal"``: the FE model's pole-residue form (exact in the order
   frequency, including lightly damped resonances) at gyroscopic speeds on a 0.1 Hz grid, interpolated cubically
   in the gyroscopic speed. Stated bound (tested): relative RMS error over the orders of a channel <= 5e-3 and any
   single order within 5e-3 of the channel's largest order, against :meth:`BkaBem.response` (measured worst case
@@ -20,8 +20,8 @@ updates arriving between chunks). The method, its error bounds and the realism o
   :meth:`BkaBem.response` at every knot (about 1 ms each). ``"auto"`` (default) picks the cheaper per run.
 * **Wavetable.** At each knot the waveform of one ball pass is tabulated (``table_size`` points, pre-emphasised
   for the linear interpolation's droop); samples read it at their phase with linear interpolation in angle and
-  blend the two knot tables linearly in time. Interpolation images stay below ``(k_max / table_size)^2``
-  (-64 dB for 50 orders and 2048 points) relative to the largest order.
+  blend the two knot tables linearly in time. Interpolation images of order k stay below ``(k / table_size)^2``
+  of it (-64 dB for order 50 and 2048 points; -86 dB of the largest order on the embedded case).
 * **Channels.** Per bearing and direction: ``acceleration`` of the housing [m/s^2] (accelerometer), ``displacement``
   of the shaft relative to the housing [m] (proximity probe), optionally ``velocity`` of the housing [mm/s].
   Names ``<bearing>_<direction>_<quantity>``, e.g. ``de_vertical_acceleration``.
