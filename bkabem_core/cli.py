@@ -242,7 +242,12 @@ def cmd_validate(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    """The main job on the embedded case: excitation, spectra at a few speeds, a sweep PNG."""
+    """The main job on the embedded case.
+
+    1. the BKA-BEM core: excitation table, spectra at a few speeds, figures in ``--out`` (default out/demo);
+    2. the ROS 2 node through a run-up and a hold, recorded to ``recordings/demo.mcap`` and ``demo.rrd``
+       (bkabem_ros.demo), with progress, a summary and the command that opens the result in Rerun.
+    """
     from pathlib import Path
 
     case = _load_case(args.case)
@@ -252,16 +257,20 @@ def cmd_demo(args) -> int:
     model = _model(case)
     prep = time.perf_counter() - t0
     ex = model.excitation
-    print(f"case {case.name} ({case.source}, hash {case.case_hash}); prepared in {prep:.2f} s "
-          f"(4-DOF excitation {model.preparation_time_s['excitation']:.2f} s, {ex.n_steps} RHS evaluations)")
-    print(_excitation_table(ex))
+    print(f"== 1/2  BKA-BEM core: case {case.name} ({case.source}, hash {case.case_hash})")
+    print(f"prepared in {prep:.2f} s (4-DOF excitation {model.preparation_time_s['excitation']:.2f} s, "
+          f"{ex.n_steps} RHS evaluations; {model.solver_info()['ndof']}-DOF FE model)")
+    print(_excitation_table(ex, max_rows=12))
     from .plots import plot_excitation, plot_spectrum, plot_sweep
 
     plot_excitation(ex, str(out / "excitation.png"))
     for s in args.speeds:
+        t1 = time.perf_counter()
         sp = model.spectrum(s)
+        dt = time.perf_counter() - t1
         print()
-        print(_spectrum_table(sp, max_rows=8))
+        print(_spectrum_table(sp, max_rows=6))
+        print(f"  (solved in {dt * 1e3:.2f} ms)")
     plot_spectrum(model.spectrum(args.speeds[-1]), str(out / "spectrum.png"))
     speeds = np.linspace(0.5, case.max_speed_hz, 500)
     t1 = time.perf_counter()
@@ -269,7 +278,17 @@ def cmd_demo(args) -> int:
     print(f"\nsweep of {speeds.size} speeds x {sw.orders.size} orders in {(time.perf_counter() - t1) * 1e3:.0f} ms")
     plot_sweep(sw, str(out / "sweep.png"))
     print(f"wrote {out / 'excitation.png'}, {out / 'spectrum.png'}, {out / 'sweep.png'}")
-    return 0
+    if args.no_ros:
+        return 0
+    try:
+        from bkabem_ros.demo import run_demo
+    except ImportError as exc:
+        raise UsageError(f"the ROS 2 part needs the ROS set-up (make demo installs it): {exc}") from None
+    print(f"\n== 2/2  ROS 2 node: run-up 0 -> {args.top_hz:g} Hz in {args.ramp:g} s, hold {args.hold:g} s, "
+          f"recording to {args.recordings}/demo.mcap and demo.rrd", flush=True)
+    r = run_demo(args.recordings, ramp_s=args.ramp, hold_s=args.hold, top_hz=args.top_hz,
+                 sample_rate=args.sample_rate, case=args.case, rerun=not args.no_rerun)
+    return 1 if r.errors else 0
 
 
 # --------------------------------------------------------------------------- parser
@@ -327,11 +346,21 @@ def build_parser() -> argparse.ArgumentParser:
         add_synth_arguments(y)
         y.set_defaults(func=synth_main)
 
-    d = sub.add_parser("demo", help="the main job on the embedded case")
+    d = sub.add_parser("demo", help="the main job: core tables and figures, then the ROS 2 node run-up recorded "
+                                    "to MCAP and Rerun")
     add_case(d)
-    d.add_argument("--out", default="out/demo", help="folder for the figures")
+    d.add_argument("--out", default="out/demo", help="folder for the core figures (default out/demo)")
     d.add_argument("--speeds", type=_finite_float("--speeds", 0.0), nargs="+", default=[10.0, 25.0, 50.0],
                    help="shaft speeds [Hz] for the spectrum tables")
+    d.add_argument("--recordings", default="recordings", help="folder for demo.mcap and demo.rrd")
+    d.add_argument("--ramp", type=_finite_float("--ramp", 0.0), default=20.0, help="run-up time [s]")
+    d.add_argument("--hold", type=_finite_float("--hold", 0.0), default=10.0, help="hold time [s]")
+    d.add_argument("--top-hz", type=_finite_float("--top-hz", 0.0, strict=True), default=50.0,
+                   help="final shaft speed [Hz]")
+    d.add_argument("--sample-rate", type=_finite_float("--sample-rate", 0.0, strict=True), default=25600.0,
+                   help="samples per second and channel [Hz]")
+    d.add_argument("--no-rerun", action="store_true", help="do not write demo.rrd")
+    d.add_argument("--no-ros", action="store_true", help="core part only (no ROS 2 node run)")
     d.set_defaults(func=cmd_demo)
 
     try:
