@@ -13,7 +13,6 @@ import json
 import os
 import platform
 import sys
-import time
 import timeit
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")

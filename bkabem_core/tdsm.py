@@ -49,8 +49,6 @@ Units: SI (m, s, N, rad). Axes as in :mod:`bkabem_core.rotor`: x horizontal, y v
 from __future__ import annotations
 
 import copy
-import hashlib
-import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -58,7 +56,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
-from .bearing import TWO_PI, Bearing
+from .bearing import TWO_PI
 from .case import Case
 from .rotor import Rotor, rotor_from_case
 

@@ -298,10 +298,10 @@ class ValidationResult:
                 entry = {
                     "orders": [int(k) for k in self.orders],
                     "frequency_hz": self.frequency_hz.tolist(),
-                    "tdsm_amplitude_m": t.tolist(),
-                    "bkabem_amplitude_m": b.tolist(),
-                    "error_db": [float(x) for x in e],
-                    "tdsm_frequency_hz": self.tdsm_frequency_hz[:, li, di].tolist(),
+                    "tdsm_amplitude_m": _json_list(t),
+                    "bkabem_amplitude_m": _json_list(b),
+                    "error_db": _json_list(e),
+                    "tdsm_frequency_hz": _json_list(self.tdsm_frequency_hz[:, li, di]),
                     "dc_m": {k: float(v[li, di]) for k, v in self.dc.items()},
                     "largest_orders": [int(self.orders[i]) for i in big],
                     "max_abs_error_db_largest": float(np.max(np.abs(e[big]))),
@@ -309,9 +309,9 @@ class ValidationResult:
                 if self.improved_amplitude is not None:
                     im = self.improved_amplitude[:, li, di]
                     ei = self.error_db(im, t)
-                    entry["improved_amplitude_m"] = im.tolist()
-                    entry["improved_error_db"] = [float(x) for x in ei]
-                    entry["improved_max_abs_error_db_largest"] = float(np.max(np.abs(ei[big])))
+                    entry["improved_amplitude_m"] = _json_list(im)
+                    entry["improved_error_db"] = _json_list(ei)
+                    entry["improved_max_abs_error_db_largest"] = float(np.nanmax(np.abs(ei[big])))
                 out[loc][d] = entry
         out["bearing_relative_dc_m"] = {
             b: {d: {k: float(v[bi, di]) for k, v in self.relative_dc.items()} for di, d in enumerate(DIRECTIONS)}
@@ -346,6 +346,8 @@ class ValidationResult:
         lines.append(f"  wall time: TDSM {w['tdsm']:.2f} s ({self.tdsm_info['steps']} steps, "
                      f"{self.tdsm_info['ms_per_step']:.3f} ms/step), BKA-BEM spectrum {w['bkabem_spectrum'] * 1e3:.2f} ms"
                      f" (+ {w['bkabem_preparation']:.2f} s one-time preparation); ratio {self.speed_ratio:.0f}x")
+        if not self.tdsm_info.get("settled", True):
+            lines.append("  NOTE: the TDSM start transient had not settled within the limit; see tdsm.settled")
         if self.tdsm_info.get("interrupted"):
             lines.append("  NOTE: the TDSM run was interrupted; the spectrum uses the periods recorded so far")
         return "\n".join(lines)
@@ -463,7 +465,8 @@ def validate(case: Case | None = None, speed_hz: float = DEFAULT_SPEED_HZ, durat
             "recorded_bpfo_periods": run.whole_periods, "ms_per_step": run.ms_per_step,
             "newton_iterations_mean": run.newton_iterations_mean,
             "newton_iterations_max": run.newton_iterations_max, "hht_alpha": hht_alpha,
-            "interrupted": run.interrupted,
+            "interrupted": run.interrupted, "settled": bool(getattr(run, "settled", True)),
+            "settle_mode": run.settings.get("settle"),
             "off_order_fraction": {loc: {d: float(off[li, di]) for di, d in enumerate(DIRECTIONS)}
                                    for li, loc in enumerate(COMPARED_LOCATIONS)},
             "half_vs_half_max_abs_db_largest": steady,
@@ -482,6 +485,11 @@ def validate(case: Case | None = None, speed_hz: float = DEFAULT_SPEED_HZ, durat
         orders=orders, frequency_hz=freq, tdsm_amplitude=tdsm_amp, bkabem_amplitude=bk_amp,
         improved_amplitude=im_amp, tdsm_frequency_hz=tdsm_freq, dc=dc, relative_dc=relative_dc, wall_time_s=wall,
         tdsm_info=info, tdsm_spectrum={"frequency_hz": f[keep], "amplitude_m": spec[keep]})
+
+
+def _json_list(x):
+    """Floats for JSON; NaN/inf (an order one method does not have) become null."""
+    return [float(v) if math.isfinite(v) else None for v in np.asarray(x, dtype=float)]
 
 
 def _align(orders, orders_i, x_i):
