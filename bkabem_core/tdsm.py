@@ -652,54 +652,6 @@ class Tdsm:
         self.H = bz @ self.W
 
     # ------------------------------------------------------------------ helpers
-    def auto_settle_s(self, decay: float = 1e-4, minimum_s: float = 0.1, n_orders: int = 50,
-                      maximum_s: float = 5.0) -> float:
-        """Start transient to discard [s], from the modes of the model linearised at the static equilibrium.
-
-        Each mode i (eigenvalue ``lambda_i``, right/left vectors ``v_i``, ``w_i`` of the state matrix) is weighted
-        by its share of the forced response at the recorded displacements, which is also the size of its start
-        transient: ``a_i = |C_out v_i| |w_i B_f| / min_k |i w_k - lambda_i|`` over the BPFO harmonics
-        ``w_k`` (k = 0..n_orders). The transient is taken as settled when ``sum a_i exp(-sigma_i t) <= decay
-        sum a_i``. Shaft modes with nodes at the bearings (damping ratios down to 1e-5 here) are neither excited
-        nor seen and do not hold the run up, unless a BPFO harmonic sits on them. The result is rounded up to
-        whole BPFO periods and lies in [minimum_s, maximum_s]; ``self.settle_info`` keeps the details.
-        """
-        rot = self.rotor
-        _, kt = HertzPair(self.bearings, np.zeros(1), self.films_m).evaluate(self._u_static, 0) \
-            if self.bearing_model == "hertz" else self.forces.evaluate(self._u_static, 0)
-        k = rot.K + self.B @ kt @ self.B.T
-        cw = rot.C + TWO_PI * self.speed_hz * rot.G
-        n = self.ndof
-        a = np.zeros((2 * n, 2 * n))
-        a[:n, n:] = np.eye(n)
-        a[n:, :n] = -np.linalg.solve(rot.M, k)
-        a[n:, n:] = -np.linalg.solve(rot.M, cw)
-        lam, v = np.linalg.eig(a)
-        w = np.linalg.inv(v)
-        bf = np.zeros((2 * n, 4))
-        bf[n:] = np.linalg.solve(rot.M, self.B)
-        c_out = v[self.out_dofs.reshape(-1), :]
-        # a mode's start transient is about its share of the forced response: largest for modes near a BPFO
-        # harmonic, |R_i| / |i w_k - lambda_i| (k = 0..n_orders; k = 0 is the static share |R_i| / |lambda_i|)
-        w_k = TWO_PI * self.bpfo_hz * np.arange(0, n_orders + 1)
-        near = np.min(np.abs(1j * w_k[None, :] - lam[:, None]), axis=1)
-        weight = np.linalg.norm(c_out, axis=0) * np.linalg.norm(w @ bf, axis=1) / np.maximum(near, 1e-9)
-        sigma = np.maximum(-lam.real, 0.0)
-        total = weight.sum()
-        ts = np.linspace(0.0, maximum_s, int(round(maximum_s * 1000)) + 1)
-        left = np.array([np.sum(weight * np.exp(-sigma * t)) for t in ts[::50]]) / total
-        i = int(np.argmax(left <= decay)) if np.any(left <= decay) else len(left) - 1
-        lo = ts[::50][max(i - 1, 0)]
-        fine = ts[(ts >= lo) & (ts <= lo + 0.05)]
-        val = np.array([np.sum(weight * np.exp(-sigma * t)) for t in fine]) / total
-        t_set = float(fine[np.argmax(val <= decay)]) if np.any(val <= decay) else float(ts[::50][i])
-        dominant = np.argsort(weight * np.exp(-sigma * t_set))[::-1][0]
-        self.settle_info = {"settled_fraction": decay, "raw_settle_s": t_set,
-                            "last_mode_hz": float(abs(lam[dominant].imag) / TWO_PI),
-                            "last_mode_decay_rate_1_s": float(sigma[dominant])}
-        t = min(max(minimum_s, t_set), maximum_s)
-        return math.ceil(t / self.bpfo_period_s - 1e-9) * self.bpfo_period_s
-
     def harmonic_balance(self, n_orders: int = 50, n_time: int = 8192, linearised: bool = False,
                          tol_m: float = 1e-14, max_iter: int = 30) -> PeriodicSolution:
         """The BPFO-periodic steady state of this nonlinear model, solved in the frequency domain.

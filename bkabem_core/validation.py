@@ -64,7 +64,7 @@ IMPROVEMENTS = ("nde", "consistent", "full", "parametric", "hbm")
 DEFAULT_SPEED_HZ = 30.0
 #: Default recorded TDSM time after the start transient [s].
 DEFAULT_DURATION_S = 0.2
-#: Default discarded start transient: None = Tdsm.auto_settle_s (0.12-0.18 s here; docs/validation.md).
+#: Default discarded start transient: None = adaptive (Tdsm.run: settle until the order spectrum is steady).
 DEFAULT_SETTLE_S = None
 #: Default largest TDSM step: None = Tdsm's rule (10 us, or a quarter of a dent-edge crossing if shorter;
 #: step-size study in docs/validation.md).
@@ -382,7 +382,7 @@ def validate(case: Case | None = None, speed_hz: float = DEFAULT_SPEED_HZ, durat
     progress : bool
         tqdm progress bar for the TDSM run.
     settle_s : float or None
-        Discarded start transient [s]; None = :meth:`Tdsm.auto_settle_s` (very conservative here, see
+        Discarded start transient [s]; None = adaptive, until the order spectrum is steady (:meth:`Tdsm.run`; see
         docs/validation.md).
     max_step_s : float, optional
         Largest TDSM step [s] (default: the Tdsm rule).
