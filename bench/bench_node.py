@@ -133,7 +133,7 @@ def parse_exit_stats(lines) -> dict:
 
 
 # --------------------------------------------------------------------------- part 1: one node
-def bench_node(rate: float, seconds: float, chunk: float, qos: str) -> dict:
+def bench_node(rate: float, seconds: float, chunk: float, qos: str, prefix: list[str] | None = None) -> dict:
     env = ros_env()
     for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR"):
         os.environ[k] = env[k]
@@ -146,8 +146,8 @@ def bench_node(rate: float, seconds: float, chunk: float, qos: str) -> dict:
     from bkabem_msgs.msg import VibrationWaveform
 
     ns = f"/bench{os.getpid()}"
-    node_p = Proc(bkabem("node", "--namespace", ns, "--sample-rate", str(rate), "--chunk-duration", str(chunk),
-                         "--qos", qos, "--spectrum-rate", "1"), env)
+    node_p = Proc((prefix or []) + bkabem("node", "--namespace", ns, "--sample-rate", str(rate),
+                                          "--chunk-duration", str(chunk), "--qos", qos, "--spectrum-rate", "1"), env)
     node_p.wait_for(r"streaming from t0")
     ctx = Context()
     rclpy.init(context=ctx, domain_id=DOMAIN)
@@ -244,7 +244,8 @@ def bench_node(rate: float, seconds: float, chunk: float, qos: str) -> dict:
         "speed_to_new_speed_chunk_received_ms_max": round(max(lat_recv), 1) if lat_recv else None,
         "speed_to_ramp_start_in_signal_ms_median": round(pct(lat_stamp, 50), 1),
         "speed_to_ramp_start_in_signal_ms_max": round(max(lat_stamp), 1) if lat_stamp else None,
-        "node_exit_code": rc,
+        "node_exit_code": rc, "node_command_prefix": " ".join(prefix or []),
+        "load_average_1min_at_end": round(os.getloadavg()[0], 2),
     }
 
 
@@ -286,10 +287,11 @@ def main() -> int:
     ap.add_argument("--fleet-seconds", type=float, default=20.0)
     ap.add_argument("--processes", type=int, default=None, help="fleet processes (default 1 for N=1, else 2)")
     ap.add_argument("--json", default=None, help="also write the results here")
+    ap.add_argument("--node-prefix", default="", help="run the node under this command, e.g. 'chrt -f 10'")
     args = ap.parse_args()
     results = {"node": [], "fleet": []}
     for r in [float(x) for x in args.rates.split(",") if x]:
-        res = bench_node(r, args.seconds, args.chunk, args.qos)
+        res = bench_node(r, args.seconds, args.chunk, args.qos, args.node_prefix.split())
         results["node"].append(res)
         print(json.dumps(res), flush=True)
     for n in [int(x) for x in args.fleet.split(",") if x]:

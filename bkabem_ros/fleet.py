@@ -61,7 +61,10 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
     try:
         try:
             for m in machines:
-                ov = dict(common)
+                # many nodes share one executor: leave out the ~/get_type_description service (one wait-set
+                # entity less per node and cycle)
+                ov = {"start_type_description_service": False}
+                ov.update(common)
                 ov.update(m["overrides"])
                 nodes.append(VibrationNode("bkabem", namespace=m["namespace"], start=False,
                                            parameter_overrides=[Parameter(k, value=v) for k, v in ov.items()]))

@@ -303,15 +303,30 @@ class VibrationNode(_node_base()):
                              reliability=qos_profile_sensor_data.reliability,
                              durability=qos_profile_sensor_data.durability)
         self.qos = qos
-        self._wave_pub = {(b, q): self.create_publisher(VibrationWaveform, f"vibration/{b}/{q}", qos)
-                          for b in BEARINGS for q in QUANTITIES}
-        self._spec_pub = {b: self.create_publisher(VibrationSpectrum, f"vibration/{b}/spectrum", qos)
-                          for b in BEARINGS}
-        self._ff_pub = self.create_publisher(BearingFaultFrequencies, "vibration/fault_frequencies", qos)
+        # rclpy gives every publisher two QoS event handlers (incompatible QoS / type warnings) that each executor
+        # cycle adds to its wait set; with many nodes in one executor that is most of the CPU. Only the first
+        # waveform publisher keeps them (subscribers report incompatibilities on their side as well).
+        from rclpy.event_handler import PublisherEventCallbacks
+
+        quiet = PublisherEventCallbacks(use_default_callbacks=False)
+
+        def pub(msg_type, name):
+            return self.create_publisher(msg_type, name, qos, event_callbacks=None if not self._wave_pub else quiet)
+
+        self._wave_pub = {}
+        for b in BEARINGS:
+            for q in QUANTITIES:
+                self._wave_pub[(b, q)] = pub(VibrationWaveform, f"vibration/{b}/{q}")
+        self._spec_pub = {b: pub(VibrationSpectrum, f"vibration/{b}/spectrum") for b in BEARINGS}
+        self._ff_pub = pub(BearingFaultFrequencies, "vibration/fault_frequencies")
         # best effort + keep last: matches reliable and best-effort publishers; a flood only overwrites
         speed_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                                reliability=ReliabilityPolicy.BEST_EFFORT)
-        self._speed_sub = self.create_subscription(Float64, "speed", self._on_speed, speed_qos)
+        from rclpy.event_handler import SubscriptionEventCallbacks
+
+        self._speed_sub = self.create_subscription(      # best effort + volatile: never incompatible, no handlers
+            Float64, "speed", self._on_speed, speed_qos,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
         self._speed_topic = self._speed_sub.topic_name
 
         # -- state
