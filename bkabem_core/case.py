@@ -269,7 +269,7 @@ def _check_cross(raw: dict, source: str) -> None:
             raise CaseError(f"rotor.{k}", f"needs one value per element: {n_nodes - 1} (got {len(r[k])})", source)
     for i, (do, di) in enumerate(zip(r["outer_diameters_m"], r["inner_diameters_m"])):
         if di >= do:
-            raise CaseError(f"rotor.inner_diameters_m", f"element {i + 1}: inner diameter {di} must be smaller "
+            raise CaseError("rotor.inner_diameters_m", f"element {i + 1}: inner diameter {di} must be smaller "
                             f"than the outer diameter {do}", source)
     shaft_nodes = set(range(1, n_nodes + 1))
     for i, dk in enumerate(r["disks"]):

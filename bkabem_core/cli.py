@@ -372,9 +372,8 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv=None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+def run_args(args) -> int:
+    """Run a parsed command with the error contract: bad input -> one line on stderr, exit code 2."""
     from .case import CaseError
 
     try:
@@ -387,6 +386,18 @@ def main(argv=None) -> int:
         return 130
     except BrokenPipeError:
         return 0
+
+
+def run_subcommand(name: str, add_parser, argv=None) -> int:
+    """``python -m <module> ARGS`` = ``bkabem <name> ARGS`` for a module that registers one subcommand."""
+    parser = _Parser(prog="bkabem")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    add_parser(sub)
+    return run_args(parser.parse_args([name, *(sys.argv[1:] if argv is None else argv)]))
+
+
+def main(argv=None) -> int:
+    return run_args(build_parser().parse_args(argv))
 
 
 if __name__ == "__main__":

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import odeint
 
-from .bearing import TWO_PI, Bearing, step_cubic
+from .bearing import TWO_PI, Bearing
 
 DIRECTIONS = ("vertical", "horizontal")
 

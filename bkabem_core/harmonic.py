@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -196,7 +196,7 @@ class BkaBem:
         self._u = np.stack([ex.amplitude_m[d] * np.exp(1j * ex.phase_rad[d]) for d in DIRECTIONS], axis=1)
         self._u_dc = np.array([ex.dc_m[d] for d in DIRECTIONS])
 
-        m, k = self.rotor.M, self.rotor.K
+        k = self.rotor.K
         # DC (static) response at the outputs
         f0 = np.zeros(self.rotor.ndof)
         f0[self._in_dofs[:2]] += self._kb * self._u_dc

@@ -313,20 +313,10 @@ def make_example(out_dir=Path("recordings"), quiet: bool = False) -> Path:
 
 
 def standalone(argv=None) -> int:
-    from bkabem_core.cli import UsageError, _Parser
-    from bkabem_core.case import CaseError
+    """``python -m bkabem_ros.demo ARGS`` = ``bkabem demo-run ARGS`` (same errors and exit codes)."""
+    from bkabem_core.cli import run_subcommand
 
-    parser = _Parser(prog="bkabem")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    add_parser(sub)
-    args = parser.parse_args(["demo-run", *(sys.argv[1:] if argv is None else argv)])
-    try:
-        return int(args.func(args) or 0)
-    except (UsageError, CaseError) as exc:
-        sys.stderr.write(f"bkabem demo-run: error: {exc}\n")
-        return 2
-    except KeyboardInterrupt:
-        return 130
+    return run_subcommand("demo-run", add_parser, argv)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -105,19 +105,9 @@ def main(args) -> int:
 
 def standalone(argv=None) -> int:
     """``python -m bkabem_ros.record_cli ARGS`` = ``bkabem record ARGS`` (same errors and exit codes)."""
-    from bkabem_core.cli import UsageError, _Parser
+    from bkabem_core.cli import run_subcommand
 
-    parser = _Parser(prog="bkabem")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    add_parser(sub)
-    args = parser.parse_args(["record", *(sys.argv[1:] if argv is None else argv)])
-    try:
-        return int(args.func(args) or 0)
-    except UsageError as exc:
-        sys.stderr.write(f"bkabem record: error: {exc}\n")
-        return 2
-    except KeyboardInterrupt:
-        return 130
+    return run_subcommand("record", add_parser, argv)
 
 
 if __name__ == "__main__":  # pragma: no cover
