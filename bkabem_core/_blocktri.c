@@ -61,69 +61,72 @@ static double solve4(cplx S[16], cplx *R, int m)
     return worst;
 }
 
+/* One system: block LU (Thomas) with pivoting inside the blocks; f overwritten with x; returns the worst
+ * pivot ratio. X ((nb-1) blocks) and g (nb x 4) are work space. */
+static double solve_one(int nb, const cplx *Db, const cplx *Ub, const cplx *Lb, cplx *fb, cplx *Xb, cplx *gb)
+{
+    double worst = INFINITY;
+    for (int i = 0; i < nb; ++i) {
+        cplx S[16];
+        cplx R[20];                         /* 4 x 5: [U_i | y_i] or 4 x 1 for the last block */
+        memcpy(S, Db + 16 * i, sizeof S);
+        int m = (i < nb - 1) ? 5 : 1;
+        for (int r = 0; r < 4; ++r) {
+            cplx y = fb[4 * i + r];
+            if (i > 0) {                    /* S -= L_{i-1} X_{i-1};  y -= L_{i-1} g_{i-1} */
+                const cplx *Lp = Lb + 16 * (i - 1);
+                const cplx *Xp = Xb + 16 * (i - 1);
+                const cplx *gp = gb + 4 * (i - 1);
+                for (int c = 0; c < 4; ++c) {
+                    cplx acc = 0.0;
+                    for (int k = 0; k < 4; ++k) acc += Lp[4 * r + k] * Xp[4 * k + c];
+                    S[4 * r + c] -= acc;
+                }
+                for (int k = 0; k < 4; ++k) y -= Lp[4 * r + k] * gp[k];
+            }
+            if (m == 5) {
+                for (int c = 0; c < 4; ++c) R[5 * r + c] = Ub[16 * i + 4 * r + c];
+                R[5 * r + 4] = y;
+            } else {
+                R[r] = y;
+            }
+        }
+        double w = solve4(S, R, m);
+        if (w < worst) worst = w;
+        for (int r = 0; r < 4; ++r) {
+            if (m == 5) {
+                for (int c = 0; c < 4; ++c) Xb[16 * i + 4 * r + c] = R[5 * r + c];
+                gb[4 * i + r] = R[5 * r + 4];
+            } else {
+                gb[4 * i + r] = R[r];
+            }
+        }
+    }
+    /* back substitution: x_last = g_last, x_i = g_i - X_i x_{i+1} */
+    for (int r = 0; r < 4; ++r) fb[4 * (nb - 1) + r] = gb[4 * (nb - 1) + r];
+    for (int i = nb - 2; i >= 0; --i) {
+        for (int r = 0; r < 4; ++r) {
+            cplx acc = gb[4 * i + r];
+            for (int k = 0; k < 4; ++k) acc -= Xb[16 * i + 4 * r + k] * fb[4 * (i + 1) + k];
+            fb[4 * i + r] = acc;
+        }
+    }
+    return worst;
+}
+
 int bt_solve(int nb, int nbatch, const cplx *D, const cplx *U, const cplx *L, cplx *f,
              cplx *X, cplx *g, int *bad, double min_pivot_ratio)
 {
     int n_bad = 0;
     for (int b = 0; b < nbatch; ++b) {
-        const cplx *Db = D + (size_t)b * nb * 16;
-        const cplx *Ub = U + (size_t)b * (nb - 1) * 16;
-        const cplx *Lb = L + (size_t)b * (nb - 1) * 16;
-        cplx *fb = f + (size_t)b * nb * 4;
-        cplx *Xb = X + (size_t)b * (nb - 1) * 16;
-        cplx *gb = g + (size_t)b * nb * 4;
-        double worst = INFINITY;
-        for (int i = 0; i < nb; ++i) {
-            cplx S[16];
-            cplx R[20];                     /* 4 x 5: [U_i | y_i] or 4 x 1 for the last block */
-            memcpy(S, Db + 16 * i, sizeof S);
-            int m = (i < nb - 1) ? 5 : 1;
-            for (int r = 0; r < 4; ++r) {
-                cplx y = fb[4 * i + r];
-                if (i > 0) {                /* S -= L_{i-1} X_{i-1};  y -= L_{i-1} g_{i-1} */
-                    const cplx *Lp = Lb + 16 * (i - 1);
-                    const cplx *Xp = Xb + 16 * (i - 1);
-                    const cplx *gp = gb + 4 * (i - 1);
-                    for (int c = 0; c < 4; ++c) {
-                        cplx acc = 0.0;
-                        for (int k = 0; k < 4; ++k) acc += Lp[4 * r + k] * Xp[4 * k + c];
-                        S[4 * r + c] -= acc;
-                    }
-                    for (int k = 0; k < 4; ++k) y -= Lp[4 * r + k] * gp[k];
-                }
-                if (m == 5) {
-                    for (int c = 0; c < 4; ++c) R[5 * r + c] = Ub[16 * i + 4 * r + c];
-                    R[5 * r + 4] = y;
-                } else {
-                    R[r] = y;
-                }
-            }
-            double w = solve4(S, R, m);
-            if (w < worst) worst = w;
-            for (int r = 0; r < 4; ++r) {
-                if (m == 5) {
-                    for (int c = 0; c < 4; ++c) Xb[16 * i + 4 * r + c] = R[5 * r + c];
-                    gb[4 * i + r] = R[5 * r + 4];
-                } else {
-                    gb[4 * i + r] = R[r];
-                }
-            }
-        }
-        /* back substitution: x_last = g_last, x_i = g_i - X_i x_{i+1} */
-        for (int r = 0; r < 4; ++r) fb[4 * (nb - 1) + r] = gb[4 * (nb - 1) + r];
-        for (int i = nb - 2; i >= 0; --i) {
-            for (int r = 0; r < 4; ++r) {
-                cplx acc = gb[4 * i + r];
-                for (int k = 0; k < 4; ++k) acc -= Xb[16 * i + 4 * r + k] * fb[4 * (i + 1) + k];
-                fb[4 * i + r] = acc;
-            }
-        }
+        double worst = solve_one(nb, D + (size_t)b * nb * 16, U + (size_t)b * (nb - 1) * 16,
+                                 L + (size_t)b * (nb - 1) * 16, f + (size_t)b * nb * 4,
+                                 X + (size_t)b * (nb - 1) * 16, g + (size_t)b * nb * 4);
         bad[b] = !(worst >= min_pivot_ratio);
         n_bad += bad[b];
     }
     return n_bad;
 }
-
 
 /*
  * Same solve, with the blocks built here from the real coefficient blocks of K, M, C, G:
@@ -132,6 +135,7 @@ int bt_solve(int nb, int nbatch, const cplx *D, const cplx *U, const cplx *L, cp
  *   Z_node += -z_so z_os^T / z_oo,   f_node += -z_so f_o / z_oo,   x_o = (f_o - z_os . x_node) / z_oo.
  * coef_d: [4][nb*16] (K, M, C, G), coef_u, coef_l: [4][(nb-1)*16], coef_oo: [4][no], coef_so, coef_os: [4][no*4].
  * f_s (B, nb, 4) in: shaft forces, out: shaft displacements; f_o (B, no) housing forces; x_o (B, no) out.
+ * D, U, L, X, g: work space for ONE system (each system is built and solved while it is in cache).
  */
 int bt_solve_coef(int nb, int nbatch, const double *coef_d, const double *coef_u, const double *coef_l,
                   int no, const int *o_node, const double *coef_oo, const double *coef_so, const double *coef_os,
@@ -139,9 +143,10 @@ int bt_solve_coef(int nb, int nbatch, const double *coef_d, const double *coef_u
                   cplx *D, cplx *U, cplx *L, cplx *X, cplx *g, int *bad, double min_pivot_ratio)
 {
     const int nd = nb * 16, nu = (nb - 1) * 16;
+    int n_bad = 0;
     for (int b = 0; b < nbatch; ++b) {
         const double wb = w[b], w2 = wb * wb, Wb = W[b];
-        cplx *Db = D + (size_t)b * nd, *Ub = U + (size_t)b * nu, *Lb = L + (size_t)b * nu;
+        cplx *Db = D, *Ub = U, *Lb = L;
         for (int k = 0; k < nd; ++k)
             Db[k] = (coef_d[k] - w2 * coef_d[nd + k]) + I * (wb * (coef_d[2 * nd + k] + Wb * coef_d[3 * nd + k]));
         for (int k = 0; k < nu; ++k) {
@@ -164,11 +169,9 @@ int bt_solve_coef(int nb, int nbatch, const double *coef_d, const double *coef_u
                 fb[4 * o_node[o] + r] -= zso[r] * fo;
             }
         }
-    }
-    int n_bad = bt_solve(nb, nbatch, D, U, L, f_s, X, g, bad, min_pivot_ratio);
-    for (int b = 0; b < nbatch; ++b) {
-        const double wb = w[b], w2 = wb * wb, Wb = W[b];
-        const cplx *fb = f_s + (size_t)b * nb * 4;
+        double worst = solve_one(nb, Db, Ub, Lb, fb, X, g);
+        bad[b] = !(worst >= min_pivot_ratio);
+        n_bad += bad[b];
         for (int o = 0; o < no; ++o) {
             cplx zoo = (coef_oo[o] - w2 * coef_oo[no + o]) + I * (wb * (coef_oo[2 * no + o] + Wb * coef_oo[3 * no + o]));
             cplx acc = f_o[(size_t)b * no + o];

@@ -375,9 +375,9 @@ class ShaftSolver:
         f_s = np.ascontiguousarray(f[:, self.s_idx], dtype=complex)         # (B, nb*4), overwritten with x
         f_o = np.ascontiguousarray(f[:, self.o_idx], dtype=complex)
         x_o = np.empty((b, no), dtype=complex)
-        work = [np.empty((b, nb, 4, 4), complex), np.empty((b, max(nb - 1, 1), 4, 4), complex),
-                np.empty((b, max(nb - 1, 1), 4, 4), complex), np.empty((b, max(nb - 1, 1), 4, 4), complex),
-                np.empty((b, nb, 4), complex)]
+        work = [np.empty((nb, 4, 4), complex), np.empty((max(nb - 1, 1), 4, 4), complex),   # one system:
+                np.empty((max(nb - 1, 1), 4, 4), complex), np.empty((max(nb - 1, 1), 4, 4), complex),  # D U L X g
+                np.empty((nb, 4), complex)]
         bad = np.zeros(b, dtype=np.intc)
         cd, cu, cl, coo, cso, cos_ = self._c_arrays
         _KERNEL(nb, b, cd.ctypes.data, cu.ctypes.data, cl.ctypes.data, no, self._o_node_c.ctypes.data,
