@@ -200,7 +200,7 @@ def bench_node(rate: float, seconds: float, chunk: float, qos: str, prefix: list
             t_pub = time.time_ns()
             v = set_speed(speeds_hz[k % 2])
             steps.append((t_pub, v))
-            next_step += 5.0
+            next_step += 5.0 + random.uniform(0.0, chunk)    # steps land at any phase of the chunk grid
         time.sleep(0.01)
     cpu1, wall1 = cpu_seconds(pids), time.monotonic()
     time.sleep(2 * chunk + 0.3)

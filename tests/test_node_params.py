@@ -1,8 +1,8 @@
 """Node parameters: --params-file, --ros-args -p, live changes through the parameter services, rejected
 changes with their reason, bad parameter files. Real node processes on loopback DDS.
 
-Two nodes start together: ``a`` from a parameter file written here (plus ``--ros-args -p``), ``b`` from
-the example ``config/bkabem_node.yaml``.
+Two nodes start together: ``a`` from a parameter file written here (``--params-file`` shorthand plus
+``--ros-args -p``), ``b`` from the example ``config/bkabem_node.yaml`` (``--ros-args --params-file``).
 """
 
 from __future__ import annotations
@@ -54,7 +54,8 @@ def stack(tmp_path_factory):
         procs["a"] = Proc(bkabem_cmd("node", "--namespace", ns_a, "--params-file", str(pfile),
                                      "--ros-args", "-p", "seed:=5"), name="node a")
         procs["b"] = Proc(bkabem_cmd("node", "--namespace", ns_b, "--spectrum-rate", "0",
-                                     "--params-file", str(REPO / "config" / "bkabem_node.yaml")), name="node b")
+                                     "--ros-args", "--params-file", str(REPO / "config" / "bkabem_node.yaml")),
+                          name="node b")
         for p in procs.values():
             p.wait_for(r"streaming from t0", timeout=60)
         speed_pub = lis.publisher(f"{ns_a}/speed", Float64)
