@@ -401,4 +401,7 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # run the imported module, not this __main__ copy: UsageError raised by other modules is that module's class
+    from bkabem_core.cli import main as _main
+
+    sys.exit(_main())
