@@ -23,7 +23,7 @@ Units are SI throughout (m, kg, s, N, Pa, rad).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 from typing import Iterable, Mapping, Sequence
 

@@ -966,7 +966,7 @@ class Synthesizer:
         if profile is None:
             self._use_modal = False
             return
-        t, f = profile.times_s, profile.speeds_hz
+        t = profile.times_s
         t_end = np.concatenate([t[t < seconds], [seconds]])
         f_end = profile.speed_hz(t_end)
         knots = 1.0
