@@ -353,13 +353,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--speeds", type=_finite_float("--speeds", 0.0), nargs="+", default=[10.0, 25.0, 50.0],
                    help="shaft speeds [Hz] for the spectrum tables")
     d.add_argument("--recordings", default="recordings", help="folder for demo.mcap and demo.rrd")
-    d.add_argument("--ramp", type=_finite_float("--ramp", 0.0), default=20.0, help="run-up time [s]")
-    d.add_argument("--hold", type=_finite_float("--hold", 0.0), default=10.0, help="hold time [s]")
-    d.add_argument("--top-hz", type=_finite_float("--top-hz", 0.0, strict=True), default=50.0,
-                   help="final shaft speed [Hz]")
-    d.add_argument("--sample-rate", type=_finite_float("--sample-rate", 0.0, strict=True), default=25600.0,
-                   help="samples per second and channel [Hz]")
-    d.add_argument("--no-rerun", action="store_true", help="do not write demo.rrd")
+    from bkabem_ros.demo import add_run_up_arguments    # options only; rclpy is imported when it runs
+
+    add_run_up_arguments(d)
     d.add_argument("--no-ros", action="store_true", help="core part only (no ROS 2 node run)")
     d.set_defaults(func=cmd_demo)
 

@@ -354,11 +354,8 @@ class ShaftSolver:
         oi = np.arange(o_idx.size)[:, None]
         for k in mats:
             coef[k] += [so[k][rows, oi].ravel(), os_[k][oi, rows].ravel()]
-        sizes = [nb * 16, (nb - 1) * 16, (nb - 1) * 16, o_idx.size, o_idx.size * 4, o_idx.size * 4]
-        edges = np.cumsum([0] + sizes)
-        self._sl = [slice(int(edges[i]), int(edges[i + 1])) for i in range(6)]
-        self._coef = {k: np.concatenate(v) for k, v in coef.items()}
-        # the same coefficients as C-contiguous [K, M, C, G] stacks per part, for the kernel
+        # per part (diagonal, upper, lower blocks, housing-housing, shaft-housing, housing-shaft):
+        # C-contiguous [K, M, C, G] stacks, the layout the kernel reads
         self._c_arrays = [np.ascontiguousarray(np.stack([coef[k][part] for k in ("K", "M", "C", "G")]))
                           for part in range(6)]
         self._o_node_c = self.o_node.astype(np.intc)

@@ -267,17 +267,10 @@ def _print_summary(r: DemoResult, say) -> None:
         say(f"open it in the viewer:  .venv/bin/rerun {r.rrd}")
 
 
-def add_parser(sub, add_case=None):
-    """Register ``bkabem demo-run`` (the ROS part of the main job)."""
+def add_run_up_arguments(p) -> None:
+    """The run-up options shared by ``bkabem demo-run`` and ``bkabem demo``."""
     from bkabem_core.cli import _finite_float
 
-    p = sub.add_parser("demo-run", help="node + run-up + MCAP + Rerun on the embedded case (the main job)",
-                       description=__doc__.split("\n\n")[0])
-    if add_case is not None:
-        add_case(p)
-    else:
-        p.add_argument("--case", default=None)
-    p.add_argument("--out", default="recordings", help="folder for demo.mcap and demo.rrd (default recordings)")
     p.add_argument("--ramp", type=_finite_float("--ramp", 0.0), default=20.0, help="run-up time [s] (default 20)")
     p.add_argument("--hold", type=_finite_float("--hold", 0.0), default=10.0, help="hold time [s] (default 10)")
     p.add_argument("--top-hz", type=_finite_float("--top-hz", 0.0, strict=True), default=50.0,
@@ -285,6 +278,18 @@ def add_parser(sub, add_case=None):
     p.add_argument("--sample-rate", type=_finite_float("--sample-rate", 0.0, strict=True), default=25600.0,
                    help="samples per second and channel (default 25600)")
     p.add_argument("--no-rerun", action="store_true", help="no .rrd")
+
+
+def add_parser(sub, add_case=None):
+    """Register ``bkabem demo-run`` (the ROS part of the main job)."""
+    p = sub.add_parser("demo-run", help="node + run-up + MCAP + Rerun on the embedded case (the main job)",
+                       description=__doc__.split("\n\n")[0])
+    if add_case is not None:
+        add_case(p)
+    else:
+        p.add_argument("--case", default=None)
+    p.add_argument("--out", default="recordings", help="folder for demo.mcap and demo.rrd (default recordings)")
+    add_run_up_arguments(p)
     p.add_argument("--rerun-connect", nargs="?", const="rerun+http://127.0.0.1:9876/proxy", default=None,
                    metavar="URL", help="also stream to a running viewer")
     p.add_argument("--example", action="store_true",
