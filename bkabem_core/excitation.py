@@ -208,6 +208,7 @@ class FourDofModel:
         self._inv_mh = 1.0 / params.housing_mass_kg
         self._dy = np.zeros(8)
         self._jac_const = self._constant_jacobian()
+        self._static = None
         d = bearing.dent
         self._dent = d is not None and bearing.dent_effective_depth_m > 0.0
         if self._dent:
@@ -292,11 +293,16 @@ class FourDofModel:
         return j
 
     def static_state(self):
-        """State at the static equilibrium without the dent (housing on its support, bearing loaded)."""
-        p = self.p
-        e = self.bearing.static_equilibrium_m(0.0, -p.rotor_mass_kg * p.gravity_m_s2)
-        yh = -(p.rotor_mass_kg + p.housing_mass_kg) * p.gravity_m_s2 / p.support_stiffness_n_m
-        return np.array([e[0], yh + e[1], 0.0, yh, 0.0, 0.0, 0.0, 0.0]), e
+        """State at the static equilibrium without the dent (housing on its support, bearing loaded).
+
+        Solved once per model (a Newton solve); returns copies (state (8,), bearing e (2,)).
+        """
+        if self._static is None:
+            p = self.p
+            e = self.bearing.static_equilibrium_m(0.0, -p.rotor_mass_kg * p.gravity_m_s2)
+            yh = -(p.rotor_mass_kg + p.housing_mass_kg) * p.gravity_m_s2 / p.support_stiffness_n_m
+            self._static = (np.array([e[0], yh + e[1], 0.0, yh, 0.0, 0.0, 0.0, 0.0]), e)
+        return self._static[0].copy(), self._static[1].copy()
 
     def housing_resonance_hz(self) -> float:
         """Vertical housing-on-bearing natural frequency at the static equilibrium [Hz] (rotor held fixed)."""
