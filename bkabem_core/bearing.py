@@ -374,7 +374,7 @@ class Bearing:
         return h
 
     # ------------------------------------------------------------------ forces
-    def ball_deformations_m(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0):
+    def ball_deformations_m(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0, with_dent: bool = True):
         """Total elastic deformation of every ball [m] (Eq. 1), negative = no contact.
 
         ``delta_i = e_x cos beta_i + e_y sin beta_i - c_d/2 + h_film - h_dent(beta_i)`` (contact angle 0 in the
@@ -384,11 +384,12 @@ class Bearing:
         ex = np.asarray(e_x_m, dtype=float)[..., None]
         ey = np.asarray(e_y_m, dtype=float)[..., None]
         delta = ex * np.cos(beta) + ey * np.sin(beta) - 0.5 * self.geometry.diametral_clearance_m + film_m
-        if self.dent is not None:
+        if with_dent and self.dent is not None:
             delta = delta - self.dent_depth_m(beta)
         return delta
 
-    def forces_n(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0, with_stiffness: bool = False):
+    def forces_n(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0, with_stiffness: bool = False,
+                 with_dent: bool = True):
         """Bearing force on the shaft [N] (Eqs. 3-4), optionally with its stiffness ``K = -dF/de`` [N/m].
 
         Parameters
@@ -401,6 +402,8 @@ class Bearing:
             EHL film thickness added to every ball's deformation [m].
         with_stiffness : bool
             Also return ``(k_xx, k_xy, k_yy)`` [N/m] (the tangent stiffness is symmetric).
+        with_dent : bool
+            False: the bearing as if it had no dent (static equilibrium, linearisation).
 
         Returns
         -------
@@ -413,7 +416,7 @@ class Bearing:
         ex = np.asarray(e_x_m, dtype=float)[..., None]
         ey = np.asarray(e_y_m, dtype=float)[..., None]
         delta = ex * cb + ey * sb - 0.5 * self.geometry.diametral_clearance_m + film_m
-        if self.dent is not None:
+        if with_dent and self.dent is not None:
             delta = delta - self.dent_depth_m(beta)
         dpos = np.maximum(delta, 0.0)
         root = np.sqrt(dpos)
@@ -428,9 +431,9 @@ class Bearing:
         kyy = np.sum(dq * sb * sb, axis=-1) * self._cos_a0
         return fx, fy, (kxx, kxy, kyy)
 
-    def ball_loads_n(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0):
+    def ball_loads_n(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0, with_dent: bool = True):
         """Load on every ball [N], ``K_tot max(delta, 0)^1.5`` (Eq. 3)."""
-        delta = self.ball_deformations_m(e_x_m, e_y_m, cage_angle_rad, film_m)
+        delta = self.ball_deformations_m(e_x_m, e_y_m, cage_angle_rad, film_m, with_dent)
         return self._k * np.maximum(delta, 0.0) ** 1.5
 
     # ------------------------------------------------------------------ statics
@@ -450,32 +453,27 @@ class Bearing:
         wn = float(np.hypot(*w))
         if wn == 0.0:
             raise ValueError("static equilibrium needs a non-zero load")
-        saved = self.dent
-        if not with_dent:
-            self.dent = None
-        try:
-            g = self.geometry
-            q_guess = 5.0 * wn / g.n_balls
-            mag = 0.5 * g.diametral_clearance_m - film_m + (q_guess / self._k) ** (2.0 / 3.0)
-            e = w / wn * max(mag, 1e-9)           # the shaft moves along the load
-            for _ in range(100):
-                fx, fy, (kxx, kxy, kyy) = self.forces_n(e[0], e[1], cage_angle_rad, film_m, with_stiffness=True)
-                r = np.array([fx + w[0], fy + w[1]])
-                if np.hypot(*r) <= tol_n * max(wn, 1.0):
-                    return e
-                kmat = np.array([[kxx, kxy], [kxy, kyy]], dtype=float)
-                if np.linalg.cond(kmat) > 1e12:  # a direction has no ball in contact: push along the load
-                    e = e + w / wn * 1e-7
-                    continue
-                step = np.linalg.solve(kmat, r)      # F(e + s) ~ F(e) - K s = -W
-                # damped step: never more than 10 um at once (contact sets change)
-                n = np.hypot(*step)
-                if n > 1e-5:
-                    step *= 1e-5 / n
-                e = e + step
-            raise ValueError("bearing static equilibrium did not converge")
-        finally:
-            self.dent = saved
+        g = self.geometry
+        q_guess = 5.0 * wn / g.n_balls
+        mag = 0.5 * g.diametral_clearance_m - film_m + (q_guess / self._k) ** (2.0 / 3.0)
+        e = w / wn * max(mag, 1e-9)           # the shaft moves along the load
+        for _ in range(100):
+            fx, fy, (kxx, kxy, kyy) = self.forces_n(e[0], e[1], cage_angle_rad, film_m, with_stiffness=True,
+                                                    with_dent=with_dent)
+            r = np.array([fx + w[0], fy + w[1]])
+            if np.hypot(*r) <= tol_n * max(wn, 1.0):
+                return e
+            kmat = np.array([[kxx, kxy], [kxy, kyy]], dtype=float)
+            if np.linalg.cond(kmat) > 1e12:  # a direction has no ball in contact: push along the load
+                e = e + w / wn * 1e-7
+                continue
+            step = np.linalg.solve(kmat, r)      # F(e + s) ~ F(e) - K s = -W
+            # damped step: never more than 10 um at once (contact sets change)
+            n = np.hypot(*step)
+            if n > 1e-5:
+                step *= 1e-5 / n
+            e = e + step
+        raise ValueError("bearing static equilibrium did not converge")
 
     def linearise(self, load_x_n: float, load_y_n: float, cage_angle_rad: float = 0.0, film_m: float = 0.0,
                   damping_ratio_s: float | None = None) -> BearingLinearisation:
@@ -485,11 +483,8 @@ class Bearing:
         """
         ratio = self.DEFAULT_DAMPING_RATIO_S if damping_ratio_s is None else damping_ratio_s
         e = self.static_equilibrium_m(load_x_n, load_y_n, cage_angle_rad, film_m)
-        saved, self.dent = self.dent, None
-        try:
-            _, _, (kxx, kxy, kyy) = self.forces_n(e[0], e[1], cage_angle_rad, film_m, with_stiffness=True)
-            qmax = float(np.max(self.ball_loads_n(e[0], e[1], cage_angle_rad, film_m)))
-        finally:
-            self.dent = saved
+        _, _, (kxx, kxy, kyy) = self.forces_n(e[0], e[1], cage_angle_rad, film_m, with_stiffness=True,
+                                              with_dent=False)
+        qmax = float(np.max(self.ball_loads_n(e[0], e[1], cage_angle_rad, film_m, with_dent=False)))
         k = np.array([[kxx, kxy], [kxy, kyy]], dtype=float)
         return BearingLinearisation(displacement_m=e, stiffness_n_m=k, damping_n_s_m=ratio * k, max_ball_load_n=qmax)

@@ -307,11 +307,7 @@ class FourDofModel:
     def housing_resonance_hz(self) -> float:
         """Vertical housing-on-bearing natural frequency at the static equilibrium [Hz] (rotor held fixed)."""
         e = self.static_state()[1]
-        saved, self.bearing.dent = self.bearing.dent, None
-        try:
-            _, _, (_, _, kyy) = self.bearing.forces_n(e[0], e[1], 0.0, with_stiffness=True)
-        finally:
-            self.bearing.dent = saved
+        _, _, (_, _, kyy) = self.bearing.forces_n(e[0], e[1], 0.0, with_stiffness=True, with_dent=False)
         k = float(kyy) + self.p.support_stiffness_n_m
         return math.sqrt(k / self.p.housing_mass_kg) / TWO_PI
 
