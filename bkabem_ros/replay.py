@@ -25,6 +25,9 @@ from pathlib import Path
 
 from . import mcap_io, msgs
 
+#: After --wait-subscribers sees every publisher matched: time for the readers to match back [s].
+DISCOVERY_SETTLE_S = 0.25
+
 __all__ = ["ReplayStats", "parse_remaps", "replay", "to_rerun"]
 
 
@@ -213,6 +216,9 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
             while (time.monotonic() < t_end and not stop.is_set()
                    and any(p.get_subscription_count() == 0 for p in pubs.values())):
                 time.sleep(0.02)
+            # The writer seeing the reader does not mean the reader has matched the writer yet; a
+            # best-effort reader drops what arrives before that (seen in CI: the first message lost).
+            time.sleep(DISCOVERY_SETTLE_S)
 
     start_ns = first + int(start_offset_s * 1e9)
     wall0 = time.monotonic()
