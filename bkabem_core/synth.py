@@ -12,12 +12,15 @@ updates arriving between chunks). The method, its error bounds and the realism o
 * **Knots.** The complex amplitudes ``Y_k`` (per channel) are evaluated at *knots*: every chunk border in streaming,
   every ``knot_s`` of run time and every profile breakpoint when rendering a profile, plus subdivisions so that the
   speed moves by at most ``max_speed_step_hz`` between knots. Between knots amplitudes are linear in time.
-* **Spectrum at a knot.** ``spectrum="modal"``: the FE model's pole-residue form (exact in the order
-  frequency, including lightly damped resonances) at gyroscopic speeds on a 0.1 Hz grid, interpolated cubically
-  in the gyroscopic speed. Stated bound (tested): relative RMS error over the orders of a channel <= 5e-3 and any
-  single order within 5e-3 of the channel's largest order, against :meth:`BkaBem.response` (measured worst case
-  1.6e-3 / 2e-3, next to the lightly damped modes near 4.3 kHz). ``spectrum="exact"`` calls
-  :meth:`BkaBem.response` at every knot (about 1 ms each). ``"auto"`` (default) picks the cheaper per run.
+* **Spectrum at a knot.** ``spectrum="modal"``: the FE model's order-wise pole-residue form
+  (:class:`~bkabem_core.harmonic.OrderModalForm`): along an order the gyroscopic speed is proportional to the
+  order frequency, so each order's response is an exact rational function of its frequency; no speed grid.
+  Stated bound (tested): every order within 1e-5 of the channel's largest order, against
+  :meth:`BkaBem.response`, at shaft speeds >= ``min_speed_hz`` (measured 1e-6 at 0.05 Hz, 1e-10 at 25 Hz: the
+  residual is round-off of the modal sum near the static limit). ``spectrum="exact"`` calls
+  :meth:`BkaBem.response` at every knot (about 0.6-1 ms each). ``"auto"`` (default): modal when streaming, the
+  cheaper of the two for a rendered profile (the modal form's set-up, ~1.5 s once per model, against 0.5 ms
+  saved per knot).
 * **Wavetable.** At each knot the waveform of one ball pass is tabulated (``table_size`` points, pre-emphasised
   for the linear interpolation's droop); samples read it at their phase with linear interpolation in angle and
   blend the two knot tables linearly in time. Interpolation images of order k stay below ``(k / table_size)^2``
@@ -309,113 +312,24 @@ def _combination(channels: list[Channel]):
 
 # =========================================================================== spectrum at a speed
 class ModalSpectrum:
-    """Displacement combinations at any shaft speed, exact in the order frequency.
+    """Displacement combinations from the model's exact order-wise pole-residue form.
 
-    For a fixed gyroscopic speed W the FE model ``M q'' + (C + W G) q' + K q = f`` has the state matrix
-    ``S = [[0, I], [-M^-1 K, -M^-1 (C + W G)]] = V diag(lambda) V^-1`` and the response at frequency w is the
-    pole-residue sum ``X(w) = sum_r R_r F(w) / (i w - lambda_r)``: exact for any w, including the lightly damped
-    resonances that no grid in speed resolves. The W dependence (gyroscopic terms only) is smooth; it is
-    interpolated with Catmull-Rom cubics on a grid of ``grid_hz`` in shaft speed. Eigen-decompositions are made on
-    demand (about 10 ms per grid speed) and kept (``max_points``, least recently used dropped).
+    A thin view of :class:`~bkabem_core.harmonic.OrderModalForm` (kept on the model, so synthesisers of one model
+    share it): exact at every speed, no speed grid. Costs one eigen-decomposition per order once.
     """
 
-    def __init__(self, model: BkaBem, combination: np.ndarray, grid_hz: float = 0.1, max_points: int = 4096):
-        rot = model.rotor
+    def __init__(self, model: BkaBem, combination: np.ndarray):
         self.model = model
-        self.grid_hz = float(grid_hz)
-        self.max_points = int(max_points)
-        n = rot.ndof
-        self._n = n
-        m_inv = np.linalg.inv(rot.M)
-        self._mik = m_inv @ rot.K
-        self._mic = m_inv @ rot.C
-        self._mig = m_inv @ rot.G
-        self.gyroscopic = bool(np.any(rot.G != 0.0))
-        in_dofs = np.asarray(model._in_dofs)                      # rotor y, x, housing y, x of the faulty bearing
-        self._m_inv_in = m_inv[:, in_dofs]
-        self._out = np.asarray(model._out_dofs).reshape(-1)       # LOCATIONS x DIRECTIONS
         self._comb = combination
-        self._nu = combination.shape[0]
-        self._kb = np.asarray(model._kb, float)
-        self._cb = np.asarray(model._cb, float)
-        self._u = np.asarray(model._u)                            # (K, 2) excitation amplitudes
-        self._w_order = TWO_PI * model.bpfo_per_hz * model.orders
-        self._points: OrderedDict[int, tuple] = OrderedDict()
-        self._stencils: OrderedDict[int, tuple] = OrderedDict()
-        self.eigen_count = 0
-
-    def _point(self, j: int):
-        p = self._points.get(j)
-        if p is not None:
-            self._points.move_to_end(j)
-            return p
-        n = self._n
-        big_w = TWO_PI * self.grid_hz * j if self.gyroscopic else 0.0
-        s = np.zeros((2 * n, 2 * n))
-        s[:n, n:] = np.eye(n)
-        s[n:, :n] = -self._mik
-        s[n:, n:] = -(self._mic + big_w * self._mig)
-        lam, vec = np.linalg.eig(s)
-        vinv = np.linalg.inv(vec)
-        w_in = vinv[:, n:] @ self._m_inv_in                       # (2n, 4)
-        wc = w_in[:, :2] - w_in[:, 2:]                            # forces are +dyn at the rotor, -dyn at the housing
-        pc = (self._comb @ vec[self._out, :]).T                   # (2n, U)
-        res = np.concatenate([wc[:, 0:1] * pc, wc[:, 1:2] * pc], axis=1)     # (2n, 2U): vertical, horizontal force
-        p = (lam, res)
-        self._points[j] = p
-        self.eigen_count += 1
-        if len(self._points) > self.max_points:
-            self._points.popitem(last=False)
-        return p
-
-    def _stencil(self, j: int):
-        """Stacked poles of grid points j-1..j+2 and the real residue matrix [[Rr, Ri], [-Ri, Rr]]."""
-        st = self._stencils.get(j)
-        if st is None:
-            js = range(j - 1, j + 3) if self.gyroscopic else (0,)
-            pts = [self._point(i) for i in js]
-            lam = np.concatenate([p[0] for p in pts])
-            res = np.concatenate([p[1] for p in pts], axis=0)                   # (M, 2U)
-            big = np.block([[res.real, res.imag], [-res.imag, res.real]])      # (2M, 4U)
-            st = (-lam.real, lam.imag, lam.real ** 2, np.ascontiguousarray(big), pts[0][0].size)
-            self._stencils[j] = st
-            if len(self._stencils) > 64:
-                self._stencils.popitem(last=False)
-        else:
-            self._stencils.move_to_end(j)
-        return st
+        self.form = model.order_modal_form(combination)
 
     def __call__(self, speed_hz: float) -> np.ndarray:
-        """Displacement combinations (K, U) complex [m] at shaft speed ``speed_hz``."""
-        w = self._w_order * speed_hz
-        if self.gyroscopic:
-            x = speed_hz / self.grid_hz
-            j = math.floor(x)
-            t = x - j
-            c = np.array([0.5 * (-t ** 3 + 2 * t * t - t), 0.5 * (3 * t ** 3 - 5 * t * t + 2),
-                          0.5 * (-3 * t ** 3 + 4 * t * t + t), 0.5 * (t ** 3 - t * t)])
-        else:
-            j, c = 0, np.ones(1)
-        a, b, a2, big, m = self._stencil(j)
-        k = w.size
-        g = np.empty((k, 2 * a.size))
-        gr, gi = g[:, :a.size], g[:, a.size:]
-        d = w[:, None] - b[None, :]                       # 1 / (i w - lambda) = (a - i d) / (a^2 + d^2)
-        inv = d * d
-        inv += a2
-        np.divide(np.repeat(c, m)[None, :], inv, out=inv)
-        np.multiply(inv, a, out=gr)
-        np.multiply(inv, d, out=gi)
-        gi *= -1.0
-        h = g @ big                                        # (K, 4U): [H_vertical, H_horizontal] real | imag
-        nu = self._nu
-        h = h[:, :2 * nu] + 1j * h[:, 2 * nu:]
-        dyn = (self._kb + 1j * w[:, None] * self._cb) * self._u                        # (K, 2)
-        return dyn[:, 0:1] * h[:, :nu] + dyn[:, 1:2] * h[:, nu:]
+        """Displacement combinations (K, U) complex [m] at shaft speed ``speed_hz`` [Hz]."""
+        return self.form(speed_hz)
 
     def check(self, speed_hz: float) -> float:
         """Largest error relative to the largest amplitude, against the exact solver, per combination."""
-        exact = self.model.response([speed_hz])[0].reshape(len(self._w_order), -1) @ self._comb.T
+        exact = self.model.response([speed_hz])[0].reshape(self.form.orders.size, -1) @ self._comb.T
         mine = self(speed_hz)
         return float(np.max(np.abs(mine - exact).max(axis=0) / np.maximum(np.abs(exact).max(axis=0), 1e-300)))
 
@@ -731,7 +645,7 @@ class Synthesizer:
         ``"taper"``: orders fade out (raised cosine) between 0.85 and 0.95 of Nyquist and are dropped above,
         evaluated at the knots, with knots close enough that nothing aliases.
     spectrum : {"auto", "modal", "exact"}
-        How the BKA-BEM spectrum is evaluated at a knot (see the module docstring). ``"auto"``: exact when
+        How the BKA-BEM spectrum is evaluated at a knot (see the module docstring). ``"auto"``: modal when
         streaming; for a rendered profile the cheaper of the two for that profile (both within the stated bound).
     knot_s : float
         Largest time between amplitude knots when rendering a profile [s] (default 0.1). In streaming, knots are
@@ -949,7 +863,7 @@ class Synthesizer:
         if self._use_modal:
             if self._modal is None and self._modal_failed is None:
                 modal = ModalSpectrum(self.model, self._comb)
-                err = modal.check(modal.grid_hz * 97)          # at a grid speed the check isolates the modal form
+                err = modal.check(25.0)
                 if err < 1e-6:
                     self._modal = modal
                 else:
@@ -958,13 +872,18 @@ class Synthesizer:
                 return self._modal
         return self._exact
 
+    #: cost model of ``spectrum="auto"`` [s]: one exact solve per knot of a new speed; one modal evaluation per
+    #: knot; the modal form's set-up per order, scaled with the cube of the model's DOFs (measured on the
+    #: embedded 60-DOF case, BENCHMARKS.md)
+    _COST_EXACT_S, _COST_MODAL_S, _COST_MODAL_SETUP_PER_ORDER_S = 0.6e-3, 0.06e-3, 0.036
+
     def _choose_spectrum(self, profile: "SpeedProfile | None", seconds: float) -> None:
-        """``spectrum="auto"``: exact in streaming; for a profile, the cheaper of exact (about 0.6 ms per knot
-        of a new speed) and modal (about 10 ms per 0.1 Hz of the speed range, then 0.15 ms per knot)."""
+        """``spectrum="auto"``: modal when streaming (an unknown number of speeds: the set-up pays off after a few
+        thousand chunks, and is done once per model); for a profile, the cheaper of the two for its knots."""
         if self._spectrum_kind != "auto":
             return
         if profile is None:
-            self._use_modal = False
+            self._use_modal = True
             return
         t = profile.times_s
         t_end = np.concatenate([t[t < seconds], [seconds]])
@@ -974,8 +893,10 @@ class Synthesizer:
             df = abs(f_end[i + 1] - f_end[i])
             if df > 0:
                 knots += max((t_end[i + 1] - t_end[i]) / self.knot_s, df / self.max_speed_step_hz) + 1
-        grid = (f_end.max() - f_end.min()) / 0.1 + 4
-        self._use_modal = 10.0 * grid + 0.15 * knots < 0.6 * knots
+        made = self._modal is not None or self.model.has_order_modal_form(self._comb)
+        setup = 0.0 if made else (self._COST_MODAL_SETUP_PER_ORDER_S * self.model.orders.size
+                                  * (self.model.rotor.ndof / 60.0) ** 3)
+        self._use_modal = setup + self._COST_MODAL_S * knots < self._COST_EXACT_S * knots
 
     def _amplitudes(self, f: float):
         key = float(f)
