@@ -5,9 +5,9 @@
  * Why C: a streaming chunk is 8 channels x 5120 samples every 0.1 s. numpy renders it in ~25 passes over
  * (m, C) temporaries (phase, table index, two gathers per table, blend), ~2 ms per chunk on the project machine,
  * almost all of it memory traffic; the same arithmetic done block by block with everything in L1 takes ~0.1 ms
- * (and the chunk features, fused, another ~0.1 ms instead of numpy's ~1 ms). Loaded with ctypes
- * (bkabem_core/synth_kernel.py); the module init below only exists so that setuptools can build and install it as
- * an ordinary extension module.
+ * (the chunk features, fused into the same pass, add ~0.1 ms; numpy's waveform_features takes ~0.25 ms).
+ * Loaded with ctypes (bkabem_core/synth_kernel.py); the module init below only exists so that setuptools can
+ * build and install it as an ordinary extension module.
  *
  * Bit-for-bit contract: every value is the result of the same IEEE operations, in the same order and precision,
  * as the numpy code of Synthesizer._segment (build with -ffp-contract=off and without -ffast-math, so that no
