@@ -363,22 +363,59 @@ class OrderModalForm:
             self.residues[i] = p * (a + lam * b)[:, None]
             self.direct[i] = b @ p
 
+        self._w_per_hz = TWO_PI * self.bpfo_per_hz * self.orders.astype(float)
+        self._c = None
+        if _MODAL_KERNEL is not None and comb.shape[0] <= 8:          # the C kernel's layout: 8 outputs, split
+            n_u = comb.shape[0]
+
+            def pad(a):
+                out = np.zeros(a.shape[:-1] + (8,), complex)
+                out[..., :n_u] = a
+                return out
+            e, d = pad(self.residues), pad(self.direct)
+            self._c = [np.ascontiguousarray(x) for x in (self.poles.real, self.poles.imag, e.real, e.imag,
+                                                          d.real, d.imag)]
+            self._c_out = (np.empty((n_k, 8)), np.empty((n_k, 8)))
+            self._c_ptrs = [a.ctypes.data for a in self._c + list(self._c_out)]
+
     def __call__(self, speed_hz: float) -> np.ndarray:
         """Complex displacement combinations (K, U) [m] at shaft speed ``speed_hz`` [Hz]."""
-        iw = 1j * TWO_PI * self.bpfo_per_hz * float(speed_hz) * self.orders
+        w = self._w_per_hz * float(speed_hz)
+        if self._c is not None:
+            lr, li, er, ei, dr, di, xr, xi = self._c_ptrs
+            _MODAL_KERNEL(self.orders.size, self.poles.shape[1], w.ctypes.data, lr, li, er, ei, dr, di, xr, xi)
+            x = np.empty(self.direct.shape, complex)
+            n_u = x.shape[1]
+            x.real = self._c_out[0][:, :n_u]
+            x.imag = self._c_out[1][:, :n_u]
+            return x
+        return self.evaluate_numpy(speed_hz)
+
+    def evaluate_numpy(self, speed_hz: float) -> np.ndarray:
+        """The same sum in numpy (the reference of the C kernel, and its fallback when it is not built)."""
+        iw = 1j * self._w_per_hz * float(speed_hz)
         g = 1.0 / (iw[:, None] - self.poles)                                          # (K, 2n)
         return self.direct + np.matmul(g[:, None, :], self.residues)[:, 0, :]
+
+
+def _load_library(name: str):
+    """A compiled kernel of this package (ctypes.CDLL), or None if it was not built."""
+    import ctypes
+    import importlib.util
+
+    spec = importlib.util.find_spec(f"bkabem_core.{name}")
+    if spec is None or not spec.origin or not spec.origin.endswith((".so", ".pyd", ".dylib")):
+        return None
+    return ctypes.CDLL(spec.origin)
 
 
 def _load_kernel():
     """The compiled block-tridiagonal kernel (bkabem_core/_blocktri.c), or None if it was not built."""
     import ctypes
-    import importlib.util
 
-    spec = importlib.util.find_spec("bkabem_core._blocktri")
-    if spec is None or not spec.origin or not spec.origin.endswith((".so", ".pyd", ".dylib")):
+    lib = _load_library("_blocktri")
+    if lib is None:
         return None
-    lib = ctypes.CDLL(spec.origin)
     fn = lib.bt_solve_coef
     ptr, cint = ctypes.c_void_p, ctypes.c_int
     fn.argtypes = [cint, cint, ptr, ptr, ptr, cint, ptr, ptr, ptr, ptr, ptr, ptr, ptr, ptr, ptr,
@@ -388,6 +425,22 @@ def _load_kernel():
 
 
 _KERNEL = _load_kernel()
+
+
+def _load_modal_kernel():
+    """The compiled pole-residue sum (bkabem_core/_modalsum.c), or None if it was not built."""
+    import ctypes
+
+    lib = _load_library("_modalsum")
+    if lib is None:
+        return None
+    fn = lib.modal_sum8
+    fn.argtypes = [ctypes.c_int, ctypes.c_int] + [ctypes.c_void_p] * 9
+    fn.restype = ctypes.c_int
+    return fn
+
+
+_MODAL_KERNEL = _load_modal_kernel()
 
 
 class ShaftSolver:

@@ -118,3 +118,19 @@ def test_compiled_kernel_is_built_and_used(model):
     assert harmonic._KERNEL is not None
     model.spectrum(20.0)
     assert model.solver == "block" and model._block.last_fallbacks == 0
+
+
+def test_order_modal_form_c_kernel_matches_numpy(model):
+    """The pole-residue sum in C (_modalsum.c) is part of the install and equals the numpy sum to round-off, for
+    8 outputs and for fewer (zero-padded to the kernel's 8)."""
+    from bkabem_core import harmonic
+
+    assert harmonic._MODAL_KERNEL is not None
+    rng = np.random.default_rng(3)
+    for comb in (None, rng.standard_normal((3, 8))):
+        form = model.order_modal_form(comb)
+        assert form._c is not None
+        for f in (0.3, 17.0, 49.5):
+            got, ref = form(f), form.evaluate_numpy(f)
+            assert got.shape == ref.shape == (model.orders.size, 8 if comb is None else 3)
+            assert np.abs(got - ref).max() <= 1e-12 * np.abs(ref).max()
