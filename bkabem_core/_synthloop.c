@@ -1,148 +1,208 @@
 /*
- * Sample loop of the waveform synthesiser (bkabem_core/synth.py, Synthesizer._segment) and the running moments
- * of the chunk features (waveform_features).
+ * Sample loop of the waveform synthesiser (bkabem_core/synth.py) and the running moments of the chunk features.
  *
- * Why C: a streaming chunk is 8 channels x 5120 samples every 0.1 s. numpy renders it in ~25 passes over
- * (m, C) temporaries (phase, table index, two gathers per table, blend), ~2 ms per chunk on the project machine,
- * almost all of it memory traffic; the same arithmetic done block by block with everything in L1 takes ~0.1 ms
- * (the chunk features, fused into the same pass, add ~0.1 ms; numpy's waveform_features takes ~0.25 ms).
- * Loaded with ctypes (bkabem_core/synth_kernel.py); the module init below only exists so that setuptools can
- * build and install it as an ordinary extension module.
+ * Why C: a streaming chunk is 8 channels x 5120 samples every 0.1 s; numpy needs ~25 passes over (m, C)
+ * temporaries for it (~2 ms), this loop one pass in blocks that stay in L1. Loaded with ctypes
+ * (bkabem_core/synth_kernel.py, which also holds the numpy reference); the module init at the bottom only exists
+ * so that setuptools builds and installs it as an ordinary extension module.
  *
- * Bit-for-bit contract: every value is the result of the same IEEE operations, in the same order and precision,
- * as the numpy code of Synthesizer._segment (build with -ffp-contract=off and without -ffast-math, so that no
- * multiply-add is fused and nothing is reassociated; x86-64 / AArch64, where float arithmetic is done in float).
- * For output sample k of the segment (all in double unless said otherwise):
- *   xi = k + xi0                                      samples since knot a
- *   u  = ((xi * c2 + c1) * xi + u_frac [+ warp[k]] + 2^20) * (N * 2^12) + 0.5
- *   p  = (int64) u;  i = (p >> 12) & (N - 1);  f = (T) ((p & 4095) / 4096)
- *   va = ta[i] + (T) (ta[i+1] - ta[i]) * f            in T (float or double), i+1 wrapping to 0
- *   without table b: out = va
- *   with table b:    vb = tb[i] + (tb[i+1] - tb[i]) * f;  s = (T) (clip((int64) (xi * blend_scale), 0, 2^16) / 2^16)
- *                    out = va + (vb - va) * s
- * The slope ta[i+1] - ta[i] is recomputed here in T; numpy reads it from a precomputed table of the same values.
+ * Phase: fixed-point uint64 with wrap-around arithmetic, one ball pass = 2^62 units, one table step = 2^fb units
+ * (fb = 62 - log2 N). Integer phases make the per-sample phase two integer adds (it was a chain of ~8 dependent
+ * double operations) and make a call's samples independent of where the caller splits it (chunk invariance).
+ * For sample j = 0 .. m-1 of a call (all uint64 arithmetic modulo 2^64):
+ *   U_0 = phase0, D_0 = dphase0;  U_{j+1} = U_j + D_j,  D_{j+1} = D_j + ddphase
+ *   V_j = U_j [+ (uint64) warp[j]];  i = (V_j >> fb) & (N - 1);  q = (V_j >> (fb - 12)) & 4095
+ * Interpolation: cubic uniform B-spline of a coefficient table with wrap padding, (N + 3) x C, row n holding
+ * coefficient (n - 1) mod N, weights w[q][0..3] from the caller's (4096, 4) table (in T):
+ *   va[c] = ((w0 A[i][c] + w1 A[i+1][c]) + w2 A[i+2][c]) + w3 A[i+3][c]     in T, every operation rounded in T
+ * Time blend (table b given): vb likewise from B; xi = j + xi0 (double);
+ *   s = (T) (clip((int64) (xi * blend_scale), 0, 2^16) / 2^16);  out = va + (vb - va) * s      (in T)
+ * else out = va.
  *
- * Layout (all C-contiguous): tables ta, tb: N x C (N a power of 2), row i = phase i / N of one ball pass;
- * out: m x C (sample-major, row stride C); warp: m doubles (the slip warp, optional); feature accumulators
- * acc: C x 6 doubles, per channel [sum d, sum d^2, sum d^3, sum d^4, max d, min d] of d = (double) x - off[c],
- * updated in place (the caller starts them at 0, 0, 0, 0, -inf, +inf).
+ * Bit-for-bit contract with the numpy reference: build with -ffp-contract=off and without -ffast-math, so that no
+ * multiply-add is fused and nothing is reassociated (x86-64 / AArch64: float arithmetic is done in float).
+ *
+ * Layout (all C-contiguous): tables ta, tb (N + 3) x C; out m x C (row stride C); warp m int64 (optional);
+ * feature accumulators acc C x 6 doubles per channel [sum d, sum d^2, sum d^3, sum d^4, max d, min d] of
+ * d = (double) out - off[c], updated in place (the caller starts them at 0, 0, 0, 0, -inf, +inf).
+ *
+ * Speed: GCC on x86-64 builds an AVX2 clone besides the baseline (target_clones, dispatched at load time); the
+ * 8-channel float32 rows are then one 256-bit vector. The loops are plain C that the vectoriser maps to the
+ * target's vectors; the moments use 4-lane double vectors with AVX2, 2-lane ones otherwise (dispatched per block).
  */
 #include <Python.h>
 #include <stdint.h>
+#include <string.h>
 
-#define FRAC_BITS 12                        /* _FRAC_BITS: angle fraction inside a table step */
-#define FRAC_MASK ((INT64_C(1) << FRAC_BITS) - 1)
-#define FRAC_ONE 4096.0
-#define BLEND_LEVELS 65536                  /* _BLEND_LEVELS: time-blend weight quantised to 2^-16 */
-#define PHASE_OFFSET 1048576.0              /* _PHASE_OFFSET = 2^20 keeps table positions positive */
+#define WBITS 12                            /* spline weight index: 12 bits of the fraction of a table step */
+#define WMASK ((UINT64_C(1) << WBITS) - 1)
+#define BLEND_LEVELS 65536                  /* time-blend weight quantised to 2^-16 */
 #define BLOCK 256                           /* samples per block (phases, rows, moments) */
 
 #if defined(__GNUC__)
 #define INLINE static inline __attribute__((always_inline))
+#define NOINLINE __attribute__((noinline))
 #else
 #define INLINE static inline
+#define NOINLINE
 #endif
 
-/* 2-lane double vectors (GCC / Clang vector extensions; SSE2 on x86-64, NEON on AArch64) for the moments. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+#define CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define CLONES
+#endif
+
+typedef double v4d __attribute__((vector_size(32)));
+typedef int64_t v4l __attribute__((vector_size(32)));
+typedef float v4f __attribute__((vector_size(16)));
+typedef uint64_t v4u __attribute__((vector_size(32)));
+typedef int32_t v4i __attribute__((vector_size(16)));
 typedef double v2d __attribute__((vector_size(16)));
 typedef int64_t v2l __attribute__((vector_size(16)));
-#if defined(__SSE2__)
-#include <emmintrin.h>
-INLINE v2d vmax(v2d a, v2d b) { return (v2d)_mm_max_pd((__m128d)a, (__m128d)b); }   /* a > b ? a : b */
-INLINE v2d vmin(v2d a, v2d b) { return (v2d)_mm_min_pd((__m128d)a, (__m128d)b); }   /* a < b ? a : b */
-#else
-INLINE v2d vmax(v2d a, v2d b) { v2l m = a > b; return (v2d)((m & (v2l)a) | (~m & (v2l)b)); }
-INLINE v2d vmin(v2d a, v2d b) { v2l m = a < b; return (v2d)((m & (v2l)a) | (~m & (v2l)b)); }
-#endif
+typedef float v2f32 __attribute__((vector_size(8)));
+typedef float v4f32 __attribute__((vector_size(16)));
+typedef double v2f64 __attribute__((vector_size(16)));
+typedef double v4f64 __attribute__((vector_size(32)));
 
-/* Blend weight index of numpy's `qs[...] = xi * blend_scale` (truncation toward zero) followed by
- * take(mode="clip") into [0, 2^16]; identical for every |v| < 2^63 (NaN gives 0, as numpy's INT64_MIN clipped). */
-INLINE int64_t blend_index(double v)
-{
-    if (!(v > 0.0)) return 0;
-    if (v >= (double)BLEND_LEVELS) return BLEND_LEVELS;
-    return (int64_t)v;
+/* d > hi ? d : hi and d < lo ? d : lo lane by lane (as maxpd / minpd with d first). Macros: no vector arguments
+ * cross a function boundary (-Wpsabi). */
+#define VSEL_MAX(VL, a, b) ((__typeof__(a))((((a) > (b)) & (VL)(a)) | (~((a) > (b)) & (VL)(b))))
+#define VSEL_MIN(VL, a, b) ((__typeof__(a))((((a) < (b)) & (VL)(a)) | (~((a) < (b)) & (VL)(b))))
+
+/* Running moments of rows x[0 .. nb-1] (row stride C) of channels c0 .. c0+W-1 into acc, in W-lane double vectors 
+ * VD (the compiler does not vectorise loop-carried sums by itself: that would reorder them). */
+#define MOMENTS_GROUP(T, SUF, NAME, W, VD, VL, VT, ATTR)                                                           \
+ATTR void moments_##NAME##_##SUF(const int C, int c0, int nb, const T *restrict x, const double *restrict off, \
+                                      double *restrict acc)                                                         \
+{                                                                                                                   \
+    VD s1, s2, s3, s4, hi, lo, o;                                                                                   \
+    for (int l = 0; l < W; ++l) {                                                                                   \
+        const double *a = acc + 6 * (int64_t)(c0 + l);                                                                       \
+        s1[l] = a[0], s2[l] = a[1], s3[l] = a[2], s4[l] = a[3], hi[l] = a[4], lo[l] = a[5], o[l] = off[c0 + l];     \
+    }                                                                                                               \
+    for (int k = 0; k < nb; ++k) {                                                                                  \
+        VD d;                                                                                                       \
+        LOADV_##SUF(d, VT, x + (int64_t)k * C + c0);                                                                \
+        d -= o;                                                                                                     \
+        VD d2 = d * d;                                                                                              \
+        s1 += d;                                                                                                    \
+        s2 += d2;                                                                                                   \
+        s3 += d2 * d;                                                                                               \
+        s4 += d2 * d2;                                                                                              \
+        hi = VSEL_MAX(VL, d, hi);                                                                                   \
+        lo = VSEL_MIN(VL, d, lo);                                                                                   \
+    }                                                                                                               \
+    for (int l = 0; l < W; ++l) {                                                                                   \
+        double *a = acc + 6 * (int64_t)(c0 + l);                                                                             \
+        a[0] = s1[l], a[1] = s2[l], a[2] = s3[l], a[3] = s4[l], a[4] = hi[l], a[5] = lo[l];                         \
+    }                                                                                                               \
 }
 
-/* The kernels are written once, as a macro, for T = float and T = double. The row function takes the channel
- * count and the three options (warp, blend, features) as arguments that are compile-time constants at every
- * call site of the dispatcher (ROWS: one instance with the options W, B, F fixed), so the compiler emits one
- * branch-free loop per combination and unrolls the channel loop for C = 8 and C = 4, the usual channel counts. */
-#define ROWS(SUF, W, B, F) segment_rows_##SUF(C, W, B, F, m, N, xi0, c1, c2, u_frac, warp, ta, tb, blend_scale, \
-                                              out, acc, off)
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+#define HAVE_AVX2 __builtin_cpu_supports("avx2")
+#define MOMENTS_AVX2(T, SUF)                                                                                        \
+    MOMENTS_GROUP(T, SUF, quad, 4, v4d, v4l, v4##SUF, static inline __attribute__((always_inline, target("avx2")))) \
+    static NOINLINE __attribute__((target("avx2"))) void moments_avx2_##SUF(                                        \
+        const int C, int nb, const T *restrict x, const double *restrict off, double *restrict acc)                \
+    {                                                                                                               \
+        int c = 0;                                                                                                  \
+        for (; c + 4 <= C; c += 4) moments_quad_##SUF(C, c, nb, x, off, acc);                                       \
+        for (; c + 2 <= C; c += 2) moments_pair_##SUF(C, c, nb, x, off, acc);                                       \
+        for (; c < C; ++c) moments_one_##SUF(C, c, nb, x, off, acc);                                                \
+    }
+#else
+#define HAVE_AVX2 0
+#define MOMENTS_AVX2(T, SUF) static void moments_avx2_##SUF(const int C, int nb, const T *restrict x,                 \
+                                                            const double *restrict off, double *restrict acc)        \
+    { moments_base_##SUF(C, nb, x, off, acc); }
+#endif
 
+/* Phases of samples j = 0 .. nb-1 of a block, from the phase u and increment d of sample 0 (advanced to sample nb on
+ * return): tq[j] = V_j >> (fb - 12), from which the row loop takes i = (t >> 12) & mask and q = t & 4095 (one load
+ * per sample instead of two: the row loop is bound by its loads). Four samples per step in 64-bit lanes: U_{j+4} = U_j + 4 D_j + 6 dd, D_{j+4} = D_j + 4 dd,
+ * which is the scalar recurrence exactly (modulo 2^64). */
+INLINE void phase_block(const int has_warp, int nb, uint64_t *pu, uint64_t *pd, uint64_t dd,
+                        const int64_t *restrict warp, int fb, uint64_t *restrict tq)
+{
+    const int sh = fb - WBITS;
+    uint64_t u = *pu, d = *pd;
+    int j = 0;
+    if (nb >= 4) {
+        v4u U = {u, u + d, u + 2 * d + dd, u + 3 * d + 3 * dd}, D = {d, d + dd, d + 2 * dd, d + 3 * dd};
+        const v4u dd4 = (v4u){dd, dd, dd, dd} * 4, dd6 = (v4u){dd, dd, dd, dd} * 6;
+        for (; j + 4 <= nb; j += 4) {
+            v4u v = U;
+            if (has_warp) {
+                v4u w;
+                memcpy(&w, warp + j, sizeof w);
+                v += w;
+            }
+            v4u t = v >> sh;
+            memcpy(tq + j, &t, sizeof t);
+            U += (D << 2) + dd6;
+            D += dd4;
+        }
+        u = U[0], d = D[0];
+    }
+    for (; j < nb; ++j) {
+        uint64_t v = u;
+        if (has_warp) v += (uint64_t)warp[j];
+        tq[j] = v >> sh;
+        u += d;
+        d += dd;
+    }
+    *pu = u;
+    *pd = d;
+}
+
+/* Blend weights of samples k0 .. k0+nb-1: (double) clip((int64) v, 0, 2^16) / 2^16 for v = (k0 + j + xi0) *
+ * blend_scale, i.e. numpy's truncating astype(int64) followed by a clip (NaN gives 0). Clipping before the
+ * truncation gives the same value and lets the conversion be a 32-bit one; four samples per step (the offsets
+ * k0 + j + l are exact in double, so the lanes' xi are the scalar ones). */
+INLINE double blend_weight(double v)
+{
+    v = v > 0.0 ? v : 0.0;
+    v = v < (double)BLEND_LEVELS ? v : (double)BLEND_LEVELS;
+    return (double)(int32_t)v * (1.0 / BLEND_LEVELS);
+}
+
+#define BLEND_BLOCK(T, STORE4)                                                                                      \
+    do {                                                                                                            \
+        int j = 0;                                                                                                  \
+        const v4d lanes = {0.0, 1.0, 2.0, 3.0}, top = {BLEND_LEVELS, BLEND_LEVELS, BLEND_LEVELS, BLEND_LEVELS};     \
+        for (; j + 4 <= nb; j += 4) {                                                                               \
+            v4d xi = (lanes + (double)(k0 + j)) + xi0;                                                              \
+            v4d v = xi * blend_scale;                                                                               \
+            v = (v4d)((v > 0.0) & (v4l)v);                     /* NaN and v <= 0: +0 */                             \
+            v4l lt = v < top;                                                                                       \
+            v = (v4d)((lt & (v4l)v) | (~lt & (v4l)top));                                                            \
+            v4d w = __builtin_convertvector(__builtin_convertvector(v, v4i), v4d) * (1.0 / BLEND_LEVELS);           \
+            STORE4(sw + j, w);                                                                                      \
+        }                                                                                                           \
+        for (; j < nb; ++j) sw[j] = (T)blend_weight(((double)(k0 + j) + xi0) * blend_scale);                        \
+    } while (0)
+
+/* W consecutive values of x (T) as a W-lane double vector d; VT the W-lane vector of T. */
+#define LOADV_f32(d, VT, p) do { VT t_; memcpy(&t_, (p), sizeof t_); (d) = __builtin_convertvector(t_, __typeof__(d)); } while (0)
+#define LOADV_f64(d, VT, p) memcpy(&(d), (p), sizeof(d))
+#define STORE4_f32(p, w) do { v4f t_ = __builtin_convertvector((w), v4f); memcpy((p), &t_, sizeof t_); } while (0)
+#define STORE4_f64(p, w) memcpy((p), &(w), sizeof(w))
+
+/* The kernels are written once, as a macro, for T = float and T = double. The row function takes the channel
+ * count and the options (warp, blend, features) as arguments that are compile-time constants at every call site of
+ * the dispatcher, so the compiler emits one branch-free loop per combination with the channel loop unrolled for
+ * C = 8 and C = 4. */
 #define SYNTH_KERNELS(T, SUF)                                                                                       \
                                                                                                                     \
-/* Table rows (offsets i C, (i + 1) C), interpolation fraction f and blend weight w of samples k0 .. k0 + nb - 1.   \
- * Kept apart from the row loop: its long chain of dependent double operations per sample then overlaps across      \
- * samples instead of holding up the table reads. */                                                                \
-INLINE void phase_block_##SUF(const int C, const int has_warp, const int blend, int64_t k0, int nb, int64_t N,      \
-                              double xi0, double c1, double c2, double u_frac, const double *restrict warp,         \
-                              double blend_scale, int64_t *restrict r0, int64_t *restrict r1, T *restrict f,        \
-                              T *restrict w)                                                                        \
-{                                                                                                                   \
-    const double nq = (double)(N << FRAC_BITS);                                                                     \
-    const int64_t mask = N - 1;                                                                                     \
-    for (int j = 0; j < nb; ++j) {                                                                                  \
-        double xi = (double)(k0 + j) + xi0;                                                                         \
-        double u = xi * c2;                                                                                         \
-        u += c1;                                                                                                    \
-        u *= xi;                                                                                                    \
-        u += u_frac;                                                                                                \
-        if (has_warp) u += warp[k0 + j];                                                                            \
-        u += PHASE_OFFSET;                                                                                          \
-        u *= nq;                                                                                                    \
-        u += 0.5;                                                                                                   \
-        int64_t p = (int64_t)u;            /* truncation = floor: u > 0 */                                          \
-        int64_t i = (p >> FRAC_BITS) & mask;                                                                        \
-        r0[j] = i * C;                                                                                              \
-        r1[j] = ((i + 1) & mask) * C;                                                                               \
-        f[j] = (T)((double)(p & FRAC_MASK) / FRAC_ONE);                                                             \
-        if (blend) w[j] = (T)((double)blend_index(xi * blend_scale) / (double)BLEND_LEVELS);                        \
-    }                                                                                                               \
-}                                                                                                                   \
-                                                                                                                    \
-/* Running moments of rows x[0 .. nb - 1] (row stride C) of channels c0 .. c0 + 2 P - 1 into acc (C x 6), P pairs   \
- * of channels at a time in 2-lane vectors (the compiler does not vectorise loop-carried sums by itself: that would \
- * reorder them), so that the 6 P accumulators stay in registers over the rows. */                                  \
-INLINE void moments_pairs_##SUF(const int C, const int P, int c0, int64_t nb, const T *restrict x,                  \
-                                const double *restrict off, double *restrict acc)                                   \
-{                                                                                                                   \
-    v2d s1[2], s2[2], s3[2], s4[2], hi[2], lo[2], o[2];                                                             \
-    for (int p = 0; p < P; ++p) {                                                                                   \
-        const double *a = acc + 6 * (c0 + 2 * p), *b = a + 6;                                                       \
-        s1[p] = (v2d){a[0], b[0]}, s2[p] = (v2d){a[1], b[1]}, s3[p] = (v2d){a[2], b[2]};                            \
-        s4[p] = (v2d){a[3], b[3]}, hi[p] = (v2d){a[4], b[4]}, lo[p] = (v2d){a[5], b[5]};                            \
-        o[p] = (v2d){off[c0 + 2 * p], off[c0 + 2 * p + 1]};                                                         \
-    }                                                                                                               \
-    for (int64_t k = 0; k < nb; ++k) {                                                                              \
-        const T *xr = x + k * C + c0;                                                                               \
-        for (int p = 0; p < P; ++p) {                                                                               \
-            v2d d = (v2d){(double)xr[2 * p], (double)xr[2 * p + 1]} - o[p];                                         \
-            v2d d2 = d * d;                                                                                         \
-            s1[p] += d;                                                                                             \
-            s2[p] += d2;                                                                                            \
-            s3[p] += d2 * d;                                                                                        \
-            s4[p] += d2 * d2;                                                                                       \
-            hi[p] = vmax(d, hi[p]);                                                                                 \
-            lo[p] = vmin(d, lo[p]);                                                                                 \
-        }                                                                                                           \
-    }                                                                                                               \
-    for (int p = 0; p < P; ++p) {                                                                                   \
-        double *a = acc + 6 * (c0 + 2 * p), *b = a + 6;                                                             \
-        a[0] = s1[p][0], a[1] = s2[p][0], a[2] = s3[p][0], a[3] = s4[p][0], a[4] = hi[p][0], a[5] = lo[p][0];       \
-        b[0] = s1[p][1], b[1] = s2[p][1], b[2] = s3[p][1], b[3] = s4[p][1], b[4] = hi[p][1], b[5] = lo[p][1];       \
-    }                                                                                                               \
-}                                                                                                                   \
-                                                                                                                    \
-/* The same for the single channel c (odd channel counts). */                                                       \
-INLINE void moments_one_##SUF(const int C, int c, int64_t nb, const T *restrict x, const double *restrict off,      \
+/* The same for the single channel c (the channels left over by the quads). */                                      \
+INLINE void moments_one_##SUF(const int C, int c, int nb, const T *restrict x, const double *restrict off,           \
                               double *restrict acc)                                                                 \
 {                                                                                                                   \
-    double *a = acc + 6 * c;                                                                                        \
+    double *a = acc + 6 * (int64_t)c;                                                                                      \
     double s1 = a[0], s2 = a[1], s3 = a[2], s4 = a[3], hi = a[4], lo = a[5];                                        \
-    for (int64_t k = 0; k < nb; ++k) {                                                                              \
-        double d = (double)x[k * C + c] - off[c];                                                                   \
+    for (int k = 0; k < nb; ++k) {                                                                                  \
+        double d = (double)x[(int64_t)k * C + c] - off[c];                                                          \
         double d2 = d * d;                                                                                          \
         s1 += d;                                                                                                    \
         s2 += d2;                                                                                                   \
@@ -154,52 +214,71 @@ INLINE void moments_one_##SUF(const int C, int c, int64_t nb, const T *restrict 
     a[0] = s1, a[1] = s2, a[2] = s3, a[3] = s4, a[4] = hi, a[5] = lo;                                               \
 }                                                                                                                   \
                                                                                                                     \
-INLINE void moments_##SUF(const int C, int64_t nb, const T *restrict x, const double *restrict off,                 \
-                          double *restrict acc)                                                                     \
+/* Moments of a block: channel groups of 4 in 256-bit vectors where AVX2 is there, else of 2 (4-lane vectors in the \
+ * SSE2 build spill: ~4x slower), then single channels. Not inlined: called once per block, dispatched on the CPU.  \
+ * Written for C = 8 and any C. */                                                                                  \
+MOMENTS_GROUP(T, SUF, pair, 2, v2d, v2l, v2##SUF, INLINE)                                                           \
+static NOINLINE void moments_base_##SUF(const int C, int nb, const T *restrict x, const double *restrict off,       \
+                                        double *restrict acc)                                                       \
 {                                                                                                                   \
     int c = 0;                                                                                                      \
-    for (; c + 4 <= C; c += 4) moments_pairs_##SUF(C, 2, c, nb, x, off, acc);                                       \
-    for (; c + 2 <= C; c += 2) moments_pairs_##SUF(C, 1, c, nb, x, off, acc);                                       \
+    for (; c + 2 <= C; c += 2) moments_pair_##SUF(C, c, nb, x, off, acc);                                           \
     for (; c < C; ++c) moments_one_##SUF(C, c, nb, x, off, acc);                                                    \
 }                                                                                                                   \
-                                                                                                                    \
-/* Segment loop, in blocks of BLOCK samples: phases, then the table rows, then (option) the moments of the block    \
- * while it is in L1. */                                                                                            \
-INLINE void segment_rows_##SUF(const int C, const int has_warp, const int blend, const int feats,                   \
-                               int64_t m, int64_t N, double xi0, double c1, double c2, double u_frac,               \
-                               const double *restrict warp, const T *restrict ta, const T *restrict tb,             \
-                               double blend_scale, T *restrict out, double *restrict acc,                           \
-                               const double *restrict off)                                                          \
+MOMENTS_AVX2(T, SUF)                                                                                                \
+INLINE void moments_##SUF(const int C, int nb, const T *restrict x, const double *restrict off,                     \
+                          double *restrict acc)                                                                     \
 {                                                                                                                   \
-    int64_t r0[BLOCK], r1[BLOCK];                                                                                   \
-    T f[BLOCK], w[BLOCK];                                                                                           \
+    if (HAVE_AVX2) moments_avx2_##SUF(C, nb, x, off, acc);                                                          \
+    else moments_base_##SUF(C, nb, x, off, acc);                                                                    \
+}                                                                                                                   \
+                                                                                                                    \
+/* Segment loop, in blocks of BLOCK samples: phases (and blend weights), then the rows, then (option) the moments   \
+ * of the block while it is in L1. */                                                                               \
+INLINE void segment_rows_##SUF(const int C, const int has_warp, const int blend, const int feats, int64_t m,        \
+                               int64_t N, int fb, uint64_t u, uint64_t d, uint64_t dd,                             \
+                               const int64_t *restrict warp, const T *restrict ta, const T *restrict tb,           \
+                               double xi0, double blend_scale, const T *restrict wtab, T *restrict out,            \
+                               double *restrict acc, const double *restrict off)                                   \
+{                                                                                                                   \
+    uint64_t tq[BLOCK];                                                                                             \
+    T sw[BLOCK];                                                                                                    \
+    const uint64_t mask = (uint64_t)N - 1;                                                                          \
+    const int64_t C2 = 2 * (int64_t)C, C3 = 3 * (int64_t)C;                                                         \
     for (int64_t k0 = 0; k0 < m; k0 += BLOCK) {                                                                     \
         const int nb = m - k0 < BLOCK ? (int)(m - k0) : BLOCK;                                                      \
-        phase_block_##SUF(C, has_warp, blend, k0, nb, N, xi0, c1, c2, u_frac, warp, blend_scale, r0, r1, f, w);     \
-        T *ob = out + k0 * C;                                                                                       \
+        phase_block(has_warp, nb, &u, &d, dd, has_warp ? warp + k0 : NULL, fb, tq);                                 \
+        if (blend) BLEND_BLOCK(T, STORE4_##SUF);                                                                    \
+        T *restrict ob = out + k0 * C;                                                                              \
         for (int j = 0; j < nb; ++j) {                                                                              \
-            const T *a0 = ta + r0[j], *a1 = ta + r1[j];                                                             \
-            const T fj = f[j];                                                                                      \
-            T *o = ob + (int64_t)j * C;                                                                             \
+            const uint64_t t = tq[j];                                                                               \
+            const int64_t r = (int64_t)((t >> WBITS) & mask) * C;                                                   \
+            const T *restrict a = ta + r;                                                                           \
+            const T *restrict wt = wtab + ((t & WMASK) << 2);                                                       \
+            const T w0 = wt[0], w1 = wt[1], w2 = wt[2], w3 = wt[3];                                                 \
+            T *restrict o = ob + (int64_t)j * C;                                                                    \
             if (!blend) {                                                                                           \
                 for (int c = 0; c < C; ++c) {                                                                       \
-                    T sl = a1[c] - a0[c];                                                                           \
-                    T bf = sl * fj;                                                                                 \
-                    o[c] = a0[c] + bf;             /* numpy: B *= F; out = A + B */                                 \
+                    T v = w0 * a[c], p;                                                                             \
+                    p = w1 * a[C + c], v = v + p;                                                                   \
+                    p = w2 * a[C2 + c], v = v + p;                                                                  \
+                    p = w3 * a[C3 + c], v = v + p;                                                                  \
+                    o[c] = v;                                                                                       \
                 }                                                                                                   \
             } else {                                                                                                \
-                const T *b0 = tb + r0[j], *b1 = tb + r1[j];                                                         \
-                const T wj = w[j];                                                                                  \
+                const T *restrict b = tb + r;                                                                        \
+                const T s = sw[j];                                                                                  \
                 for (int c = 0; c < C; ++c) {                                                                       \
-                    T sa = a1[c] - a0[c];                                                                           \
-                    T sb = b1[c] - b0[c];                                                                           \
-                    T fa = sa * fj;                                                                                 \
-                    T va = a0[c] + fa;             /* numpy: B *= F; A += B */                                      \
-                    T fb = sb * fj;                                                                                 \
-                    T vb = b0[c] + fb;             /* D *= F; C += D */                                             \
-                    T d = vb - va;                 /* C -= A */                                                     \
-                    T dw = d * wj;                 /* C *= S */                                                     \
-                    o[c] = va + dw;                /* out = A + C */                                                \
+                    T va = w0 * a[c], vb = w0 * b[c], p;                                                            \
+                    p = w1 * a[C + c], va = va + p;                                                                 \
+                    p = w2 * a[C2 + c], va = va + p;                                                                \
+                    p = w3 * a[C3 + c], va = va + p;                                                                \
+                    p = w1 * b[C + c], vb = vb + p;                                                                 \
+                    p = w2 * b[C2 + c], vb = vb + p;                                                                \
+                    p = w3 * b[C3 + c], vb = vb + p;                                                                \
+                    T dv = vb - va;                                                                                 \
+                    dv = dv * s;                                                                                    \
+                    o[c] = va + dv;                                                                                 \
                 }                                                                                                   \
             }                                                                                                       \
         }                                                                                                           \
@@ -207,9 +286,9 @@ INLINE void segment_rows_##SUF(const int C, const int has_warp, const int blend,
     }                                                                                                               \
 }                                                                                                                   \
                                                                                                                     \
-INLINE void segment_opts_##SUF(const int C, int64_t m, int64_t N, double xi0, double c1, double c2,                 \
-                               double u_frac, const double *warp, const T *ta, const T *tb, double blend_scale,     \
-                               T *out, double *acc, const double *off)                                              \
+INLINE void segment_opts_##SUF(const int C, int64_t m, int64_t N, int fb, uint64_t u, uint64_t d, uint64_t dd,      \
+                               const int64_t *warp, const T *ta, const T *tb, double xi0, double blend_scale,       \
+                               const T *wtab, T *out, double *acc, const double *off)                               \
 {                                                                                                                   \
     const int w = warp != NULL, b = tb != NULL, f = acc != NULL;                                                    \
     if (w && b && f) ROWS(SUF, 1, 1, 1);                                                                            \
@@ -222,35 +301,44 @@ INLINE void segment_opts_##SUF(const int C, int64_t m, int64_t N, double xi0, do
     else ROWS(SUF, 0, 0, 0);                                                                                        \
 }                                                                                                                   \
                                                                                                                     \
-/* Samples [lo, hi) of one segment (m = hi - lo rows of C channels) into out; xi0 = lo - a.x. warp (m values),      \
- * tb (table of knot b; NULL: no blend) and acc/off (fused feature accumulation) are optional. Returns 0, or -1     \
- * if the arguments are unusable (C < 1, N not a power of 2, m < 0, acc without off). */                            \
-int synth_segment_##SUF(int64_t m, int64_t C, int64_t N, double xi0, double c1, double c2, double u_frac,           \
-                        const double *warp, const T *ta, const T *tb, double blend_scale, T *out, double *acc,      \
-                        const double *off)                                                                          \
+/* m samples x C channels of one call into out (see the header). warp (m values), tb (table of knot b; NULL: no     \
+ * blend) and acc/off (fused feature accumulation) are optional. Returns 0, or -1 if the arguments are unusable     \
+ * (m < 0, C < 1, N not a power of 2 in 64 .. 2^16, fb != 62 - log2 N, acc without off). */                          \
+CLONES int synth_segment_##SUF(int64_t m, int64_t C, int64_t N, int fb, uint64_t phase0, uint64_t dphase0,          \
+                               uint64_t ddphase, const int64_t *warp, const T *ta, const T *tb, double xi0,         \
+                               double blend_scale, const T *wtab, T *out, double *acc, const double *off)           \
 {                                                                                                                   \
-    if (m < 0 || C < 1 || C > INT32_MAX || N < 1 || (N & (N - 1)) != 0 || (acc != NULL && off == NULL))             \
+    if (m < 0 || C < 1 || C > INT32_MAX / 4 || N < 64 || N > 65536 || (N & (N - 1)) != 0                            \
+        || (acc != NULL && off == NULL) || ta == NULL || wtab == NULL || (m > 0 && out == NULL))                    \
         return -1;                                                                                                  \
+    if ((INT64_C(1) << (62 - fb)) != N) return -1;                                                                  \
     if (C == 8)                                                                                                     \
-        segment_opts_##SUF(8, m, N, xi0, c1, c2, u_frac, warp, ta, tb, blend_scale, out, acc, off);                 \
+        segment_opts_##SUF(8, m, N, fb, phase0, dphase0, ddphase, warp, ta, tb, xi0, blend_scale, wtab, out, acc,   \
+                           off);                                                                                    \
     else if (C == 4)                                                                                                \
-        segment_opts_##SUF(4, m, N, xi0, c1, c2, u_frac, warp, ta, tb, blend_scale, out, acc, off);                 \
+        segment_opts_##SUF(4, m, N, fb, phase0, dphase0, ddphase, warp, ta, tb, xi0, blend_scale, wtab, out, acc,   \
+                           off);                                                                                    \
     else                                                                                                            \
-        segment_opts_##SUF((int)C, m, N, xi0, c1, c2, u_frac, warp, ta, tb, blend_scale, out, acc, off);            \
+        segment_opts_##SUF((int)C, m, N, fb, phase0, dphase0, ddphase, warp, ta, tb, xi0, blend_scale, wtab, out,   \
+                           acc, off);                                                                               \
     return 0;                                                                                                       \
 }                                                                                                                   \
                                                                                                                     \
 /* Feature accumulation (as the fused one of synth_segment) over an existing n x C block x. */                      \
-int synth_accumulate_##SUF(int64_t n, int64_t C, const T *x, const double *off, double *acc)                        \
+CLONES int synth_accumulate_##SUF(int64_t n, int64_t C, const T *x, const double *off, double *acc)                 \
 {                                                                                                                   \
-    if (n < 0 || C < 1 || C > INT32_MAX) return -1;                                                                 \
+    if (n < 0 || C < 1 || C > INT32_MAX / 4) return -1;                                                             \
     for (int64_t k0 = 0; k0 < n; k0 += BLOCK) {                                                                     \
-        const int64_t nb = n - k0 < BLOCK ? n - k0 : BLOCK;                                                         \
+        const int nb = n - k0 < BLOCK ? (int)(n - k0) : BLOCK;                                                      \
         if (C == 8) moments_##SUF(8, nb, x + k0 * C, off, acc);                                                     \
         else moments_##SUF((int)C, nb, x + k0 * C, off, acc);                                                       \
     }                                                                                                               \
     return 0;                                                                                                       \
 }
+
+#define ROWS(SUF, W, B, F) segment_rows_##SUF(C, W, B, F, m, N, fb, u, d, dd, warp, ta, tb, xi0, blend_scale, wtab, \
+                                              out, acc, off)
+
 
 SYNTH_KERNELS(float, f32)
 SYNTH_KERNELS(double, f64)

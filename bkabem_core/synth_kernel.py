@@ -1,23 +1,43 @@
 """The synthesiser's sample loop in C (``_synthloop.c``), its numpy reference, and chunk features from running moments.
 
-:func:`segment` renders the samples of one segment between two knots exactly as ``Synthesizer._segment`` does in
-numpy, bit for bit (same IEEE operations in the same order), in one pass instead of ~25 passes over (m, C)
-temporaries; it can also accumulate the moments of the chunk features on the fly (``acc``), so that
-:func:`features_from_acc` gives ``waveform_features`` without another pass over the samples. :func:`accumulate`
-adds a finished block (e.g. after the noise was added) to such accumulators. :func:`segment_reference` and
-:func:`accumulate_reference` are the same computations in numpy: the tests hold the kernel to them, and callers use
-them when the kernel is not built (:data:`AVAILABLE` is False).
+:func:`segment` renders ``m`` samples of ``C`` channels from a periodic table of one ball pass, at an integer phase
+that advances with a constant second difference (a linear speed ramp), optionally blending in time towards a second
+table (the next knot) and accumulating the moments of the chunk features on the fly (``acc``), so that
+:func:`features_from_acc` gives ``waveform_features`` without another pass over the samples. :func:`accumulate` adds
+a finished block (e.g. after the noise was added) to such accumulators. :func:`segment_reference` and
+:func:`accumulate_reference` are the same computations in numpy: the tests hold the kernel to them bit for bit, and
+callers use them when the kernel is not built (:data:`AVAILABLE` is False).
 
-Arguments of :func:`segment` (for sample k = 0..m-1 of the segment; see ``_synthloop.c`` for the formulas):
+Phase: fixed-point uint64, wrapping; one ball pass is :data:`PASS_UNITS` = 2^62 units, one table step
+``2**phase_bits(N)`` units. For sample j = 0..m-1 of a call (modulo 2^64)::
 
-* ``xi0``: position of the first sample relative to knot a [samples] (``lo - a.x``);
-* ``c1``, ``c2``: passes per sample at knot a and half the pass acceleration (``u = (c2 xi + c1) xi + u_frac``);
-* ``u_frac``: fraction of a pass at knot a; ``warp``: optional (m,) float64 slip warp added to ``u`` [passes];
-* ``table_a``, ``table_b``: (N, C) wavetables of knots a and b (N a power of 2); ``table_b`` None: no time blend;
-* ``blend_scale``: ``2^16 / (b.x - a.x)``, the time-blend weight index per sample;
-* ``out``: (m, C) C-contiguous, written; dtype float32 or float64, the tables' dtype;
+    U_j = phase0 + j dphase0 + ddphase j (j - 1) / 2        (U_{j+1} = U_j + D_j, D_{j+1} = D_j + ddphase)
+    V_j = U_j + warp[j]                                       (warp optional)
+    i = (V_j >> FB) & (N - 1);   q = (V_j >> (FB - 12)) & 4095
+
+Interpolation: cubic uniform B-spline of a coefficient table ``(N + 3, C)`` with wrap padding (row n holds
+coefficient (n - 1) mod N; see :func:`pad_coefficients`), weights :func:`spline_weights` ``[q]``::
+
+    va = ((w0 A[i] + w1 A[i+1]) + w2 A[i+2]) + w3 A[i+3]       in the tables' dtype, every operation rounded
+
+Time blend (``table_b`` given): ``vb`` likewise; ``xi = j + xi0``; ``s = clip(int(xi * blend_scale), 0, 2^16) / 2^16``;
+``out = va + (vb - va) * s``.
+
+Arguments of :func:`segment`:
+
+* ``phase0``, ``dphase0``, ``ddphase``: Python ints (any sign and size; taken modulo 2^64): phase of sample 0,
+  phase increment from sample 0 to 1, and its change per sample (negative: deceleration);
+* ``warp``: optional (m,) int64 phase offsets (the slip warp, in phase units, wrapping);
+* ``table_a``, ``table_b``: (N + 3, C) padded coefficient tables of knots a and b (N a power of 2, 64..65536,
+  float32 or float64); ``table_b`` None: no time blend;
+* ``xi0``: position of sample 0 relative to knot a [samples]; ``blend_scale``: ``2^16 / (b.x - a.x)``;
+* ``out``: (m, C) C-contiguous, written; dtype the tables' dtype;
 * ``acc``: optional (C, 6) float64 accumulators per channel [sum d, sum d^2, sum d^3, sum d^4, max d, min d] of
   ``d = out - off`` (see :func:`new_acc`), updated in place; ``off``: (C,) float64, e.g. the static part.
+
+Splitting a call at sample j into two calls (phase0 and dphase0 advanced as above, xi0 by j, warp sliced) gives the
+same samples, provided ``xi0 + j`` is exact in double (e.g. xi0 a multiple of a power of 2 well below 2^52): the
+phase is exact integer arithmetic, the blend weight is computed from the double ``j + xi0``.
 """
 
 from __future__ import annotations
@@ -27,12 +47,51 @@ import importlib.util
 
 import numpy as np
 
-FRAC_BITS = 12                 # synth._FRAC_BITS
-BLEND_LEVELS = 1 << 16         # synth._BLEND_LEVELS
-PHASE_OFFSET = float(1 << 20)  # synth._PHASE_OFFSET
+#: Phase units of one ball pass.
+PASS_UNITS = 1 << 62
+WEIGHT_BITS = 12               # spline weight index: bits of the fraction of a table step
+BLEND_LEVELS = 1 << 16         # time-blend weight quantised to 2^-16
+MIN_TABLE, MAX_TABLE = 64, 1 << 16
+_MASK64 = (1 << 64) - 1
 
 _from_buffer = ctypes.c_char.from_buffer
 _addressof = ctypes.addressof
+
+
+def phase_bits(n_table: int) -> int:
+    """FB: phase units of one table step are 2^FB (62 - log2 N), for N a power of 2 in 64..65536."""
+    n = int(n_table)
+    if n < MIN_TABLE or n > MAX_TABLE or n & (n - 1):
+        raise ValueError(f"table size must be a power of 2 in {MIN_TABLE}..{MAX_TABLE} (got {n})")
+    return 62 - (n.bit_length() - 1)
+
+
+_WEIGHTS: dict = {}        # dtype -> (table, address)
+
+
+def spline_weights(dtype) -> np.ndarray:
+    """(4096, 4) cubic B-spline weights [w0, w1, w2, w3] at t = q / 4096, computed in double and cast to ``dtype``
+    (cached, read-only; the C kernel receives this very table)."""
+    return _weights(np.dtype(dtype))[0]
+
+
+def _weights(dt: np.dtype):
+    """(spline_weights(dt), its address), cached (the address lookup of a read-only array costs ~3 us)."""
+    hit = _WEIGHTS.get(dt)
+    if hit is None:
+        t = np.arange(1 << WEIGHT_BITS, dtype=np.float64) / (1 << WEIGHT_BITS)
+        t2, t3 = t * t, t * t * t
+        w = np.stack([(1.0 - t) ** 3 / 6.0, (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0,
+                      (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0, t3 / 6.0], axis=1).astype(dt)
+        w.flags.writeable = False
+        hit = _WEIGHTS[dt] = (w, w.ctypes.data)
+    return hit
+
+
+def pad_coefficients(coef: np.ndarray) -> np.ndarray:
+    """(N + 3, C) table with wrap padding from (N, C) spline coefficients: row n holds coefficient (n - 1) mod N."""
+    coef = np.asarray(coef)
+    return np.ascontiguousarray(np.concatenate([coef[-1:], coef, coef[:2]], axis=0))
 
 
 def _load():
@@ -41,11 +100,11 @@ def _load():
     if spec is None or not spec.origin or not spec.origin.endswith((".so", ".pyd", ".dylib")):
         return None
     lib = ctypes.CDLL(spec.origin)
-    ptr, i64, dbl = ctypes.c_void_p, ctypes.c_int64, ctypes.c_double
+    ptr, i64, u64, dbl = ctypes.c_void_p, ctypes.c_int64, ctypes.c_uint64, ctypes.c_double
     fns = {}
     for dt, suf in ((np.dtype(np.float32), "f32"), (np.dtype(np.float64), "f64")):
         seg = getattr(lib, f"synth_segment_{suf}")
-        seg.argtypes = [i64, i64, i64, dbl, dbl, dbl, dbl, ptr, ptr, ptr, dbl, ptr, ptr, ptr]
+        seg.argtypes = [i64, i64, i64, ctypes.c_int, u64, u64, u64, ptr, ptr, ptr, dbl, dbl, ptr, ptr, ptr, ptr]
         seg.restype = ctypes.c_int
         acc = getattr(lib, f"synth_accumulate_{suf}")
         acc.argtypes = [i64, i64, ptr, ptr, ptr]
@@ -78,42 +137,44 @@ def _kernel(dtype):
 
 
 def _check_segment(warp, table_a, table_b, out, acc, off):
-    """Shapes and dtypes of :func:`segment`'s arrays; returns (m, C, N)."""
+    """Shapes and dtypes of :func:`segment`'s arrays; returns (m, C, N, FB)."""
     if out.ndim != 2:
         raise ValueError(f"out must be (m, C) (got shape {out.shape})")
     if not out.flags.writeable:
         raise ValueError("out must be writeable")
     m, c = out.shape
     dt = out.dtype
-    n = table_a.shape[0]
-    if table_a.dtype != dt or table_a.shape != (n, c):
-        raise ValueError(f"table_a must be (N, {c}) {dt} (got {table_a.shape} {table_a.dtype})")
-    if n < 1 or n & (n - 1):
-        raise ValueError(f"table size must be a power of 2 (got {n})")
-    if table_b is not None and (table_b.dtype != dt or table_b.shape != (n, c)):
-        raise ValueError(f"table_b must be ({n}, {c}) {dt} (got {table_b.shape} {table_b.dtype})")
-    if warp is not None and (warp.dtype != np.float64 or warp.shape != (m,)):
-        raise ValueError(f"warp must be ({m},) float64 (got {warp.shape} {warp.dtype})")
+    if dt != np.float32 and dt != np.float64:
+        raise ValueError(f"dtype must be float32 or float64 (got {dt})")
+    if table_a.ndim != 2 or table_a.dtype != dt or table_a.shape[1] != c:
+        raise ValueError(f"table_a must be (N + 3, {c}) {dt} (got {table_a.shape} {table_a.dtype})")
+    n = table_a.shape[0] - 3
+    fb = phase_bits(n)
+    if table_b is not None and (table_b.dtype != dt or table_b.shape != table_a.shape):
+        raise ValueError(f"table_b must be {table_a.shape} {dt} (got {table_b.shape} {table_b.dtype})")
+    if warp is not None and (warp.dtype != np.int64 or warp.shape != (m,)):
+        raise ValueError(f"warp must be ({m},) int64 (got {warp.shape} {warp.dtype})")
     if acc is not None:
         if acc.dtype != np.float64 or acc.shape != (c, 6):
             raise ValueError(f"acc must be ({c}, 6) float64 (got {acc.shape} {acc.dtype})")
         if off is None or off.dtype != np.float64 or off.shape != (c,):
             raise ValueError(f"off must be ({c},) float64 with acc")
-    return m, c, n
+    return m, c, n, fb
 
 
-def segment(xi0: float, c1: float, c2: float, u_frac: float, warp, table_a: np.ndarray, table_b, blend_scale: float,
-            out: np.ndarray, acc=None, off=None) -> None:
-    """Samples of one segment into ``out`` (m, C) with the C kernel (see the module docstring).
+def segment(phase0: int, dphase0: int, ddphase: int, warp, table_a: np.ndarray, table_b, xi0: float,
+            blend_scale: float, out: np.ndarray, acc=None, off=None) -> None:
+    """Samples of one call into ``out`` (m, C) with the C kernel (see the module docstring).
 
     Raises RuntimeError if the kernel is not built, ValueError on wrong shapes, dtypes or non-contiguous arrays."""
     seg = _kernel(out.dtype)[0]
-    m, c, n = _check_segment(warp, table_a, table_b, out, acc, off)
+    m, c, n, fb = _check_segment(warp, table_a, table_b, out, acc, off)
     if m == 0:
         return
-    rc = seg(m, c, n, xi0, c1, c2, u_frac,
+    rc = seg(m, c, n, fb, int(phase0) & _MASK64, int(dphase0) & _MASK64, int(ddphase) & _MASK64,
              None if warp is None else _ptr(warp, "warp"), _ptr(table_a, "table_a"),
-             None if table_b is None else _ptr(table_b, "table_b"), blend_scale, _ptr(out, "out"),
+             None if table_b is None else _ptr(table_b, "table_b"), xi0, blend_scale,
+             _weights(out.dtype)[1], _ptr(out, "out"),
              None if acc is None else _ptr(acc, "acc"), None if acc is None else _ptr(off, "off"))
     if rc:
         raise ValueError(f"synth_segment rejected m={m}, C={c}, N={n}")
@@ -154,57 +215,54 @@ def features_from_acc(acc: np.ndarray, n: int, off) -> dict:
 
 
 # ----------------------------------------------------------------------------------------- numpy references
-def segment_reference(xi0: float, c1: float, c2: float, u_frac: float, warp, table_a: np.ndarray, table_b,
+def phases_reference(phase0: int, dphase0: int, ddphase: int, m: int) -> np.ndarray:
+    """U_j, j = 0..m-1 (uint64, modulo 2^64) by the closed form phase0 + j dphase0 + ddphase j (j - 1) / 2."""
+    j = np.arange(m, dtype=np.uint64)
+    one, two = np.uint64(1), np.uint64(2)
+    even = (j & one) == 0
+    # j (j - 1) / 2 exactly (mod 2^64): halve the even factor first, so that no product overflows before the halving
+    tri = np.where(even, (j >> one) * (j - one), j * ((j - one) // two))
+    u = np.full(m, int(phase0) & _MASK64, dtype=np.uint64)       # (j - 1 wraps at j = 0: the product is 0 anyway)
+    u += j * np.uint64(int(dphase0) & _MASK64)
+    u += tri * np.uint64(int(ddphase) & _MASK64)
+    return u
+
+
+def segment_reference(phase0: int, dphase0: int, ddphase: int, warp, table_a: np.ndarray, table_b, xi0: float,
                       blend_scale: float, out: np.ndarray, acc=None, off=None) -> None:
-    """:func:`segment` in numpy: the arithmetic of ``Synthesizer._segment``, operation for operation."""
-    m, c, n = _check_segment(warp, table_a, table_b, out, acc, off)
+    """:func:`segment` in numpy, operation for operation (the same IEEE operations in the same order and precision)."""
+    m, c, n, fb = _check_segment(warp, table_a, table_b, out, acc, off)
     if m == 0:
         return
     dt = out.dtype
-    q1 = 1 << FRAC_BITS
-    xi = np.arange(m, dtype=np.float64)
-    xi += xi0                                                     # samples since knot a
-    u = xi * c2
-    u += c1
-    u *= xi
-    u += u_frac                                                   # passes since knot a (+ its integer part)
+    v = phases_reference(phase0, dphase0, ddphase, m)
     if warp is not None:
-        u += warp
-    u += PHASE_OFFSET
-    u *= float(n << FRAC_BITS)
-    u += 0.5
-    p = u.astype(np.int64)                                        # truncation = floor (positive)
-    i = (p >> FRAC_BITS) & (n - 1)
-    q = p & (q1 - 1)
-    frows = np.repeat((np.arange(q1, dtype=np.float64) / q1)[:, None], c, axis=1).astype(dt)
-    F = np.take(frows, q, axis=0)
-    A = np.take(table_a, i, axis=0)
-    B = np.take(_slope(table_a), i, axis=0)
-    B *= F
+        v += warp.view(np.uint64)
+    i = ((v >> np.uint64(fb)) & np.uint64(n - 1)).astype(np.intp)
+    q = ((v >> np.uint64(fb - WEIGHT_BITS)) & np.uint64((1 << WEIGHT_BITS) - 1)).astype(np.intp)
+    w = spline_weights(dt)[q]                                     # (m, 4)
+
+    def interp(table):
+        val = w[:, 0:1] * table[i]
+        for k in (1, 2, 3):
+            val += w[:, k:k + 1] * table[i + k]
+        return val
+
+    va = interp(table_a)
     if table_b is None:
-        np.add(A, B, out=out)
+        out[...] = va
     else:
-        A += B
-        C = np.take(table_b, i, axis=0)
-        D = np.take(_slope(table_b), i, axis=0)
-        D *= F
-        C += D
-        C -= A                                                    # interp(table_b) - interp(table_a)
-        qs = (xi * blend_scale).astype(np.int64)
-        srows = np.repeat((np.arange(BLEND_LEVELS + 1, dtype=np.float64) / BLEND_LEVELS)[:, None], c,
-                          axis=1).astype(dt)
-        C *= np.take(srows, qs, axis=0, mode="clip")
-        np.add(A, C, out=out)
+        vb = interp(table_b)
+        xi = np.arange(m, dtype=np.float64)
+        xi += xi0
+        sv = xi * blend_scale
+        sv = np.where(sv > 0.0, np.minimum(sv, float(BLEND_LEVELS)), 0.0)   # numpy clip after astype, NaN -> 0
+        s = (sv.astype(np.int64) / float(BLEND_LEVELS)).astype(dt)
+        vb -= va
+        vb *= s[:, None]
+        np.add(va, vb, out=out)
     if acc is not None:
         accumulate_reference(out, off, acc)
-
-
-def _slope(table: np.ndarray) -> np.ndarray:
-    """table[i + 1] - table[i] (wrapping), as the knots' precomputed slope tables."""
-    s = np.empty_like(table)
-    np.subtract(table[1:], table[:-1], out=s[:-1])
-    np.subtract(table[0], table[-1], out=s[-1])
-    return s
 
 
 def accumulate_reference(x: np.ndarray, off: np.ndarray, acc: np.ndarray) -> None:
