@@ -58,9 +58,7 @@ def time_stream(model, seconds: float, chunk_s: float, **kw):
     s = Synthesizer(model, sample_rate_hz=FS, chunk_s=chunk_s, **kw)
     n = int(round(seconds / chunk_s))
     speeds = speeds_random_walk(n)
-    if kw.get("spectrum") == "modal":                      # warm-up: the grid of eigen-decompositions
-        for v in np.arange(19.5, 30.6, 0.1):
-            s._provider()(float(v))
+    s.prepare()                                            # one-off: the modal form's eigen-decompositions
     s.reset()
     t0, c0 = time.perf_counter(), time.process_time()
     for v in speeds:

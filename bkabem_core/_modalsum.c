@@ -1,17 +1,21 @@
 /*
- * Pole-residue sum of the order-wise modal form (bkabem_core/harmonic.py, OrderModalForm):
+ * Pole-residue sum of the order-wise modal form (bkabem_core/harmonic.py, OrderModalForm), in its
+ * mode-acceleration form:
  *
- *     X[k][u] = D[k][u] + sum_r E[k][r][u] / (i w[k] - lambda[k][r]),     u = 0..7
+ *     X[k][u] = X0[k][u] + i w[k] sum_r E'[k][r][u] / (i w[k] - lambda[k][r]),     u = 0..7
  *
- * for K orders and R poles per order, 8 outputs (fewer are zero-padded by the caller). Why C: the synthesiser
- * evaluates this at every new shaft speed (every chunk when streaming), K R 8 = 50 x 120 x 8 complex
- * multiply-adds on the embedded case: numpy's batched matmul plus the Cauchy factors take ~120 us, this loop
- * ~50 us (BENCHMARKS.md). Loaded with ctypes; the module init below only exists so that setuptools builds and
- * installs it as an extension.
+ * for K orders and R poles per order, 8 outputs (fewer are zero-padded by the caller); X0 is the exact static
+ * response and E' = E / lambda, stored in float32 (sums in double). Why C: the synthesiser evaluates this at
+ * every new shaft speed (every chunk when streaming), K R 8 = 50 x 120 x 8 complex multiply-adds on the embedded
+ * case: numpy's batched matmul plus the Cauchy factors take ~120 us, this loop ~50 us (BENCHMARKS.md). Why
+ * float32 residues: the sum is memory-bound next to the synthesiser's tables (768 KB of double residues fall out
+ * of a 1 MB L2 cache between chunks); the mode-acceleration form keeps the float32 round-off below 1e-6 of a
+ * channel's largest order (the plain form E / (i w - lambda) loses 3e-4 near the static limit in float32).
+ * Loaded with ctypes; the module init below only exists so that setuptools builds and installs it.
  *
- * Layout (C-contiguous doubles; real and imaginary parts in separate arrays so that the 8 outputs of a pole are
- * two 4-wide vectors): w[K] [rad/s]; lam_re, lam_im [K][R]; e_re, e_im [K][R][8]; d_re, d_im [K][8]; results
- * x_re, x_im [K][8]. GCC builds an AVX2 and a baseline clone and picks one at load time.
+ * Layout (C-contiguous; real and imaginary parts in separate arrays so that the 8 outputs of a pole are two
+ * 4-wide vectors): w[K] [rad/s]; lam_re, lam_im [K][R] double; e_re, e_im [K][R][8] float; x0_re, x0_im [K][8]
+ * double; results x_re, x_im [K][8] double. GCC builds an AVX2 and a baseline clone, picked at load time.
  */
 #include <Python.h>
 
@@ -27,38 +31,46 @@ typedef double v4 __attribute__((vector_size(32)));
 #define LOAD4(v, p) __builtin_memcpy(&(v), (p), sizeof(v4))
 #define STORE4(p, v) __builtin_memcpy((p), &(v), sizeof(v4))
 
+typedef float f4 __attribute__((vector_size(16)));
+
 CLONES
 int modal_sum8(int nk, int nr, const double *w, const double *lam_re, const double *lam_im,
-               const double *e_re, const double *e_im, const double *d_re, const double *d_im,
+               const float *e_re, const float *e_im, const double *x0_re, const double *x0_im,
                double *x_re, double *x_im)
 {
     for (int k = 0; k < nk; ++k) {
-        v4 ar0, ar1, ai0, ai1;
-        LOAD4(ar0, d_re + 8 * k);
-        LOAD4(ar1, d_re + 8 * k + 4);
-        LOAD4(ai0, d_im + 8 * k);
-        LOAD4(ai1, d_im + 8 * k + 4);
+        v4 ar0 = {0.0, 0.0, 0.0, 0.0}, ar1 = ar0, ai0 = ar0, ai1 = ar0;
         const double *lr = lam_re + (long)k * nr, *li = lam_im + (long)k * nr;
-        const double *er = e_re + (long)k * nr * 8, *ei = e_im + (long)k * nr * 8;
+        const float *er = e_re + (long)k * nr * 8, *ei = e_im + (long)k * nr * 8;
         for (int r = 0; r < nr; ++r) {
             /* g = 1 / (i w - lambda) = (zr - i zi) / (zr^2 + zi^2),  z = -Re(lambda) + i (w - Im(lambda)) */
             double zr = -lr[r], zi = w[k] - li[r];
             double s = 1.0 / (zr * zr + zi * zi);
             double gr = zr * s, gi = -zi * s;
-            v4 pr0, pr1, pi0, pi1;
-            LOAD4(pr0, er + 8 * r);
-            LOAD4(pr1, er + 8 * r + 4);
-            LOAD4(pi0, ei + 8 * r);
-            LOAD4(pi1, ei + 8 * r + 4);
+            f4 a, b, c, d;
+            __builtin_memcpy(&a, er + 8 * r, sizeof a);
+            __builtin_memcpy(&b, er + 8 * r + 4, sizeof b);
+            __builtin_memcpy(&c, ei + 8 * r, sizeof c);
+            __builtin_memcpy(&d, ei + 8 * r + 4, sizeof d);
+            v4 pr0 = __builtin_convertvector(a, v4), pr1 = __builtin_convertvector(b, v4);
+            v4 pi0 = __builtin_convertvector(c, v4), pi1 = __builtin_convertvector(d, v4);
             ar0 += gr * pr0 - gi * pi0;
             ar1 += gr * pr1 - gi * pi1;
             ai0 += gr * pi0 + gi * pr0;
             ai1 += gr * pi1 + gi * pr1;
         }
-        STORE4(x_re + 8 * k, ar0);
-        STORE4(x_re + 8 * k + 4, ar1);
-        STORE4(x_im + 8 * k, ai0);
-        STORE4(x_im + 8 * k + 4, ai1);
+        /* X = X0 + i w S */
+        v4 x0r0, x0r1, x0i0, x0i1;
+        LOAD4(x0r0, x0_re + 8 * k);
+        LOAD4(x0r1, x0_re + 8 * k + 4);
+        LOAD4(x0i0, x0_im + 8 * k);
+        LOAD4(x0i1, x0_im + 8 * k + 4);
+        v4 xr0 = x0r0 - w[k] * ai0, xr1 = x0r1 - w[k] * ai1;
+        v4 xi0 = x0i0 + w[k] * ar0, xi1 = x0i1 + w[k] * ar1;
+        STORE4(x_re + 8 * k, xr0);
+        STORE4(x_re + 8 * k + 4, xr1);
+        STORE4(x_im + 8 * k, xi0);
+        STORE4(x_im + 8 * k + 4, xi1);
     }
     return 0;
 }

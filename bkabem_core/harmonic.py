@@ -330,6 +330,12 @@ class OrderModalForm:
         E_{k,r,u} [m rad/s].
     direct : ndarray complex (K, U)
         D_{k,u} [m].
+    static : ndarray complex (K, U)
+        The static response X_k(0) [m], solved directly (K X0 = F(0)).
+
+    Evaluation: the compiled kernel (``_modalsum.c``) sums the mode-acceleration form
+    ``X = X0 + i w sum_r (E_r / lambda_r) / (i w - lambda_r)`` with float32 residues (half the memory; round-off
+    below 1e-6 of a channel's largest order, see the kernel); :meth:`evaluate_numpy` the form above in double.
     """
 
     def __init__(self, model: "BkaBem", combination: np.ndarray | None = None):
@@ -364,17 +370,23 @@ class OrderModalForm:
             self.direct[i] = b @ p
 
         self._w_per_hz = TWO_PI * self.bpfo_per_hz * self.orders.astype(float)
+        # static response per order (exact): K X0 = k_b U_k at the rotor node, -k_b U_k at the housing node
+        f0 = np.zeros((rot.ndof, n_k), complex)
+        f0[in_dofs[:2], :] = k_u.T
+        f0[in_dofs[2:], :] = -k_u.T
+        self.static = (comb @ np.linalg.solve(rot.K, f0)[out]).T                      # (K, U) [m]
         self._c = None
-        if _MODAL_KERNEL is not None and comb.shape[0] <= 8:          # the C kernel's layout: 8 outputs, split
+        if _MODAL_KERNEL is not None and comb.shape[0] <= 8:
+            # the C kernel's form: X = X0 + i w sum_r E'_r / (i w - lambda_r), E' = E / lambda in float32,
+            # 8 outputs (zero-padded), real and imaginary parts split (see _modalsum.c)
             n_u = comb.shape[0]
-
-            def pad(a):
-                out = np.zeros(a.shape[:-1] + (8,), complex)
-                out[..., :n_u] = a
-                return out
-            e, d = pad(self.residues), pad(self.direct)
-            self._c = [np.ascontiguousarray(x) for x in (self.poles.real, self.poles.imag, e.real, e.imag,
-                                                          d.real, d.imag)]
+            e = np.zeros((n_k, 2 * n, 8), complex)
+            e[..., :n_u] = self.residues / self.poles[:, :, None]
+            x0 = np.zeros((n_k, 8), complex)
+            x0[:, :n_u] = self.static
+            self._c = [np.ascontiguousarray(self.poles.real), np.ascontiguousarray(self.poles.imag),
+                       np.ascontiguousarray(e.real, dtype=np.float32), np.ascontiguousarray(e.imag, dtype=np.float32),
+                       np.ascontiguousarray(x0.real), np.ascontiguousarray(x0.imag)]
             self._c_out = (np.empty((n_k, 8)), np.empty((n_k, 8)))
             self._c_ptrs = [a.ctypes.data for a in self._c + list(self._c_out)]
 

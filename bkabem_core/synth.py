@@ -21,10 +21,12 @@ updates arriving between chunks). The method, its error bounds and the realism o
   :meth:`BkaBem.response` at every knot (about 0.6-1 ms each). ``"auto"`` (default): modal when streaming, the
   cheaper of the two for a rendered profile (the modal form's set-up, ~1.5 s once per model, against 0.5 ms
   saved per knot).
-* **Wavetable.** At each knot the waveform of one ball pass is tabulated (``table_size`` points, pre-emphasised
-  for the linear interpolation's droop); samples read it at their phase with linear interpolation in angle and
-  blend the two knot tables linearly in time. Interpolation images of order k stay below ``(k / table_size)^2``
-  of it (-64 dB for order 50 and 2048 points; -86 dB of the largest order on the embedded case).
+* **Wavetable.** At each knot one ball pass is tabulated as the coefficients of a periodic cubic B-spline
+  (``table_size`` points, default max(256, 8 x highest order); the spline's droop sinc(k/N)^4 pre-emphasised, so
+  every order comes out exact). Samples evaluate the spline at their phase (4 taps) and blend the two knot tables
+  linearly in time, in a C loop (``_synthloop.c``; a bit-identical numpy reference when it is not built). Phase is
+  carried in fixed point (one pass = 2^62) as an exact function of knot and sample. Interpolation images of order
+  k stay below ``(k / (N - k))^4`` of it (-77 dB for order 50 and 512 points).
 * **Channels.** Per bearing and direction: ``acceleration`` of the housing [m/s^2] (accelerometer), ``displacement``
   of the shaft relative to the housing [m] (proximity probe), optionally ``velocity`` of the housing [mm/s].
   Names ``<bearing>_<direction>_<quantity>``, e.g. ``de_vertical_acceleration``.
@@ -45,6 +47,7 @@ from typing import Iterator
 
 import numpy as np
 
+from . import synth_kernel
 from .harmonic import DIRECTIONS, LOCATIONS, TWO_PI, BkaBem
 
 BEARINGS = ("de", "nde")
@@ -60,9 +63,7 @@ ISO_BAND_HZ = (10.0, 1000.0)
 
 MAX_SAMPLE_RATE_HZ = 1.0e6
 MAX_SLIP = 0.1
-_FRAC_BITS = 12          # angle fraction inside a table step, quantised to 2^-12 (phase error < 2^-24 pass)
-_BLEND_LEVELS = 1 << 16  # time-blend weight quantised to 2^-16
-_PHASE_OFFSET = float(1 << 20)   # keeps table positions positive (slip may push the phase below 0)
+_PASS = float(synth_kernel.PASS_UNITS)   # fixed-point units of one ball pass (2^62): phase arithmetic of the loop
 
 
 class SynthError(ValueError):
@@ -601,16 +602,46 @@ def _moment_features(s1, s2, s3, s4, hi, lo, off) -> dict:
 
 # =========================================================================== the synthesiser
 @dataclass
+class _Amplitudes:
+    """What a knot needs at its speed (shared by knots of the same speed)."""
+    f: float                    # shaft speed [Hz]
+    x: np.ndarray               # (K, U) complex displacement combinations [m]
+    fade: float                 # low-speed fade of every order
+    taper: np.ndarray | None    # (K,) Nyquist taper (None: 1)
+    y_emphasised: np.ndarray    # (K, C) complex channel amplitudes x spline pre-emphasis (weights applied)
+    emphasis: np.ndarray        # (K,) the pre-emphasis 1 / sinc(k/N)^4
+    table: np.ndarray           # (N + 3, C) cubic B-spline coefficients of one ball pass (see Synthesizer._bind_model)
+    v_iso: np.ndarray | None = None     # (K, 4) housing velocity [mm/s], made when first needed
+    _y: np.ndarray | None = None
+    _rms: np.ndarray | None = None
+
+    @property
+    def weights(self) -> np.ndarray:
+        """(K,) order weights (fade x taper)."""
+        return self.fade * (np.ones(self.x.shape[0]) if self.taper is None else self.taper)
+
+    @property
+    def y(self) -> np.ndarray:
+        """(K, C) complex channel amplitudes (weights applied, no pre-emphasis)."""
+        if self._y is None:
+            self._y = self.y_emphasised / self.emphasis[:, None]
+        return self._y
+
+    @property
+    def rms(self) -> np.ndarray:
+        """(C,) RMS of the dynamic part (channel units)."""
+        if self._rms is None:
+            self._rms = np.sqrt(0.5 * np.sum(np.abs(self.y) ** 2, axis=0))
+        return self._rms
+
+
+@dataclass
 class _Knot:
-    x: float            # position [samples] (time * sample rate)
+    x: int              # position [samples] (time * sample rate); knots sit on samples
     f: float            # shaft speed [Hz]
     u_int: int          # ball passes since t = 0: integer part ...
     u_frac: float       # ... and fraction in [0, 1)
-    y: np.ndarray       # (K, C) complex channel amplitudes (weights applied, no pre-emphasis)
-    v_iso: np.ndarray   # (K, 4) complex housing velocity [mm/s], DE/NDE x vertical/horizontal
-    table: np.ndarray   # (N, C) wavetable of one ball pass (pre-emphasised)
-    slope: np.ndarray   # (N, C) table[i + 1] - table[i]
-    rms: np.ndarray     # (C,) RMS of the dynamic part
+    amp: "_Amplitudes"  # channel amplitudes and spline table at f
 
 
 class Synthesizer:
@@ -706,6 +737,11 @@ class Synthesizer:
         if dtype not in (np.float32, np.float64, "float32", "float64"):
             raise SynthError("dtype", f"must be float32 or float64 (got {dtype!r})")
         self.dtype = np.dtype(dtype).type
+        # the sample loop: C kernel, or its numpy reference (bit-identical) when the kernel is not built
+        if synth_kernel.AVAILABLE:
+            self._segment_fn, self._accumulate = synth_kernel.segment, synth_kernel.accumulate
+        else:
+            self._segment_fn, self._accumulate = synth_kernel.segment_reference, synth_kernel.accumulate_reference
         self.compute_features = bool(features)
         if initial_speed_hz is not None:
             initial_speed_hz = _finite("initial_speed_hz", initial_speed_hz, 0.0)
@@ -737,11 +773,11 @@ class Synthesizer:
         k_max = int(self.orders.max())
         n = self._table_size_arg
         if n is None:
-            n = max(2048, 1 << int(math.ceil(math.log2(32 * k_max))))
+            n = max(256, 1 << int(math.ceil(math.log2(8 * k_max))))
             if getattr(self, "_knots", None) and n != self.table_size:
                 n = self.table_size                          # a model swap mid-stream keeps the table size
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 64 or n & (n - 1):
-            raise SynthError("table_size", f"must be a power of 2 >= 64 (got {n!r})")
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 64 or n & (n - 1) or n > 1 << 16:
+            raise SynthError("table_size", f"must be a power of 2 in 64..65536 (got {n!r})")
         if n < 4 * k_max:
             raise SynthError("table_size", f"{n} is too small for order {k_max} (needs >= {4 * k_max})")
         self.table_size = int(n)
@@ -753,13 +789,24 @@ class Synthesizer:
         self._use_modal = self._spectrum_kind == "modal"
         dc8 = np.asarray(model.dc_m).reshape(-1)
         self._dc = (comb @ dc8)[index] * (power == 0)
-        # wavetable basis: T = [cos(k th) | -sin(k th) | 1] @ [Re Y; Im Y; DC], linear-interpolation droop
-        # pre-emphasised
-        th = TWO_PI * np.arange(n) / n
+        self._dc_off = np.ascontiguousarray(self._dc, dtype=np.float64)   # moments are taken about the static part
+        # channel factor per order: y = x[:, index] * (i k)^p scale * (2 pi BPFO f)^p  (p = power of i omega)
         kk = self.orders.astype(float)
+        self._keep_some = not bool(np.all(keep))
+        self._chan_power = power.astype(float)
+        self._order_ratio_per_hz = kk * self.bpfo_per_hz / (self.sample_rate_hz / 2)   # order frequency / Nyquist
+        self._top_ratio_per_hz = float(self._order_ratio_per_hz.max())
+        # spline coefficient table of one ball pass, N + 3 rows (row r = coefficient (r - 1) mod N, so the four
+        # taps of any position are consecutive rows): T = [cos(k th) | -sin(k th) | 1] @ [Re Yc; Im Yc; DC] with
+        # Yc = Y / sinc(k/N)^4, the cubic B-spline's droop pre-emphasised (docs/synthesis.md)
+        th = TWO_PI * (np.arange(n + 3) - 1) / n
         self._basis = np.ascontiguousarray(np.concatenate(
-            [np.cos(np.outer(th, kk)), -np.sin(np.outer(th, kk)), np.ones((n, 1))], axis=1).astype(self.dtype))
-        self._emphasis = 1.0 / np.sinc(kk / n) ** 2
+            [np.cos(np.outer(th, kk)), -np.sin(np.outer(th, kk)), np.ones((n + 3, 1))], axis=1).astype(self.dtype))
+        self._emphasis = 1.0 / np.sinc(kk / n) ** 4
+        # y_k = x_k[index] (i k w1)^p scale, pre-emphasised: x_k[index] * _chan_factor * w1^p (* weights)
+        self._chan_factor = (1j * kk[:, None]) ** power[None, :] * scale[None, :] * self._emphasis[:, None]
+        self._coef = np.zeros((2 * kk.size + 1, len(self.channels)), dtype=self.dtype)
+        self._coef[-1] = self._dc
         self._gt_base = self._ground_truth_base()
 
     @property
@@ -814,25 +861,23 @@ class Synthesizer:
         self._next_index = 0
         self._table_cache: OrderedDict = OrderedDict()
         self._slip_walk = _SlipWalk(self.slip, self.seed) if self.slip > 0 else None
-        if not hasattr(self, "_buffers"):
-            self._buffers = None                               # work buffers hold no state: kept across resets
 
     @property
     def next_sample_index(self) -> int:
         return self._next_index
 
     # ------------------------------------------------------------------ knots
-    def _weights(self, f: float) -> np.ndarray:
-        """Order weights at speed f: low-speed fade and (taper mode) Nyquist taper."""
+    def _order_weights(self, f: float):
+        """Order weights at speed f: the low-speed fade (a number, smoothstep from min_speed_hz to twice it) and,
+        in taper mode near Nyquist, the taper per order ((K,) array; None when it is 1 for every order)."""
         lo = self.min_speed_hz
         s = min(max((f - lo) / lo, 0.0), 1.0)
         fade = s * s * (3.0 - 2.0 * s)
-        w = np.full(self.orders.size, fade)
-        if self.band_limit == "taper" and fade > 0:
-            r = self.orders * self.bpfo_per_hz * f / (self.sample_rate_hz / 2)
+        taper = None
+        if self.band_limit == "taper" and fade > 0 and self._top_ratio_per_hz * f > 0.85:
+            r = self._order_ratio_per_hz * f
             taper = np.where(r <= 0.85, 1.0, np.where(r >= 0.95, 0.0, 0.5 * (1 + np.cos(np.pi * (r - 0.85) / 0.1))))
-            w = w * taper
-        return w
+        return fade, taper
 
     def _check_band(self, f: float, argument: str) -> None:
         if self.band_limit == "error" and f > self.min_speed_hz:
@@ -864,13 +909,21 @@ class Synthesizer:
             if self._modal is None and self._modal_failed is None:
                 modal = ModalSpectrum(self.model, self._comb)
                 err = modal.check(25.0)
-                if err < 1e-6:
+                if err < 1e-5:                                 # the stated bound (docs/synthesis.md)
                     self._modal = modal
                 else:
                     self._modal_failed = f"error {err:.1e}"
             if self._modal is not None:
                 return self._modal
         return self._exact
+
+    def prepare(self) -> None:
+        """Make the spectrum method ready now, so that the first chunk carries no set-up: with ``"modal"``, or
+        ``"auto"`` (modal when streaming), the modal form's eigen-decompositions (~1.5 s on the embedded case, once
+        per model: synthesisers of one model share them)."""
+        if self._spectrum_kind == "auto":
+            self._use_modal = True
+        self._provider()
 
     #: cost model of ``spectrum="auto"`` [s]: one exact solve per knot of a new speed; one modal evaluation per
     #: knot; the modal form's set-up per order, scaled with the cube of the model's DOFs (measured on the
@@ -898,30 +951,27 @@ class Synthesizer:
                                   * (self.model.rotor.ndof / 60.0) ** 3)
         self._use_modal = setup + self._COST_MODAL_S * knots < self._COST_EXACT_S * knots
 
-    def _amplitudes(self, f: float):
+    def _amplitudes(self, f: float) -> "_Amplitudes":
+        """Channel amplitudes and the spline table at speed f [Hz] (cached: a held speed costs nothing)."""
         key = float(f)
         hit = self._table_cache.get(key)
         if hit is not None:
             self._table_cache.move_to_end(key)
             return hit
-        x = self._provider()(f)[self._keep]                                 # (K, U) displacement combinations
-        iw = 1j * TWO_PI * self.bpfo_per_hz * f * self.orders
-        wts = self._weights(f)
-        powers = np.stack([np.ones_like(iw), iw, iw * iw])                   # (i w)^0, ^1, ^2
-        y = x[:, self._cindex] * powers[self._power].T * (self._scale * 1.0)[None, :] * wts[:, None]     # (K, C)
-        v_iso = x[:, self._iso_rows] * (iw * 1e3 * wts)[:, None]            # housing velocity [mm/s] (K, 4)
-        yc = y * self._emphasis[:, None]
-        k = yc.shape[0]
-        coef = np.empty((2 * k + 1, yc.shape[1]), dtype=self.dtype)   # [Re Y; Im Y; DC] against [cos | -sin | 1]
+        x = self._provider()(key)                                           # (K, U) displacement combinations
+        if self._keep_some:
+            x = x[self._keep]
+        fade, taper = self._order_weights(key)
+        fac = self._chan_factor * ((TWO_PI * self.bpfo_per_hz * key) ** self._chan_power * fade)   # (K, C)
+        if taper is not None:
+            fac *= taper[:, None]
+        yc = x[:, self._cindex]
+        yc *= fac                                            # channel amplitudes, pre-emphasised for the spline
+        coef, k = self._coef, yc.shape[0]                    # [Re Yc; Im Yc; DC] against [cos | -sin | 1]
         coef[:k] = yc.real
         coef[k:2 * k] = yc.imag
-        coef[2 * k] = self._dc
-        table = self._basis @ coef
-        slope = np.empty_like(table)
-        np.subtract(table[1:], table[:-1], out=slope[:-1])
-        np.subtract(table[0], table[-1], out=slope[-1])
-        rms = np.sqrt(0.5 * np.sum(np.abs(y) ** 2, axis=0))
-        hit = (y, v_iso, table, slope, rms)
+        hit = _Amplitudes(f=key, x=x, fade=fade, taper=taper, y_emphasised=yc, emphasis=self._emphasis,
+                          table=self._basis @ coef)
         self._table_cache[key] = hit
         if len(self._table_cache) > 8:
             self._table_cache.popitem(last=False)
@@ -934,12 +984,12 @@ class Synthesizer:
         Nyquist taper and low-speed fade applied; x = Re(A e^{i k 2 pi u}), phase origin cage angle 0, before slip)
         and ``dc`` (C,), the static part."""
         f = _finite("speed_hz", speed_hz, 0.0)
-        y = self._amplitudes(f)[0]
+        y = self._amplitudes(f).y
         return {"orders": self.orders.copy(), "frequency_hz": self.orders * self.bpfo_per_hz * f,
                 "amplitude": y.copy(), "dc": self._dc.copy(), "channel_names": self.channel_names,
                 "units": self.units}
 
-    def _make_knot(self, x: float, f: float, prev: _Knot | None) -> _Knot:
+    def _make_knot(self, x: int, f: float, prev: _Knot | None) -> _Knot:
         if prev is None:
             u_int, u_frac = 0, 0.0
         else:
@@ -947,9 +997,7 @@ class Synthesizer:
             tot = prev.u_frac + du
             fl = math.floor(tot)
             u_int, u_frac = prev.u_int + int(fl), tot - fl
-        y, v_iso, table, slope, rms = self._amplitudes(f)
-        return _Knot(x=float(x), f=float(f), u_int=u_int, u_frac=u_frac, y=y, v_iso=v_iso, table=table,
-                     slope=slope, rms=rms)
+        return _Knot(x=int(x), f=float(f), u_int=u_int, u_frac=u_frac, amp=self._amplitudes(f))
 
     def _n_sub(self, fa: float, fb: float) -> int:
         n = math.ceil(abs(fb - fa) / self.max_speed_step_hz - 1e-12)
@@ -959,16 +1007,19 @@ class Synthesizer:
                 n = max(n, math.ceil(math.log(hi / max(lo, 1e-9)) / math.log(1.02)))
         return max(1, min(n, 100000))
 
-    def _append(self, x: float, f: float) -> None:
-        """Add knot(s) up to position x [samples] with speed f [Hz] (linear speed from the last knot)."""
+    def _append(self, x: int, f: float) -> None:
+        """Add knot(s) up to sample x with speed f [Hz] (speed linear in time from the last knot). Subdivision
+        knots sit on samples too, with the speed of the straight line at that sample."""
+        x = int(x)
         if not self._knots:
             self._knots.append(self._make_knot(x, f, None))
             return
         last = self._knots[-1]
-        n = self._n_sub(last.f, f)
+        span = x - last.x
+        n = min(self._n_sub(last.f, f), span)
         for i in range(1, n + 1):
-            xi = last.x + (x - last.x) * i / n if i < n else x
-            fi = last.f + (f - last.f) * i / n if i < n else f
+            xi = last.x + (span * i) // n
+            fi = last.f + (f - last.f) * (xi - last.x) / span if i < n else f
             self._knots.append(self._make_knot(xi, fi, self._knots[-1]))
 
     # ------------------------------------------------------------------ streaming
@@ -994,8 +1045,8 @@ class Synthesizer:
             self._choose_spectrum(None, 0.0)
             f0 = f if self.initial_speed_hz is None else self.initial_speed_hz
             self._check_band(f0, "initial_speed_hz")
-            self._append(float(n0), f0)
-        self._append(float(n0 + n), f)
+            self._append(n0, f0)
+        self._append(n0 + n, f)
         chunk = self._render(n0, n)
         self._next_index = n0 + n
         return chunk
@@ -1025,20 +1076,20 @@ class Synthesizer:
         self.reset()
         fs = self.sample_rate_hz
         knot_n = max(1, int(round(self.knot_s * fs)))
-        breaks = [t * fs for t in profile.times_s if 0 < t * fs]
+        breaks = sorted({int(round(t * fs)) for t in profile.times_s if round(t * fs) > 0})   # on samples
         bi = 0
-        self._append(0.0, float(profile.speed_hz(0.0)))
+        self._append(0, float(profile.speed_hz(0.0)))
         n0 = 0
         while n0 < n_total:
             n = min(self.chunk_samples, n_total - n0)
             while self._knots[-1].x < n0 + n:
                 last = self._knots[-1].x
-                nxt = (math.floor(last / knot_n + 1e-9) + 1) * knot_n
-                while bi < len(breaks) and breaks[bi] <= last + 1e-9:
+                nxt = (last // knot_n + 1) * knot_n
+                while bi < len(breaks) and breaks[bi] <= last:
                     bi += 1
                 if bi < len(breaks) and breaks[bi] < nxt:
                     nxt = breaks[bi]
-                self._append(float(nxt), float(profile.speed_hz(nxt / fs)))
+                self._append(nxt, float(profile.speed_hz(nxt / fs)))
             yield self._render(n0, n)
             n0 += n
             self._next_index = n0
@@ -1049,97 +1100,64 @@ class Synthesizer:
     def _segment_at(self, start: int, pos: float) -> int:
         ks = self._knots
         i = start
-        while i + 2 < len(ks) and ks[i + 1].x <= pos + 1e-9:
+        while i + 2 < len(ks) and ks[i + 1].x <= pos:
             i += 1
         return i
 
-    def _render(self, n0: int, n: int) -> Chunk:
+    def _segments(self, n0: int, n: int):
+        """(knot a, knot b, first sample, end sample) of the segments covering samples [n0, n0 + n)."""
         ks = self._knots
-        # drop knots before the segment holding n0
-        i0 = self._segment_at(0, n0)
-        if i0 > 0:
-            del ks[:i0]
-        c = len(self.channels)
-        out = np.empty((n, c), dtype=self.dtype)
-        pos = n0
-        i = 0
+        pos, i = n0, 0
         while pos < n0 + n:
             i = self._segment_at(i, pos)
             a, b = ks[i], ks[i + 1]
-            end = min(n0 + n, max(pos + 1, math.ceil(b.x - 1e-9)))
-            self._segment(a, b, pos, end, out[pos - n0:end - n0])
+            end = min(n0 + n, max(pos + 1, b.x))
+            yield a, b, pos, end
             pos = end
+
+    def _render(self, n0: int, n: int) -> Chunk:
+        ks = self._knots
+        i0 = self._segment_at(0, n0)                   # drop knots before the segment holding n0
+        if i0 > 0:
+            del ks[:i0]
+        out = np.empty((n, len(self.channels)), dtype=self.dtype)
+        acc = None
+        if self.compute_features:
+            acc = synth_kernel.new_acc(len(self.channels))
+        fused = acc if not self._noise_on else None    # with noise, the moments are taken after it is added
+        for a, b, lo, hi in self._segments(n0, n):
+            self._segment(a, b, lo, hi, out[lo - n0:hi - n0], fused)
         if self._noise_on:
             self._add_noise(n0, n, out)
-        return self._make_chunk(n0, n, out)
+            if acc is not None:
+                self._accumulate(out, self._dc_off, acc)
+        return self._make_chunk(n0, n, out, acc)
 
-    def _ensure_buffers(self, m: int):
-        bufs = self._buffers
-        if bufs is None or bufs["n"] < m:
-            size = max(m, self.chunk_samples)
-            c = len(self.channels)
-            dt = self.dtype
-            q = 1 << _FRAC_BITS
-            bufs = {"n": size, "ar": np.arange(size, dtype=np.float64), "xi": np.empty(size), "u": np.empty(size),
-                    "p": np.empty(size, np.int64), "i": np.empty(size, np.int64), "q": np.empty(size, np.int64),
-                    "A": np.empty((size, c), dt), "B": np.empty((size, c), dt), "C": np.empty((size, c), dt),
-                    "D": np.empty((size, c), dt), "F": np.empty((size, c), dt),
-                    "frows": np.repeat((np.arange(q, dtype=np.float64) / q)[:, None], c, axis=1).astype(dt),
-                    "srows": np.repeat((np.arange(_BLEND_LEVELS + 1, dtype=np.float64) / _BLEND_LEVELS)[:, None],
-                                       c, axis=1).astype(dt)}
-            self._buffers = bufs
-        return bufs
+    def _segment(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc) -> None:
+        """Samples [lo, hi) of the segment between knots a and b into ``out`` (hi - lo, C).
 
-    def _segment(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray) -> None:
-        """Samples [lo, hi) of the segment between knots a and b into ``out`` (hi - lo, C)."""
+        Ball passes since knot a, u(xi) = u_frac + c1 xi + c2 xi^2 at xi = sample - a.x (speed linear in time),
+        go to the loop as fixed-point integers (one pass = 2^62): the value, first and second difference at
+        ``lo``, exact functions of (knot, sample), so a chunk border anywhere gives the same samples."""
         m = hi - lo
-        bufs = self._ensure_buffers(m)
         length = b.x - a.x
-        alpha = (b.f - a.f) / length                                 # Hz per sample
-        c1 = self.bpfo_per_hz / self.sample_rate_hz * a.f             # passes per sample at a
-        c2 = 0.5 * self.bpfo_per_hz / self.sample_rate_hz * alpha
-        blend = b.table is not a.table
-        nq = float(self.table_size << _FRAC_BITS)
-        xi = bufs["xi"][:m]
-        u = bufs["u"][:m]
-        np.add(bufs["ar"][:m], lo - a.x, out=xi)                      # samples since knot a
-        np.multiply(xi, c2, out=u)
-        u += c1
-        u *= xi
-        u += a.u_frac                                                 # ball passes since a.u_int
+        c1 = self.bpfo_per_hz / self.sample_rate_hz * a.f              # passes per sample at a
+        c2 = 0.5 * self.bpfo_per_hz / self.sample_rate_hz * (b.f - a.f) / length
+        u0 = round(a.u_frac * _PASS)
+        d0 = round((c1 + c2) * _PASS)                                   # u(1) - u(0)
+        dd = round(2.0 * c2 * _PASS)
+        j = lo - a.x
+        phase0 = u0 + j * d0 + dd * (j * (j - 1) // 2)
+        dphase0 = d0 + j * dd
+        warp = None
         if self._slip_walk is not None:
-            u += self._slip_walk.warp(a.u_int, u)
-        p = bufs["p"][:m]
-        u += _PHASE_OFFSET
-        u *= nq
-        u += 0.5
-        p[...] = u                                                    # truncation = floor (positive)
-        i = bufs["i"][:m]
-        q = bufs["q"][:m]
-        np.right_shift(p, _FRAC_BITS, out=i)
-        np.bitwise_and(i, self.table_size - 1, out=i)                # (numpy's mode="wrap" loops: slow)
-        np.bitwise_and(p, (1 << _FRAC_BITS) - 1, out=q)
-        A, B, F = bufs["A"][:m], bufs["B"][:m], bufs["F"][:m]
-        np.take(a.table, i, axis=0, out=A, mode="clip")
-        np.take(a.slope, i, axis=0, out=B, mode="clip")
-        np.take(bufs["frows"], q, axis=0, out=F, mode="clip")
-        B *= F
-        if not blend:
-            np.add(A, B, out=out)
-            return
-        A += B
-        C, D = bufs["C"][:m], bufs["D"][:m]
-        np.take(b.table, i, axis=0, out=C, mode="clip")
-        np.take(b.slope, i, axis=0, out=D, mode="clip")
-        D *= F
-        C += D
-        C -= A                                                        # interp(table_b) - interp(table_a)
-        qs = bufs["q"][:m]
-        np.multiply(xi, _BLEND_LEVELS / length, out=u)
-        qs[...] = u
-        np.take(bufs["srows"], qs, axis=0, out=F, mode="clip")
-        C *= F
-        np.add(A, C, out=out)
+            xi = np.arange(j, j + m, dtype=np.float64)
+            u = (c2 * xi + c1) * xi + a.u_frac                           # passes since a.u_int (float: slip only)
+            w = self._slip_walk.warp(a.u_int, u)
+            warp = np.rint((w - np.rint(w)) * _PASS).astype(np.int64)   # whole passes drop out of the phase
+        tb = b.amp.table if b.amp is not a.amp else None
+        self._segment_fn(phase0, dphase0, dd, warp, a.amp.table, tb, float(j), 65536.0 / length, out,
+                         acc, self._dc_off)
 
     @staticmethod
     def _add_scaled(out: np.ndarray, z: np.ndarray, sigma: np.ndarray) -> None:
@@ -1159,16 +1177,10 @@ class Synthesizer:
         if self.snr_db is None:
             self._add_scaled(out, z, self._noise_sigma)
             return
-        ks = self._knots
-        pos, i = n0, 0
         g = 10 ** (-self.snr_db / 20)
-        while pos < n0 + n:
-            i = self._segment_at(i, pos)
-            a, b = ks[i], ks[i + 1]
-            end = min(n0 + n, max(pos + 1, math.ceil(b.x - 1e-9)))
-            sigma = g * np.sqrt(0.5 * (a.rms ** 2 + b.rms ** 2))
-            self._add_scaled(out[pos - n0:end - n0], z[pos - n0:end - n0], sigma)
-            pos = end
+        for a, b, lo, hi in self._segments(n0, n):
+            sigma = g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
+            self._add_scaled(out[lo - n0:hi - n0], z[lo - n0:hi - n0], sigma)
 
     # ------------------------------------------------------------------ chunk metadata
     def _state_at(self, pos: float):
@@ -1183,15 +1195,16 @@ class Synthesizer:
         fl = math.floor(tot)
         return f, a.u_int + int(fl), tot - fl, a, b, xi / (b.x - a.x)
 
-    def _make_chunk(self, n0: int, n: int, out: np.ndarray) -> Chunk:
+    def _make_chunk(self, n0: int, n: int, out: np.ndarray, acc) -> Chunk:
         fs = self.sample_rate_hz
         f0, ui, uf, *_ = self._state_at(n0)
         f_end, *_ = self._state_at(n0 + n)
         passes = ui + uf
         cage = (TWO_PI * (passes / self.n_balls)) % TWO_PI
         shaft = (TWO_PI * (passes / self.bpfo_per_hz)) % TWO_PI
-        feats = waveform_features(out, self._dc) if self.compute_features else {}
-        if self.compute_features:
+        feats = {}
+        if acc is not None:
+            feats = synth_kernel.features_from_acc(acc, n, self._dc_off)
             feats["iso10816_velocity_rms_mm_s"] = self._iso_velocity(n0 + 0.5 * n)
         gt = dict(self._gt_base)
         gt["shaft_speed_hz"] = f0
@@ -1203,11 +1216,19 @@ class Synthesizer:
                      shaft_speed_end_hz=float(f_end), cage_angle_rad=float(cage), shaft_angle_rad=float(shaft),
                      features=feats, ground_truth=gt)
 
+    def _v_iso(self, amp: "_Amplitudes") -> np.ndarray:
+        """Housing velocity [mm/s] (K, 4) of DE/NDE x vertical/horizontal, weights applied (made once per knot)."""
+        if amp.v_iso is None:
+            iw = 1j * TWO_PI * self.bpfo_per_hz * amp.f * self.orders
+            amp.v_iso = amp.x[:, self._iso_rows] * (iw * 1e3 * amp.weights)[:, None]
+        return amp.v_iso
+
     def _iso_velocity(self, pos: float) -> dict:
         """ISO 10816 velocity RMS [mm/s] in 10-1000 Hz per housing and direction, from the order amplitudes
         (linear in time between knots, as the samples) at ``pos``; noise and slip smearing excluded."""
         f, _, _, a, b, s = self._state_at(pos)
-        v = (1 - s) * a.v_iso + s * b.v_iso if a.v_iso.shape == b.v_iso.shape else b.v_iso   # (K, 4) [mm/s]
+        va, vb = self._v_iso(a.amp), self._v_iso(b.amp)
+        v = (1 - s) * va + s * vb if va.shape == vb.shape else vb                        # (K, 4) [mm/s]
         fk = self.orders * self.bpfo_per_hz * f
         band = (fk >= ISO_BAND_HZ[0]) & (fk <= ISO_BAND_HZ[1])
         r = np.sqrt(0.5 * np.sum(np.abs(v[band]) ** 2, axis=0))
