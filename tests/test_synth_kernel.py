@@ -94,7 +94,7 @@ def test_segment_equals_reference_bit_for_bit(dtype, n_table, c, blend, warp, m)
         sk.accumulate(ref, off, acc_sep)
         assert np.array_equal(acc, acc_sep)
         sk.accumulate_reference(ref, off, acc_ref)
-        np.testing.assert_allclose(acc[:, :4], acc_ref[:, :4], rtol=1e-12, atol=1e-12 * np.abs(acc_ref[:, :4]).max())
+        _assert_moments(acc, acc_ref, dtype)
         assert np.array_equal(acc[:, 4:], acc_ref[:, 4:])
 
 
@@ -211,6 +211,16 @@ def _features_c(x: np.ndarray, off: np.ndarray) -> dict:
     return sk.features_from_acc(acc, x.shape[0], off)
 
 
+def _assert_moments(acc, ref, dtype) -> None:
+    """Sums within tol of the reference, relative to the moment's size over the channels: float32 samples of 8
+    channels go through the float block sums (_synthloop.c, moments8_f32_avx2), ~1e-6 of a sum; everything else
+    is summed in double. Extremes exactly."""
+    tol = 2e-5 if np.dtype(dtype) == np.float32 else 1e-10
+    scale = np.abs(ref[:, :4]).max(axis=0) + np.abs(ref[:, 1:2])       # |sum d^p| is at most ~ sum d^2 (p <= 4)
+    assert np.all(np.abs(acc[:, :4] - ref[:, :4]) <= tol * scale), np.abs(acc[:, :4] - ref[:, :4]) / scale
+    assert np.array_equal(acc[:, 4:], ref[:, 4:])
+
+
 def test_accumulate_equals_reference():
     rng = np.random.default_rng(3)
     for dtype in (np.float32, np.float64):
@@ -221,7 +231,7 @@ def test_accumulate_equals_reference():
             sk.accumulate(x[: n // 2], off, acc)               # two calls add up
             sk.accumulate(x[n // 2:], off, acc)
             sk.accumulate_reference(x, off, ref)
-            np.testing.assert_allclose(acc[:, :4], ref[:, :4], rtol=1e-10, atol=1e-10 * np.abs(ref[:, :4]).max())
+            _assert_moments(acc, ref, x.dtype)
             assert np.array_equal(acc[:, 4:], ref[:, 4:])
 
 
