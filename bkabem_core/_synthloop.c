@@ -31,6 +31,7 @@
  * target's vectors; the moments use 4-lane double vectors with AVX2, 2-lane ones otherwise (dispatched per block).
  */
 #include <Python.h>
+#include <math.h>
 #include <stdint.h>
 #include <string.h>
 
@@ -391,6 +392,33 @@ CLONES int synth_accumulate_##SUF(int64_t n, int64_t C, const T *x, const double
 
 SYNTH_KERNELS(float, f32)
 SYNTH_KERNELS(double, f64)
+
+/* Chunk features from the accumulators of n samples per channel (acc C x 6 as above, about off[c]): out 6 x C
+ * rows mean, rms, peak, peak_to_peak, crest_factor, kurtosis (synth._moment_features in numpy, the reference):
+ * raw moments s_p = sum / n; m2 = max(s2 - s1^2, 0); m4 = max(s4 - 4 s1 s3 + 6 s1^2 s2 - 3 s1^4, 0);
+ * peak = max(hi - s1, s1 - lo); crest factor and kurtosis 0 where m2 = 0. In C: one call instead of ~30 numpy
+ * operations on 8-element arrays (~40 us of Python per chunk). */
+int synth_features(int64_t C, int64_t n, const double *acc, const double *off, double *out)
+{
+    if (C < 1 || n < 1) return -1;
+    for (int64_t c = 0; c < C; ++c) {
+        const double *a = acc + 6 * c;
+        double s1 = a[0] / (double)n, s2 = a[1] / (double)n, s3 = a[2] / (double)n, s4 = a[3] / (double)n;
+        double m2 = s2 - s1 * s1;
+        double m4 = s4 - 4 * s1 * s3 + 6 * s1 * s1 * s2 - 3 * (s1 * s1) * (s1 * s1);
+        m2 = m2 > 0.0 ? m2 : 0.0;
+        m4 = m4 > 0.0 ? m4 : 0.0;
+        double rms = sqrt(m2), up = a[4] - s1, down = s1 - a[5];
+        double peak = up > down ? up : down;
+        out[0 * C + c] = s1 + off[c];
+        out[1 * C + c] = rms;
+        out[2 * C + c] = peak;
+        out[3 * C + c] = a[4] - a[5];
+        out[4 * C + c] = m2 > 0.0 ? peak / rms : 0.0;
+        out[5 * C + c] = m2 > 0.0 ? m4 / (m2 * m2) : 0.0;
+    }
+    return 0;
+}
 
 static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_synthloop",
                                        "C kernel loaded with ctypes (see bkabem_core/synth_kernel.py)", -1, NULL};

@@ -611,7 +611,7 @@ class _Amplitudes:
     y_emphasised: np.ndarray    # (K, C) complex channel amplitudes x spline pre-emphasis (weights applied)
     emphasis: np.ndarray        # (K,) the pre-emphasis 1 / sinc(k/N)^4
     table: np.ndarray           # (N + 3, C) cubic B-spline coefficients of one ball pass (see Synthesizer._bind_model)
-    v_iso: np.ndarray | None = None     # (K, 4) housing velocity [mm/s], made when first needed
+    v_iso: np.ndarray | None = None     # (K, 8) housing velocity [mm/s], Re | Im, made when first needed
     _y: np.ndarray | None = None
     _rms: np.ndarray | None = None
 
@@ -1217,26 +1217,34 @@ class Synthesizer:
                      features=feats, ground_truth=gt)
 
     def _v_iso(self, amp: "_Amplitudes") -> np.ndarray:
-        """Housing velocity [mm/s] (K, 4) of DE/NDE x vertical/horizontal, weights applied (made once per knot)."""
+        """Housing velocity [mm/s] of DE/NDE x vertical/horizontal, weights applied, as real (K, 8) [Re | Im]
+        (made once per knot speed)."""
         if amp.v_iso is None:
             iw = 1j * TWO_PI * self.bpfo_per_hz * amp.f * self.orders
-            amp.v_iso = amp.x[:, self._iso_rows] * (iw * 1e3 * amp.weights)[:, None]
+            v = amp.x[:, self._iso_rows] * (iw * 1e3 * amp.weights)[:, None]
+            amp.v_iso = np.ascontiguousarray(np.concatenate([v.real, v.imag], axis=1))
         return amp.v_iso
 
     def _iso_velocity(self, pos: float) -> dict:
         """ISO 10816 velocity RMS [mm/s] in 10-1000 Hz per housing and direction, from the order amplitudes
         (linear in time between knots, as the samples) at ``pos``; noise and slip smearing excluded."""
         f, _, _, a, b, s = self._state_at(pos)
+        per_order = self.bpfo_per_hz * f                           # Hz per order; orders sorted: the band is a slice
+        lo = hi = 0
+        if per_order > 0:
+            lo = int(np.searchsorted(self.orders, ISO_BAND_HZ[0] / per_order, "left"))
+            hi = int(np.searchsorted(self.orders, ISO_BAND_HZ[1] / per_order, "right"))
         va, vb = self._v_iso(a.amp), self._v_iso(b.amp)
-        v = (1 - s) * va + s * vb if va.shape == vb.shape else vb                        # (K, 4) [mm/s]
-        fk = self.orders * self.bpfo_per_hz * f
-        band = (fk >= ISO_BAND_HZ[0]) & (fk <= ISO_BAND_HZ[1])
-        r = np.sqrt(0.5 * np.sum(np.abs(v[band]) ** 2, axis=0))
-        out = {}
-        for bi, brg in enumerate(BEARINGS):
-            vv, hh = float(r[2 * bi]), float(r[2 * bi + 1])
-            out[brg] = {"vertical": vv, "horizontal": hh, "overall": max(vv, hh)}
-        return out
+        if va is vb or s == 0.0:
+            v = va[lo:hi]
+        elif va.shape != vb.shape:                                  # a model swap changed the orders: the new one
+            v = vb[lo:hi]
+        else:
+            v = (1.0 - s) * va[lo:hi] + s * vb[lo:hi]               # (K_band, 8) [mm/s]
+        p = np.einsum("ij,ij->j", v, v)
+        r = np.sqrt(0.5 * (p[:4] + p[4:])).tolist()
+        return {"de": {"vertical": r[0], "horizontal": r[1], "overall": max(r[0], r[1])},
+                "nde": {"vertical": r[2], "horizontal": r[3], "overall": max(r[2], r[3])}}
 
     def _ground_truth_base(self) -> dict:
         gt = self.case.ground_truth()

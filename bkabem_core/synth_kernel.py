@@ -110,6 +110,10 @@ def _load():
         acc.argtypes = [i64, i64, ptr, ptr, ptr]
         acc.restype = ctypes.c_int
         fns[dt] = (seg, acc)
+    feats = lib.synth_features
+    feats.argtypes = [i64, i64, ptr, ptr, ptr]
+    feats.restype = ctypes.c_int
+    fns["features"] = feats
     return fns
 
 
@@ -204,10 +208,28 @@ def new_acc(n_channels: int) -> np.ndarray:
     return acc
 
 
+FEATURE_NAMES = ("mean", "rms", "peak", "peak_to_peak", "crest_factor", "kurtosis")
+
+
 def features_from_acc(acc: np.ndarray, n: int, off) -> dict:
     """The dict of ``synth.waveform_features`` (mean, rms, peak, peak_to_peak, crest_factor, kurtosis) from the
-    accumulators of ``n`` samples per channel taken about ``off`` (C,)."""
-    from .synth import _moment_features      # here, not at the top: synth may import this module
+    accumulators of ``n`` samples per channel taken about ``off`` (C,), float64 (C,) arrays (views of one block).
+    In C when the kernel is built (``synth_features``), else :func:`features_from_acc_reference`."""
+    if _FNS is None:
+        return features_from_acc_reference(acc, n, off)
+    c = acc.shape[0]
+    off = np.ascontiguousarray(off, dtype=np.float64)
+    if acc.dtype != np.float64 or acc.shape != (c, 6) or not acc.flags.c_contiguous or off.shape != (c,):
+        raise ValueError(f"acc must be (C, 6) float64 and off (C,) (got {acc.shape} {acc.dtype}, {off.shape})")
+    out = np.empty((6, c))
+    if _FNS["features"](c, int(n), _ptr(acc, "acc"), _ptr(off, "off"), _ptr(out, "out")):
+        raise ValueError(f"synth_features rejected C={c}, n={n}")
+    return dict(zip(FEATURE_NAMES, out))
+
+
+def features_from_acc_reference(acc: np.ndarray, n: int, off) -> dict:
+    """:func:`features_from_acc` in numpy (``synth._moment_features``)."""
+    from .synth import _moment_features      # here, not at the top: synth imports this module
 
     s = acc[:, :4] / float(n)
     return _moment_features(s[:, 0], s[:, 1], s[:, 2], s[:, 3], acc[:, 4].copy(), acc[:, 5].copy(),
