@@ -376,7 +376,7 @@ class OrderModalForm:
         f0[in_dofs[2:], :] = -k_u.T
         self.static = (comb @ np.linalg.solve(rot.K, f0)[out]).T                      # (K, U) [m]
         self._c = None
-        if _MODAL_KERNEL is not None and comb.shape[0] <= 8:
+        if _MODAL_KERNEL is not None and comb.shape[0] <= 8 and 2 * n <= 1024:     # the kernel's limits (MAXR)
             # the C kernel's form: X = X0 + i w sum_r E'_r / (i w - lambda_r), E' = E / lambda in float32,
             # 8 outputs (zero-padded), real and imaginary parts split (see _modalsum.c)
             n_u = comb.shape[0]
