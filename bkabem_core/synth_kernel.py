@@ -5,8 +5,9 @@ that advances with a constant second difference (a linear speed ramp), optionall
 table (the next knot) and accumulating the moments of the chunk features on the fly (``acc``), so that
 :func:`features_from_acc` gives ``waveform_features`` without another pass over the samples. :func:`accumulate` adds
 a finished block (e.g. after the noise was added) to such accumulators. :func:`segment_reference` and
-:func:`accumulate_reference` are the same computations in numpy: the tests hold the kernel to them bit for bit, and
-callers use them when the kernel is not built (:data:`AVAILABLE` is False).
+:func:`accumulate_reference` are the same computations in numpy: the tests hold the kernel's samples to them bit for
+bit (the moments to ~1e-6: float32 blocks of 8 channels are summed in float, see ``_synthloop.c``), and callers use
+them when the kernel is not built (:data:`AVAILABLE` is False).
 
 Phase: fixed-point uint64, wrapping; one ball pass is :data:`PASS_UNITS` = 2^62 units, one table step
 ``2**phase_bits(N)`` units. For sample j = 0..m-1 of a call (modulo 2^64)::
