@@ -28,7 +28,9 @@
  *
  * Speed: GCC on x86-64 builds an AVX2 clone besides the baseline (target_clones, dispatched at load time); the
  * 8-channel float32 rows are then one 256-bit vector. The loops are plain C that the vectoriser maps to the
- * target's vectors; the moments use 4-lane double vectors with AVX2, 2-lane ones otherwise (dispatched per block).
+ * target's vectors. Moments: 8 float32 channels with AVX2 are summed in float per block and shifted into the double
+ * accumulators (moments8_f32_avx2); otherwise 4-lane double vectors with AVX2, 2-lane ones without (per block).
+ * Samples are bit for bit those of the numpy reference; the float block sums agree with it to ~1e-6.
  */
 #include <Python.h>
 #include <math.h>

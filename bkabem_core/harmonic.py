@@ -387,19 +387,19 @@ class OrderModalForm:
             self._c = [np.ascontiguousarray(self.poles.real), np.ascontiguousarray(self.poles.imag),
                        np.ascontiguousarray(e.real, dtype=np.float32), np.ascontiguousarray(e.imag, dtype=np.float32),
                        np.ascontiguousarray(x0.real), np.ascontiguousarray(x0.imag)]
-            self._c_out = (np.empty((n_k, 8)), np.empty((n_k, 8)))
-            self._c_ptrs = [a.ctypes.data for a in self._c + list(self._c_out)]
+            self._c_ptrs = [arr.ctypes.data for arr in self._c]
 
     def __call__(self, speed_hz: float) -> np.ndarray:
         """Complex displacement combinations (K, U) [m] at shaft speed ``speed_hz`` [Hz]."""
         w = self._w_per_hz * float(speed_hz)
         if self._c is not None:
-            lr, li, er, ei, dr, di, xr, xi = self._c_ptrs
-            _MODAL_KERNEL(self.orders.size, self.poles.shape[1], w.ctypes.data, lr, li, er, ei, dr, di, xr, xi)
+            out = np.empty((2, self.orders.size, 8))          # per call: the form may be shared across threads
+            _MODAL_KERNEL(self.orders.size, self.poles.shape[1], w.ctypes.data, *self._c_ptrs, out[0].ctypes.data,
+                          out[1].ctypes.data)
             x = np.empty(self.direct.shape, complex)
             n_u = x.shape[1]
-            x.real = self._c_out[0][:, :n_u]
-            x.imag = self._c_out[1][:, :n_u]
+            x.real = out[0, :, :n_u]
+            x.imag = out[1, :, :n_u]
             return x
         return self.evaluate_numpy(speed_hz)
 

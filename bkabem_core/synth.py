@@ -819,7 +819,9 @@ class Synthesizer:
 
     def set_model(self, model: BkaBem) -> None:
         """Switch to another model (e.g. a new defect depth) from the next knot on (``synth.model = m`` does the
-        same). Phase stays continuous; the amplitudes move from the old to the new spectrum over one segment."""
+        same). Phase stays continuous; the amplitudes move from the old to the new spectrum over one segment.
+        With the modal spectrum the new model's modal form is made at its first use (~1.5 s, once per model): call
+        :meth:`prepare` right after this one where the next chunk must not wait."""
         if not isinstance(model, BkaBem):
             raise SynthError("model", f"must be a BkaBem (got {type(model).__name__})")
         use_modal = self._use_modal
