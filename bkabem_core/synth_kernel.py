@@ -111,6 +111,11 @@ def _load():
         acc.argtypes = [i64, i64, ptr, ptr, ptr]
         acc.restype = ctypes.c_int
         fns[dt] = (seg, acc)
+    for dt, suf in ((np.dtype(np.float32), "f32"), (np.dtype(np.float64), "f64")):
+        nrm = getattr(lib, f"synth_normals_{suf}")
+        nrm.argtypes = [ctypes.c_uint64, i64, ptr]
+        nrm.restype = ctypes.c_int
+        fns[("normals", dt)] = nrm
     feats = lib.synth_features
     feats.argtypes = [i64, i64, ptr, ptr, ptr]
     feats.restype = ctypes.c_int
@@ -207,6 +212,19 @@ def new_acc(n_channels: int) -> np.ndarray:
     acc[:, 4] = -np.inf
     acc[:, 5] = np.inf
     return acc
+
+
+def normals(key: int, n: int, dtype=np.float32) -> np.ndarray:
+    """``n`` standard normal numbers of the stream ``key`` (0 <= key < 2^64), float32 or float64, from the C
+    generator (xoshiro256+ and Doornik's ziggurat, ``_synthloop.c``): the same key always gives the same numbers.
+    Raises RuntimeError if the kernel is not built."""
+    if _FNS is None:
+        raise RuntimeError("the C kernel (bkabem_core/_synthloop.c) is not built: run `pip install -e .`")
+    dt = np.dtype(dtype)
+    out = np.empty(int(n), dtype=dt)
+    if _FNS[("normals", dt)](int(key) & _MASK64, out.size, _ptr(out, "out")):
+        raise ValueError(f"synth_normals rejected n={n}")
+    return out
 
 
 FEATURE_NAMES = ("mean", "rms", "peak", "peak_to_peak", "crest_factor", "kurtosis")

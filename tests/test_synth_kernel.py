@@ -265,3 +265,24 @@ def test_features_of_a_sine_and_a_constant():
     for key in ("rms", "peak", "peak_to_peak", "crest_factor", "kurtosis"):
         assert f[key][1] == 0.0, key                        # a constant: zeros, not NaN
     assert f["mean"][1] == 2.5
+
+
+def test_normals_are_standard_normal_and_keyed():
+    """The C noise generator (xoshiro256+ and Doornik's ziggurat): moments, a Kolmogorov-Smirnov test, the tail
+    beyond the ziggurat's base layer (R = 3.4426), no lag-1 correlation; the same key gives the same numbers, another
+    key others; float32 is float64 rounded. Thresholds are ~5 standard errors (the test is deterministic)."""
+    from scipy import stats
+
+    x = sk.normals(7, 2_000_000, np.float64)
+    n = x.size
+    assert abs(x.mean()) < 5 / np.sqrt(n)
+    assert abs(x.var() - 1) < 5 * np.sqrt(2 / n)
+    assert abs(stats.kurtosis(x, fisher=False) - 3) < 5 * np.sqrt(24 / n)
+    assert stats.kstest(x[:200_000], "norm").pvalue > 1e-3
+    p_tail = 2 * stats.norm.sf(3.442619855899)
+    assert abs((np.abs(x) > 3.442619855899).mean() / p_tail - 1) < 5 / np.sqrt(p_tail * n)
+    assert abs(np.corrcoef(x[:-1], x[1:])[0, 1]) < 5 / np.sqrt(n)
+    np.testing.assert_array_equal(sk.normals(7, 1000, np.float64), x[:1000])
+    assert not np.allclose(sk.normals(8, 1000, np.float64), x[:1000])
+    np.testing.assert_array_equal(sk.normals(7, 1000, np.float32), x[:1000].astype(np.float32))
+    assert sk.normals(2**64 - 1, 3).shape == (3,)
