@@ -82,8 +82,9 @@ def cmd_node(args) -> int:
         if args.rerun_save and not Path(args.rerun_save).resolve().parent.is_dir():
             fail("node", f"--rerun-save: directory {Path(args.rerun_save).parent} does not exist")
 
-        def on_node(node):
+        def attach(node):
             return attach_sinks(node, record=args.record, rerun_save=args.rerun_save, rerun_connect=connect)
+        on_node = attach
 
     return run(_ros_args(args), _overrides(args), node_name=args.name, namespace=args.namespace, on_node=on_node)
 

@@ -1,7 +1,6 @@
 """The 4-DOF quasi-static excitation model and its BPFO orders (bkabem_core.excitation)."""
 
 import dataclasses
-import math
 
 import numpy as np
 import pytest
