@@ -33,6 +33,23 @@ typedef double v4 __attribute__((vector_size(32)));
 
 typedef float f4 __attribute__((vector_size(16)));
 
+/* (xr0, xr1, xi0, xi1) += g E'_r over the 8 outputs of pole r (float32 residues widened to double),
+ * g = gr + i gi. A macro: AVX values must not cross a function boundary in the baseline clone. */
+#define ACC_POLE(gr, gi, r, xr0, xr1, xi0, xi1)                                                          \
+    do {                                                                                                  \
+        f4 a_, b_, c_, d_;                                                                                \
+        __builtin_memcpy(&a_, er + 8 * (r), sizeof a_);                                                   \
+        __builtin_memcpy(&b_, er + 8 * (r) + 4, sizeof b_);                                               \
+        __builtin_memcpy(&c_, ei + 8 * (r), sizeof c_);                                                   \
+        __builtin_memcpy(&d_, ei + 8 * (r) + 4, sizeof d_);                                               \
+        v4 pr0_ = __builtin_convertvector(a_, v4), pr1_ = __builtin_convertvector(b_, v4);                \
+        v4 pi0_ = __builtin_convertvector(c_, v4), pi1_ = __builtin_convertvector(d_, v4);                \
+        xr0 += (gr) * pr0_ - (gi) * pi0_;                                                                 \
+        xr1 += (gr) * pr1_ - (gi) * pi1_;                                                                 \
+        xi0 += (gr) * pi0_ + (gi) * pr0_;                                                                 \
+        xi1 += (gr) * pi1_ + (gi) * pr1_;                                                                 \
+    } while (0)
+
 /* Longest pole list per order the stack buffers hold (2 x ndof; 60 DOF -> 120). */
 #define MAXR 1024
 
@@ -60,44 +77,12 @@ int modal_sum8(int nk, int nr, const double *w, const double *lam_re, const doub
         const float *er = e_re + (long)k * nr * 8, *ei = e_im + (long)k * nr * 8;
         int r = 0;
         for (; r + 1 < nr; r += 2) {
-            double gr = gre[r], gi = gim[r], hr = gre[r + 1], hi = gim[r + 1];
-            f4 a, b, c, d, e, f, g, h;
-            __builtin_memcpy(&a, er + 8 * r, sizeof a);
-            __builtin_memcpy(&b, er + 8 * r + 4, sizeof b);
-            __builtin_memcpy(&c, ei + 8 * r, sizeof c);
-            __builtin_memcpy(&d, ei + 8 * r + 4, sizeof d);
-            __builtin_memcpy(&e, er + 8 * r + 8, sizeof e);
-            __builtin_memcpy(&f, er + 8 * r + 12, sizeof f);
-            __builtin_memcpy(&g, ei + 8 * r + 8, sizeof g);
-            __builtin_memcpy(&h, ei + 8 * r + 12, sizeof h);
-            v4 pr0 = __builtin_convertvector(a, v4), pr1 = __builtin_convertvector(b, v4);
-            v4 pi0 = __builtin_convertvector(c, v4), pi1 = __builtin_convertvector(d, v4);
-            v4 qr0 = __builtin_convertvector(e, v4), qr1 = __builtin_convertvector(f, v4);
-            v4 qi0 = __builtin_convertvector(g, v4), qi1 = __builtin_convertvector(h, v4);
-            ar0 += gr * pr0 - gi * pi0;
-            ar1 += gr * pr1 - gi * pi1;
-            ai0 += gr * pi0 + gi * pr0;
-            ai1 += gr * pi1 + gi * pr1;
-            br0 += hr * qr0 - hi * qi0;
-            br1 += hr * qr1 - hi * qi1;
-            bi0 += hr * qi0 + hi * qr0;
-            bi1 += hr * qi1 + hi * qr1;
+            ACC_POLE(gre[r], gim[r], r, ar0, ar1, ai0, ai1);
+            ACC_POLE(gre[r + 1], gim[r + 1], r + 1, br0, br1, bi0, bi1);
         }
         ar0 += br0; ar1 += br1; ai0 += bi0; ai1 += bi1;
-        for (; r < nr; ++r) {
-            double gr = gre[r], gi = gim[r];
-            f4 a, b, c, d;
-            __builtin_memcpy(&a, er + 8 * r, sizeof a);
-            __builtin_memcpy(&b, er + 8 * r + 4, sizeof b);
-            __builtin_memcpy(&c, ei + 8 * r, sizeof c);
-            __builtin_memcpy(&d, ei + 8 * r + 4, sizeof d);
-            v4 pr0 = __builtin_convertvector(a, v4), pr1 = __builtin_convertvector(b, v4);
-            v4 pi0 = __builtin_convertvector(c, v4), pi1 = __builtin_convertvector(d, v4);
-            ar0 += gr * pr0 - gi * pi0;
-            ar1 += gr * pr1 - gi * pi1;
-            ai0 += gr * pi0 + gi * pr0;
-            ai1 += gr * pi1 + gi * pr1;
-        }
+        for (; r < nr; ++r) ACC_POLE(gre[r], gim[r], r, ar0, ar1, ai0, ai1);
+        /* X = X0 + i w S */
         v4 x0r0, x0r1, x0i0, x0i1;
         LOAD4(x0r0, x0_re + 8 * k); LOAD4(x0r1, x0_re + 8 * k + 4);
         LOAD4(x0i0, x0_im + 8 * k); LOAD4(x0i1, x0_im + 8 * k + 4);
