@@ -137,3 +137,61 @@ def test_order_modal_form_c_kernel_matches_numpy(model):
             err = (np.abs(got - ref).max(axis=0) / np.abs(ref).max(axis=0)).max()
             assert 0 < err <= 2e-6, err                     # > 0: the float32 kernel really ran
     np.testing.assert_allclose(form.static, form.evaluate_numpy(0.0), rtol=1e-9, atol=1e-9 * np.abs(form.static).max())
+
+
+def _reference_budget(x, orders, tol):
+    """tol x min_p max_k' |X_k'u| k'^p / k^p over p = 0, 1, 2 (SpeedCells' reference, from the exact values)."""
+    kk = orders.astype(float)[:, None]
+    mag = np.abs(x)
+    return tol * np.min([(mag * kk ** p).max(axis=0) / kk ** p for p in (0, 1, 2)], axis=0)
+
+
+@pytest.mark.parametrize("cell_hz, degree", [(0.5, 9), (4.0, 3)])
+def test_speed_cells_stay_within_their_bound(model, cell_hz, degree):
+    """SpeedCells (Chebyshev interpolant of the far poles per speed cell, near poles exact) against the full
+    pole sum in double, at random speeds, cell borders and the lightly damped resonances' neighbourhood: every
+    order and output within the stated tolerance of its reference. The coarse setting (4 Hz cells, degree 3)
+    must still hold the bound: more poles are then taken as near, which is what the bound is for."""
+    from bkabem_core.harmonic import SpeedCells
+
+    form = model.order_modal_form()
+    cells = SpeedCells(form, cell_hz=cell_hz, degree=degree, tol=2e-6)
+    rng = np.random.default_rng(5)
+    speeds = np.concatenate([rng.uniform(0.05, model.case.max_speed_hz, 40),
+                             cell_hz * np.array([1.0, 7.0, 20.0]), cell_hz * np.array([3.0, 9.0]) - 1e-9])
+    for f in speeds:
+        exact = form.evaluate_numpy(f)
+        got = cells(f)
+        budget = _reference_budget(exact, form.orders, 2e-6)
+        assert np.all(np.abs(got - exact) <= budget * 1.01), (f, np.max(np.abs(got - exact) / budget))
+        np.testing.assert_allclose(got, cells.evaluate_numpy(f), rtol=0, atol=1e-12 * np.abs(exact).max())
+    near = np.mean([c[2].mean() for c in cells._cells.values()])
+    assert near < (0.2 if degree == 3 else 0.02), near      # the point of cells: few poles are summed exactly
+
+
+def test_speed_cells_need_their_near_poles(model):
+    """Negative control: at the resonance of a pole taken as near, the cell's far-pole interpolant alone misses by
+    far more than the budget; the near poles (summed exactly) are what keeps the cells within the bound."""
+    from bkabem_core import harmonic
+    from bkabem_core.harmonic import SpeedCells
+
+    form = model.order_modal_form()
+    cells = SpeedCells(form)
+    f_res = form.poles.imag / form._w_per_hz[:, None]          # resonance speed of each pole and order [Hz]
+    worst, checked = 0.0, 0
+    for i in range(2, int(model.case.max_speed_hz / cells.cell_hz)):
+        arrays, header, near = cells.cell(i)
+        for k, r in zip(*np.nonzero(near)):
+            f = float(f_res[k, r])
+            if not i * cells.cell_hz <= f < (i + 1) * cells.cell_hz:
+                continue
+            exact = form.evaluate_numpy(f)
+            t = (f - (i + 0.5) * cells.cell_hz) / (0.5 * cells.cell_hz)
+            tc = np.polynomial.chebyshev.chebvander(np.array([t]), cells.degree)[0]
+            far_only = np.einsum("d,du->u", tc, arrays[1][k] + 1j * arrays[2][k])[:exact.shape[1]]
+            budget = _reference_budget(exact, form.orders, 2e-6)
+            worst = max(worst, float(np.max(np.abs(far_only - exact[k]) / budget[k])))
+            assert np.all(np.abs(cells(f) - exact) <= budget * 1.01)
+            checked += 1
+    assert checked > 10 and worst > 100, (checked, worst)
+    assert harmonic._CELL_KERNEL is not None               # the compiled evaluation is part of the install
