@@ -949,9 +949,10 @@ class Synthesizer:
             spectrum.build(0.0, min(self.case.max_speed_hz, self.max_speed_for_rate_hz()))
 
     #: cost model of ``spectrum="auto"`` [s]: one exact solve per knot of a new speed; one modal evaluation per
-    #: knot; the modal form's set-up per order, scaled with the cube of the model's DOFs (measured on the
-    #: embedded 60-DOF case, BENCHMARKS.md)
-    _COST_EXACT_S, _COST_MODAL_S, _COST_MODAL_SETUP_PER_ORDER_S = 0.6e-3, 0.06e-3, 0.036
+    #: knot; the modal form's set-up per order, scaled with the cube of the model's DOFs; one speed cell per
+    #: order (measured on the embedded 60-DOF case, BENCHMARKS.md)
+    _COST_EXACT_S, _COST_MODAL_S, _COST_MODAL_SETUP_PER_ORDER_S = 0.6e-3, 0.01e-3, 0.036
+    _COST_CELL_PER_ORDER_S = 0.08e-3
 
     def _choose_spectrum(self, profile: "SpeedProfile | None", seconds: float) -> None:
         """``spectrum="auto"``: modal when streaming (an unknown number of speeds: the set-up pays off after a few
@@ -970,8 +971,14 @@ class Synthesizer:
             if df > 0:
                 knots += max((t_end[i + 1] - t_end[i]) / self.knot_s, df / self.max_speed_step_hz) + 1
         made = self._modal is not None or self.model.has_order_modal_form(self._comb)
-        setup = 0.0 if made else (self._COST_MODAL_SETUP_PER_ORDER_S * self.model.orders.size
-                                  * (self.model.rotor.ndof / 60.0) ** 3)
+        n_k, scale = self.model.orders.size, (self.model.rotor.ndof / 60.0) ** 3
+        setup = 0.0 if made else self._COST_MODAL_SETUP_PER_ORDER_S * n_k * scale
+        cell_hz = 0.5                                                       # SpeedCells' default cell
+        cells = range(int(f_end.min() // cell_hz), int(f_end.max() // cell_hz) + 1)
+        if made:
+            have = self.model.order_modal_form(self._comb).speed_cells()._cells
+            cells = [i for i in cells if i not in have]
+        setup += len(cells) * self._COST_CELL_PER_ORDER_S * n_k * scale
         self._use_modal = setup + self._COST_MODAL_S * knots < self._COST_EXACT_S * knots
 
     def _amplitudes(self, f: float) -> "_Amplitudes":
