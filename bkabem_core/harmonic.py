@@ -516,11 +516,10 @@ class SpeedCells:
             scale = 1.0 / (h[:, None] * np.abs(t_top) * dist)                          # inf on the segment
             rel = np.abs(e) * scale[:, :, None] / budget[:, None, :]
             rel = np.nan_to_num(rel, nan=0.0, posinf=np.inf).max(axis=2)             # (K, R); 0 residue: 0
-        near = np.zeros((n_k, n_r), bool)
-        for k in range(n_k):
-            order = np.argsort(rel[k], kind="stable")
-            n_far = int(np.searchsorted(np.cumsum(rel[k][order]), 1.0, side="right"))
-            near[k, order[n_far:]] = True
+        order = np.argsort(rel, axis=1, kind="stable")                              # smallest bound first
+        far_sorted = np.cumsum(np.take_along_axis(rel, order, axis=1), axis=1) <= 1.0
+        near = np.ones((n_k, n_r), bool)
+        np.put_along_axis(near, order, ~far_sorted, axis=1)
         far_values = direct[:, None, :] + np.matmul(np.where(near[:, None, :], 0.0, g), e)   # (K, n, U)
         coef = np.einsum("dj,kju->kdu", self._to_coef, far_values)                  # (K, D+1, U)
         if not np.all(np.isfinite(coef)):
