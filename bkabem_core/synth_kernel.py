@@ -7,17 +7,26 @@ table (the next knot) and accumulating the moments of the chunk features on the 
 a finished block (e.g. after the noise was added) to such accumulators. :func:`segment_reference` and
 :func:`accumulate_reference` are the same computations in numpy: the tests hold the kernel's samples to them bit for
 bit (the moments to ~1e-6: float32 blocks of 8 channels are summed in float, see ``_synthloop.c``), and callers use
-them when the kernel is not built (:data:`AVAILABLE` is False).
+them when the kernel is not built (:data:`AVAILABLE` is False). Exception: float32 with 8 channels on a CPU with AVX2
+and FMA (:data:`FAST_PATH`) takes a fast path with fused multiply-adds, whose samples differ from the reference by
+float rounding (a few 2^-24 of the taps' magnitude; still chunk invariant); ``segment(..., exact=True)`` takes the
+generic path, bit for bit the reference, everywhere.
+
+:func:`knot_table` builds the padded spline table of a knot from the modal sum's amplitudes in C (quarter-wave
+symmetry, sums in double; :func:`quarter_basis` holds its cosines and sines), :func:`knot_table_reference` is the
+direct formula in numpy.
 
 Phase: fixed-point uint64, wrapping; one ball pass is :data:`PASS_UNITS` = 2^62 units, one table step
 ``2**phase_bits(N)`` units. For sample j = 0..m-1 of a call (modulo 2^64)::
 
     U_j = phase0 + j dphase0 + ddphase j (j - 1) / 2        (U_{j+1} = U_j + D_j, D_{j+1} = D_j + ddphase)
     V_j = U_j + warp[j]                                       (warp optional)
-    i = (V_j >> FB) & (N - 1);   q = (V_j >> (FB - 12)) & 4095
+    i = (V_j >> FB) & (N - 1);   q = (V_j >> (FB - 24)) & (2^24 - 1)
 
 Interpolation: cubic uniform B-spline of a coefficient table ``(N + 3, C)`` with wrap padding (row n holds
-coefficient (n - 1) mod N; see :func:`pad_coefficients`), weights :func:`spline_weights` ``[q]``::
+coefficient (n - 1) mod N; see :func:`pad_coefficients`), weights :func:`spline_weights` ``(q)``, computed from the
+fraction ``t = q 2^-24`` of the table step (exact in float32) by one fixed sequence of operations in the tables'
+dtype (the C kernel's, see :func:`spline_weights`)::
 
     va = ((w0 A[i] + w1 A[i+1]) + w2 A[i+2]) + w3 A[i+3]       in the tables' dtype, every operation rounded
 
@@ -34,7 +43,9 @@ Arguments of :func:`segment`:
 * ``xi0``: position of sample 0 relative to knot a [samples]; ``blend_scale``: ``2^16 / (b.x - a.x)``;
 * ``out``: (m, C) C-contiguous, written; dtype the tables' dtype;
 * ``acc``: optional (C, 6) float64 accumulators per channel [sum d, sum d^2, sum d^3, sum d^4, max d, min d] of
-  ``d = out - off`` (see :func:`new_acc`), updated in place; ``off``: (C,) float64, e.g. the static part.
+  ``d = out - off`` (see :func:`new_acc`), updated in place; ``off``: (C,) float64, e.g. the static part (ignored
+  without ``acc``);
+* ``exact``: True takes the generic path (bit for bit :func:`segment_reference`) also where the fast path applies.
 
 Splitting a call at sample j into two calls (phase0 and dphase0 advanced as above, xi0 by j, warp sliced) gives the
 same samples, provided ``xi0 + j`` is exact in double (e.g. xi0 a multiple of a power of 2 well below 2^52): the
@@ -50,7 +61,7 @@ import numpy as np
 
 #: Phase units of one ball pass.
 PASS_UNITS = 1 << 62
-WEIGHT_BITS = 12               # spline weight index: bits of the fraction of a table step
+FRAC_BITS = 24                 # bits of the fraction of a table step the spline weights are computed from
 BLEND_LEVELS = 1 << 16         # time-blend weight quantised to 2^-16
 MIN_TABLE, MAX_TABLE = 64, 1 << 16
 _MASK64 = (1 << 64) - 1
@@ -67,26 +78,35 @@ def phase_bits(n_table: int) -> int:
     return 62 - (n.bit_length() - 1)
 
 
-_WEIGHTS: dict = {}        # dtype -> (table, address)
+def spline_weights(frac, dtype) -> np.ndarray:
+    """(n, 4) cubic B-spline weights [w0, w1, w2, w3] at the fractions ``t = frac * 2^-24`` of a table step
+    (``frac``: integers in [0, 2^24)), in ``dtype`` (float32 or float64), bit for bit those of the C kernel::
+
+        s = 1 - t;  t2 = t t, s2 = s s;  t3 = t2 t, s3 = s2 s
+        w0 = s3 (1/6);  w1 = 2/3 - (t2 (2 - t)) 0.5;  w2 = 2/3 - (s2 (2 - s)) 0.5;  w3 = t3 (1/6)
+
+    every operation rounded in ``dtype`` (1/6 and 2/3 rounded to it): the uniform cubic B-spline
+    (1-t)^3/6, (3t^3 - 6t^2 + 4)/6, (-3t^3 + 3t^2 + 3t + 1)/6, t^3/6 to a few units of the dtype's rounding."""
+    return np.stack(_weights_from_fraction(np.asarray(frac), np.dtype(dtype)), axis=1)
 
 
-def spline_weights(dtype) -> np.ndarray:
-    """(4096, 4) cubic B-spline weights [w0, w1, w2, w3] at t = q / 4096, computed in double and cast to ``dtype``
-    (cached, read-only; the C kernel receives this very table)."""
-    return _weights(np.dtype(dtype))[0]
-
-
-def _weights(dt: np.dtype):
-    """(spline_weights(dt), its address), cached (the address lookup of a read-only array costs ~3 us)."""
-    hit = _WEIGHTS.get(dt)
-    if hit is None:
-        t = np.arange(1 << WEIGHT_BITS, dtype=np.float64) / (1 << WEIGHT_BITS)
-        t2, t3 = t * t, t * t * t
-        w = np.stack([(1.0 - t) ** 3 / 6.0, (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0,
-                      (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0, t3 / 6.0], axis=1).astype(dt)
-        w.flags.writeable = False
-        hit = _WEIGHTS[dt] = (w, w.ctypes.data)
-    return hit
+def _weights_from_fraction(frac: np.ndarray, dt: np.dtype):
+    """(w0, w1, w2, w3) arrays of :func:`spline_weights` (the operation sequence of ``_synthloop.c``, WEIGHT_BLOCK)."""
+    f = dt.type
+    t = frac.astype(dt)                       # exact: frac < 2^24
+    t *= f(2.0 ** -FRAC_BITS)
+    s = f(1.0) - t
+    t2, s2 = t * t, s * s
+    t3, s3 = t2 * t, s2 * s
+    e, g = f(2.0) - t, f(2.0) - s
+    e *= t2
+    g *= s2
+    e *= f(0.5)
+    g *= f(0.5)
+    sixth, two_thirds = f(1.0 / 6.0), f(2.0 / 3.0)
+    s3 *= sixth
+    t3 *= sixth
+    return s3, two_thirds - e, two_thirds - g, t3
 
 
 def pad_coefficients(coef: np.ndarray) -> np.ndarray:
@@ -96,22 +116,23 @@ def pad_coefficients(coef: np.ndarray) -> np.ndarray:
 
 
 def _load():
-    """{dtype: (segment, accumulate)} of the compiled kernel (bkabem_core/_synthloop.c), or None if not built."""
+    """(extension module, {name: ctypes function}) of the compiled kernel (bkabem_core/_synthloop.c), or None if it
+    is not built. segment and knot_table are the module's Python functions (cheap calls, see _synthloop.c), the
+    others ctypes functions of the same library."""
     spec = importlib.util.find_spec("bkabem_core._synthloop")
     if spec is None or not spec.origin or not spec.origin.endswith((".so", ".pyd", ".dylib")):
         return None
+    ext = importlib.import_module("bkabem_core._synthloop")
+    if not hasattr(ext, "segment"):                     # a stale build of an older source
+        return None
     lib = ctypes.CDLL(spec.origin)
-    ptr, i64, u64, dbl = ctypes.c_void_p, ctypes.c_int64, ctypes.c_uint64, ctypes.c_double
+    ptr, i64 = ctypes.c_void_p, ctypes.c_int64
     fns = {}
     for dt, suf in ((np.dtype(np.float32), "f32"), (np.dtype(np.float64), "f64")):
-        seg = getattr(lib, f"synth_segment_{suf}")
-        seg.argtypes = [i64, i64, i64, ctypes.c_int, u64, u64, u64, ptr, ptr, ptr, dbl, dbl, ptr, ptr, ptr, ptr]
-        seg.restype = ctypes.c_int
         acc = getattr(lib, f"synth_accumulate_{suf}")
         acc.argtypes = [i64, i64, ptr, ptr, ptr]
         acc.restype = ctypes.c_int
-        fns[dt] = (seg, acc)
-    for dt, suf in ((np.dtype(np.float32), "f32"), (np.dtype(np.float64), "f64")):
+        fns[dt] = acc
         nrm = getattr(lib, f"synth_normals_{suf}")
         nrm.argtypes = [ctypes.c_uint64, i64, ptr]
         nrm.restype = ctypes.c_int
@@ -120,12 +141,37 @@ def _load():
     feats.argtypes = [i64, i64, ptr, ptr, ptr]
     feats.restype = ctypes.c_int
     fns["features"] = feats
-    return fns
+    lib.synth_fast_path.argtypes = []
+    lib.synth_fast_path.restype = ctypes.c_int
+    fns["fast_path"] = bool(lib.synth_fast_path())
+    fns["lib"] = lib
+    return ext, fns
 
 
-_FNS = _load()
+_LOADED = _load()
+_EXT, _FNS = _LOADED if _LOADED is not None else (None, None)
+_EXT_LIB = _FNS["lib"] if _FNS is not None else None
 #: True if the C kernel is built (``pip install -e .`` or ``python setup.py build_ext --inplace``).
 AVAILABLE = _FNS is not None
+#: True if :func:`segment` takes the fast path (fused multiply-adds) for float32 with 8 channels on this CPU.
+FAST_PATH = bool(AVAILABLE and _FNS["fast_path"])
+_segment_c = _EXT.segment if AVAILABLE else None
+
+
+def _set_isa_cap(cap: int) -> int:
+    """Cap the run-time dispatch of the C kernels (2: AVX-512 knot table, 1: AVX2 + FMA, 0: baseline only) for the
+    tests of the other paths; returns the previous cap. Process-wide: not while kernels run in other threads."""
+    if not AVAILABLE:
+        return 0
+    fn = _EXT_LIB.synth_set_isa_cap
+    fn.argtypes, fn.restype = [ctypes.c_int], ctypes.c_int
+    return fn(int(cap))
+
+
+def fast_path() -> bool:
+    """True if :func:`segment` takes the fast path for float32 with 8 channels now (CPU and :func:`_set_isa_cap`)."""
+    return bool(AVAILABLE and _EXT_LIB.synth_fast_path())
+_knot_table_c = _EXT.knot_table if AVAILABLE else None
 
 
 def _ptr(a: np.ndarray, name: str) -> int:
@@ -137,17 +183,17 @@ def _ptr(a: np.ndarray, name: str) -> int:
     return a.ctypes.data
 
 
-def _kernel(dtype):
+def _accumulate_fn(dtype):
     if _FNS is None:
         raise RuntimeError("the C sample loop (bkabem_core/_synthloop.c) is not built: run `pip install -e .`")
-    fns = _FNS.get(dtype)
-    if fns is None:
+    fn = _FNS.get(dtype)
+    if fn is None:
         raise ValueError(f"dtype must be float32 or float64 (got {dtype})")
-    return fns
+    return fn
 
 
 def _check_segment(warp, table_a, table_b, out, acc, off):
-    """Shapes and dtypes of :func:`segment`'s arrays; returns (m, C, N, FB)."""
+    """Shapes and dtypes of :func:`segment_reference`'s arrays; returns (m, C, N, FB)."""
     if out.ndim != 2:
         raise ValueError(f"out must be (m, C) (got shape {out.shape})")
     if not out.flags.writeable:
@@ -173,26 +219,20 @@ def _check_segment(warp, table_a, table_b, out, acc, off):
 
 
 def segment(phase0: int, dphase0: int, ddphase: int, warp, table_a: np.ndarray, table_b, xi0: float,
-            blend_scale: float, out: np.ndarray, acc=None, off=None) -> None:
+            blend_scale: float, out: np.ndarray, acc=None, off=None, exact: bool = False) -> None:
     """Samples of one call into ``out`` (m, C) with the C kernel (see the module docstring).
 
-    Raises RuntimeError if the kernel is not built, ValueError on wrong shapes, dtypes or non-contiguous arrays."""
-    seg = _kernel(out.dtype)[0]
-    m, c, n, fb = _check_segment(warp, table_a, table_b, out, acc, off)
-    if m == 0:
-        return
-    rc = seg(m, c, n, fb, int(phase0) & _MASK64, int(dphase0) & _MASK64, int(ddphase) & _MASK64,
-             None if warp is None else _ptr(warp, "warp"), _ptr(table_a, "table_a"),
-             None if table_b is None else _ptr(table_b, "table_b"), xi0, blend_scale,
-             _weights(out.dtype)[1], _ptr(out, "out"),
-             None if acc is None else _ptr(acc, "acc"), None if acc is None else _ptr(off, "off"))
-    if rc:
-        raise ValueError(f"synth_segment rejected m={m}, C={c}, N={n}")
+    The arguments are checked in C (``_synthloop.c``, py_segment: C-contiguity, writeability, dtypes and shapes):
+    ~1 us per call instead of ~6 us of Python checks and ctypes conversions. Raises RuntimeError if the kernel is
+    not built, ValueError on wrong shapes, dtypes or non-contiguous arrays."""
+    if _segment_c is None:
+        raise RuntimeError("the C sample loop (bkabem_core/_synthloop.c) is not built: run `pip install -e .`")
+    _segment_c(phase0, dphase0, ddphase, warp, table_a, table_b, xi0, blend_scale, out, acc, off, exact)
 
 
 def accumulate(x: np.ndarray, off: np.ndarray, acc: np.ndarray) -> None:
     """Add the moments of the block ``x`` (n, C) to ``acc`` (C, 6) with the C kernel (see :func:`new_acc`)."""
-    fn = _kernel(x.dtype)[1]
+    fn = _accumulate_fn(x.dtype)
     if x.ndim != 2:
         raise ValueError(f"x must be (n, C) (got shape {x.shape})")
     n, c = x.shape
@@ -255,6 +295,120 @@ def features_from_acc_reference(acc: np.ndarray, n: int, off) -> dict:
                             np.asarray(off, dtype=np.float64))
 
 
+# ----------------------------------------------------------------------------------------- knot table
+_KNOT_JB = 6                   # values of j per block of the C kernel (KNOT_JB): the basis has a multiple of it rows
+class QuarterBasis:
+    """Cosines and sines of a knot table's orders over a quarter wave, made once per (orders, N) (see
+    :func:`quarter_basis`); read-only.
+
+    Attributes: ``orders`` (K,) int64; ``n_table`` N; ``n_even`` the number of even orders; ``perm`` (K,) int64 the
+    orders' indices, even orders first (each parity in the given order); ``basis`` (R, K, 2) float64
+    ``[cos, sin](orders[perm] 2 pi j / N)`` for j = 0..R-1, R = N/4 + 1 rounded up to a multiple of 6 (the C
+    kernel's blocks of j; rows beyond N/4 are padding), with
+    the angle reduced exactly to a quarter turn first, so that cos and sin are exactly 0 and +-1 at multiples of
+    pi / 2 (the quarter-wave identities of ``_synthloop.c`` need it at j = N/4)."""
+
+    __slots__ = ("orders", "n_table", "n_even", "perm", "basis", "_full")
+
+    def __init__(self, orders, n_table: int):
+        orders = np.asarray(orders)
+        n = int(n_table)
+        phase_bits(n)                                   # N a power of 2 in 64..65536
+        if orders.ndim != 1 or not np.issubdtype(orders.dtype, np.integer) and not np.all(orders == np.round(orders)):
+            raise ValueError(f"orders must be a 1-d array of integers (got {orders!r})")
+        orders = orders.astype(np.int64)
+        if orders.size and (orders.min() < 1 or 2 * orders.max() >= n):
+            raise ValueError(f"orders must be in 1 .. N/2 - 1 = {n // 2 - 1} (got {orders.min()} .. {orders.max()})")
+        even = orders % 2 == 0
+        perm = np.concatenate([np.flatnonzero(even), np.flatnonzero(~even)]).astype(np.int64)
+        rows = -(-(n // 4 + 1) // _KNOT_JB) * _KNOT_JB
+        j = np.arange(rows, dtype=np.int64)
+        cos, sin = _cos_sin_exact((j[:, None] * orders[perm][None, :]) % n, n)
+        basis = np.ascontiguousarray(np.stack([cos, sin], axis=2))
+        for a in (orders, perm, basis):
+            a.flags.writeable = False
+        self.orders, self.n_table, self.n_even, self.perm, self.basis = orders, n, int(even.sum()), perm, basis
+        self._full = None
+
+    def full(self):
+        """(cos, sin) (N + 3, K) of orders 2 pi n / N at n = (r - 1) mod N, r = 0..N+2 (the table rows), for
+        :func:`knot_table_reference` (made when first asked, kept)."""
+        if self._full is None:
+            n = self.n_table
+            r = (np.arange(n + 3, dtype=np.int64) - 1) % n
+            self._full = _cos_sin_exact((r[:, None] * self.orders[None, :]) % n, n)
+        return self._full
+
+
+def _cos_sin_exact(m: np.ndarray, n: int):
+    """cos and sin of 2 pi m / n for integers 0 <= m < n (n divisible by 4), reduced exactly to the first quadrant."""
+    quarter = n // 4
+    q, r = np.divmod(m, quarter)
+    a = (2 * np.pi / n) * r
+    c0, s0 = np.cos(a), np.sin(a)
+    cos = np.choose(q, [c0, -s0, -c0, s0])
+    sin = np.choose(q, [s0, c0, -s0, -c0])
+    return cos, sin
+
+
+def quarter_basis(orders, n_table: int) -> QuarterBasis:
+    """The :class:`QuarterBasis` of positive integer ``orders`` (each < N/2) and table size ``n_table`` (a power of 2
+    in 64..65536) for :func:`knot_table`: make it once per model and table size."""
+    return QuarterBasis(orders, n_table)
+
+
+def knot_table(x: np.ndarray, cindex: np.ndarray, factor: np.ndarray, scale: np.ndarray, taper, dc: np.ndarray,
+               basis: QuarterBasis, table_out: np.ndarray, y_out: np.ndarray):
+    """The padded spline table of a knot and its channel amplitudes, in C (``_synthloop.c``, synth_knot_table)::
+
+        y[k, c] = x[k, cindex[c]] * ((factor[k, c] * scale[c]) * taper[k])          (taper None: no factor)
+        table_out[r, c] = dc[c] + sum_k Re(y[k, c] exp(i orders[k] 2 pi n / N)),   n = (r - 1) mod N, r = 0..N+2
+
+    Parameters
+    ----------
+    x : (K, U) complex128, C-contiguous
+        Amplitudes of the K orders (e.g. the modal sum's displacement combinations [m]).
+    cindex : (C,) int64
+        Column of x of each channel (checked against U).
+    factor : (K, C) complex128
+        Channel factor per order and channel (e.g. ``(i k)^p scale / sinc(k/N)^4``, the B-spline pre-emphasis).
+    scale : (C,) float64
+        Per-channel factor of this knot (e.g. ``(2 pi BPFO f)^p * fade``).
+    taper : (K,) float64 or None
+        Per-order factor (the Nyquist taper), None for 1.
+    dc : (C,) float64
+        Static part per channel [channel units].
+    basis : QuarterBasis
+        Of the orders and table size (:func:`quarter_basis`, made once).
+    table_out : (N + 3, C) float32 or float64, C-contiguous, written
+        Row r holds coefficient (r - 1) mod N (the wrap padding of :func:`pad_coefficients`).
+    y_out : (K, C) complex128, C-contiguous, written
+        y as above (must not overlap the inputs).
+
+    Returns ``(table_out, y_out)``. The sums are taken in double over a quarter wave (quarter-wave symmetry of
+    integer orders); the table agrees with :func:`knot_table_reference` (the direct formula in float64) to ~1e-15
+    of its largest value before the rounding to ``table_out``'s dtype. Raises RuntimeError if the kernel is not
+    built, ValueError on wrong shapes, dtypes or non-contiguous arrays."""
+    if _knot_table_c is None:
+        raise RuntimeError("the C kernel (bkabem_core/_synthloop.c) is not built: run `pip install -e .`")
+    _knot_table_c(x, cindex, factor, scale, taper, dc, basis.n_even, basis.perm, basis.basis, table_out, y_out)
+    return table_out, y_out
+
+
+def knot_table_reference(x: np.ndarray, cindex: np.ndarray, factor: np.ndarray, scale: np.ndarray, taper,
+                         dc: np.ndarray, basis: QuarterBasis, table_out: np.ndarray, y_out: np.ndarray):
+    """:func:`knot_table` in numpy by the direct formula (all N + 3 rows, float64, the basis's :meth:`full`
+    cosines and sines), the fallback without the kernel and the tests' reference."""
+    fac = factor * np.asarray(scale, dtype=np.float64)[None, :]
+    if taper is not None:
+        fac = fac * np.asarray(taper, dtype=np.float64)[:, None]
+    y = x[:, np.asarray(cindex)] * fac
+    cos, sin = basis.full()
+    table_out[...] = np.asarray(dc, dtype=np.float64)[None, :] + (cos @ y.real - sin @ y.imag)
+    y_out[...] = y
+    return table_out, y_out
+
+
 # ----------------------------------------------------------------------------------------- numpy references
 def phases_reference(phase0: int, dphase0: int, ddphase: int, m: int) -> np.ndarray:
     """U_j, j = 0..m-1 (uint64, modulo 2^64) by the closed form phase0 + j dphase0 + ddphase j (j - 1) / 2."""
@@ -280,13 +434,13 @@ def segment_reference(phase0: int, dphase0: int, ddphase: int, warp, table_a: np
     if warp is not None:
         v += warp.view(np.uint64)
     i = ((v >> np.uint64(fb)) & np.uint64(n - 1)).astype(np.intp)
-    q = ((v >> np.uint64(fb - WEIGHT_BITS)) & np.uint64((1 << WEIGHT_BITS) - 1)).astype(np.intp)
-    w = spline_weights(dt)[q]                                     # (m, 4)
+    q = ((v >> np.uint64(fb - FRAC_BITS)) & np.uint64((1 << FRAC_BITS) - 1)).astype(np.int32)
+    w = [wk[:, None] for wk in _weights_from_fraction(q, dt)]      # 4 x (m, 1)
 
     def interp(table):
-        val = w[:, 0:1] * table[i]
+        val = w[0] * table[i]
         for k in (1, 2, 3):
-            val += w[:, k:k + 1] * table[i + k]
+            val += w[k] * table[i + k]
         return val
 
     va = interp(table_a)
