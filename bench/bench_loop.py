@@ -14,10 +14,13 @@ Cases
 segment         5120 samples x 8 channels float32 (0.1 s at 51.2 kHz), N = 512, time blend on (a new speed every
                 chunk), without / with the fused feature moments, and without the blend; per call through the Python
                 wrapper (``synth_kernel.segment``), and the new generic path (``exact=True``, bit for bit the numpy
-                reference) beside the fast one
+                reference) beside the fast one; "new" with numpy's 16-byte aligned arrays (a 32-byte row straddles a
+                cache line every other row), "aligned" with 64-byte aligned tables and output (``empty_aligned``)
 knot table      K = 50 orders, C = 8 channels, N = 512, float32 table: ``synth_kernel.knot_table`` against the numpy
                 code of ``Synthesizer._amplitudes`` it replaces (channel factor, amplitudes, float32 GEMM with the
-                (N + 3) x (2K + 1) basis)
+                (N + 3) x (2K + 1) basis), alternating (each evicts the other's basis from L1/L2: the cold case) and
+                each alone (warm caches, as between chunks of a stream whose other work fits in L2); both include
+                the glue (scale, output arrays); the call alone last
 """
 
 from __future__ import annotations
@@ -88,14 +91,19 @@ def segment_cases(old, repeat: int):
     m, c, n = 5120, 8, 512
     ta = sk.pad_coefficients(rng.standard_normal((n, c))).astype(np.float32)
     tb = sk.pad_coefficients(rng.standard_normal((n, c))).astype(np.float32)
-    d0 = int(25.0 * 4.9 / 51200 * sk.PASS_UNITS)            # ~25 Hz shaft, BPFO ~4.9 x
+    ta_al, tb_al = sk.empty_aligned(ta.shape), sk.empty_aligned(tb.shape)      # the same tables, 64-byte aligned
+    ta_al[...], tb_al[...] = ta, tb
+    d0 = int(25.0 * 4.9 / 51200 * sk.PASS_UNITS)            # ~25 Hz shaft, BPFO ~4.9 x: ~1.2 table steps per sample
     args = (12345678901234567, d0, 1 << 20)
     off = rng.standard_normal(c)
-    out_old, out_new = np.empty((m, c), np.float32), np.empty((m, c), np.float32)
+    out_old, out_new = np.empty((m + 2, c), np.float32)[2:], np.empty((m + 2, c), np.float32)[2:]
+    if out_new.ctypes.data % 32 == 0:                       # numpy's 16-byte alignment, as a chunk buffer gets it
+        out_old, out_new = np.empty((m + 3, c), np.float32)[2:-1], np.empty((m + 3, c), np.float32)[2:-1]
+    out_al = sk.empty_aligned((m, c))
     rows = []
     for name, blend, feats in (("blend, no features", True, False), ("blend, features", True, True),
-                               ("no blend, no features", False, False)):
-        b = tb if blend else None
+                               ("no blend, no features", False, False), ("no blend, features", False, True)):
+        b, b_al = (tb, tb_al) if blend else (None, None)
 
         def f_old():
             old.segment(*args, None, ta, b, 100.0, 65536.0 / 5120.0, out_old,
@@ -104,12 +112,15 @@ def segment_cases(old, repeat: int):
         def f_new():
             sk.segment(*args, None, ta, b, 100.0, 65536.0 / 5120.0, out_new, sk.new_acc(c) if feats else None, off)
 
+        def f_aligned():
+            sk.segment(*args, None, ta_al, b_al, 100.0, 65536.0 / 5120.0, out_al, sk.new_acc(c) if feats else None,
+                       off)
+
         def f_exact():
             sk.segment(*args, None, ta, b, 100.0, 65536.0 / 5120.0, out_new, sk.new_acc(c) if feats else None, off,
                        exact=True)
 
-        t_old, t_new, t_exact = alternate([f_old, f_new, f_exact], repeat)
-        rows.append((name, t_old, t_new, t_exact))
+        rows.append((name, *alternate([f_old, f_new, f_aligned, f_exact], repeat)))
     # the wrapper alone: one sample
     one_old, one_new = np.empty((1, c), np.float32), np.empty((1, c), np.float32)
     w_old, w_new = alternate([lambda: old.segment(*args, None, ta, tb, 100.0, 12.8, one_old),
@@ -152,9 +163,17 @@ def knot_case(repeat: int):
         return sk.knot_table(x, cindex, chan_factor, scale, None, dc, qb, np.empty((n + 3, c), np.float32),
                              np.empty((k_n, c), complex))
 
-    t_np, t_c = alternate([f_numpy, f_c], repeat)
+    scale_k, tab_k, y_k = (2 * np.pi * bpfo * f) ** chan_power * fade, np.empty((n + 3, c), np.float32), \
+        np.empty((k_n, c), complex)
+
+    def f_kernel():                                              # the call alone: outputs and scale made already
+        sk.knot_table(x, cindex, chan_factor, scale_k, None, dc, qb, tab_k, y_k)
+
+    t_np, t_c = alternate([f_numpy, f_c], repeat)              # each evicts the other's data from the caches
+    (t_np_alone,), (t_c_alone,) = alternate([f_numpy], repeat), alternate([f_c], repeat)     # warm caches
+    (t_kernel,) = alternate([f_kernel], repeat)
     err = np.abs(f_c()[0] - f_numpy()).max() / np.abs(f_numpy()).max()
-    return t_np, t_c, err
+    return (t_np, t_c), (t_np_alone, t_c_alone), t_kernel, err
 
 
 def main() -> None:
@@ -167,16 +186,20 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         old = build_old(opts.old_ref, Path(tmp))
         rows, (w_old, w_new) = segment_cases(old, opts.repeat)
-        t_np, t_c, err = knot_case(opts.repeat)
+        (t_np, t_c), (t_np1, t_c1), t_kernel, err = knot_case(opts.repeat)
     us = 1e6
     print(f"fast path (AVX2 + FMA, 8 x float32): {'yes' if sk.FAST_PATH else 'no'}; median of {opts.repeat} calls")
-    print(f"{'segment 5120 x 8 float32':<34}{'old us':>9}{'new us':>9}{'old/new':>9}{'generic us':>12}")
-    for name, t_old, t_new, t_exact in rows:
-        print(f"  {name:<32}{t_old * us:9.1f}{t_new * us:9.1f}{t_old / t_new:9.2f}{t_exact * us:12.1f}")
+    print(f"{'segment 5120 x 8 float32':<34}{'old us':>9}{'new us':>9}{'old/new':>9}{'aligned us':>12}"
+          f"{'old/aligned':>13}{'generic us':>12}")
+    for name, t_old, t_new, t_al, t_exact in rows:
+        print(f"  {name:<32}{t_old * us:9.1f}{t_new * us:9.1f}{t_old / t_new:9.2f}{t_al * us:12.1f}"
+              f"{t_old / t_al:13.2f}{t_exact * us:12.1f}")
     print(f"  {'wrapper (1 sample, blend)':<32}{w_old * us:9.2f}{w_new * us:9.2f}{w_old / w_new:9.2f}")
     print(f"{'knot table K=50 C=8 N=512 float32':<34}{'numpy us':>9}{'C us':>9}{'ratio':>9}")
-    print(f"  {'table + amplitudes':<32}{t_np * us:9.1f}{t_c * us:9.1f}{t_np / t_c:9.2f}"
+    print(f"  {'alternating':<32}{t_np * us:9.1f}{t_c * us:9.1f}{t_np / t_c:9.2f}")
+    print(f"  {'each alone (warm caches)':<32}{t_np1 * us:9.1f}{t_c1 * us:9.1f}{t_np1 / t_c1:9.2f}"
           f"   (max |diff| / max |table| = {err:.1e}: the numpy code's float32 GEMM)")
+    print(f"  {'knot_table call alone':<32}{'':9}{t_kernel * us:9.1f}   (outputs allocated and scale computed before)")
 
 
 if __name__ == "__main__":

@@ -58,6 +58,15 @@ def test_spline_weights_are_the_cubic_b_spline(dtype):
     assert np.abs(coarse - exact).max() > 1e-4
 
 
+def test_empty_aligned():
+    for shape, dt in (((5120, 8), np.float32), ((515, 3), np.float64), (7, np.complex128), ((0, 8), np.float32)):
+        a = sk.empty_aligned(shape, dt)
+        assert a.shape == (shape if isinstance(shape, tuple) else (shape,)) and a.dtype == dt
+        assert a.flags.c_contiguous and a.flags.writeable and (a.size == 0 or a.ctypes.data % 64 == 0)
+        a[...] = 1
+        assert np.all(a == 1)
+
+
 def _closed_form(phase0, dphase0, ddphase, j):
     """Phase and increment of sample j (Python ints, modulo 2^64)."""
     return (phase0 + j * dphase0 + ddphase * (j * (j - 1) // 2)) & M64, (dphase0 + j * ddphase) & M64
