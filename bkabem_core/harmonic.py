@@ -466,6 +466,8 @@ class SpeedCells:
         cm[0] *= 0.5
         self._to_coef = cm                                                          # values at nodes -> c_d
         self._cells: dict[int, tuple] = {}
+        self._shape = form.direct.shape
+        self._kernel = _CELL_KERNEL if _CELL_KERNEL is not None and self._shape[1] <= 8 else None
 
     def __len__(self) -> int:
         return len(self._cells)
@@ -483,7 +485,8 @@ class SpeedCells:
                 progress(1)
 
     def cell(self, i: int) -> tuple:
-        """Cell ``i`` (made if missing): its arrays, the kernel's header of their addresses, the near-pole mask."""
+        """Cell ``i`` (made if missing): its arrays, the kernel's header of their addresses, the near-pole mask,
+        the header's address."""
         c = self._cells.get(i)
         if c is None:
             c = self._cells[i] = self._make(i)
@@ -535,7 +538,7 @@ class SpeedCells:
                   np.ascontiguousarray(lam[kr].real), np.ascontiguousarray(lam[kr].imag),
                   np.ascontiguousarray(e8.real), np.ascontiguousarray(e8.imag)]
         header = np.array([n_k, self.degree + 1, n_u] + [a.ctypes.data for a in arrays], dtype=np.int64)
-        return arrays, header, near
+        return arrays, header, near, header.ctypes.data
 
     def __call__(self, speed_hz: float) -> np.ndarray:
         """Complex displacement combinations (K, U) [m] at shaft speed ``speed_hz`` [Hz] (>= 0)."""
@@ -544,19 +547,18 @@ class SpeedCells:
         c = self._cells.get(i)
         if c is None:
             c = self.cell(i)
-        t = (f - (i + 0.5) * self.cell_hz) / (0.5 * self.cell_hz)
-        if _CELL_KERNEL is not None and self.form.direct.shape[1] <= 8:
-            x = np.empty(self.form.direct.shape, complex)
-            _CELL_KERNEL(c[1].ctypes.data, f, t, x.ctypes.data)
-            return x
-        return self.evaluate_numpy(f)
+        if self._kernel is None:
+            return self.evaluate_numpy(f)
+        x = np.empty(self._shape, complex)
+        self._kernel(c[3], f, 2.0 * f / self.cell_hz - (2 * i + 1), x.ctypes.data)      # t in [-1, 1]
+        return x
 
     def evaluate_numpy(self, speed_hz: float) -> np.ndarray:
         """The same evaluation in numpy (the kernel's reference and fallback)."""
         f = float(speed_hz)
         i = int(f // self.cell_hz)
-        arrays, _, near = self.cell(i)
-        t = (f - (i + 0.5) * self.cell_hz) / (0.5 * self.cell_hz)
+        arrays, _, near, _ = self.cell(i)
+        t = 2.0 * f / self.cell_hz - (2 * i + 1)
         tc = np.polynomial.chebyshev.chebvander(np.array([t]), self.degree)[0]     # (D+1,)
         n_u = self.form.direct.shape[1]
         x = np.einsum("d,kdu->ku", tc, arrays[1] + 1j * arrays[2])[:, :n_u]

@@ -814,16 +814,16 @@ class Synthesizer:
         self._order_ratio_per_hz = kk * self.bpfo_per_hz / (self.sample_rate_hz / 2)   # order frequency / Nyquist
         self._top_ratio_per_hz = float(self._order_ratio_per_hz.max())
         # spline coefficient table of one ball pass, N + 3 rows (row r = coefficient (r - 1) mod N, so the four
-        # taps of any position are consecutive rows): T = [cos(k th) | -sin(k th) | 1] @ [Re Yc; Im Yc; DC] with
-        # Yc = Y / sinc(k/N)^4, the cubic B-spline's droop pre-emphasised (docs/synthesis.md)
-        th = TWO_PI * (np.arange(n + 3) - 1) / n
-        self._basis = np.ascontiguousarray(np.concatenate(
-            [np.cos(np.outer(th, kk)), -np.sin(np.outer(th, kk)), np.ones((n + 3, 1))], axis=1).astype(self.dtype))
+        # taps of any position are consecutive rows): T[n] = DC + sum_k Re(Yc_k e^{i k 2 pi n / N}) with
+        # Yc = Y / sinc(k/N)^4, the cubic B-spline's droop pre-emphasised (docs/synthesis.md); made in C from a
+        # quarter-wave cos/sin basis (synth_kernel.knot_table), or by the direct formula in numpy without it
         self._emphasis = 1.0 / np.sinc(kk / n) ** 4
+        self._table_basis = synth_kernel.quarter_basis(self.orders, n)
+        self._knot_table = synth_kernel.knot_table if synth_kernel.AVAILABLE else synth_kernel.knot_table_reference
+        self._cindex64 = np.ascontiguousarray(index, dtype=np.int64)
         # y_k = x_k[index] (i k w1)^p scale, pre-emphasised: x_k[index] * _chan_factor * w1^p (* weights)
-        self._chan_factor = (1j * kk[:, None]) ** power[None, :] * scale[None, :] * self._emphasis[:, None]
-        self._coef = np.zeros((2 * kk.size + 1, len(self.channels)), dtype=self.dtype)
-        self._coef[-1] = self._dc
+        self._chan_factor = np.ascontiguousarray(
+            (1j * kk[:, None]) ** power[None, :] * scale[None, :] * self._emphasis[:, None], dtype=complex)
         self._gt_base = self._ground_truth_base()
 
     @property
@@ -988,20 +988,22 @@ class Synthesizer:
         if hit is not None:
             self._table_cache.move_to_end(key)
             return hit
-        x = self._provider()(key)                                           # (K, U) displacement combinations
+        modal = self._modal
+        if self._use_modal and modal is not None:
+            x = modal.cells(key)                                            # (K, U) displacement combinations
+        else:
+            x = self._provider()(key)
         if self._keep_some:
             x = x[self._keep]
+        else:
+            x = np.ascontiguousarray(x)
         fade, taper = self._order_weights(key)
-        fac = self._chan_factor * ((TWO_PI * self.bpfo_per_hz * key) ** self._chan_power * fade)   # (K, C)
-        if taper is not None:
-            fac *= taper[:, None]
-        yc = x[:, self._cindex]
-        yc *= fac                                            # channel amplitudes, pre-emphasised for the spline
-        coef, k = self._coef, yc.shape[0]                    # [Re Yc; Im Yc; DC] against [cos | -sin | 1]
-        coef[:k] = yc.real
-        coef[k:2 * k] = yc.imag
-        hit = _Amplitudes(f=key, x=x, fade=fade, taper=taper, y_emphasised=yc, emphasis=self._emphasis,
-                          table=self._basis @ coef)
+        scale = (TWO_PI * self.bpfo_per_hz * key) ** self._chan_power * fade         # (C,)
+        table = synth_kernel.empty_aligned((self.table_size + 3, len(self.channels)), self.dtype)
+        yc = np.empty((x.shape[0], len(self.channels)), complex)   # channel amplitudes, pre-emphasised for the spline
+        self._knot_table(x, self._cindex64, self._chan_factor, scale, taper, self._dc_off, self._table_basis,
+                         table, yc)
+        hit = _Amplitudes(f=key, x=x, fade=fade, taper=taper, y_emphasised=yc, emphasis=self._emphasis, table=table)
         self._table_cache[key] = hit
         if len(self._table_cache) > 8:
             self._table_cache.popitem(last=False)
@@ -1216,6 +1218,9 @@ class Synthesizer:
     def _state_at(self, pos: float):
         """Speed [Hz], ball passes (int, frac) and the knot pair at sample position ``pos``."""
         ks = self._knots
+        if ks[0].x == pos and len(ks) > 1:                 # a chunk that starts on a knot (streaming: always)
+            a = ks[0]
+            return a.f, a.u_int, a.u_frac, a, ks[1], 0.0
         i = self._segment_at(0, pos)
         a, b = ks[i], ks[i + 1]
         xi = pos - a.x
