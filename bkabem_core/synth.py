@@ -40,6 +40,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import sys
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -788,6 +789,7 @@ class Synthesizer:
         self.n_balls = int(model.case.bearing_geometry().n_balls)
         self.fault_multipliers = model.fault_multipliers
         k_max = int(self.orders.max())
+        self._k_max = k_max
         n = self._table_size_arg
         if n is None:
             n = max(256, 1 << int(math.ceil(math.log2(8 * k_max))))
@@ -819,6 +821,7 @@ class Synthesizer:
         # quarter-wave cos/sin basis (synth_kernel.knot_table), or by the direct formula in numpy without it
         self._emphasis = 1.0 / np.sinc(kk / n) ** 4
         self._table_basis = synth_kernel.quarter_basis(self.orders, n)
+        self._table_pool: list[np.ndarray] = []
         self._knot_table = synth_kernel.knot_table if synth_kernel.AVAILABLE else synth_kernel.knot_table_reference
         self._cindex64 = np.ascontiguousarray(index, dtype=np.int64)
         # y_k = x_k[index] (i k w1)^p scale, pre-emphasised: x_k[index] * _chan_factor * w1^p (* weights)
@@ -867,7 +870,7 @@ class Synthesizer:
 
     @property
     def highest_order(self) -> int:
-        return int(self.orders.max())
+        return self._k_max
 
     def max_speed_for_rate_hz(self) -> float:
         """Highest shaft speed at which every kept order is below Nyquist [Hz]."""
@@ -999,7 +1002,7 @@ class Synthesizer:
             x = np.ascontiguousarray(x)
         fade, taper = self._order_weights(key)
         scale = (TWO_PI * self.bpfo_per_hz * key) ** self._chan_power * fade         # (C,)
-        table = synth_kernel.empty_aligned((self.table_size + 3, len(self.channels)), self.dtype)
+        table = self._free_table()
         yc = np.empty((x.shape[0], len(self.channels)), complex)   # channel amplitudes, pre-emphasised for the spline
         self._knot_table(x, self._cindex64, self._chan_factor, scale, taper, self._dc_off, self._table_basis,
                          table, yc)
@@ -1008,6 +1011,19 @@ class Synthesizer:
         if len(self._table_cache) > 8:
             self._table_cache.popitem(last=False)
         return hit
+
+    def _free_table(self) -> np.ndarray:
+        """A knot table buffer, (N + 3, C) and 64-byte aligned (synth_kernel.empty_aligned), recycled: a buffer of
+        the pool that nothing else refers to any more (no knot, no cache entry) is reused. Saves the aligned
+        allocation (~2.5 us) per knot and keeps the tables' memory warm in the cache."""
+        pool = self._table_pool
+        for t in pool:
+            if sys.getrefcount(t) == 3:                    # the pool's list, the loop variable, the call's argument
+                return t
+        t = synth_kernel.empty_aligned((self.table_size + 3, len(self.channels)), self.dtype)
+        if len(pool) < 32:
+            pool.append(t)
+        return t
 
     def line_spectrum(self, speed_hz: float) -> dict:
         """The lines the waveform holds at ``speed_hz`` [Hz] (what an FFT of a steady run shows).
@@ -1218,9 +1234,11 @@ class Synthesizer:
     def _state_at(self, pos: float):
         """Speed [Hz], ball passes (int, frac) and the knot pair at sample position ``pos``."""
         ks = self._knots
-        if ks[0].x == pos and len(ks) > 1:                 # a chunk that starts on a knot (streaming: always)
-            a = ks[0]
-            return a.f, a.u_int, a.u_frac, a, ks[1], 0.0
+        if len(ks) > 1:                                     # chunk borders on knots (streaming: always)
+            if ks[0].x == pos:
+                return ks[0].f, ks[0].u_int, ks[0].u_frac, ks[0], ks[1], 0.0
+            if ks[-1].x == pos:
+                return ks[-1].f, ks[-1].u_int, ks[-1].u_frac, ks[-2], ks[-1], 1.0
         i = self._segment_at(0, pos)
         a, b = ks[i], ks[i + 1]
         xi = pos - a.x
