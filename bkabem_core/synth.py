@@ -37,6 +37,7 @@ depend on how a run is cut into chunks. Bad input raises :class:`SynthError` nam
 
 from __future__ import annotations
 
+import bisect
 import csv
 import io
 import math
@@ -629,7 +630,7 @@ class _Amplitudes:
     y_emphasised: np.ndarray    # (K, C) complex channel amplitudes x spline pre-emphasis (weights applied)
     emphasis: np.ndarray        # (K,) the pre-emphasis 1 / sinc(k/N)^4
     table: np.ndarray           # (N + 3, C) cubic B-spline coefficients of one ball pass (see Synthesizer._bind_model)
-    v_iso: np.ndarray | None = None     # (K, 8) housing velocity [mm/s], Re | Im, made when first needed
+    v_iso: np.ndarray | None = None     # (K, 4) complex housing velocity [mm/s], made when first needed
     _y: np.ndarray | None = None
     _rms: np.ndarray | None = None
 
@@ -802,6 +803,8 @@ class Synthesizer:
         self.table_size = int(n)
         comb, index, power, scale, iso = _combination(self.channels)
         self._comb, self._cindex, self._power, self._scale, self._iso_rows = comb, index, power, scale, iso
+        self._orders_list = [int(k) for k in orders[keep]]                 # for bisect (the ISO band)
+        self._iso_factor = 1j * orders[keep].astype(float)[:, None]       # v = i k w1 x [m/s per m]
         self._exact = ExactSpectrum(model, comb)
         self._modal = None                                     # made (and checked) when first chosen
         self._modal_failed = None
@@ -1270,12 +1273,12 @@ class Synthesizer:
                      features=feats, ground_truth=gt)
 
     def _v_iso(self, amp: "_Amplitudes") -> np.ndarray:
-        """Housing velocity [mm/s] of DE/NDE x vertical/horizontal, weights applied, as real (K, 8) [Re | Im]
-        (made once per knot speed)."""
+        """Housing velocity [mm/s] of DE/NDE x vertical/horizontal, weights applied, complex (K, 4) (made once per
+        knot speed)."""
         if amp.v_iso is None:
-            iw = 1j * TWO_PI * self.bpfo_per_hz * amp.f * self.orders
-            v = amp.x[:, self._iso_rows] * (iw * 1e3 * amp.weights)[:, None]
-            amp.v_iso = np.ascontiguousarray(np.concatenate([v.real, v.imag], axis=1))
+            w = amp.fade * TWO_PI * self.bpfo_per_hz * amp.f * 1e3
+            fac = self._iso_factor if amp.taper is None else self._iso_factor * amp.taper[:, None]
+            amp.v_iso = amp.x[:, self._iso_rows] * (fac * w)
         return amp.v_iso
 
     def _iso_velocity(self, pos: float) -> dict:
@@ -1285,17 +1288,17 @@ class Synthesizer:
         per_order = self.bpfo_per_hz * f                           # Hz per order; orders sorted: the band is a slice
         lo = hi = 0
         if per_order > 0:
-            lo = int(np.searchsorted(self.orders, ISO_BAND_HZ[0] / per_order, "left"))
-            hi = int(np.searchsorted(self.orders, ISO_BAND_HZ[1] / per_order, "right"))
+            lo = bisect.bisect_left(self._orders_list, ISO_BAND_HZ[0] / per_order)
+            hi = bisect.bisect_right(self._orders_list, ISO_BAND_HZ[1] / per_order)
         va, vb = self._v_iso(a.amp), self._v_iso(b.amp)
         if va is vb or s == 0.0:
             v = va[lo:hi]
         elif va.shape != vb.shape:                                  # a model swap changed the orders: the new one
             v = vb[lo:hi]
         else:
-            v = (1.0 - s) * va[lo:hi] + s * vb[lo:hi]               # (K_band, 8) [mm/s]
-        p = np.einsum("ij,ij->j", v, v)
-        r = np.sqrt(0.5 * (p[:4] + p[4:])).tolist()
+            v = (1.0 - s) * va[lo:hi] + s * vb[lo:hi]               # (K_band, 4) [mm/s]
+        p = (v.real * v.real + v.imag * v.imag).sum(axis=0)
+        r = np.sqrt(0.5 * p).tolist()
         return {"de": {"vertical": r[0], "horizontal": r[1], "overall": max(r[0], r[1])},
                 "nde": {"vertical": r[2], "horizontal": r[3], "overall": max(r[2], r[3])}}
 
