@@ -630,7 +630,7 @@ class _Amplitudes:
     y_emphasised: np.ndarray    # (K, C) complex channel amplitudes x spline pre-emphasis (weights applied)
     emphasis: np.ndarray        # (K,) the pre-emphasis 1 / sinc(k/N)^4
     table: np.ndarray           # (N + 3, C) cubic B-spline coefficients of one ball pass (see Synthesizer._bind_model)
-    v_iso: np.ndarray | None = None     # (K, 4) complex housing velocity [mm/s], made when first needed
+    v_iso: np.ndarray | None = None     # (K, 8) housing velocity [mm/s], Re | Im, made when first needed
     _y: np.ndarray | None = None
     _rms: np.ndarray | None = None
 
@@ -816,6 +816,7 @@ class Synthesizer:
         kk = self.orders.astype(float)
         self._keep_some = not bool(np.all(keep))
         self._chan_power = power.astype(float)
+        self._scale_buf = np.empty(len(self.channels))                   # knot_table's per-channel factor
         self._order_ratio_per_hz = kk * self.bpfo_per_hz / (self.sample_rate_hz / 2)   # order frequency / Nyquist
         self._top_ratio_per_hz = float(self._order_ratio_per_hz.max())
         # spline coefficient table of one ball pass, N + 3 rows (row r = coefficient (r - 1) mod N, so the four
@@ -998,13 +999,13 @@ class Synthesizer:
         if self._use_modal and modal is not None:
             x = modal.cells(key)                                            # (K, U) displacement combinations
         else:
-            x = self._provider()(key)
+            x = np.ascontiguousarray(self._provider()(key))
         if self._keep_some:
             x = x[self._keep]
-        else:
-            x = np.ascontiguousarray(x)
         fade, taper = self._order_weights(key)
-        scale = (TWO_PI * self.bpfo_per_hz * key) ** self._chan_power * fade         # (C,)
+        scale = self._scale_buf                                             # (2 pi BPFO f)^p * fade per channel
+        np.power(TWO_PI * self.bpfo_per_hz * key, self._chan_power, out=scale)
+        scale *= fade
         table = self._free_table()
         yc = np.empty((x.shape[0], len(self.channels)), complex)   # channel amplitudes, pre-emphasised for the spline
         self._knot_table(x, self._cindex64, self._chan_factor, scale, taper, self._dc_off, self._table_basis,
@@ -1273,12 +1274,13 @@ class Synthesizer:
                      features=feats, ground_truth=gt)
 
     def _v_iso(self, amp: "_Amplitudes") -> np.ndarray:
-        """Housing velocity [mm/s] of DE/NDE x vertical/horizontal, weights applied, complex (K, 4) (made once per
-        knot speed)."""
+        """Housing velocity [mm/s] of DE/NDE x vertical/horizontal, weights applied, as real (K, 8) [Re | Im] (made
+        once per knot speed)."""
         if amp.v_iso is None:
             w = amp.fade * TWO_PI * self.bpfo_per_hz * amp.f * 1e3
             fac = self._iso_factor if amp.taper is None else self._iso_factor * amp.taper[:, None]
-            amp.v_iso = amp.x[:, self._iso_rows] * (fac * w)
+            v = amp.x[:, self._iso_rows] * (fac * w)
+            amp.v_iso = np.concatenate([v.real, v.imag], axis=1)
         return amp.v_iso
 
     def _iso_velocity(self, pos: float) -> dict:
@@ -1296,9 +1298,10 @@ class Synthesizer:
         elif va.shape != vb.shape:                                  # a model swap changed the orders: the new one
             v = vb[lo:hi]
         else:
-            v = (1.0 - s) * va[lo:hi] + s * vb[lo:hi]               # (K_band, 4) [mm/s]
-        p = (v.real * v.real + v.imag * v.imag).sum(axis=0)
-        r = np.sqrt(0.5 * p).tolist()
+            v = va[lo:hi]
+            v = v + s * (vb[lo:hi] - v)                             # (K_band, 8) [mm/s], Re | Im
+        p = np.einsum("ij,ij->j", v, v)
+        r = np.sqrt(0.5 * (p[:4] + p[4:])).tolist()
         return {"de": {"vertical": r[0], "horizontal": r[1], "overall": max(r[0], r[1])},
                 "nde": {"vertical": r[2], "horizontal": r[3], "overall": max(r[2], r[3])}}
 
