@@ -620,7 +620,7 @@ def _moment_features(s1, s2, s3, s4, hi, lo, off) -> dict:
 
 
 # =========================================================================== the synthesiser
-@dataclass
+@dataclass(slots=True)
 class _Amplitudes:
     """What a knot needs at its speed (shared by knots of the same speed)."""
     f: float                    # shaft speed [Hz]
@@ -654,7 +654,7 @@ class _Amplitudes:
         return self._rms
 
 
-@dataclass
+@dataclass(slots=True)
 class _Knot:
     x: int              # position [samples] (time * sample rate); knots sit on samples
     f: float            # shaft speed [Hz]
@@ -1177,8 +1177,11 @@ class Synthesizer:
         if self.compute_features:
             acc = synth_kernel.new_acc(len(self.channels))
         fused = acc if not self._noise_on else None    # with noise, the moments are taken after it is added
-        for a, b, lo, hi in self._segments(n0, n):
-            self._segment(a, b, lo, hi, out[lo - n0:hi - n0], fused)
+        if len(ks) == 2 and ks[1].x >= n0 + n:         # one segment (streaming: every chunk)
+            self._segment(ks[0], ks[1], n0, n0 + n, out, fused)
+        else:
+            for a, b, lo, hi in self._segments(n0, n):
+                self._segment(a, b, lo, hi, out[lo - n0:hi - n0], fused)
         if self._noise_on:
             self._add_noise(n0, n, out)
             if acc is not None:
