@@ -1283,7 +1283,9 @@ class Synthesizer:
             w = amp.fade * TWO_PI * self.bpfo_per_hz * amp.f * 1e3
             fac = self._iso_factor if amp.taper is None else self._iso_factor * amp.taper[:, None]
             v = amp.x[:, self._iso_rows] * (fac * w)
-            amp.v_iso = np.concatenate([v.real, v.imag], axis=1)
+            amp.v_iso = vv = np.empty((v.shape[0], 8))
+            vv[:, :4] = v.real
+            vv[:, 4:] = v.imag
         return amp.v_iso
 
     def _iso_velocity(self, pos: float) -> dict:
@@ -1296,15 +1298,9 @@ class Synthesizer:
             lo = bisect.bisect_left(self._orders_list, ISO_BAND_HZ[0] / per_order)
             hi = bisect.bisect_right(self._orders_list, ISO_BAND_HZ[1] / per_order)
         va, vb = self._v_iso(a.amp), self._v_iso(b.amp)
-        if va is vb or s == 0.0:
-            v = va[lo:hi]
-        elif va.shape != vb.shape:                                  # a model swap changed the orders: the new one
-            v = vb[lo:hi]
-        else:
-            v = va[lo:hi]
-            v = v + s * (vb[lo:hi] - v)                             # (K_band, 8) [mm/s], Re | Im
-        p = np.einsum("ij,ij->j", v, v)
-        r = np.sqrt(0.5 * (p[:4] + p[4:])).tolist()
+        if va.shape != vb.shape:                                    # a model swap changed the orders: the new one
+            va = vb
+        r = synth_kernel.band_rms(va, vb, lo, hi, s)                # of va + s (vb - va), (K, 8) [mm/s] Re | Im
         return {"de": {"vertical": r[0], "horizontal": r[1], "overall": max(r[0], r[1])},
                 "nde": {"vertical": r[2], "horizontal": r[3], "overall": max(r[2], r[3])}}
 

@@ -193,6 +193,7 @@ def fast_path() -> bool:
     """True if :func:`segment` takes the fast path for float32 with 8 channels now (CPU and :func:`_set_isa_cap`)."""
     return bool(AVAILABLE and _EXT_LIB.synth_fast_path())
 _knot_table_c = _EXT.knot_table if AVAILABLE else None
+_band_rms_c = getattr(_EXT, "band_rms", None) if AVAILABLE else None
 
 
 def _ptr(a: np.ndarray, name: str) -> int:
@@ -428,6 +429,25 @@ def knot_table_reference(x: np.ndarray, cindex: np.ndarray, factor: np.ndarray, 
     table_out[...] = np.asarray(dc, dtype=np.float64)[None, :] + (cos @ y.real - sin @ y.imag)
     y_out[...] = y
     return table_out, y_out
+
+
+def band_rms(va: np.ndarray, vb: np.ndarray, lo: int, hi: int, s: float) -> tuple:
+    """RMS of four complex channels over rows ``lo:hi`` of the blend ``va + s (vb - va)``.
+
+    ``va``, ``vb``: (K, 8) float64, C-contiguous, real parts in columns 0-3 and imaginary parts in 4-7 (e.g. order
+    amplitudes [mm/s] of two knots); ``s`` the blend weight in [0, 1]. Returns ``sqrt(0.5 sum_k |v_k,c|^2)`` for
+    c = 0..3 (a tuple of floats). In C when the kernel is built, else :func:`band_rms_reference`."""
+    if _band_rms_c is None:
+        return band_rms_reference(va, vb, lo, hi, s)
+    return _band_rms_c(va, vb, lo, hi, float(s))
+
+
+def band_rms_reference(va: np.ndarray, vb: np.ndarray, lo: int, hi: int, s: float) -> tuple:
+    """:func:`band_rms` in numpy."""
+    v = va[lo:hi]
+    v = v + s * (vb[lo:hi] - v)
+    p = np.einsum("ij,ij->j", v, v)
+    return tuple(np.sqrt(0.5 * (p[:4] + p[4:])).tolist())
 
 
 # ----------------------------------------------------------------------------------------- numpy references
