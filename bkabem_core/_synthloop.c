@@ -1268,15 +1268,48 @@ done:
     return res;
 }
 
+PyDoc_STRVAR(py_features_doc, "features(acc, n, off, out): see synth_kernel.features_from_acc");
+
+/* synth_features through the module (one call, the buffers checked here) instead of ctypes and Python checks. */
+static PyObject *py_features(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    (void)self;
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "features takes 4 arguments");
+        return NULL;
+    }
+    const Py_ssize_t n = PyLong_AsSsize_t(args[1]);
+    if (n == -1 && PyErr_Occurred()) return NULL;
+    Buf ba = {0}, bo = {0}, bout = {0};
+    PyObject *res = NULL;
+    if (!buf_take(args[0], &ba, "acc", "d", 2, 0) || !buf_take(args[2], &bo, "off", "d", 1, 0)
+        || !buf_take(args[3], &bout, "out", "d", 2, 1))
+        goto done;
+    const Py_ssize_t C = ba.v.shape[0];
+    if (ba.v.shape[1] != 6 || bo.v.shape[0] != C || bout.v.shape[0] != 6 || bout.v.shape[1] != C || n < 1) {
+        PyErr_Format(PyExc_ValueError, "features: acc must be (C, 6), off (C,), out (6, C) and n >= 1 (got acc %zd x "
+                     "%zd, off %zd, out %zd x %zd, n %zd)", ba.v.shape[0], ba.v.shape[1], bo.v.shape[0],
+                     bout.v.shape[0], bout.v.shape[1], n);
+        goto done;
+    }
+    synth_features(C, n, ba.v.buf, bo.v.buf, bout.v.buf);
+    res = Py_None;
+    Py_INCREF(res);
+done:
+    buf_drop(&ba), buf_drop(&bo), buf_drop(&bout);
+    return res;
+}
+
 static PyMethodDef methods[] = {
     {"segment", (PyCFunction)(void (*)(void))py_segment, METH_FASTCALL, py_segment_doc},
     {"knot_table", (PyCFunction)(void (*)(void))py_knot_table, METH_FASTCALL, py_knot_table_doc},
     {"band_rms", (PyCFunction)(void (*)(void))py_band_rms, METH_FASTCALL, py_band_rms_doc},
+    {"features", (PyCFunction)(void (*)(void))py_features, METH_FASTCALL, py_features_doc},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_synthloop",
                                        "C kernels of the synthesiser (see bkabem_core/synth_kernel.py): segment, "
-                                       "knot_table and band_rms here, the others loaded with ctypes", -1, methods,
+                                       "knot_table, band_rms and features here, the others loaded with ctypes", -1, methods,
                                        NULL, NULL, NULL, NULL};
 
 PyMODINIT_FUNC PyInit__synthloop(void) { return PyModule_Create(&moduledef); }

@@ -194,6 +194,7 @@ def fast_path() -> bool:
     return bool(AVAILABLE and _EXT_LIB.synth_fast_path())
 _knot_table_c = _EXT.knot_table if AVAILABLE else None
 _band_rms_c = getattr(_EXT, "band_rms", None) if AVAILABLE else None
+_features_c = getattr(_EXT, "features", None) if AVAILABLE else None
 
 
 def _ptr(a: np.ndarray, name: str) -> int:
@@ -296,15 +297,10 @@ def features_from_acc(acc: np.ndarray, n: int, off) -> dict:
     """The dict of ``synth.waveform_features`` (mean, rms, peak, peak_to_peak, crest_factor, kurtosis) from the
     accumulators of ``n`` samples per channel taken about ``off`` (C,), float64 (C,) arrays (views of one block).
     In C when the kernel is built (``synth_features``), else :func:`features_from_acc_reference`."""
-    if _FNS is None:
+    if _features_c is None:
         return features_from_acc_reference(acc, n, off)
-    c = acc.shape[0]
-    off = np.ascontiguousarray(off, dtype=np.float64)
-    if acc.dtype != np.float64 or acc.shape != (c, 6) or not acc.flags.c_contiguous or off.shape != (c,):
-        raise ValueError(f"acc must be (C, 6) float64 and off (C,) (got {acc.shape} {acc.dtype}, {off.shape})")
-    out = np.empty((6, c))
-    if _FNS["features"](c, int(n), _ptr(acc, "acc"), _ptr(off, "off"), _ptr(out, "out")):
-        raise ValueError(f"synth_features rejected C={c}, n={n}")
+    out = np.empty((6, acc.shape[0]))
+    _features_c(acc, int(n), np.ascontiguousarray(off, dtype=np.float64), out)     # checks the arrays
     return dict(zip(FEATURE_NAMES, out))
 
 

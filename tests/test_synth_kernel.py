@@ -537,3 +537,13 @@ def test_band_rms_matches_numpy_and_checks_its_arguments():
         sk.band_rms(np.asfortranarray(va), vb, 0, 3, 0.5)
     with pytest.raises(ValueError, match="alike"):
         sk.band_rms(va, vb[:, :4].copy(), 0, 3, 0.5)
+
+
+def test_features_from_acc_rejects_bad_arrays():
+    acc = sk.new_acc(8)
+    with pytest.raises(ValueError, match="off"):
+        sk.features_from_acc(acc, 10, np.zeros(7))
+    with pytest.raises(ValueError, match="acc"):
+        sk.features_from_acc(acc[:, :5].copy(), 10, np.zeros(8))
+    with pytest.raises(ValueError, match="n >= 1"):
+        sk.features_from_acc(acc, 0, np.zeros(8))
