@@ -12,7 +12,8 @@ Scenarios
 ---------
 constant        constant 25 Hz (one spectrum, then only the sample loop)
 stream/exact    next_chunk() with a new speed every chunk (random walk 20..30 Hz): an exact BKA-BEM solve per chunk
-stream/modal    the same with spectrum="modal" (grid warmed up first: eigen-decompositions are a one-off cost)
+stream/modal    the same with spectrum="modal" (prepare() first: the eigen-decompositions and the speed cells up to the
+                case's max speed are a one-off cost per model, ~2 s)
 ramp            render of ramp:0:50:<seconds> (auto spectrum; knots every 0.1 s and every 0.5 Hz)
 +slip+noise     slip 1 %, accelerometer and probe noise
 chunk 1 s       a new speed every 1-s chunk
