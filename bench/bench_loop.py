@@ -26,8 +26,6 @@ knot table      K = 50 orders, C = 8 channels, N = 512, float32 table: ``synth_k
 from __future__ import annotations
 
 import argparse
-import ctypes
-import importlib.util
 import os
 import subprocess
 import sys
