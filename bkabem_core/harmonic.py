@@ -452,10 +452,15 @@ class SpeedCells:
         Chebyshev degree D (default 9).
     tol : float
         Bound of the interpolation error relative to the output's reference (default 2e-6).
+    max_cells : int
+        Cells kept at most (default 512, ~33 MB on the embedded case: 256 Hz of shaft speed); beyond, the oldest
+        made is dropped (and made again when needed).
     """
 
-    def __init__(self, form: "OrderModalForm", cell_hz: float = 0.5, degree: int = 9, tol: float = 2e-6):
+    def __init__(self, form: "OrderModalForm", cell_hz: float = 0.5, degree: int = 9, tol: float = 2e-6,
+                 max_cells: int = 512):
         self.form = form
+        self.max_cells = int(max_cells)
         self.cell_hz = float(cell_hz)
         self.degree = int(degree)
         self.tol = float(tol)
@@ -489,7 +494,10 @@ class SpeedCells:
         the header's address."""
         c = self._cells.get(i)
         if c is None:
-            c = self._cells[i] = self._make(i)
+            c = self._make(i)
+            if len(self._cells) >= self.max_cells:                   # bounded memory: drop the oldest cell
+                self._cells.pop(next(iter(self._cells)), None)
+            self._cells[i] = c
         return c
 
     def _make(self, i: int) -> tuple:

@@ -195,3 +195,13 @@ def test_speed_cells_need_their_near_poles(model):
             checked += 1
     assert checked > 10 and worst > 100, (checked, worst)
     assert harmonic._CELL_KERNEL is not None               # the compiled evaluation is part of the install
+
+
+def test_speed_cells_memory_is_bounded(model):
+    from bkabem_core.harmonic import SpeedCells
+
+    form = model.order_modal_form()
+    cells = SpeedCells(form, max_cells=3)
+    ref = [cells(f) for f in (10.1, 20.2, 30.3, 40.4)]
+    assert len(cells) == 3 and 20 not in cells._cells            # the oldest cell (10-10.5 Hz) was dropped
+    np.testing.assert_array_equal(cells(10.1), ref[0])           # and is made again, the same
