@@ -1072,6 +1072,9 @@ class Synthesizer:
         last = self._knots[-1]
         span = x - last.x
         n = min(self._n_sub(last.f, f), span)
+        if n == 1:                                      # one step (streaming: nearly always)
+            self._knots.append(self._make_knot(x, f, last))
+            return
         for i in range(1, n + 1):
             xi = last.x + (span * i) // n
             fi = last.f + (f - last.f) * (xi - last.x) / span if i < n else f
@@ -1101,23 +1104,8 @@ class Synthesizer:
             f0 = f if self.initial_speed_hz is None else self.initial_speed_hz
             self._check_band(f0, "initial_speed_hz")
             self._append(n0, f0)
-        last = self._knots[-1]
-        if (last.x == n0 and self._slip_walk is None and not self._noise_on
-                and abs(f - last.f) <= self.max_speed_step_hz and self.band_limit == "error"):
-            # the common streaming step (one new knot, one segment): what _append and _render do, without their
-            # searches and loops
-            b = self._make_knot(n0 + n, f, last)
-            ks = self._knots
-            ks.append(b)
-            if len(ks) > 2:
-                del ks[:-2]
-            out = np.empty((n, len(self.channels)), dtype=self.dtype)
-            acc = synth_kernel.new_acc(len(self.channels)) if self.compute_features else None
-            self._segment(last, b, n0, n0 + n, out, acc)
-            chunk = self._make_chunk(n0, n, out, acc)
-        else:
-            self._append(n0 + n, f)
-            chunk = self._render(n0, n)
+        self._append(n0 + n, f)
+        chunk = self._render(n0, n)
         self._next_index = n0 + n
         return chunk
 

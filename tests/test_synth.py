@@ -257,7 +257,7 @@ def test_continuity_at_chunk_borders_with_speed_changes(model):
 
 
 def test_streaming_equals_rendering_the_same_profile(model):
-    # steps <= max_speed_step_hz take next_chunk's one-segment path, larger ones the general one (subdivided)
+    # steps <= max_speed_step_hz add one knot (one segment per chunk), larger ones are subdivided
     speeds = [20.0, 21.0, 23.0, 22.5, 22.5, 22.8, 22.6, 0.0, 3.0, 25.0]
     s = Synthesizer(model, sample_rate_hz=25600, chunk_s=0.02)
     chunks = [s.next_chunk(v) for v in speeds]
