@@ -53,7 +53,7 @@ from typing import Iterator
 import numpy as np
 
 from . import synth_kernel
-from .harmonic import DIRECTIONS, LOCATIONS, TWO_PI, BkaBem
+from .harmonic import DIRECTIONS, LOCATIONS, TWO_PI, BkaBem, SpeedCells
 
 BEARINGS = ("de", "nde")
 #: quantity -> (unit, power of (i omega) applied to the displacement amplitude, scale to the unit)
@@ -983,12 +983,11 @@ class Synthesizer:
         made = self._modal is not None or self.model.has_order_modal_form(self._comb)
         n_k, scale = self.model.orders.size, (self.model.rotor.ndof / 60.0) ** 3
         setup = 0.0 if made else self._COST_MODAL_SETUP_PER_ORDER_S * n_k * scale
-        cell_hz = 0.5                                                       # SpeedCells' default cell
-        cells = range(int(f_end.min() // cell_hz), int(f_end.max() // cell_hz) + 1)
         if made:
-            have = self.model.order_modal_form(self._comb).speed_cells()._cells
-            cells = [i for i in cells if i not in have]
-        setup += len(cells) * self._COST_CELL_PER_ORDER_S * n_k * scale
+            cells = self.model.order_modal_form(self._comb).speed_cells().missing(f_end.min(), f_end.max())
+        else:
+            cells = len(SpeedCells.cell_range(SpeedCells.DEFAULT_CELL_HZ, f_end.min(), f_end.max()))
+        setup += cells * self._COST_CELL_PER_ORDER_S * n_k * scale
         self._use_modal = setup + self._COST_MODAL_S * knots < self._COST_EXACT_S * knots
 
     def _amplitudes(self, f: float) -> "_Amplitudes":

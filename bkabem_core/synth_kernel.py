@@ -138,8 +138,8 @@ def pad_coefficients(coef: np.ndarray) -> np.ndarray:
 
 def _load():
     """(extension module, {name: ctypes function}) of the compiled kernel (bkabem_core/_synthloop.c), or None if it
-    is not built. segment and knot_table are the module's Python functions (cheap calls, see _synthloop.c), the
-    others ctypes functions of the same library."""
+    is not built. segment, knot_table, band_rms and features are the module's Python functions (cheap calls, see
+    _synthloop.c), the others ctypes functions of the same library."""
     spec = importlib.util.find_spec("bkabem_core._synthloop")
     if spec is None or not spec.origin or not spec.origin.endswith((".so", ".pyd", ".dylib")):
         return None
@@ -158,10 +158,6 @@ def _load():
         nrm.argtypes = [ctypes.c_uint64, i64, ptr]
         nrm.restype = ctypes.c_int
         fns[("normals", dt)] = nrm
-    feats = lib.synth_features
-    feats.argtypes = [i64, i64, ptr, ptr, ptr]
-    feats.restype = ctypes.c_int
-    fns["features"] = feats
     lib.synth_fast_path.argtypes = []
     lib.synth_fast_path.restype = ctypes.c_int
     fns["fast_path"] = bool(lib.synth_fast_path())
@@ -192,6 +188,8 @@ def _set_isa_cap(cap: int) -> int:
 def fast_path() -> bool:
     """True if :func:`segment` takes the fast path for float32 with 8 channels now (CPU and :func:`_set_isa_cap`)."""
     return bool(AVAILABLE and _EXT_LIB.synth_fast_path())
+
+
 _knot_table_c = _EXT.knot_table if AVAILABLE else None
 _band_rms_c = getattr(_EXT, "band_rms", None) if AVAILABLE else None
 _features_c = getattr(_EXT, "features", None) if AVAILABLE else None
@@ -315,6 +313,8 @@ def features_from_acc_reference(acc: np.ndarray, n: int, off) -> dict:
 
 # ----------------------------------------------------------------------------------------- knot table
 _KNOT_JB = 6                   # values of j per block of the C kernel (KNOT_JB): the basis has a multiple of it rows
+
+
 class QuarterBasis:
     """Cosines and sines of a knot table's orders over a quarter wave, made once per (orders, N) (see
     :func:`quarter_basis`); read-only.
