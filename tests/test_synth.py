@@ -1,4 +1,4 @@
-"""Tests of bkabem_core.synth / synth_cli: accuracy against BKA-BEM, continuity, determinism, errors, CLI.
+"""Tests of bkabem_core.synth / bkabem_ros.synth_cli: accuracy against BKA-BEM, continuity, determinism, errors, CLI.
 
 The BKA-BEM model comes from the session fixture ``model`` (tests/conftest.py), built once.
 """
@@ -511,7 +511,7 @@ def test_bad_arguments(model):
 
 # ----------------------------------------------------------------------------------------- CLI
 def _cli(args, tmp_path):
-    return subprocess.run([sys.executable, "-m", "bkabem_core.cli", "synth", *args], cwd=tmp_path,
+    return subprocess.run([sys.executable, "-m", "bkabem_ros", "synth", *args], cwd=tmp_path,
                           capture_output=True, text=True, env={"PYTHONPATH": str(ROOT), "OPENBLAS_NUM_THREADS": "1",
                                                                "MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"})
 

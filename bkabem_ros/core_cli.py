@@ -1,8 +1,8 @@
-"""Command-line interface: ``bkabem <command>``.
+"""The core commands of ``bkabem``: ``excitation``, ``spectrum``, ``sweep``, ``validate`` and ``demo``.
 
-Core commands (no ROS needed): ``excitation``, ``spectrum``, ``sweep``, ``validate``, ``synth``, ``demo``.
-Field names of the JSON outputs follow the contract in ``architecture.md``. Bad input: one line on stderr
-naming the argument (or case key) and the reason, exit code 2.
+They parse, call ``bkabem_core`` and print; none imports rclpy (``demo`` only for its ROS part, after the core
+part). Field names of the JSON outputs follow the contract in ``architecture.md``. Errors follow the contract
+of :mod:`bkabem_ros.cli_base` (one line naming the argument or case key, exit code 2).
 """
 
 from __future__ import annotations
@@ -16,59 +16,17 @@ import time
 
 import numpy as np
 
-EXIT_BAD_INPUT = 2
-
-
-class UsageError(Exception):
-    """Bad command-line input; the message names the argument and the reason."""
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with the project's error contract: one line on stderr, exit code 2."""
-
-    def error(self, message):  # noqa: D401 - argparse API
-        sys.stderr.write(f"{self.prog}: error: {message}\n")
-        sys.exit(EXIT_BAD_INPUT)
-
-
-def _finite_float(name: str, minimum: float | None = None, strict: bool = False):
-    def conv(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number (got {text!r})") from None
-        if not math.isfinite(v):
-            raise argparse.ArgumentTypeError(f"{name} must be finite (got {text!r})")
-        if minimum is not None and (v <= minimum if strict else v < minimum):
-            op = ">" if strict else ">="
-            raise argparse.ArgumentTypeError(f"{name} must be {op} {minimum:g} (got {text!r})")
-        return v
-
-    return conv
-
-
-def _pos_int(name: str, minimum: int = 1):
-    def conv(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer (got {text!r})") from None
-        if v < minimum:
-            raise argparse.ArgumentTypeError(f"{name} must be >= {minimum} (got {v})")
-        return v
-
-    return conv
-
+from .cli_base import UsageError, finite_float, output_path, pos_int
 
 # --------------------------------------------------------------------------- helpers
 def _load_case(path):
-    from .case import Case
+    from bkabem_core.case import Case
 
     return Case.load(path)
 
 
 def _model(case, solver="block"):
-    from .harmonic import BkaBem
+    from bkabem_core.harmonic import BkaBem
 
     return BkaBem(case, solver=solver)
 
@@ -99,7 +57,7 @@ def _excitation_table(ex, max_rows: int = 24) -> str:
 
 
 def _spectrum_table(sp, max_rows: int = 12) -> str:
-    from .harmonic import LOCATIONS
+    from bkabem_core.harmonic import LOCATIONS
 
     ff = sp.fault_frequencies_hz
     lines = [f"BKA-BEM spectrum at {sp.speed_hz:g} Hz shaft speed ({sp.speed_hz * 60:.0f} rpm): FTF {ff.ftf:.3f} Hz, "
@@ -127,11 +85,11 @@ def _spectrum_table(sp, max_rows: int = 12) -> str:
 # --------------------------------------------------------------------------- commands
 def cmd_excitation(args) -> int:
     case = _load_case(args.case)
-    from .excitation import compute_excitation
+    from bkabem_core.excitation import compute_excitation
 
     ex = compute_excitation(case.bearing(), case.four_dof_parameters())
     if args.png:
-        from .plots import plot_excitation
+        from bkabem_core.plots import plot_excitation
 
         plot_excitation(ex, args.png)
     if args.json:
@@ -148,7 +106,7 @@ def cmd_spectrum(args) -> int:
     model = _model(case)
     sp = model.spectrum(args.speed_hz)
     if args.png:
-        from .plots import plot_spectrum
+        from bkabem_core.plots import plot_spectrum
 
         plot_spectrum(sp, args.png)
     if args.json:
@@ -170,11 +128,11 @@ def cmd_sweep(args) -> int:
     sw = model.sweep(speeds, progress=not (args.json or args.csv) and sys.stderr.isatty())
     elapsed = time.perf_counter() - t0
     if args.png:
-        from .plots import plot_sweep
+        from bkabem_core.plots import plot_sweep
 
         plot_sweep(sw, args.png)
-    from .excitation import DIRECTIONS
-    from .harmonic import LOCATIONS
+    from bkabem_core.excitation import DIRECTIONS
+    from bkabem_core.harmonic import LOCATIONS
 
     acc, disp = sw.acceleration, sw.displacement
     if args.json:
@@ -220,7 +178,7 @@ def cmd_sweep(args) -> int:
 
 def cmd_validate(args) -> int:
     try:
-        from . import validation
+        from bkabem_core import validation
     except ImportError as exc:  # pragma: no cover - until the TDSM lands
         raise UsageError(f"validate is not available: {exc}") from None
     case = _load_case(args.case)
@@ -261,7 +219,7 @@ def cmd_demo(args) -> int:
     print(f"prepared in {prep:.2f} s (4-DOF excitation {model.preparation_time_s['excitation']:.2f} s, "
           f"{ex.n_steps} RHS evaluations; {model.solver_info()['ndof']}-DOF FE model)")
     print(_excitation_table(ex, max_rows=12))
-    from .plots import plot_excitation, plot_spectrum, plot_sweep
+    from bkabem_core.plots import plot_excitation, plot_spectrum, plot_sweep
 
     plot_excitation(ex, str(out / "excitation.png"))
     for s in args.speeds:
@@ -281,7 +239,7 @@ def cmd_demo(args) -> int:
     if args.no_ros:
         return 0
     try:
-        from bkabem_ros.demo import run_demo
+        from .demo import run_demo
     except ImportError as exc:
         raise UsageError(f"the ROS 2 part needs the ROS set-up (make demo installs it): {exc}") from None
     print(f"\n== 2/2  ROS 2 node: run-up 0 -> {args.top_hz:g} Hz in {args.ramp:g} s, hold {args.hold:g} s, "
@@ -292,14 +250,14 @@ def cmd_demo(args) -> int:
 
 
 # --------------------------------------------------------------------------- parser
-def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="bkabem", description="BKA-BEM digital-twin vibration source for a faulty ball bearing")
-    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+def add_case(sp) -> None:
+    """``--case`` of every command that loads a case."""
+    sp.add_argument("--case", default=None,
+                    help="embedded case name or TOML file (default: electric_motor_6010)")
 
-    def add_case(sp):
-        sp.add_argument("--case", default=None,
-                        help="embedded case name or TOML file (default: electric_motor_6010)")
 
+def add_parsers(sub) -> None:
+    """Register ``excitation``, ``spectrum``, ``sweep``, ``validate`` and ``demo`` on an argparse subparsers object."""
     e = sub.add_parser("excitation", help="4-DOF excitation: DC, amplitudes and phases per BPFO order")
     add_case(e)
     e.add_argument("--json", action="store_true", help="machine-readable output")
@@ -308,7 +266,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("spectrum", help="BKA-BEM spectrum at one shaft speed")
     add_case(s)
-    s.add_argument("--speed-hz", required=True, type=_finite_float("--speed-hz", 0.0),
+    s.add_argument("--speed-hz", required=True, type=finite_float("--speed-hz", 0.0),
                    help="shaft speed [Hz]")
     s.add_argument("--json", action="store_true")
     s.add_argument("--png")
@@ -316,9 +274,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     w = sub.add_parser("sweep", help="BKA-BEM spectra over a range of shaft speeds")
     add_case(w)
-    w.add_argument("--from-hz", required=True, type=_finite_float("--from-hz", 0.0), help="first speed [Hz]")
-    w.add_argument("--to-hz", required=True, type=_finite_float("--to-hz", 0.0), help="last speed [Hz]")
-    w.add_argument("--steps", required=True, type=_pos_int("--steps", 1), help="number of speeds")
+    w.add_argument("--from-hz", required=True, type=finite_float("--from-hz", 0.0), help="first speed [Hz]")
+    w.add_argument("--to-hz", required=True, type=finite_float("--to-hz", 0.0), help="last speed [Hz]")
+    w.add_argument("--steps", required=True, type=pos_int("--steps", 1), help="number of speeds")
     w.add_argument("--png", help="order map and RMS vs speed")
     g = w.add_mutually_exclusive_group()
     g.add_argument("--json", action="store_true")
@@ -327,8 +285,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="time-domain reference (TDSM) against BKA-BEM at one speed")
     add_case(v)
-    v.add_argument("--speed-hz", type=_finite_float("--speed-hz", 0.0, strict=True), default=None)
-    v.add_argument("--duration", type=_finite_float("--duration", 0.0, strict=True), default=None,
+    v.add_argument("--speed-hz", type=finite_float("--speed-hz", 0.0, strict=True), default=None)
+    v.add_argument("--duration", type=finite_float("--duration", 0.0, strict=True), default=None,
                    help="simulated time after the transient [s]")
     v.add_argument("--improvement", default=None, choices=("nde", "consistent", "full", "parametric", "hbm"),
                    help="also evaluate this improvement of BKA-BEM (see docs/validation.md)")
@@ -336,68 +294,15 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--png")
     v.set_defaults(func=cmd_validate)
 
-    try:
-        from .synth_cli import add_synth_arguments, synth_main
-    except ImportError:
-        pass
-    else:
-        y = sub.add_parser("synth", help="synthesise sensor waveforms under a speed profile")
-        add_case(y)
-        add_synth_arguments(y)
-        y.set_defaults(func=synth_main)
-
     d = sub.add_parser("demo", help="the main job: core tables and figures, then the ROS 2 node run-up recorded "
                                     "to MCAP and Rerun")
     add_case(d)
     d.add_argument("--out", default="out/demo", help="folder for the core figures (default out/demo)")
-    d.add_argument("--speeds", type=_finite_float("--speeds", 0.0), nargs="+", default=[10.0, 25.0, 50.0],
+    d.add_argument("--speeds", type=finite_float("--speeds", 0.0), nargs="+", default=[10.0, 25.0, 50.0],
                    help="shaft speeds [Hz] for the spectrum tables")
     d.add_argument("--recordings", default="recordings", help="folder for demo.mcap and demo.rrd")
-    from bkabem_ros.demo import add_run_up_arguments    # options only; rclpy is imported when it runs
+    from .demo import add_run_up_arguments    # options only; rclpy is imported when it runs
 
     add_run_up_arguments(d)
     d.add_argument("--no-ros", action="store_true", help="core part only (no ROS 2 node run)")
     d.set_defaults(func=cmd_demo)
-
-    try:
-        from bkabem_ros.cli import add_ros_commands
-    except ImportError:
-        pass
-    else:
-        add_ros_commands(sub, add_case)
-    return p
-
-
-def run_args(args) -> int:
-    """Run a parsed command with the error contract: bad input -> one line on stderr, exit code 2."""
-    from .case import CaseError
-
-    try:
-        return int(args.func(args) or 0)
-    except (UsageError, CaseError) as exc:
-        sys.stderr.write(f"bkabem {args.command}: error: {exc}\n")
-        return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        sys.stderr.write(f"bkabem {args.command}: interrupted\n")
-        return 130
-    except BrokenPipeError:
-        return 0
-
-
-def run_subcommand(name: str, add_parser, argv=None) -> int:
-    """``python -m <module> ARGS`` = ``bkabem <name> ARGS`` for a module that registers one subcommand."""
-    parser = _Parser(prog="bkabem")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    add_parser(sub)
-    return run_args(parser.parse_args([name, *(sys.argv[1:] if argv is None else argv)]))
-
-
-def main(argv=None) -> int:
-    return run_args(build_parser().parse_args(argv))
-
-
-if __name__ == "__main__":
-    # run the imported module, not this __main__ copy: UsageError raised by other modules is that module's class
-    from bkabem_core.cli import main as _main
-
-    sys.exit(_main())
