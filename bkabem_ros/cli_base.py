@@ -32,7 +32,7 @@ EXIT_SIGTERM = 128 + signal.SIGTERM
 #: imported, so that this module does not import them (or numpy) itself.
 INPUT_ERRORS = (("bkabem_core.case", "CaseError"), ("bkabem_core.synth", "SynthError"),
                 ("bkabem_core.plausibility", "PlausibilityError"), ("bkabem_ros.mcap_io", "RecorderError"),
-                ("bkabem_ros.mcap_io", "DamagedRecording"))
+                ("bkabem_ros.mcap_check", "DamagedRecording"))
 
 DEBUG_HELP = "on an unexpected error show the traceback (default: one line)"
 

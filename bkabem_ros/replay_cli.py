@@ -43,7 +43,11 @@ def add_parser(sub, add_case=None):
                    help=f"stream to a Rerun viewer (default {DEFAULT_CONNECT_URL})")
     p.add_argument("--publish", action="store_true",
                    help="with --rerun-save/--rerun-connect: also publish on ROS 2 (original timing)")
-    p.add_argument("--info", action="store_true", help="print the topics and counts of FILE and exit")
+    p.add_argument("--info", action="store_true",
+                   help="print the topics, counts and integrity of FILE and exit (exit code 2 when damaged)")
+    p.add_argument("--allow-damaged", action="store_true",
+                   help="replay the intact chunks of a damaged file (bad CRC, cut) and say what was skipped, "
+                        "instead of refusing it (exit code 2)")
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
                    help="everything after this goes to ROS")
@@ -56,6 +60,7 @@ def main(args) -> int:
 
     from .cli_base import UsageError
 
+    from . import mcap_check
     from . import replay as rp
 
     say = (lambda text: None) if args.quiet else (lambda text: print(text, flush=True))
@@ -67,9 +72,21 @@ def main(args) -> int:
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     try:
-        say(rp.describe(path))
+        integrity = mcap_check.verify(path)
+    except OSError as exc:
+        raise UsageError(f"FILE: {path}: {exc.strerror}") from None
+    if not integrity.mcap:
+        raise UsageError(f"FILE: {path}: not a readable MCAP file (no MCAP magic at the start)")
+    try:
+        say(rp.describe(path, integrity))
     except Exception as exc:  # noqa: BLE001 - not an MCAP file
         raise UsageError(f"FILE: {path}: not a readable MCAP file ({type(exc).__name__}: {exc})") from None
+    if not integrity.ok:
+        if not args.allow_damaged:
+            raise UsageError(f"FILE: {path} is damaged: {integrity.summary_line()} (--allow-damaged replays the "
+                             f"intact part)")
+        sys.stderr.write(f"bkabem replay: warning: {path} is damaged, replaying only its intact part: "
+                         f"{integrity.summary_line()}\n")
     if args.info:
         return 0
 
@@ -90,7 +107,8 @@ def main(args) -> int:
                           remap=remap, topics=args.topics, clock=args.clock is not None,
                           clock_hz=args.clock or 100.0, publish=publish, rerun_logger=logger,
                           namespace=args.namespace, wait_for_subscribers_s=args.wait_subscribers,
-                          progress=say, ros_args=args.ros_args)
+                          progress=say, ros_args=args.ros_args, allow_damaged=args.allow_damaged,
+                          integrity=integrity)
     finally:
         if logger is not None:
             logger.close()
@@ -102,6 +120,8 @@ def main(args) -> int:
         say(f"logged {stats.logged} messages ({logger.samples_logged} waveform samples) to {where}")
         if args.rerun_save:
             say(f"open it with: .venv/bin/rerun {args.rerun_save}")
+    if stats.damage:
+        sys.stderr.write(f"bkabem replay: warning: skipped the damaged part of {path}: {stats.damage}\n")
     return 0
 
 
