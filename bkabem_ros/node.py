@@ -474,8 +474,7 @@ class VibrationNode(_node_base()):
         if synth.chunk_samples != self.samples_per_chunk:
             raise RuntimeError(f"synth chunk of {synth.chunk_samples} samples, node expects {self.samples_per_chunk}")
         self._synth = synth
-        self._base_speed_step = float(synth.max_speed_step_hz)
-        self._last_end_speed_hz = 0.0
+        synth.max_knots_per_step = max(4, int(0.4 * (self.samples_per_chunk / self.sample_rate) / self.KNOT_COST_S))
         self._apply_noise()
         return synth
 
@@ -494,23 +493,13 @@ class VibrationNode(_node_base()):
 
     def _next_chunk(self, end_speed_hz: float):
         """``synth.next_chunk`` with a bounded cost. The synthesiser places amplitude knots at most
-        ``max_speed_step_hz`` (0.5 Hz) apart; a jump of tens of Hz within one chunk would need dozens of knots
-        (~1-2 ms each) and could make the next publication late. For such jumps the step is widened so that
-        the knots of one chunk take at most ~40 % of a chunk period; phase and speed stay exact, only the
-        amplitude interpolation through the (already non-stationary) transient is coarser."""
-        synth = self._synth
-        base = self._base_speed_step
-        df = abs(end_speed_hz - self._last_end_speed_hz)
-        max_knots = max(4, int(0.4 * (self.samples_per_chunk / self.sample_rate) / self.KNOT_COST_S))
-        widened = df / base > max_knots
-        if widened:
-            synth.max_speed_step_hz = df / max_knots
-        try:
-            chunk = synth.next_chunk(end_speed_hz)
-        finally:
-            synth.max_speed_step_hz = base
-        self._last_end_speed_hz = end_speed_hz
-        return chunk
+        ``max_speed_step_hz`` (0.5 Hz) apart, and 2 % apart in speed where orders cross the Nyquist taper; a jump
+        of tens of Hz within one chunk would need dozens of knots (~0.5-2 ms each) and could make the next
+        publication late. ``synth.max_knots_per_step`` (set in :meth:`_make_source`) caps the knots of one chunk
+        so that they take at most ~40 % of a chunk period, whatever the jump (to or from 0 included); phase and
+        speed stay exact, only the amplitude interpolation through the (already non-stationary) transient is
+        coarser."""
+        return self._synth.next_chunk(end_speed_hz)
 
     def _line_spectrum(self, speed_hz: float):
         """Complex channel amplitudes (orders, channels) and static part (channels,) of the synthesiser at a speed:
