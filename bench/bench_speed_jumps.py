@@ -4,7 +4,8 @@
         [--baseline DIR]      # also run an older checkout (DIR on PYTHONPATH, `python -m bkabem_core.cli`)
 
 For each code version and scenario, real processes on loopback: ``bkabem node`` (25.6 kHz, 0.1 s chunks,
-spectrum "exact") and ``bkabem speed`` publishing the profile at 50 Hz; the node's own exit statistics give
+spectrum "exact", ``--wait-for-speed``: the stream starts at the profile's first speed) and ``bkabem speed``
+publishing the profile at 50 Hz; the node's own exit statistics give
 the publish lateness (waveforms handed to DDS minus the time the chunk's last sample was due), p50/p99/max.
 
 Scenarios: ``steady`` (40 Hz: the reference of the same run), ``jumps`` (20 <-> 60 Hz every 0.7 s), ``via-zero``
@@ -28,6 +29,7 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+CWD = tempfile.mkdtemp(prefix="bkabem_bj_cwd_")   # not the repo: a --baseline checkout must win on sys.path
 SCENARIOS = {"steady": "constant:40", "jumps": "steps:20,60,20,60,20,60,20:0.7",
              "via-zero": "steps:0,75,0,40,0,75,0:0.7"}
 
@@ -45,19 +47,20 @@ def _env(pythonpath: str | None) -> dict:
 def run_once(cli: list[str], env: dict, profile: str) -> tuple[float, float, float]:
     ns = f"/bj{os.getpid()}_{random.randrange(1 << 24):x}"
     lines: list[str] = []
-    node = subprocess.Popen(cli + ["node", "--namespace", ns, "--chunk-duration", "0.1"], env=env, cwd=REPO,
+    node = subprocess.Popen(cli + ["node", "--namespace", ns, "--chunk-duration", "0.1", "--wait-for-speed"],
+                            env=env, cwd=CWD,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     t = threading.Thread(target=lambda: lines.extend(ln.rstrip() for ln in node.stdout), daemon=True)
     t.start()
     t_end = time.monotonic() + 90
-    while not any("streaming from t0" in ln for ln in lines):
+    while not any("waiting for the first speed" in ln or "streaming from t0" in ln for ln in lines):
         if time.monotonic() > t_end or node.poll() is not None:
             node.kill()
             raise RuntimeError("node did not start:\n" + "\n".join(lines[-20:]))
         time.sleep(0.05)
     seconds = ["--seconds", "4.9"] if profile.startswith("constant") else []
     subprocess.run(cli + ["speed", "--namespace", ns, "--profile", profile, "--rate", "50", "--hold", "0.5",
-                          "--quiet", *seconds], env=env, cwd=REPO, check=True, timeout=60)
+                          "--quiet", *seconds], env=env, cwd=CWD, check=True, timeout=60)
     time.sleep(0.3)
     node.send_signal(signal.SIGINT)
     node.wait(30)

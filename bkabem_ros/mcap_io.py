@@ -554,6 +554,8 @@ class McapSink:
     def __call__(self, topic: str, msg_type_name, msg, stamp_ns: int | None = None) -> None:
         rec = self.recorder
         if rec is None or self.error is not None or rec.closed:
+            if rec is not None and rec.error is not None and self.error is None:
+                self._report(rec.error)      # the background flush failed (disk full): say so, once
             return
         if not isinstance(msg, (bytes, bytearray, memoryview)):
             from rclpy.serialization import serialize_message  # noqa: PLC0415
@@ -580,6 +582,8 @@ class McapSink:
                 self.recorder.close()
             except RecorderError as exc:
                 self._report(exc)
+            if self.recorder.error is not None and self.error is None:
+                self._report(self.recorder.error)
 
     @property
     def paths(self) -> list[Path]:

@@ -183,7 +183,9 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
 
         if node is None:
             if not rclpy.ok():
-                rclpy.init(args=["bkabem-replay", "--ros-args", *(ros_args or [])])
+                from .ros_env import init  # noqa: PLC0415
+
+                init(["bkabem-replay", "--ros-args", *(ros_args or [])])   # + the discovery range in force, once
                 own_context = True
             node = rclpy.create_node("bkabem_replay")
             own_node = True

@@ -166,7 +166,7 @@ def argument_inputs(n: int, seed: int = 14) -> list[Input]:
           "--png": _unwritable(".png")}, []),
         ("validate", ["validate", "--speed-hz", "25", "--duration", "0.05", "--json"],
          {"--speed-hz": _BAD, "--duration": _BAD, "--png": _unwritable(".png")}, []),
-        ("synth", ["synth", "--profile", "constant:20", "--seconds", "0.2", "--rate", "8000", "--out",
+        ("synth", ["synth", "--profile", "constant:10", "--seconds", "0.2", "--rate", "8000", "--out",
                    "{dir}/s.npz"],
          {"--profile": ["constant:nan", "ramp:0:1e308:1", "steps::1", "x", "constant:-5", "ramp:0:50:0",
                         "{dir}/missing.csv", "{dir}/garbage.csv", "constant:1e300"],
