@@ -106,8 +106,8 @@ def cmd_node(args) -> int:
             if args.record and sinks.mcap is None:
                 raise UsageError(f"--record: {args.record}: the recording could not start (see the log line above)")
             if (args.rerun_save or connect) and sinks.rerun is None:
-                raise UsageError(f"--rerun-save/--rerun-connect: the Rerun output could not start (see the log "
-                                 f"line above)")
+                raise UsageError("--rerun-save/--rerun-connect: the Rerun output could not start (see the log "
+                                 "line above)")
             return sinks
         on_node = attach
 

@@ -7,10 +7,8 @@ of :mod:`bkabem_ros.cli_base` (one line naming the argument or case key, exit co
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
-import math
 import sys
 import time
 

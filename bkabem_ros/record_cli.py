@@ -67,7 +67,7 @@ def add_parser(sub, add_case=None):
 
 
 def main(args) -> int:
-    from .cli_base import UsageError
+    from .cli_base import UsageError, output_path
 
     from . import mcap_io
 

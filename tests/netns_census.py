@@ -87,7 +87,8 @@ def main(spec_path: str) -> int:
         except subprocess.TimeoutExpired:
             os.killpg(p.pid, signal.SIGKILL)
             out, _ = p.communicate()
-        results.append({"name": cmd["name"], "rc": p.returncode, "output": out[-6000:]})
+        results.append({"name": cmd["name"], "rc": p.returncode,
+                        "output": out if len(out) < 8000 else out[:3000] + "\n...\n" + out[-5000:]})
     b1, p1 = tx()
     print(json.dumps({"tx_packets": p1 - p0, "tx_bytes": b1 - b0, "groups_v0": sorted(joined),
                       "results": results}))

@@ -8,12 +8,10 @@ the argument or case key.
 from __future__ import annotations
 
 import json
-import os
 import re
 import resource
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
