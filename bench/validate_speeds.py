@@ -28,7 +28,6 @@ from tqdm import tqdm
 from bkabem_core.case import Case
 from bkabem_core.harmonic import LOCATIONS, BkaBem
 from bkabem_core.machine import Machine
-from bkabem_core.rotor import rotor_from_case
 from bkabem_core.tdsm import Tdsm
 from bkabem_core.validation import N_LARGEST, QUANTITIES, plot_validation, validate
 

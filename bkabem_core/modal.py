@@ -170,6 +170,7 @@ class LineModes:
             list(pool.map(one, range(n_k)))
         self.static = basis.outputs @ np.linalg.solve(basis.K, basis.inputs)
         self.w_per_hz = TWO_PI * nu
+        self._shapes_t = None
 
     def subset(self, lines: np.ndarray) -> "LineModes":
         """The same decomposition restricted to the lines at indices ``lines`` (no new eigen-decomposition)."""
@@ -178,6 +179,7 @@ class LineModes:
         other.__dict__.update(self.__dict__)
         for name in ("multipliers", "poles", "participation", "shapes", "w_per_hz"):
             setattr(other, name, getattr(self, name)[lines])
+        other._shapes_t = None
         return other
 
     def receptance(self, speed_hz: float, lines: np.ndarray | None = None) -> np.ndarray:
@@ -185,7 +187,9 @@ class LineModes:
         sl = slice(None) if lines is None else lines
         iw = 1j * self.w_per_hz[sl] * float(speed_hz)
         g = 1.0 / (iw[:, None] - self.poles[sl])                                       # (K, 2m)
-        return np.matmul(np.swapaxes(self.shapes[sl] * g[:, :, None], 1, 2), self.participation[sl])
+        if self._shapes_t is None:
+            self._shapes_t = np.ascontiguousarray(np.swapaxes(self.shapes, 1, 2))    # (K, U, 2m)
+        return np.matmul(self._shapes_t[sl], g[:, :, None] * self.participation[sl])
 
 
 class OrderModalForm:

@@ -129,6 +129,7 @@ class HertzPair:
         kmap[2, 2], kmap[2, 3], kmap[3, 2], kmap[3, 3] = 20, 21, 21, 22
         self._k_idx = kmap
         self._buf = np.empty((4, g0.n_balls))
+        self._cs_t = None
         self.n_table = len(cage_angles_rad)
 
     def _terms(self, ar):
@@ -163,20 +164,21 @@ class HertzPair:
 
     def forces_only(self, u_t):
         """Ball forces (N, 4) at the N table instants, without the stiffness (cheaper than :meth:`forces_many`)."""
-        c, s = self.cs[:, 0, :], self.cs[:, 1, :]                            # (N, z)
-        out = np.empty((u_t.shape[0], 4))
-        for b in range(2):
-            ar = u_t[:, 2 * b, None] * c + u_t[:, 2 * b + 1, None] * s + self.ar0[:, b, :]
-            if self.axial:
-                a = np.sqrt(ar * ar + self.aa[b, 0] ** 2)
-                delta = np.maximum(a - self.a0[b, 0] + self.film[b, 0], 0.0)
-                qc = (self.k[b] * delta * np.sqrt(delta)) * (ar / a)
-            else:
-                delta = np.maximum(ar - self.a0[b, 0] + self.film[b, 0], 0.0)
-                qc = self.k[b] * delta * np.sqrt(delta)
-            out[:, 2 * b] = -np.einsum("nz,nz->n", qc, c)
-            out[:, 2 * b + 1] = -np.einsum("nz,nz->n", qc, s)
-        return out
+        n = u_t.shape[0]
+        if self._cs_t is None:
+            self._cs_t = np.ascontiguousarray(np.swapaxes(self.cs, 1, 2))             # (N, z, 2)
+        ar = np.matmul(u_t.reshape(n, 2, 2), self.cs)
+        ar += self.ar0
+        if self.axial:
+            a = np.sqrt(ar * ar + self.aa * self.aa)
+            delta = a - self.a0 + self.film
+            np.maximum(delta, 0.0, out=delta)
+            qc = (self._kc * delta * np.sqrt(delta)) * (ar / a)
+        else:
+            delta = ar - self.a0 + self.film
+            np.maximum(delta, 0.0, out=delta)
+            qc = self._kc * delta * np.sqrt(delta)
+        return -np.matmul(qc, self._cs_t).reshape(n, 4)
 
     def forces_many(self, u_t):
         """Ball forces (N, 4) and block-diagonal tangent stiffnesses (N, 4, 4) at the N table instants."""
