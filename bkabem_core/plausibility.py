@@ -35,7 +35,7 @@ SECTION = "plausibility"
 
 _UNIT_SLIP = " (a unit slip? SI units, as the key's suffix says)"
 #: Bounds that limit computing rather than physics: no unit-slip hint.
-_COMPUTING = frozenset({"excitation.settle_time_s", "excitation.record_cage_periods", "excitation.samples_per_ball_pass",
+_COMPUTING = frozenset({"bearings.*.axial_load_ratio", "excitation.settle_time_s", "excitation.record_cage_periods", "excitation.samples_per_ball_pass",
                         "excitation.atol_m", "excitation.ball_passes", "excitation.recorded_samples"})
 
 #: "section.key" -> (low, high, why): inclusive physical bounds.
@@ -54,6 +54,7 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "bearing.pressure_viscosity_m2_n": (0.0, 1e-7, "pressure-viscosity coefficients are 0 .. 1e-7 m^2/N "
                                                    "(mineral oils ~2e-8)"),
     "bearing.dynamic_viscosity_pa_s": (0.0, 10.0, "lubricant viscosities are 0 .. 10 Pa s"),
+    "bearing.damping_n_s_m": (0.0, 1e7, "bearing damping is 0 .. 1e7 N s/m"),
     # the dent
     "dent.length_m": (1e-6, 0.1, "dents are 1 um .. 100 mm long"),
     "dent.depth_m": (0.0, 1e-3, "dents are 0 .. 1 mm deep"),
@@ -62,7 +63,6 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "excitation.housing_mass_kg": (1e-2, 1e5, "housings weigh 10 g .. 100 t"),
     "excitation.support_stiffness_n_m": (1e3, 1e11, "supports are 1e3 .. 1e11 N/m"),
     "excitation.support_damping_n_s_m": (0.0, 1e8, "support damping is 0 .. 1e8 N s/m"),
-    "excitation.bearing_damping_n_s_m": (0.0, 1e7, "bearing damping is 0 .. 1e7 N s/m"),
     "excitation.gravity_m_s2": (1.0, 100.0, "the 4-DOF model is loaded by the rotor's weight: 1 .. 100 m/s^2 "
                                             "(0 leaves the bearing unloaded, without an equilibrium)"),
     "excitation.reference_speed_hz": (0.1, 1000.0, "the 4-DOF reference speed is 0.1 .. 1000 Hz (its integration "
@@ -75,10 +75,14 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "excitation.ball_passes": (0.0, 5000.0, "ball passes to integrate (~35 ms each: 5000 is ~3 min)"),
     "excitation.recorded_samples": (0.0, float(1 << 22), "recorded samples of 8 states (2^22 is ~270 MB)"),
     # FE bearing and support elements
-    "bearings.*.stiffness_vertical_n_m": (1e5, 1e11, "ball bearing stiffnesses are 1e5 .. 1e11 N/m"),
-    "bearings.*.stiffness_horizontal_n_m": (1e5, 1e11, "ball bearing stiffnesses are 1e5 .. 1e11 N/m"),
-    "bearings.*.damping_vertical_n_s_m": (0.0, 1e7, "bearing damping is 0 .. 1e7 N s/m"),
-    "bearings.*.damping_horizontal_n_s_m": (0.0, 1e7, "bearing damping is 0 .. 1e7 N s/m"),
+    "bearings.*.axial_load_n": (0.0, 1e7, "axial bearing loads are 0 .. 10 MN"),
+    # derived: axial load / bearing.static_load_rating_n (deep-groove ball bearings carry ~0.5 C0 axially)
+    "bearings.*.axial_load_ratio": (0.0, 1.0, "the axial load is at most the static load rating "
+                                              "bearing.static_load_rating_n"),
+    "bearings.*.table_stiffness_vertical_n_m": (1e5, 1e11, "ball bearing stiffnesses are 1e5 .. 1e11 N/m"),
+    "bearings.*.table_stiffness_horizontal_n_m": (1e5, 1e11, "ball bearing stiffnesses are 1e5 .. 1e11 N/m"),
+    "bearings.*.table_damping_vertical_n_s_m": (0.0, 1e7, "bearing damping is 0 .. 1e7 N s/m"),
+    "bearings.*.table_damping_horizontal_n_s_m": (0.0, 1e7, "bearing damping is 0 .. 1e7 N s/m"),
     "housings[].mass_kg": (1e-2, 1e5, "housings weigh 10 g .. 100 t"),
     "housings[].support_stiffness_vertical_n_m": (1e3, 1e11, "supports are 1e3 .. 1e11 N/m"),
     "housings[].support_stiffness_horizontal_n_m": (1e3, 1e11, "supports are 1e3 .. 1e11 N/m"),
@@ -87,6 +91,7 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     # the FE rotor
     "rotor.youngs_modulus_pa": (1e9, 1e12, "shaft materials are 1 GPa .. 1 TPa (steel 206 GPa)"),
     "rotor.density_kg_m3": (500.0, 25000.0, "shaft materials are 500 .. 25000 kg/m^3 (steel 7850)"),
+    "rotor.damping_reference_hz": (0.1, 1e5, "damping reference frequencies are 0.1 Hz .. 100 kHz"),
     "rotor.node_positions_m": (-20.0, 20.0, "shaft nodes lie within 20 m"),
     "rotor.outer_diameters_m": (1e-3, 2.0, "shaft diameters are 1 mm .. 2 m"),
     "rotor.inner_diameters_m": (0.0, 2.0, "bore diameters are 0 .. 2 m"),
@@ -96,6 +101,8 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     # operation
     "operating.max_speed_hz": (0.1, 2000.0, "shaft speeds are 0.1 .. 2000 Hz (120 000 rpm; a speed in rpm "
                                             "written as Hz?)"),
+    "operating.max_sample_rate_hz": (100.0, 1e6, "sensor sample rates are 100 Hz .. 1 MHz (the FE mesh is refined "
+                                                 "up to the frequency it needs)"),
 }
 
 
@@ -162,7 +169,22 @@ def problem(raw: dict) -> tuple[str, str] | None:
                     return key, (f"{v!r} is outside [{_fmt(lo)}, {_fmt(hi)}]: {why}"
                                  + (_UNIT_SLIP if "overridden" not in why and dotted not in _COMPUTING else "")
                                  + f'; if it is right, widen it in the case: [{SECTION}] "{dotted}" = [low, high]')
-    return cost_problem(raw, bounds)
+    return relation_problem(raw, bounds) or cost_problem(raw, bounds)
+
+
+def relation_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] | None:
+    """Bounds on ratios of two keys (``bearings.*.axial_load_ratio``), or None (also when a key does not exist)."""
+    bounds = BOUNDS if bounds is None else bounds
+    c0 = raw.get("bearing", {}).get("static_load_rating_n") if isinstance(raw.get("bearing"), dict) else None
+    if not isinstance(c0, (int, float)) or isinstance(c0, bool) or not c0 > 0:
+        return None
+    lo, hi, why = bounds["bearings.*.axial_load_ratio"]
+    for key, fa in _values(raw, "bearings.*.axial_load_n"):
+        if isinstance(fa, (int, float)) and not isinstance(fa, bool) and not lo <= fa / c0 <= hi:
+            return key, (f"{fa!r} N is {fa / c0:.3g} x bearing.static_load_rating_n ({c0:g} N), outside "
+                         f"[{_fmt(lo)}, {_fmt(hi)}]: {why}{_UNIT_SLIP}; if it is right, widen it in the case: "
+                         f'[{SECTION}] "bearings.*.axial_load_ratio" = [low, high]')
+    return None
 
 
 def cost_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] | None:

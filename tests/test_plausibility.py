@@ -35,7 +35,9 @@ def _with(path: str, value, raw=None):
     ("rotor.outer_diameters_m", "*1000", "rotor.outer_diameters_m"),
     ("rotor.node_positions_m", "*1000", "rotor.node_positions_m"),
     ("operating.max_speed_hz", "*60", "operating.max_speed_hz"),        # rpm written as Hz
-    ("bearings.de.stiffness_vertical_n_m", 1e30, "bearings.de.stiffness_vertical_n_m"),
+    ("bearings.de.table_stiffness_vertical_n_m", 1e30, "bearings.de.table_stiffness_vertical_n_m"),
+    ("bearings.nde.axial_load_n", "*1000", "bearings.nde.axial_load_n"),                # kN written as N
+    ("operating.max_sample_rate_hz", 1e30, "operating.max_sample_rate_hz"),
     ("housings.[1].support_stiffness_horizontal_n_m", 1e30, "housings[1].support_stiffness_horizontal_n_m"),
     ("dent.depth_m", 1e300, "dent.depth_m"),
     ("dent.depth_m", "*1000", "dent.depth_m"),                          # 50 mm deep
