@@ -53,6 +53,7 @@ class Input:
     argv: list[str]
     files: dict[str, bytes] = field(default_factory=dict)
     outputs: list[str] = field(default_factory=list)       # files to check for finite numbers after exit 0
+    must_fail: bool = False                                 # an unwritable output: exit 0 would be a lie
 
 
 @dataclass
@@ -99,12 +100,12 @@ def case_inputs(n: int, seed: int = 14) -> list[Input]:
     ]
     for key in ("settle_time_s", "record_cage_periods", "samples_per_ball_pass", "gravity_m_s2",
                 "density_kg_m3", "mass_kg", "reference_speed_hz", "max_speed_hz", "depth_m",
-                "stiffness_vertical_n_m", "youngs_modulus_pa", "rotor_mass_kg"):
+                "table_stiffness_vertical_n_m", "youngs_modulus_pa", "rotor_mass_kg"):
         idx = next(i for i, k in keys if k == key)
         for v in ({"settle_time_s": ["1e9"], "record_cage_periods": ["1000000"],
                    "samples_per_ball_pass": ["1000000000"], "gravity_m_s2": ["0"], "density_kg_m3": ["1e308"],
                    "mass_kg": ["1e300", "1e-300"], "reference_speed_hz": ["1e-300"],
-                   "max_speed_hz": ["1e308"], "depth_m": ["1e300"], "stiffness_vertical_n_m": ["1e30"],
+                   "max_speed_hz": ["1e308"], "depth_m": ["1e300"], "table_stiffness_vertical_n_m": ["1e30"],
                    "youngs_modulus_pa": ["1e-300"], "rotor_mass_kg": ["1e-300"]}[key]):
             fixed.append((f"{key} = {v}", _set_line(CASE_TEXT, idx, v).encode()))
     out = [Input(f"case {label}", ["spectrum", "--speed-hz", "25", "--case", "{dir}/case.toml", "--json"],
@@ -146,11 +147,15 @@ def case_inputs(n: int, seed: int = 14) -> list[Input]:
 _BAD = ["nan", "inf", "-1", "0", "1e308", "1e-300", "x", "", "1e6", "-inf", "1e9"]
 
 
+UNWRITABLE: set[str] = set()
+
+
 def _unwritable(suffix: str) -> list[str]:
-    """Output paths that cannot be written: the full device, /proc, a read-only folder, a missing folder, and a
-    file name with the right suffix that is a link to /dev/full (a full disk)."""
-    return ["/dev/full", f"/proc/bkabem{suffix}", f"{{ro}}/out{suffix}", f"{{dir}}/missing/out{suffix}",
-            f"{{dir}}/full{suffix}"]
+    """Output paths that cannot be written: the full device, /proc, a read-only folder, and a file name with the
+    right suffix that is a link to /dev/full (a full disk); plus a missing folder (some commands create it)."""
+    out = ["/dev/full", f"/proc/bkabem{suffix}", f"{{ro}}/out{suffix}", f"{{dir}}/full{suffix}"]
+    UNWRITABLE.update(out)
+    return out + [f"{{dir}}/missing/out{suffix}"]
 
 
 def argument_inputs(n: int, seed: int = 14) -> list[Input]:
@@ -242,7 +247,8 @@ def _arg_input(cmd: str, base: list[str], opt: str, value: str, outputs: list[st
         argv[argv.index(opt) + 1] = suffix_value
     else:
         argv += [opt, suffix_value]
-    return Input(f"{cmd} {opt} {value!r}", argv, outputs=[] if value in outputs else list(outputs))
+    return Input(f"{cmd} {opt} {value!r}", argv, outputs=[] if value in outputs else list(outputs),
+                 must_fail=value in UNWRITABLE)
 
 
 # --------------------------------------------------------------------------- running and judging
@@ -339,6 +345,8 @@ def judge(inp: Input, rc: int | None, stdout: str, stderr: str, workdir: Path) -
                                                   ln.startswith("usage:")]) <= 2 else "multi-line"
     if rc != 0:
         return f"exit {rc}"
+    if inp.must_fail:
+        return "exit 0 after failure"
     if re.search(r"(?i)\b(nan|inf)\b", stdout) and not _finite_json(stdout):
         return "non-finite"
     for o in inp.outputs:

@@ -3,7 +3,8 @@
 Started by ``tests/test_network.py`` as ``unshare -rn python tests/netns_census.py SPEC.json``: a user + network
 namespace of its own (only ``lo``), in which this script adds a veth pair ``v0``/``v1`` (10.99.0.1/24 on v0,
 IPv6 off so the kernel's own neighbour discovery does not count), runs the commands of SPEC concurrently with
-the environment of SPEC (no discovery variables unless SPEC sets them), and prints one JSON object:
+the environment of SPEC (no discovery variables unless SPEC sets them) for SPEC's ``seconds``, then stops the
+commands marked ``stop`` with SIGINT and waits for the others to end by themselves, and prints one JSON object:
 
 - ``tx_packets`` / ``tx_bytes``: sent on v0 while the commands ran (``/proc/net/dev`` of the namespace);
 - ``groups_v0``: multicast groups joined on v0 (``/proc/net/igmp``; the kernel's 224.0.0.1 left out);
@@ -80,10 +81,10 @@ def main(spec_path: str) -> int:
         time.sleep(0.2)
     results = []
     for cmd, p in zip(spec["commands"], procs):
-        if p.poll() is None:
+        if p.poll() is None and cmd.get("stop"):          # a node runs until stopped; the others end by themselves
             p.send_signal(signal.SIGINT)
         try:
-            out, _ = p.communicate(timeout=30)
+            out, _ = p.communicate(timeout=60)
         except subprocess.TimeoutExpired:
             os.killpg(p.pid, signal.SIGKILL)
             out, _ = p.communicate()

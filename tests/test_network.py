@@ -33,7 +33,8 @@ def _census(commands, seconds, extra_env=None, tmp=None):
            "OPENBLAS_NUM_THREADS": "1", "PYTHONUNBUFFERED": "1", "RCUTILS_COLORIZED_OUTPUT": "0"}
     env.update(extra_env or {})
     spec = {"env": env, "cwd": str(REPO), "seconds": seconds,
-            "commands": [{"name": n, "argv": [sys.executable, "-m", "bkabem_ros", *a]} for n, a in commands]}
+            "commands": [{"name": n, "argv": [sys.executable, "-m", "bkabem_ros", *a], "stop": a[0] == "node"}
+                         for n, a in commands]}
     path = tmp / "spec.json"
     path.write_text(json.dumps(spec))
     p = subprocess.run(["unshare", "-rn", sys.executable, str(CENSUS), str(path)], capture_output=True, text=True,
@@ -92,7 +93,7 @@ def test_wrong_type_publisher_on_speed_is_reported():
         node.wait_for(r"streaming from t0", timeout=90)
         pub = lis.publisher(f"{ns}/speed", String)
         pub.publish(String(data="50"))
-        m = node.wait_for(r"publisher (\S+) offers type std_msgs/msg/String, not std_msgs/msg/Float64", timeout=15)
+        m = node.wait_for(r"publisher (\S+) offers type std_msgs/msg/String, not std_msgs/msg/Float64", timeout=40)
         assert m.group(1).endswith("wrong_type_publisher")
         assert node.stop(signal.SIGINT) == 0
     finally:
