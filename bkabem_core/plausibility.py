@@ -38,6 +38,13 @@ _UNIT_SLIP = " (a unit slip? SI units, as the key's suffix says)"
 _COMPUTING = frozenset({"bearings.*.axial_load_ratio", "excitation.settle_time_s", "excitation.record_cage_periods", "excitation.samples_per_ball_pass",
                         "excitation.atol_m", "excitation.ball_passes", "excitation.recorded_samples"})
 
+_SUPPORT_STIFFNESS = (1e3, 1e11, "supports are 1e3 .. 1e11 N/m")
+_SUPPORT_DAMPING = (0.0, 1e8, "support damping is 0 .. 1e8 N s/m")
+_BEARING_STIFFNESS = (1e5, 1e11, "ball bearing stiffnesses are 1e5 .. 1e11 N/m")
+_BEARING_DAMPING = (0.0, 1e7, "bearing damping is 0 .. 1e7 N s/m")
+_HOUSING_MASS = (1e-2, 1e5, "housings weigh 10 g .. 100 t")
+_DISK_INERTIA = (0.0, 1e5, "disk inertias are 0 .. 1e5 kg m^2")
+
 #: "section.key" -> (low, high, why): inclusive physical bounds.
 BOUNDS: dict[str, tuple[float, float, str]] = {
     # bearing geometry and material (deep-groove ball bearings from miniature to large slewing sizes)
@@ -54,15 +61,15 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "bearing.pressure_viscosity_m2_n": (0.0, 1e-7, "pressure-viscosity coefficients are 0 .. 1e-7 m^2/N "
                                                    "(mineral oils ~2e-8)"),
     "bearing.dynamic_viscosity_pa_s": (0.0, 10.0, "lubricant viscosities are 0 .. 10 Pa s"),
-    "bearing.damping_n_s_m": (0.0, 1e7, "bearing damping is 0 .. 1e7 N s/m"),
+    "bearing.damping_n_s_m": _BEARING_DAMPING,
     # the dent
     "dent.length_m": (1e-6, 0.1, "dents are 1 um .. 100 mm long"),
     "dent.depth_m": (0.0, 1e-3, "dents are 0 .. 1 mm deep"),
     # the 4-DOF excitation model
     "excitation.rotor_mass_kg": (1e-2, 1e5, "rotors weigh 10 g .. 100 t"),
-    "excitation.housing_mass_kg": (1e-2, 1e5, "housings weigh 10 g .. 100 t"),
-    "excitation.support_stiffness_n_m": (1e3, 1e11, "supports are 1e3 .. 1e11 N/m"),
-    "excitation.support_damping_n_s_m": (0.0, 1e8, "support damping is 0 .. 1e8 N s/m"),
+    "excitation.housing_mass_kg": _HOUSING_MASS,
+    "excitation.support_stiffness_n_m": _SUPPORT_STIFFNESS,
+    "excitation.support_damping_n_s_m": _SUPPORT_DAMPING,
     "excitation.gravity_m_s2": (1.0, 100.0, "the 4-DOF model is loaded by the rotor's weight: 1 .. 100 m/s^2 "
                                             "(0 leaves the bearing unloaded, without an equilibrium)"),
     "excitation.reference_speed_hz": (0.1, 1000.0, "the 4-DOF reference speed is 0.1 .. 1000 Hz (its integration "
@@ -79,15 +86,15 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     # derived: axial load / bearing.static_load_rating_n (deep-groove ball bearings carry ~0.5 C0 axially)
     "bearings.*.axial_load_ratio": (0.0, 1.0, "the axial load is at most the static load rating "
                                               "bearing.static_load_rating_n"),
-    "bearings.*.table_stiffness_vertical_n_m": (1e5, 1e11, "ball bearing stiffnesses are 1e5 .. 1e11 N/m"),
-    "bearings.*.table_stiffness_horizontal_n_m": (1e5, 1e11, "ball bearing stiffnesses are 1e5 .. 1e11 N/m"),
-    "bearings.*.table_damping_vertical_n_s_m": (0.0, 1e7, "bearing damping is 0 .. 1e7 N s/m"),
-    "bearings.*.table_damping_horizontal_n_s_m": (0.0, 1e7, "bearing damping is 0 .. 1e7 N s/m"),
-    "housings[].mass_kg": (1e-2, 1e5, "housings weigh 10 g .. 100 t"),
-    "housings[].support_stiffness_vertical_n_m": (1e3, 1e11, "supports are 1e3 .. 1e11 N/m"),
-    "housings[].support_stiffness_horizontal_n_m": (1e3, 1e11, "supports are 1e3 .. 1e11 N/m"),
-    "housings[].support_damping_vertical_n_s_m": (0.0, 1e8, "support damping is 0 .. 1e8 N s/m"),
-    "housings[].support_damping_horizontal_n_s_m": (0.0, 1e8, "support damping is 0 .. 1e8 N s/m"),
+    "bearings.*.table_stiffness_vertical_n_m": _BEARING_STIFFNESS,
+    "bearings.*.table_stiffness_horizontal_n_m": _BEARING_STIFFNESS,
+    "bearings.*.table_damping_vertical_n_s_m": _BEARING_DAMPING,
+    "bearings.*.table_damping_horizontal_n_s_m": _BEARING_DAMPING,
+    "housings[].mass_kg": _HOUSING_MASS,
+    "housings[].support_stiffness_vertical_n_m": _SUPPORT_STIFFNESS,
+    "housings[].support_stiffness_horizontal_n_m": _SUPPORT_STIFFNESS,
+    "housings[].support_damping_vertical_n_s_m": _SUPPORT_DAMPING,
+    "housings[].support_damping_horizontal_n_s_m": _SUPPORT_DAMPING,
     # the FE rotor
     "rotor.youngs_modulus_pa": (1e9, 1e12, "shaft materials are 1 GPa .. 1 TPa (steel 206 GPa)"),
     "rotor.density_kg_m3": (500.0, 25000.0, "shaft materials are 500 .. 25000 kg/m^3 (steel 7850)"),
@@ -96,8 +103,8 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "rotor.outer_diameters_m": (1e-3, 2.0, "shaft diameters are 1 mm .. 2 m"),
     "rotor.inner_diameters_m": (0.0, 2.0, "bore diameters are 0 .. 2 m"),
     "rotor.disks[].mass_kg": (1e-6, 1e5, "disks weigh 1 mg .. 100 t"),
-    "rotor.disks[].polar_inertia_kg_m2": (0.0, 1e5, "disk inertias are 0 .. 1e5 kg m^2"),
-    "rotor.disks[].diametral_inertia_kg_m2": (0.0, 1e5, "disk inertias are 0 .. 1e5 kg m^2"),
+    "rotor.disks[].polar_inertia_kg_m2": _DISK_INERTIA,
+    "rotor.disks[].diametral_inertia_kg_m2": _DISK_INERTIA,
     # operation
     "operating.max_speed_hz": (0.1, 2000.0, "shaft speeds are 0.1 .. 2000 Hz (120 000 rpm; a speed in rpm "
                                             "written as Hz?)"),

@@ -29,6 +29,7 @@ from collections.abc import MutableMapping
 DISCOVERY_VARIABLES = ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS", "ROS_DISCOVERY_SERVER")
 DEFAULT_RANGE = "LOCALHOST"
 _NOTED = "_BKABEM_DISCOVERY_NOTED"
+_DEFAULTED = "_BKABEM_DISCOVERY_DEFAULTED"
 
 SECURITY_MESSAGE = (
     "ROS_SECURITY_ENABLE=true: the Fast DDS of these ROS 2 wheels is built without the security plugins "
@@ -151,11 +152,14 @@ def apply_defaults(environ: MutableMapping[str, str] | None = None, *, say=None)
     env = os.environ if environ is None else environ
     if env.get("ROS_SECURITY_ENABLE", "").strip().lower() == "true":
         raise SecurityUnavailable(SECURITY_MESSAGE)
-    chosen = [name for name in DISCOVERY_VARIABLES if _set(env, name) is not None]
+    ours = env.get(_DEFAULTED) == "1" and env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == DEFAULT_RANGE
+    chosen = [name for name in DISCOVERY_VARIABLES if _set(env, name) is not None
+              and not (ours and name == "ROS_AUTOMATIC_DISCOVERY_RANGE")]
     if chosen:
         line = f"ROS discovery: {discovery_in_force(env)} (set in the environment)"
     else:
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = DEFAULT_RANGE
+        env[_DEFAULTED] = "1"           # set by bkabem, not by the user (a second call, a child process)
         line = ("ROS discovery: LOCALHOST, this host only (bkabem's default; to reach other hosts set "
                 "ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET, ROS_STATIC_PEERS or ROS_DISCOVERY_SERVER: docs/ros_node.md)")
     _pending["line"] = line

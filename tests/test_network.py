@@ -21,6 +21,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import pytest
+
 from ros_helpers import REPO, Listener, Proc, bkabem_cmd, ros_env, unique_namespace
 
 CENSUS = Path(__file__).with_name("netns_census.py")
@@ -99,3 +101,24 @@ def test_wrong_type_publisher_on_speed_is_reported():
     finally:
         node.kill()
         lis.close()
+
+
+def test_discovery_defaults_keep_the_users_choice():
+    from bkabem_ros import ros_env
+
+    env = {}
+    line = ros_env.apply_defaults(env)
+    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST" and "bkabem's default" in line
+    assert "bkabem's default" in ros_env.apply_defaults(env)        # a second call (run_demo) still says so
+    for name, value in (("ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET"), ("ROS_STATIC_PEERS", "10.1.2.3"),
+                        ("ROS_DISCOVERY_SERVER", "10.1.2.3:11811")):
+        env = {name: value}
+        line = ros_env.apply_defaults(env)
+        assert env[name] == value                                    # kept as the user set it
+        assert "ROS_AUTOMATIC_DISCOVERY_RANGE" not in env or name == "ROS_AUTOMATIC_DISCOVERY_RANGE"
+        assert value in line and "set in the environment" in line
+    env = {"ROS_LOCALHOST_ONLY": "0"}                                 # deprecated, ignored by Kilted: no choice
+    ros_env.apply_defaults(env)
+    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
+    with pytest.raises(ros_env.SecurityUnavailable, match="security plugins"):
+        ros_env.apply_defaults({"ROS_SECURITY_ENABLE": "true"})
