@@ -102,6 +102,6 @@ def blueprint(locations=("de", "nde"), quantities=("acceleration", "displacement
         rrb.TimeSeriesView(origin="/fault_frequencies", name="fault frequencies [Hz]", plot_legend=legend),
         name="machine")
     return rrb.Blueprint(
-        rrb.Vertical(rrb.Horizontal(*columns), machine, row_shares=[11.6, 3]),
+        rrb.Vertical(rrb.Horizontal(*columns), machine, row_shares=[10.6, 3.6]),
         rrb.TimePanel(state="collapsed", timeline=TIMELINE, play_state="following"),
         collapse_panels=True)

@@ -55,8 +55,8 @@ _CHANNEL_COLORS = {"vertical": (31, 119, 180), "horizontal": (255, 127, 14)}
 _LIGHT_COLORS = {"vertical": (150, 200, 240), "horizontal": (255, 200, 140)}
 _FALLBACK_COLORS = [(44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75)]
 _ZONE_COLORS = [(120, 200, 80), (240, 200, 40), (230, 60, 50)]
-_SPEED_COLOR = (235, 235, 235)
-_SPEED_WAVEFORM_COLOR = (150, 150, 150)
+_SPEED_COLOR = (255, 190, 90)          # light amber: visible on the dark theme
+_SPEED_WAVEFORM_COLOR = (120, 180, 255)
 #: Order-spectrum lines below this fraction of the largest, past the last one above, are not drawn.
 LINE_DISPLAY_FLOOR = 0.01
 #: Bars per channel of an envelope spectrum (peak hold over groups of bins beyond that): a bar

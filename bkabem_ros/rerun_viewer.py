@@ -1,7 +1,8 @@
 """Drive the real Rerun viewer headless: open a ``.rrd``, set the time, list the views and their
 errors, take screenshots of the whole window and of each view (rerun-sdk 0.41).
 
-    python -m bkabem_ros.rerun_viewer recordings/demo.rrd --out docs/img [--at 25 --at 29.5]
+    python -m bkabem_ros.rerun_viewer recordings/demo.rrd [--out out/viewer] [--at 12 --at 29.5]
+    python -m bkabem_ros.rerun_viewer --docs docs/img     # = make screenshots: demo, then docs/img/rerun_*.png
 
 The viewer is the ``rerun`` binary of the wheel started as ``rerun --headless --bind 127.0.0.1``
 (no window, no GPU: it renders with Mesa's software Vulkan driver, lavapipe, which
@@ -57,11 +58,14 @@ def lavapipe_available() -> bool:
 @dataclass
 class ViewStats:
     """Pixel statistics of one view's screenshot: ``ink`` = fraction of pixels differing from the
-    background (the most common colour) by more than 24 grey levels; ``colours`` = distinct
-    colours among them (quantised to 4 bits per channel)."""
+    background (the most common colour) by more than 24 grey levels; ``colour_ink`` = fraction of
+    pixels in colour (max - min of R, G, B > 60: data series, bars and markers; the grid, axes
+    and text are grey); ``colours`` = distinct colours among the inked pixels (4 bits per
+    channel)."""
 
     name: str
     ink: float
+    colour_ink: float
     colours: int
     width: int
     height: int
@@ -83,7 +87,8 @@ def view_statistics(png: bytes, name: str = "") -> ViewStats:
     bg_code = np.bincount(codes).argmax()
     bg = np.array([(bg_code >> 8) & 15, (bg_code >> 4) & 15, bg_code & 15]) * 16 + 8
     ink = np.abs(flat - bg).max(axis=1) > 24
-    return ViewStats(name, float(ink.mean()), int(np.unique(codes[ink]).size), w, h)
+    chroma = (flat.max(axis=1) - flat.min(axis=1)) > 60
+    return ViewStats(name, float(ink.mean()), float(chroma.mean()), int(np.unique(codes[ink]).size), w, h)
 
 
 @dataclass
@@ -99,6 +104,7 @@ class HeadlessViewer:
     proc: subprocess.Popen | None = field(default=None, init=False)
     client: object = field(default=None, init=False)
     log_path: Path | None = field(default=None, init=False)
+    started: float = field(default=0.0, init=False)
 
     def __enter__(self) -> HeadlessViewer:
         self.start()
@@ -110,6 +116,7 @@ class HeadlessViewer:
     def start(self) -> None:
         from rerun.experimental import ViewerClient  # noqa: PLC0415
 
+        self.started = time.monotonic()
         if not lavapipe_available():
             raise RuntimeError("no Vulkan driver for the headless viewer: install Mesa's lavapipe "
                                "(Debian: apt-get install mesa-vulkan-drivers; tools/setup_viewer.sh)")
@@ -248,12 +255,69 @@ class HeadlessViewer:
                     pass
 
 
+#: The screenshots of docs/recording.md and the README: (file, time cursor [s] or None for the
+#: blueprint's default (the latest data), tab index, what it shows).
+DOC_SHOTS = (
+    ("rerun_default.png", None, 0, "as the demo recording opens: the end of the run (50 Hz hold)"),
+    ("rerun_runup.png", 12.0, 1, "t = 12 s of the run-up (30 Hz), second tabs: displacement, order spectra, "
+                                 "block min/max and RMS"),
+    ("rerun_trends.png", None, 2, "third tabs: order spectra of the displacement, peak-to-peak trends"),
+)
+
+
+def _save_png(png: bytes, path: Path) -> None:
+    """Write a screenshot as an optimised 256-colour PNG (a third of the size, same look)."""
+    from PIL import Image  # noqa: PLC0415
+
+    img = Image.open(io.BytesIO(png)).convert("RGB").quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+    img.save(path, optimize=True)
+
+
+def make_doc_screenshots(out_dir, rrd=None) -> list[Path]:
+    """Screenshots of the demo recording for the docs (:data:`DOC_SHOTS`). Without ``rrd`` the
+    demo's ROS part runs first (``out/screenshots/demo.rrd``, the same run as ``make demo``)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if rrd is None:
+        from .demo import run_demo  # noqa: PLC0415
+
+        r = run_demo("out/screenshots", record=False)
+        if r.errors:
+            raise RuntimeError(f"demo failed: {r.errors}")
+        rrd = r.rrd
+    written = []
+    with HeadlessViewer() as v:
+        v.open(rrd)
+        time.sleep(max(0.0, 8.0 - (time.monotonic() - v.started)))   # the start-up toasts fade
+        for name, at, tab, _what in DOC_SHOTS:
+            v.show_tab(tab)
+            if at is not None:
+                v.set_time(at)
+            else:
+                v.client.set_time(TIMELINE, play_state="following")
+            png = v.screenshot(settle=2)
+            _save_png(png, out / name)
+            written.append(out / name)
+            print(f"wrote {out / name}")
+        bad = v.errors()
+        if bad:
+            raise RuntimeError("viewer reported: " + "; ".join(bad))
+    return written
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m bkabem_ros.rerun_viewer", description=__doc__.split("\n\n")[0])
-    p.add_argument("rrd")
-    p.add_argument("--out", default="out/viewer")
+    p.add_argument("rrd", nargs="?", default=None, help="recording (with --docs: default, run the demo first)")
+    p.add_argument("--out", default="out/viewer", help="folder for the screenshots (default out/viewer)")
     p.add_argument("--at", type=float, action="append", default=None, help="time cursor [s] (repeatable)")
+    p.add_argument("--docs", metavar="DIR", default=None,
+                   help="make the documentation screenshots in DIR (docs/img) from the demo")
     args = p.parse_args(argv)
+    if args.docs:
+        make_doc_screenshots(args.docs, args.rrd)
+        return 0
+    if args.rrd is None:
+        p.error("RRD: a recording is needed (or --docs)")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     with HeadlessViewer() as v:
@@ -267,7 +331,7 @@ def main(argv=None) -> int:
             for name, (view, vpng) in v.shoot_every_view().items():
                 s = view_statistics(vpng, name)
                 (out / f"view_{slug(name)}.png").write_bytes(vpng)
-                print(f"  {name:60s} ink {s.ink * 100:5.1f} %  colours {s.colours:4d}  "
+                print(f"  {name:60s} ink {s.ink * 100:5.1f} %  in colour {s.colour_ink * 100:5.2f} %  "
                       f"reports {[r.summary for r in view.reports]}")
         for e in v.errors():
             print("viewer:", e)
