@@ -18,6 +18,7 @@ One FFT of the window serves the envelope band-pass and the velocity integration
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -82,6 +83,27 @@ def window_spectrum(x: np.ndarray, fs: float) -> WindowSpectrum:
     return WindowSpectrum(spec, np.fft.rfftfreq(n, 1.0 / fs), n, float(fs))
 
 
+@functools.lru_cache(maxsize=16)
+def _hann(n: int) -> np.ndarray:
+    return np.hanning(n)
+
+
+def _fast_len(n: int) -> int:
+    """Smallest 2^a 3^b 5^c >= n (pocketfft is fastest there)."""
+    best = 1 << max(int(n - 1).bit_length(), 0)
+    p5 = 1
+    while p5 < 2 * n:
+        p35 = p5
+        while p35 < 2 * n:
+            q = p35
+            while q < n:
+                q *= 2
+            best = min(best, q)
+            p35 *= 3
+        p5 *= 5
+    return best
+
+
 def default_envelope_band(fs: float) -> tuple[float, float]:
     """Envelope band-pass [Hz]: 1 kHz to min(10 kHz, 0.4 fs); for a low sample rate
     (0.4 fs <= 2 kHz) the upper half of the usable range, 0.2 fs to 0.4 fs.
@@ -117,22 +139,29 @@ def envelope_spectrum(x, fs: float, band_hz: tuple[float, float] | None = None, 
         [Hz], resolution fs / n, from 0.
     amplitude : ndarray, shape (channels, bins)
         Envelope amplitude [m/s^2] (peak of a sinusoidal envelope modulation; Hann window,
-        amplitude-corrected). Bin 0 (the envelope's mean) is zero.
+        amplitude-corrected). Bin 0 (the envelope's mean) is zero. The envelope is computed at
+        a rate of about twice the band width (see the code), so ``freq`` stops below fs/2.
     """
     ws = ws or window_spectrum(x, fs)
     lo, hi = band_hz or default_envelope_band(fs)
     if not 0.0 <= lo < hi <= fs / 2:
         raise ValueError(f"band_hz: ({lo}, {hi}) must satisfy 0 <= low < high <= fs/2 = {fs / 2}")
     n = ws.n
-    keep = (ws.freq >= lo) & (ws.freq <= hi)
-    full = np.zeros((ws.spectrum.shape[0], n), dtype=np.complex128)
-    full[:, : ws.freq.size][:, keep] = 2.0 * ws.spectrum[:, keep]     # analytic: positive band only
-    env = np.abs(np.fft.ifft(full, axis=1))
+    band = np.nonzero((ws.freq >= lo) & (ws.freq <= hi))[0]
+    # Analytic signal of the band: only bins k0..k0+K-1 are non-zero. Shifted down by k0 (which
+    # leaves its magnitude unchanged) it is a K-bin signal, sampled here at m >= 2K points over
+    # the window instead of n: the same envelope at a lower rate (3-5x fewer FFT points; the
+    # envelope's content above K bins, which would fold back, is negligible).
+    k0, kk = int(band[0]), int(band.size)
+    m = _fast_len(2 * kk)
+    z = np.zeros((ws.spectrum.shape[0], m), dtype=np.complex128)
+    z[:, :kk] = ws.spectrum[:, band]
+    env = np.abs(np.fft.ifft(z, axis=1)) * (2.0 * m / n)
     env -= env.mean(axis=1, keepdims=True)
-    w = np.hanning(n)
+    w = _hann(m)
     amp = np.abs(np.fft.rfft(env * w, axis=1)) * (2.0 / w.sum())
     amp[:, 0] = 0.0
-    f = np.fft.rfftfreq(n, 1.0 / fs)
+    f = np.fft.rfftfreq(m, 1.0 / (fs * m / n))
     top = (hi - lo) / 2 if f_max is None else min(float(f_max), fs / 2)
     m = f <= top
     return f[m], amp[:, m]
@@ -173,9 +202,10 @@ def kurtosis(x) -> np.ndarray:
     """Pearson kurtosis of each channel (3 for Gaussian noise, 1.5 for a sine; impacts raise it) [-]."""
     a = np.atleast_2d(np.asarray(x, dtype=np.float64))
     d = a - a.mean(axis=1, keepdims=True)
-    m2 = np.mean(d * d, axis=1)
+    d2 = d * d
+    m2 = np.mean(d2, axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        k = np.mean(d**4, axis=1) / (m2 * m2)
+        k = np.einsum("ij,ij->i", d2, d2) / d.shape[1] / (m2 * m2)
     return np.where(m2 > 0, k, np.nan)
 
 

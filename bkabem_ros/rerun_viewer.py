@@ -196,6 +196,16 @@ class HeadlessViewer:
                 c["active_tab"] = c["contents"][min(index, len(c["contents"]) - 1)]
         self.client.set_blueprint(bp, of="recording")
 
+    def maximize(self, view_id=None) -> None:
+        """Show one view over the whole window (None: the layout again)."""
+        bp = self.client.get_blueprint().blueprint
+        vp = bp.setdefault("/viewport", {}).setdefault("ViewportBlueprint", {})
+        if view_id is None:
+            vp.pop("maximized", None)
+        else:
+            vp["maximized"] = str(view_id)
+        self.client.set_blueprint(bp, of="recording")
+
     def hidden_views(self) -> set[str]:
         """Ids of the views in tabs that are not the active one."""
         hidden = set()

@@ -68,3 +68,55 @@ def test_every_view_exists_without_error_and_shows_data(example_rrd):
         for w in env:
             s = view_statistics(v.screenshot(w.view_id, settle=2), w.name)
             assert s.colour_ink < 0.0005, s
+
+
+def _spiky_recording(path: Path) -> float:
+    """DE acceleration: a slow 0.1 m/s^2 sine (5 Hz) plus single-sample impacts of 1 m/s^2 every
+    50 ms, 25.6 kHz, 2 s, through the logger as the node's messages. Returns the share of the
+    data's range that the sine spans (what an honest plot shows)."""
+    import numpy as np
+
+    from bkabem_ros import msgs
+
+    fs, n, t0 = 25_600.0, 2560, 1_700_000_000_000_000_000
+    t = np.arange(int(2 * fs)) / fs
+    x = 0.1 * np.sin(2 * np.pi * 5 * t)
+    x[::1280] += 1.0
+    logger = rerun_io.RerunLogger("bkabem", recording_id="spikes", save_path=path)
+    for i in range(t.size // n):
+        blk = x[i * n:(i + 1) * n]
+        logger.log_waveform(msgs.waveform_message(
+            np.stack([blk, np.zeros_like(blk)]), sample_rate=fs, first_sample_index=i * n, shaft_speed=0.0,
+            machine_id="m", location="de", quantity="acceleration", channel_names=["vertical", "horizontal"],
+            stamp=t0 + int(round(i * n / fs * 1e9))))
+    logger.close()
+    return 0.2 / (x.max() - x.min())
+
+
+def test_waveform_keeps_impact_peaks_at_full_height(tmp_path):
+    """Zoomed out (1 s = 25 600 samples on ~1200 pixels) the plot must still reach the impacts.
+    The y axis fits what is drawn, so the share of the plot's height that the slow sine spans
+    tells: 0.2 / 1.2 of the data's range when the impacts are drawn at full height (min/max),
+    most of the height when an averaging plot shrinks them to 1/20."""
+    import numpy as np
+
+    from bkabem_ros.rerun_viewer import _pixels
+
+    path = tmp_path / "spikes.rrd"
+    want = _spiky_recording(path)
+    with HeadlessViewer(window_size=(1280, 800)) as v:
+        v.open(path)
+        (view,) = [w for w in v.views() if w.name == "DE acceleration [m/s²]"]
+        v.maximize(view.view_id)                            # the blueprint's 1-s window, on ~1200 pixels
+        img = _pixels(v.screenshot(view.view_id, settle=2)).astype(int)
+        assert v.errors() == []
+    blue = (np.abs(img - np.array([31, 119, 180])).max(axis=2) < 40)
+    blue[:60, :260] = False                                 # the legend's dot
+    rows = np.arange(img.shape[0])[:, None].astype(float)
+    has = blue.sum(axis=0) > 0
+    assert has.sum() > 0.5 * img.shape[1]                   # the trace spans the view
+    centre = (np.where(blue, rows, 0).sum(axis=0)[has] / blue.sum(axis=0)[has])
+    top = np.where(blue, rows, np.inf).min(axis=0)[has].min()
+    bottom = np.where(blue, rows, -np.inf).max(axis=0)[has].max()
+    share = (np.percentile(centre, 95) - np.percentile(centre, 5)) / (bottom - top)
+    assert share < 1.3 * want, (share, want)
