@@ -223,14 +223,15 @@ class HeadlessViewer:
                     if v.get("ContainerBlueprint", {}).get("container_kind") == "Tabs"] or [1])
 
     def shoot_every_view(self, settle: int = 2):
-        """{view name: (View, PNG)} of every view of the blueprint, tab by tab; the first tabs are
-        active again afterwards."""
+        """{view name: (View, PNG)} of every view of the blueprint, tab by tab (each tab pass
+        waits until the window's screenshot is stable, then shoots each view ``settle`` times
+        until stable); the first tabs are active again afterwards."""
         out = {}
         n = self.tab_count()
         for i in range(n):
             if n > 1:
                 self.show_tab(i)
-            self.screenshot(settle=settle)
+            self.screenshot(settle=max(settle, 2))          # until the newly shown views have loaded
             hidden = self.hidden_views()
             for view in self.views():
                 if view.name not in out and str(view.view_id) not in hidden:
