@@ -13,7 +13,7 @@ out of a live node and of any recording):
 - :func:`kurtosis` and :func:`crest_factor` (impulsiveness).
 
 One FFT of the window serves the envelope band-pass and the velocity integration
-(:func:`window_spectrum`).
+(:func:`window_spectrum`). The FFTs run in single precision (the samples are float32).
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
+import scipy.fft as sfft
 
 __all__ = [
     "DEFAULT_ISO_ZONES",
@@ -76,16 +77,22 @@ class WindowSpectrum(NamedTuple):
 
 
 def window_spectrum(x: np.ndarray, fs: float) -> WindowSpectrum:
-    """``rfft`` of each channel of ``x`` (channels, n) after removing its mean."""
-    a = np.atleast_2d(np.asarray(x, dtype=np.float64))
+    """``rfft`` of each channel of ``x`` (channels, n) after removing its mean, in single
+    precision (the samples are float32; twice as fast, errors ~1e-6 of the largest line)."""
+    a = np.atleast_2d(np.asarray(x, dtype=np.float32))
     n = a.shape[1]
-    spec = np.fft.rfft(a - a.mean(axis=1, keepdims=True), axis=1)
-    return WindowSpectrum(spec, np.fft.rfftfreq(n, 1.0 / fs), n, float(fs))
+    spec = sfft.rfft(a - a.mean(axis=1, keepdims=True, dtype=np.float64).astype(np.float32), axis=1)
+    return WindowSpectrum(spec, _rfftfreq(n, float(fs)), n, float(fs))
+
+
+@functools.lru_cache(maxsize=16)
+def _rfftfreq(n: int, fs: float) -> np.ndarray:
+    return np.fft.rfftfreq(n, 1.0 / fs)
 
 
 @functools.lru_cache(maxsize=16)
 def _hann(n: int) -> np.ndarray:
-    return np.hanning(n)
+    return np.hanning(n).astype(np.float32)
 
 
 def _fast_len(n: int) -> int:
@@ -154,14 +161,14 @@ def envelope_spectrum(x, fs: float, band_hz: tuple[float, float] | None = None, 
     # envelope's content above K bins, which would fold back, is negligible).
     k0, kk = int(band[0]), int(band.size)
     m = _fast_len(2 * kk)
-    z = np.zeros((ws.spectrum.shape[0], m), dtype=np.complex128)
+    z = np.zeros((ws.spectrum.shape[0], m), dtype=np.complex64)
     z[:, :kk] = ws.spectrum[:, band]
-    env = np.abs(np.fft.ifft(z, axis=1)) * (2.0 * m / n)
+    env = np.abs(sfft.ifft(z, axis=1)) * np.float32(2.0 * m / n)
     env -= env.mean(axis=1, keepdims=True)
     w = _hann(m)
-    amp = np.abs(np.fft.rfft(env * w, axis=1)) * (2.0 / w.sum())
+    amp = np.abs(sfft.rfft(env * w, axis=1)).astype(np.float64) * (2.0 / float(w.sum(dtype=np.float64)))
     amp[:, 0] = 0.0
-    f = np.fft.rfftfreq(m, 1.0 / (fs * m / n))
+    f = _rfftfreq(m, fs * m / n)
     top = (hi - lo) / 2 if f_max is None else min(float(f_max), fs / 2)
     m = f <= top
     return f[m], amp[:, m]
@@ -176,7 +183,7 @@ def iso_velocity_rms(x, fs: float, band_hz: tuple[float, float] = ISO_BAND_HZ,
     if ws.n < 8:
         return np.full(ws.spectrum.shape[0], np.nan)
     keep = (ws.freq >= band_hz[0]) & (ws.freq <= band_hz[1]) & (ws.freq > 0)
-    v = ws.spectrum[:, keep] / (1j * TWO_PI * ws.freq[keep])
+    v = ws.spectrum[:, keep].astype(np.complex128) / (1j * TWO_PI * ws.freq[keep])
     ms = 2.0 * np.sum(np.abs(v) ** 2, axis=1) / ws.n**2
     return np.sqrt(ms) * 1e3
 
@@ -200,18 +207,20 @@ def iso_zone(velocity_mm_s: float, boundaries: tuple[float, float, float]) -> st
 
 def kurtosis(x) -> np.ndarray:
     """Pearson kurtosis of each channel (3 for Gaussian noise, 1.5 for a sine; impacts raise it) [-]."""
-    a = np.atleast_2d(np.asarray(x, dtype=np.float64))
-    d = a - a.mean(axis=1, keepdims=True)
+    a = np.atleast_2d(np.asarray(x))
+    a = a if a.dtype in (np.float32, np.float64) else a.astype(np.float64)
+    d = a - a.mean(axis=1, keepdims=True, dtype=np.float64).astype(a.dtype)
     d2 = d * d
-    m2 = np.mean(d2, axis=1)
+    m2 = np.mean(d2, axis=1, dtype=np.float64)                  # pairwise sums in float64
     with np.errstate(invalid="ignore", divide="ignore"):
-        k = np.einsum("ij,ij->i", d2, d2) / d.shape[1] / (m2 * m2)
+        k = np.mean(d2 * d2, axis=1, dtype=np.float64) / (m2 * m2)
     return np.where(m2 > 0, k, np.nan)
 
 
 def crest_factor(x) -> np.ndarray:
     """Peak (max |x|) over RMS of each channel [-] (1.41 for a sine)."""
-    a = np.atleast_2d(np.asarray(x, dtype=np.float64))
-    rms = np.sqrt(np.mean(a * a, axis=1))
+    a = np.atleast_2d(np.asarray(x))
+    rms = np.sqrt(np.mean(np.square(a, dtype=np.float64) if a.dtype != np.float32 else a * a, axis=1,
+                          dtype=np.float64))
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(rms > 0, np.max(np.abs(a), axis=1) / rms, np.nan)

@@ -9,7 +9,7 @@ The messages are SI; the viewer shows engineers' units, named in every series an
 ``/<loc>/<quantity>``                          every sample: one row per sample, one float32 per
                                                channel (vertical, horizontal) in the component
                                                ``VibrationWaveform:samples``, min/max aggregation;
-                                               ``send_columns`` per 0.3 s
+                                               ``send_columns`` per 0.5 s
 ``/<loc>/overview/<quantity>``                 per block: max and min per channel (not for
                                                displacement), the whole-run overview
 ``/<loc>/overview/<quantity>/rms``             per block: RMS per channel
@@ -65,8 +65,9 @@ SCALAR_BATCH_S = 0.5
 #: Component holding the waveform samples (float32, one per channel and row).
 SAMPLES_COMPONENT = "VibrationWaveform:samples"
 #: Waveform samples are sent in column chunks of this much sample time [s] (the live viewer
-#: shows them that much later; fewer, larger chunks cost less per sample).
-WAVEFORM_BATCH_S = 0.3
+#: shows them up to that much later; fewer, larger chunks cost less per sample: 0.1 s chunks
+#: cost ~25 % more).
+WAVEFORM_BATCH_S = 0.5
 #: Bars per channel of an envelope spectrum (peak hold over groups of bins beyond that): a bar
 #: narrower than a pixel is not drawn.
 ENVELOPE_BARS = 200
@@ -370,7 +371,7 @@ class RerunLogger:
                              widths=[1.0] * 2 * len(names))
                 self._scalars(ov, np.column_stack([hi, lo]).reshape(-1), stamp)
                 self._series(f"{ov}/rms", [f"{ch} RMS [{unit}]" for ch in names], colors, widths=[2.5] * len(names))
-                self._scalars(f"{ov}/rms", np.sqrt(np.einsum("ij,ij->j", x, x) / n), stamp)
+                self._scalars(f"{ov}/rms", np.sqrt(np.einsum("ij,ij->i", a, a, dtype=np.float64) / n) * factor, stamp)
             self.samples_logged += a.size
             if self._speed_stream is None:
                 self._speed_stream = (loc, q)
@@ -389,13 +390,13 @@ class RerunLogger:
             w.reset()                                        # new stream, gap or other layout
             w.fs, w.names = fs, names
         w.next_index = first + a.shape[1]
-        w.blocks.append(np.array(a, dtype=np.float64))
+        w.blocks.append(a)                  # float32 view of the message; the window is float64
         w.n += a.shape[1]
         w.speeds.append(float(msg.shaft_speed))
         need = max(int(round(self.condition_window_s * fs)), 16)
         if w.n < need:
             return
-        x = np.concatenate(w.blocks, axis=1)
+        x = np.concatenate(w.blocks, axis=1)                # float32, SI
         rest = x[:, need:]
         x = x[:, :need]
         speed = float(np.mean(w.speeds))
@@ -440,7 +441,8 @@ class RerunLogger:
         self._log_markers(f"/{loc}/envelope/markers", lines, f_top, top)
         h = self._health.setdefault(loc, {})
         h.update(iso=iso, zone=[condition.iso_zone(v, limits) for v in iso], kurt=kurt, crest=crest,
-                 rms=np.sqrt(np.mean(x * x, axis=1)), peak=np.max(np.abs(x), axis=1), names=names,
+                 rms=np.sqrt(np.mean(x * x, axis=1, dtype=np.float64)), peak=np.max(np.abs(x), axis=1).astype(np.float64),
+                 names=names,
                  band=band, window_s=x.shape[1] / fs, env_df=(f[1] - f[0]) if f.size > 1 else 0.0, env_group=group,
                  finding=self._envelope_finding(f, env, lines, names),
                  speed_hz=speed_rad_s / (2 * math.pi), lines=lines)
