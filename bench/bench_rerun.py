@@ -10,7 +10,8 @@ e.g. ``git worktree add --detach /tmp/bk_base main``), feeds the data through ``
 ``RerunLogger`` -> ``.rrd`` as fast as it can, closes the file, and reports process CPU seconds
 (all threads, Rerun's encoder included) per second of data = the fraction of one core that
 logging costs in real time, and the file size per recorded second. The one-off set-up (logger
-and blueprint, once per recording) is timed apart. Runs alternate baseline /
+and blueprint, once per recording) and, for this tree, the chunk compaction that
+``RerunLogger.close()`` runs on a file (``rerun rrd optimize``, a child process) are timed apart. Runs alternate baseline /
 this tree, so both see the same machine load; the ratio of medians is the number to compare.
 """
 
@@ -44,7 +45,9 @@ def cpu():
     r = resource.getrusage(resource.RUSAGE_SELF); return r.ru_utime + r.ru_stime
 path = os.path.join(tempfile.mkdtemp(), "bench.rrd")
 c_start = cpu()
-logger = RerunLogger("bkabem-bench", save_path=path)
+import inspect
+kw = {"optimize": False} if "optimize" in inspect.signature(RerunLogger).parameters else {}
+logger = RerunLogger("bkabem-bench", save_path=path, **kw)    # the compaction after close is timed apart
 sink = RerunSink(logger)
 setup = cpu() - c_start                      # once per recording (the blueprint): reported apart
 c0, w0 = cpu(), time.perf_counter()
@@ -53,7 +56,16 @@ for topic, ty, m, stamp in stream:
 sink.close()
 c, w = cpu() - c0, time.perf_counter() - w0
 size = os.path.getsize(path)
-print(json.dumps({"cpu_s": c, "wall_s": w, "setup_cpu_s": setup, "cpu_percent_of_one_core": 100 * c / seconds,
+opt_s = None
+if kw:                                       # this tree: compact the file as close() would
+    ch0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    err = rio.optimize_rrd(path)
+    ch1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    assert err is None, err
+    opt_s = (ch1.ru_utime + ch1.ru_stime) - (ch0.ru_utime + ch0.ru_stime)
+    opt_size = os.path.getsize(path)
+print(json.dumps({"cpu_s": c, "wall_s": w, "setup_cpu_s": setup, "optimize_cpu_s": opt_s,
+                  "optimized_bytes_per_s": (opt_size / seconds) if opt_s is not None else None, "cpu_percent_of_one_core": 100 * c / seconds,
                   "bytes_per_s": size / seconds, "bytes_per_sample": size / logger.samples_logged,
                   "samples": logger.samples_logged, "dropped": sink.dropped, "error": str(sink.error or "")}))
 os.remove(path)
@@ -95,6 +107,11 @@ def main(argv=None) -> int:
             "mb_per_recorded_s": statistics.median(r["bytes_per_s"] for r in runs) / 1e6,
             "bytes_per_sample": statistics.median(r["bytes_per_sample"] for r in runs),
             "setup_cpu_ms": 1e3 * statistics.median(r["setup_cpu_s"] for r in runs)}
+        if runs[0]["optimize_cpu_s"] is not None:
+            summary[name]["optimize_cpu_s_per_recorded_s"] = statistics.median(
+                r["optimize_cpu_s"] / args.seconds for r in runs)
+            summary[name]["optimized_mb_per_recorded_s"] = statistics.median(
+                r["optimized_bytes_per_s"] for r in runs) / 1e6
     if "baseline" in summary:
         b, t = summary["baseline"], summary["this tree"]
         summary["ratio this/baseline"] = {"cpu": t["cpu_percent_median"] / b["cpu_percent_median"],

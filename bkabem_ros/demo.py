@@ -161,7 +161,7 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
         summary = _Summary()
         node.add_sink(summary)
         attached = attach_sinks(node, record=mcap, rerun_save=rrd, rerun_connect=rerun_connect,
-                                recording_id="bkabem-demo")
+                                recording_id="bkabem-demo", rerun_optimize=True)
         speed_node = rclpy.create_node("bkabem_demo_speed", context=ctx)
         pub = speed_node.create_publisher(Float64, "speed", 10)
         t_start = [None]
@@ -200,6 +200,8 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
                 err = getattr(s, "error", None)
                 if err is not None:
                     result.errors.append(str(err))
+            if attached.rerun is not None and attached.rerun.logger.optimize_error:
+                say(f"warning: {rrd} left as written: {attached.rerun.logger.optimize_error}")
         if speed_node is not None:
             speed_node.destroy_node()
         if node is not None:

@@ -413,3 +413,45 @@ def test_speed_units(tmp_path, speed_scale, want_hz):
     sink.close()
     vals = _column(_rows(path)["/speed/shaft_hz"]["batches"], "Scalars:scalars")
     np.testing.assert_allclose([v[0] for v in vals], [want_hz])
+
+
+def test_each_plot_has_one_unit_and_the_health_panel_says_what_is_not_drawn(tmp_path):
+    """No view mixes m/s², µm and mm/s (they were on one axis); the static displacement, left out
+    of the spectrum, and the spectrum's BPFO and orders are stated in the health panel."""
+    import re
+
+    from bkabem_ros.rerun_blueprint import _views
+
+    path = tmp_path / "units.rrd"
+    logger = rerun_io.RerunLogger("bkabem-test", save_path=path)
+    for topic, ty, m, stamp in _stream():
+        logger.log_message(topic, ty, m, stamp)
+    k = np.arange(0, 10, dtype=float)
+    amp = np.stack([np.r_[42e-6, 1e-6 / (1 + k[1:])], np.r_[3e-6, 0.5e-6 / (1 + k[1:])]])
+    logger.log_spectrum(msgs.spectrum_message(
+        k * BPFO, k, amp, np.zeros_like(amp), shaft_speed=2 * math.pi * 25.0, machine_id="m1", location="de",
+        quantity="displacement", channel_names=["vertical", "horizontal"], stamp=_stamp(BLOCKS)))
+    # one more condition window so that the health text includes the displacement spectrum
+    for i in range(BLOCKS, BLOCKS + 11):
+        for loc in ("de", "nde"):
+            logger.log_waveform(_waveform(i, loc, "acceleration"))
+    logger.close()
+    ents = _rows(path)
+    for loc in ("de", "nde"):
+        for _group, name, kind, origin in _views(loc, ("acceleration", "displacement")):
+            if kind not in ("wave", "trend"):
+                continue
+            units = set()
+            for e in ents:
+                if e == origin or e.startswith(origin + "/"):
+                    for names in _static(ents, e, "SeriesLines:names"):
+                        units |= {u for n in names for u in re.findall(r"\[([^\]]+)\]", n)}
+            want = set(re.findall(r"\[([^\]]+)\]", name)) - {"-"}
+            assert units == want, (name, units)
+    absc, vals = _bars(ents, "/de/spectrum/displacement/vertical")[-1]
+    assert absc.min() > 0.5 * BPFO                                  # no bar at 0 Hz
+    np.testing.assert_allclose(vals, 1.0 / (1 + k[1:]))             # µm
+    text = _column(ents["/de/health"]["batches"], "TextDocument:text")[-1][0]
+    assert "static part (order 0, not drawn): vertical 42 µm, horizontal 3 µm" in text
+    assert f"BPFO {BPFO:.2f} Hz, orders 1-9" in text
+    assert "markers (below the zero line of the spectra): 1x 25.0 Hz grey" in text
