@@ -96,12 +96,12 @@ def blueprint(locations=("de", "nde"), quantities=("acceleration", "displacement
                  rrb.Tabs(*groups["spectra"], name=f"{L} spectra"),
                  rrb.Tabs(*groups["trends"], name=f"{L} trends"),
                  groups["health"][0]]
-        columns.append(rrb.Vertical(*parts, row_shares=[3, 3, 3, 2.6], name=L))
+        columns.append(rrb.Vertical(*parts, row_shares=[3, 3.2, 3.6, 2], name=L))
     machine = rrb.Horizontal(
         rrb.TimeSeriesView(origin="/speed", name="shaft speed [Hz]", plot_legend=trend_legend),
         rrb.TimeSeriesView(origin="/fault_frequencies", name="fault frequencies [Hz]", plot_legend=legend),
         name="machine")
     return rrb.Blueprint(
-        rrb.Vertical(rrb.Horizontal(*columns), machine, row_shares=[10.6, 3.6]),
+        rrb.Vertical(rrb.Horizontal(*columns), machine, row_shares=[10.8, 3.2]),
         rrb.TimePanel(state="collapsed", timeline=TIMELINE, play_state="following"),
         collapse_panels=True)

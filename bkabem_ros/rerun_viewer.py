@@ -277,11 +277,11 @@ DOC_SHOTS = (
 
 
 def _save_png(png: bytes, path: Path) -> None:
-    """Write a screenshot as an optimised 256-colour PNG (a third of the size, same look)."""
+    """Write a screenshot as an optimised RGB PNG (no palette: a 256-colour one merged the rare
+    marker colours, e.g. FTF violet into grey)."""
     from PIL import Image  # noqa: PLC0415
 
-    img = Image.open(io.BytesIO(png)).convert("RGB").quantize(colors=256, method=Image.Quantize.MEDIANCUT)
-    img.save(path, optimize=True)
+    Image.open(io.BytesIO(png)).convert("RGB").save(path, optimize=True)
 
 
 def make_doc_screenshots(out_dir, rrd=None) -> list[Path]:
