@@ -61,7 +61,7 @@ _SPEED_WAVEFORM_COLOR = (120, 180, 255)
 #: Order-spectrum lines below this fraction of the largest, past the last one above, are not drawn.
 LINE_DISPLAY_FLOOR = 0.01
 #: Scalar rows (trends, speed) are sent in column chunks of this much sample time [s].
-SCALAR_BATCH_S = 0.5
+SCALAR_BATCH_S = 1.0
 #: Component holding the waveform samples (float32, one per channel and row).
 SAMPLES_COMPONENT = "VibrationWaveform:samples"
 #: Waveform samples are sent in column chunks of this much sample time [s] (the live viewer
