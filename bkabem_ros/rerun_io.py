@@ -44,7 +44,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from . import condition, fault_lines, msgs
+from . import condition, fault_lines, health, msgs
 from .rerun_blueprint import DISPLAY_UNITS, TIMELINE, blueprint
 
 __all__ = ["DEFAULT_CONNECT_URL", "TIMELINE", "RerunLogger", "RerunSink", "blueprint", "rerun_binary"]
@@ -475,9 +475,11 @@ class RerunLogger:
                  rms=np.sqrt(np.mean(x * x, axis=1, dtype=np.float64)), peak=np.max(np.abs(x), axis=1).astype(np.float64),
                  names=names,
                  band=band, window_s=x.shape[1] / fs, env_df=(f[1] - f[0]) if f.size > 1 else 0.0, env_group=group,
-                 finding=self._envelope_finding(f, env, lines, names),
+                 finding=health.envelope_finding(f, env, lines, names),
                  speed_hz=speed_rad_s / (2 * math.pi), lines=lines)
-        self.rec.log(f"/{loc}/health", rr.TextDocument(self._health_text(loc), media_type=rr.MediaType.MARKDOWN))
+        text = health.health_text(loc, self._health.get(loc, {}), self._defects, self._lines, self.iso_zones,
+                                  self.condition_window_s)
+        self.rec.log(f"/{loc}/health", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
 
     def _envelope_range(self, lines: dict[str, float], band: tuple[float, float]) -> float:
         """Envelope spectrum shown up to 3.5x the highest line a defect excites and past every
@@ -488,37 +490,6 @@ class RerunLogger:
         excited = [lines[d.line] for d in self._defects if d.line in lines] or [lines.get("BPFO", 0.0)]
         want = max(3.5 * max(excited), 1.15 * max(lines.values()))
         return float(min(cap, 50.0 * math.ceil(want / 50.0)))
-
-    @staticmethod
-    def _envelope_finding(f, env, lines: dict[str, float], names: list[str]) -> str:
-        """The fault line whose harmonics 1-3 stand out most over the envelope spectrum's median
-        floor (what a monitoring pipeline reads first)."""
-        if env.size == 0 or f.size < 8:
-            return "no envelope spectrum yet"
-        df = f[1] - f[0]
-        best = None
-        for name in ("BPFO", "BPFI", "2xBSF", "BSF", "FTF"):
-            f0 = lines.get(name, 0.0)
-            if not f0 > 2 * df:
-                continue
-            for c in range(env.shape[0]):
-                floor = float(np.median(env[c, 1:])) or 1e-30
-                db = []
-                for h in (1, 2, 3):
-                    if h * f0 > f[-1]:
-                        break
-                    tol = max(1.5 * df, 0.01 * h * f0)
-                    m = np.abs(f - h * f0) <= tol
-                    db.append(20 * math.log10(max(float(env[c, m].max()), 1e-30) / floor))
-                if db and (best is None or db[0] > best[0][0]):
-                    best = (db, name, names[c], f0)
-        if best is None:
-            return "no fault line in the envelope range yet"
-        db, name, ch, f0 = best
-        verdict = "stands out" if db[0] >= 10 else "does not stand out"
-        hs = "/".join(f"{v:.0f}" for v in db)
-        return (f"{name} ({f0:.1f} Hz) {verdict}: harmonics 1-{len(db)} at {hs} dB over the median floor "
-                f"({ch})")
 
     # ---------------------------------------------------------------- spectra and markers
     def log_spectrum(self, msg) -> bool:
@@ -614,56 +585,6 @@ class RerunLogger:
                           msgs.stamp_to_ns(msg.header), batch=False)
             self._lines, self._lines_speed = lines, float(msg.shaft_speed)
             self._defects = fault_lines.defects_from_message(msg)
-
-    def _health_text(self, loc: str) -> str:
-        """Markdown of one bearing's health panel: verdicts first (ISO zone, ground truth,
-        envelope finding), then the numbers they rest on and the marker key."""
-        h = self._health.get(loc, {})
-        L = loc.upper()
-        names = h.get("names", [])
-        limits = condition.ISO_ZONE_SETS[self.iso_zones]
-        out = []
-        if "iso" in h:
-            worst = max(h["zone"]) if h["zone"] else "?"
-            out.append(f"**{L} bearing: ISO zone {worst}**, {condition.ZONE_NAMES.get(worst, '')} "
-                       f"({self.iso_zones}: A/B {limits[0]:g}, B/C {limits[1]:g}, C/D {limits[2]:g} mm/s)")
-        else:
-            out.append(f"**{L} bearing**: no full {self.condition_window_s:g} s of acceleration yet")
-        here = [d for d in self._defects if d.bearing == loc]
-        if here:
-            truth = "; ".join(fault_lines.describe_defect(d) for d in here)
-        elif self._defects:
-            truth = "no defect in this bearing (" + "; ".join(fault_lines.describe_defect(d) for d in self._defects) + ")"
-        else:
-            truth = "no fault-frequency message yet"
-        out += ["", f"**Ground truth**: {truth}"]
-        if "iso" in h:
-            b = h["band"]
-            out += ["", f"**Envelope** ({b[0] / 1e3:g}-{b[1] / 1e3:g} kHz band): {h['finding']}", ""]
-            per = ", ".join(f"{ch} {v:.2f} mm/s ({z})" for ch, v, z in zip(names, h["iso"], h["zone"]))
-            out.append(f"- velocity RMS 10-1000 Hz, last {h['window_s']:g} s: {per}")
-
-            def fmt(v):
-                return " / ".join(f"{x:.3g}" for x in v)
-
-            out.append(f"- acceleration {' / '.join(names)}: RMS {fmt(h['rms'])} m/s², peak {fmt(h['peak'])} m/s², "
-                       f"crest factor {fmt(h['crest'])}, kurtosis {fmt(h['kurt'])}")
-            out.append(f"- envelope spectrum: {h['env_df']:g} Hz bins"
-                       + (f", each bar the largest of {h['env_group']} bins" if h["env_group"] > 1 else ""))
-        for q, sp in h.get("spectra", {}).items():
-            line = (f"- model {q} spectrum at {sp['shaft_hz']:.2f} Hz shaft: BPFO {sp['bpfo']:.2f} Hz, orders "
-                    f"{sp['orders'][0]}-{sp['orders'][1]}, drawn to {sp['shown_to_hz'] / 1e3:.2f} kHz")
-            if np.any(sp["static"]):
-                line += "; static part (order 0, not drawn): " + ", ".join(
-                    f"{ch} {v:.3g} {sp['unit']}" for ch, v in zip(sp["names"], sp["static"]))
-            out.append(line)
-        lines = h.get("lines") or self._lines
-        if lines:
-            excited = {d.line for d in self._defects}
-            key = ", ".join(f"{name} {lines[name]:.1f} Hz {fault_lines.LINE_COLOR_NAMES[name]}"
-                            + (" (x1-3)" if name in excited else "") for name in fault_lines.LINES if name in lines)
-            out.append(f"- markers (below the zero line of the spectra): {key}")
-        return "\n".join(out)
 
     def log_features(self, location: str, stamp_ns: int, features: Mapping[str, float]) -> None:
         """Extra per-chunk scalars, e.g. ``{"oil_temperature_C": 61.0}``, under
