@@ -56,7 +56,7 @@ def ros_env() -> dict:
 
 
 def bkabem(*args) -> list[str]:
-    return [sys.executable, "-m", "bkabem_core.cli", *args]
+    return [sys.executable, "-m", "bkabem_ros", *args]
 
 
 class Proc:

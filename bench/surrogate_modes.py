@@ -156,8 +156,13 @@ def describe_mode(rotor: Rotor, v: np.ndarray, parts) -> tuple[str, float, float
         defl = np.array([v[rotor.dof_index(n, d)] for n in rotor.shaft_node_labels])
         big = defl[np.abs(defl) > 0.05 * np.abs(defl).max()]
         crossings = int(np.sum(np.diff(np.sign(big)) != 0))
-        # where the kinetic energy sits (lumped, node-diagonal blocks of M)
-        groups = {"impeller": [1, 2, 3, 4], "core": list(range(5, 14)), "NDE end": [14]}
+        # where the kinetic energy sits (lumped, node-diagonal blocks of M); regions by axial position, so that
+        # nodes added by mesh refinement count where they are
+        pos = rotor.shaft_node_positions_m
+        z5, z13 = pos[5], pos[13]
+        groups = {"impeller": [n for n, z in pos.items() if z < z5 - 1e-9],
+                  "core": [n for n, z in pos.items() if z5 - 1e-9 <= z <= z13 + 1e-9],
+                  "NDE end": [n for n, z in pos.items() if z > z13 + 1e-9]}
         ke_g = {}
         for g, nodes in groups.items():
             idx = np.concatenate([rotor.node_dofs(n) for n in nodes if n in rotor.shaft_node_labels])
@@ -191,10 +196,12 @@ def damped_table(rotor: Rotor, speed_hz: float, fmax_hz: float, f_und, phi_und) 
     k_out = 0
     for k in sel:
         fd = lam[k].imag / (2 * np.pi)
+        fn = abs(lam[k]) / (2 * np.pi)
         if fd > fmax_hz:
             break
+        if fn > 2 * fmax_hz:                 # far-overdamped high modes (stiffness-proportional damping): not listed
+            continue
         k_out += 1
-        fn = abs(lam[k]) / (2 * np.pi)
         zeta = -lam[k].real / abs(lam[k])
         u = vec[:n, k]
         # whirl direction at the shaft node with the largest orbit
@@ -214,7 +221,8 @@ def damped_table(rotor: Rotor, speed_hz: float, fmax_hz: float, f_und, phi_und) 
 # --------------------------------------------------------------------------------------------
 # drawing
 # --------------------------------------------------------------------------------------------
-def draw(case: dict, rotor: Rotor, f_und: np.ndarray, phi: np.ndarray, parts, png: Path) -> None:
+def draw(case: dict, rotor: Rotor, f_und: np.ndarray, phi: np.ndarray, parts, png: Path,
+         modal_rotor: Rotor | None = None) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -273,8 +281,11 @@ def draw(case: dict, rotor: Rotor, f_und: np.ndarray, phi: np.ndarray, parts, pn
         ax.plot([zb - 20, zb + 20], [y1, y1], "k-", lw=1.5)
         for xh in np.linspace(zb - 18, zb + 14, 5):
             ax.plot([xh, xh + 5], [y1, y1 - 6], "k-", lw=0.6)
-    ax.text(z[rotor.shaft_node_labels[-1]] + 12, -205, "supports: 1e6 N/m, 1e4 N s/m\nbearings: Table 1 "
-            "(kyy 1.18e8, kxx 6.9e7 N/m)", fontsize=8, va="bottom")
+    mr = modal_rotor if modal_rotor is not None else rotor
+    kb = {b.name: b for b in mr.bearings}
+    ax.text(z[rotor.shaft_node_labels[-1]] + 12, -205, "supports: 1e6 N/m, 1e4 N s/m\nbearings (model, 390 N preload):\n"
+            f"DE kyy {kb['de'].kyy_n_m:.3g}, kxx {kb['de'].kxx_n_m:.3g}\nNDE kyy {kb['nde'].kyy_n_m:.3g}, "
+            f"kxx {kb['nde'].kxx_n_m:.3g} N/m", fontsize=8, va="bottom")
     # node labels
     for n, zn in z.items():
         ax.plot([zn, zn], [-160, 160], color="0.75", lw=0.5, zorder=0)
@@ -288,18 +299,19 @@ def draw(case: dict, rotor: Rotor, f_und: np.ndarray, phi: np.ndarray, parts, pn
     ax.set_title(f"Surrogate motor rotor: shaft + disks {rotor.rotor_mass_kg:.3f} kg, "
                  f"DE/NDE static load {loads['de'][1]:.1f} / {loads['nde'][1]:.1f} N")
 
-    # vertical mode shapes
-    zs = np.array([z[n] for n in rotor.shaft_node_labels])
+    # vertical mode shapes (of the model: refined mesh, its bearings)
+    zm = {n: 1e3 * p for n, p in mr.shaft_node_positions_m.items()}
+    zs = np.array([zm[n] for n in mr.shaft_node_labels])
     shown = 0
     for k in range(len(f_und)):
         v = phi[:, k]
-        plane, *_, kind = describe_mode(rotor, v, parts)
+        plane, *_, kind = describe_mode(mr, v, parts)
         if plane != "y":
             continue
-        ys = np.array([v[rotor.dof_index(n, "y")] for n in rotor.shaft_node_labels])
-        hy = {n: v[rotor.dof_index(n, "y")] for n in hous}
+        ys = np.array([v[mr.dof_index(n, "y")] for n in mr.shaft_node_labels])
+        hy = {n: v[mr.dof_index(n, "y")] for n in hous}
         scale = max(np.abs(ys).max(), max(abs(x) for x in hy.values()))
-        (line,) = axm.plot(zs, ys / scale, "-o", ms=3, label=f"{f_und[k]:.0f} Hz: {kind}")
+        (line,) = axm.plot(zs, ys / scale, "-", lw=1.2, label=f"{f_und[k]:.0f} Hz: {kind}")
         for n, val in hy.items():
             zb = z[next(b["rotor_node"] for b in case["bearings"].values() if b["housing_node"] == n)]
             axm.plot([zb], [val / scale], "s", mfc="none", color=line.get_color(), ms=7)
@@ -328,21 +340,34 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fmax-hz", type=float, default=2500.0, help="highest frequency listed")
     args = ap.parse_args(argv)
 
+    from bkabem_core.case import Case
+    from bkabem_core.machine import Machine
+
     with open(args.case, "rb") as fh:
         case = tomllib.load(fh)
-    rotor = rotor_from_case(case)
+    machine = Machine(Case.load(str(args.case)))
+    geometry = rotor_from_case(machine.case.raw, damping={})         # the case's own elements: geometry, masses
+    rotor = machine.rotor                                            # the model: refined, damped, its bearings
     g = float(case.get("excitation", {}).get("gravity_m_s2", STANDARD_GRAVITY_M_S2))
     parts = _energy_parts(rotor)
 
     print(f"case: {args.case}")
-    print(f"model: {len(rotor.shaft_elements)} Timoshenko elements, {len(rotor.disks)} disks, "
-          f"{len(rotor.point_masses)} point masses, {len(rotor.bearings)} linear bearings, {rotor.ndof} DOF\n")
+    print(f"geometry: {len(geometry.shaft_elements)} case elements, {len(rotor.disks)} disks, "
+          f"{len(rotor.point_masses)} point masses")
+    print(f"model: {len(rotor.shaft_elements)} Timoshenko elements (mesh for {machine.mesh.max_frequency_hz:g} Hz), "
+          f"{rotor.ndof} DOF, shaft damping beta {rotor.stiffness_damping_s:.3e} s")
+    for name, site in machine.sites.items():
+        print(f"  bearing {name}: {-site.radial_load_n[1]:.1f} N radial + {site.axial_load_n:.0f} N axial -> "
+              f"k_h {site.stiffness_n_m[0]:.4g}, k_v {site.stiffness_n_m[1]:.4g} N/m, c {site.damping_n_s_m[1]:g} N s/m "
+              f"({site.source}); {site.state.loaded_balls} balls loaded, contact angle "
+              f"{site.state.mean_contact_angle_deg:.1f} deg")
+    print()
     print("Shaft elements:")
-    print("\n".join(geometry_table(case, rotor)))
+    print("\n".join(geometry_table(case, geometry)))
     print("\nDisk lumps recomputed from the design assumptions:")
     print("\n".join(design_check(case)))
     print("\nMass budget:")
-    print("\n".join(mass_budget(rotor, case)))
+    print("\n".join(mass_budget(geometry, case)))
     print(f"\nStatic loads under gravity (g = {g} m/s^2; force each element exerts on its first node):")
     print("\n".join(load_table(rotor, g)))
     und, f_und, phi = undamped_table(rotor, args.fmax_hz, parts)
@@ -352,7 +377,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nDamped modes (state-space eigenvalues, C + Omega G) up to {args.fmax_hz:g} Hz:")
     print("\n".join(damped_table(rotor, args.speed_hz, args.fmax_hz, f_und, phi)))
     if not args.no_plot:
-        draw(case, rotor, f_und, phi, parts, args.png)
+        draw(case, geometry, f_und, phi, parts, args.png, modal_rotor=rotor)
         print(f"\nwrote {args.png}")
     return 0
 

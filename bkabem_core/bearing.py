@@ -1,12 +1,29 @@
-"""Deep-groove ball bearing: geometry, kinematics, Hertz contact, clearance, dent and ball forces.
+"""Deep-groove ball bearing: geometry, kinematics, Hertz contact, clearance, axial load, dent and ball forces.
 
-The force model is the Sopanen-Mikkola deep-groove ball bearing model restricted to the radial plane (the
-4-DOF/lateral form used by BKA-BEM): paper Eqs. (1), (3) and (4). Everything is SI: m, N, rad, s.
+The force model is the Sopanen-Mikkola deep-groove ball bearing model (paper Eqs. 1, 3, 4) with its axial
+degree of freedom: every ball's contact line follows from the positions of the two groove-curvature centres, so
+an axial load takes up the radial play and sets a loaded contact angle per ball (Sopanen & Mikkola 2003, Part 1;
+Harris & Kotzalas, *Rolling Bearing Analysis*, ch. 7). Everything is SI: m, N, rad, s.
 
-Plane of the bearing: x horizontal, y vertical (up). Ball attitude angles beta are measured from +x towards +y,
-so -pi/2 is the bottom of the bearing. ``e = (e_x, e_y)`` is the displacement of the inner-race centre (rotor)
-relative to the outer-race centre (housing); the bearing force ``(F_x, F_y)`` is the force the bearing exerts
-on the shaft (Eq. 4, negative sums).
+Plane of the bearing: x horizontal, y vertical (up), z axial. Ball attitude angles beta are measured from +x
+towards +y, so -pi/2 is the bottom of the bearing. ``e = (e_x, e_y, e_z)`` is the displacement of the
+inner-race centre (rotor) relative to the outer-race centre (housing); the bearing force ``(F_x, F_y, F_z)`` is
+the force the bearing exerts on the shaft (Eq. 4, negative sums).
+
+Per ball i (nominal contact angle alpha_0, groove-centre distance ``A_0 = (f_i + f_o - 1) d``)::
+
+    A_r = A_0 cos(alpha_0) - c_d / 2 + e_x cos(beta_i) + e_y sin(beta_i) - h_defect(beta_i)    (radial)
+    A_a = A_0 sin(alpha_0) + e_z                                                              (axial)
+    A   = sqrt(A_r^2 + A_a^2),   phi_i = atan2(A_a, A_r)      (loaded contact angle)
+    delta_i = A - A_0 + h_film,   Q_i = K_tot max(delta_i, 0)^1.5
+
+and the force on the shaft is ``-sum Q_i (cos(phi_i) cos(beta_i), cos(phi_i) sin(beta_i), sin(phi_i))``. A dent
+lowers the race under the ball by ``h_defect`` (the radial drop of the ball centre, :class:`Dent`).
+
+The lateral models of BKA-BEM (4-DOF, quasi-static excitation, FE linearisation, TDSM) hold the axial
+displacement at its static value ``e_z0`` under the case's axial load (docs/method.md: the 82 kg rotor's axial
+inertia blocks axial motion above its ~100 Hz axial resonance, and the paper's linearisation takes partial
+derivatives at held coordinates); with ``e_z = 0`` and no axial load the model is the radial one.
 
 All force routines are vectorised over time samples: ``e_x``, ``e_y`` and ``cage_angle_rad`` broadcast
 against each other, and a trailing axis of length ``n_balls`` is added internally.
@@ -103,12 +120,26 @@ class FaultFrequencies:
         return asdict(self)
 
 
+EDGE_PROFILES = ("ball", "cubic")
+
+
 @dataclass(frozen=True)
 class Dent:
     """Localized outer-race defect (dent), paper Eqs. (1)-(2).
 
-    Inside the dent a ball's total deformation is reduced by the dent depth; the edges are smoothed with the
-    ADAMS cubic ``STEP`` over ``edge_fraction`` of the dent half-angle, so that the force stays C1 in time.
+    A sharp-edged pit of ``length_m`` x ``depth_m`` in the outer race at ``angle_rad``. What a ball feels is the
+    radial drop of its centre as it rolls over the pit (:meth:`Bearing.dent_depth_m`):
+
+    ``edge = "ball"`` (default)
+        The ball centre's path over the sharp edges: a ball of radius r_b in the concave race of radius R_o,
+        resting on the nearer edge, sinks ``R_o cos(psi) - sqrt(r_b^2 - R_o^2 sin^2(psi)) - (R_o - r_b)`` at an
+        angular distance psi inside that edge (about ``psi^2 R_o^2 / (2 R_x)`` with the rolling-direction
+        curvature ``1/R_x = 1/r_b - 1/R_o``), until it reaches the bottom: the full depth needs an entry ramp of
+        about ``sqrt(2 R_x h)`` (0.70 mm for 50 um in a 6010), and a pit shorter than twice that is never felt
+        to its full depth.
+    ``edge = "cubic"``
+        The earlier, geometry-free form: flat bottom with ADAMS cubic ``STEP`` edges over ``edge_fraction`` of
+        the dent half-angle; depth at most the ball's sagitta over the pit.
 
     Attributes
     ----------
@@ -119,11 +150,13 @@ class Dent:
     angle_rad : float
         Position angle of the dent centre in the bearing plane [rad], from +x towards +y.
     edge_fraction : float
-        Width of each smoothed edge as a fraction of the dent half-angle [-], in [0, 1]. 0 = sharp edges.
+        ``edge = "cubic"`` only: width of each smoothed edge as a fraction of the dent half-angle [-], in [0, 1].
     bearing : str
         ``"de"`` or ``"nde"``: which bearing of the machine carries the dent.
     race : str
         Only ``"outer"`` is modelled.
+    edge : str
+        ``"ball"`` or ``"cubic"`` (above).
     """
 
     length_m: float
@@ -132,6 +165,11 @@ class Dent:
     edge_fraction: float = 0.1
     bearing: str = "de"
     race: str = "outer"
+    edge: str = "ball"
+
+    def __post_init__(self):
+        if self.edge not in EDGE_PROFILES:
+            raise ValueError(f"edge: must be one of {', '.join(EDGE_PROFILES)} (got {self.edge!r})")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -184,29 +222,75 @@ class HertzContact:
 
 
 @dataclass(frozen=True)
-class BearingLinearisation:
-    """Bearing stiffness and damping linearised at a static equilibrium.
+class BearingState:
+    """The bearing at a static equilibrium (dent ignored): what every linear consumer needs.
 
     Attributes
     ----------
-    displacement_m : ndarray (2,)
-        Equilibrium displacement of the inner race relative to the outer race (e_x, e_y) [m].
+    displacement_m : ndarray (3,)
+        ``(e_x, e_y, e_z)`` of the inner race relative to the outer race [m].
+    radial_load_n : ndarray (2,)
+        External load on the shaft ``(W_x, W_y)`` that the bearing carries [N] (gravity: ``W_y < 0``).
+    axial_load_n : float
+        Axial load the bearing carries [N] (>= 0).
+    ball_loads_n : ndarray (n_balls,)
+        Ball loads Q_i at cage angle 0 [N].
+    contact_angles_rad : ndarray (n_balls,)
+        Loaded contact angles phi_i at cage angle 0 [rad] (NaN for unloaded balls).
+    """
+
+    displacement_m: np.ndarray
+    radial_load_n: np.ndarray
+    axial_load_n: float
+    ball_loads_n: np.ndarray
+    contact_angles_rad: np.ndarray
+
+    @property
+    def loaded_balls(self) -> int:
+        return int(np.sum(self.ball_loads_n > 0.0))
+
+    @property
+    def mean_contact_angle_deg(self) -> float:
+        """Load-weighted mean loaded contact angle [deg]."""
+        q = self.ball_loads_n
+        if q.sum() == 0.0:
+            return 0.0
+        return float(np.degrees(np.sum(q * np.abs(np.nan_to_num(self.contact_angles_rad))) / q.sum()))
+
+    def to_dict(self) -> dict:
+        return {"displacement_m": self.displacement_m.tolist(), "radial_load_n": self.radial_load_n.tolist(),
+                "axial_load_n": self.axial_load_n, "max_ball_load_n": float(self.ball_loads_n.max()),
+                "loaded_balls": self.loaded_balls, "mean_contact_angle_deg": self.mean_contact_angle_deg}
+
+
+@dataclass(frozen=True)
+class BearingLinearisation:
+    """Lateral bearing stiffness and damping linearised at a static equilibrium (axial displacement held).
+
+    Attributes
+    ----------
+    state : BearingState
+        The equilibrium it is linearised at.
     stiffness_n_m : ndarray (2, 2)
-        ``K = -dF/de`` [N/m], rows/columns (x, y).
+        ``K = -dF/de`` [N/m], rows/columns (x, y): the tangent at cage angle 0, or its mean over one ball pitch
+        (``averaged``).
     damping_n_s_m : ndarray (2, 2)
-        ``C = damping_ratio_s * K`` [N s/m].
+        Lateral damping [N s/m].
+    stiffness_variation : float
+        Ball-passage variation of the tangent over one pitch, ``(max - min) / mean`` of the vertical term [-].
+    averaged : bool
+        Whether ``stiffness_n_m`` is the pitch mean.
     stiffness_horizontal_n_m, stiffness_vertical_n_m : float
         Diagonal terms K_xx, K_yy [N/m].
     damping_horizontal_n_s_m, damping_vertical_n_s_m : float
         Diagonal terms C_xx, C_yy [N s/m].
-    max_ball_load_n : float
-        Largest ball load at the equilibrium [N].
     """
 
-    displacement_m: np.ndarray
+    state: BearingState
     stiffness_n_m: np.ndarray
     damping_n_s_m: np.ndarray
-    max_ball_load_n: float
+    stiffness_variation: float = 0.0
+    averaged: bool = False
     stiffness_horizontal_n_m: float = field(init=False)
     stiffness_vertical_n_m: float = field(init=False)
     damping_horizontal_n_s_m: float = field(init=False)
@@ -218,13 +302,18 @@ class BearingLinearisation:
         object.__setattr__(self, "damping_horizontal_n_s_m", float(self.damping_n_s_m[0, 0]))
         object.__setattr__(self, "damping_vertical_n_s_m", float(self.damping_n_s_m[1, 1]))
 
+    @property
+    def displacement_m(self) -> np.ndarray:
+        return self.state.displacement_m
+
+    @property
+    def max_ball_load_n(self) -> float:
+        return float(self.state.ball_loads_n.max())
+
     def to_dict(self) -> dict:
-        return {
-            "displacement_m": self.displacement_m.tolist(),
-            "stiffness_n_m": self.stiffness_n_m.tolist(),
-            "damping_n_s_m": self.damping_n_s_m.tolist(),
-            "max_ball_load_n": self.max_ball_load_n,
-        }
+        return {"state": self.state.to_dict(), "stiffness_n_m": self.stiffness_n_m.tolist(),
+                "damping_n_s_m": self.damping_n_s_m.tolist(), "stiffness_variation": self.stiffness_variation,
+                "averaged": self.averaged}
 
 
 class Bearing:
@@ -237,8 +326,8 @@ class Bearing:
         The dent this bearing carries (``None`` for a healthy bearing).
     """
 
-    #: Damping-to-stiffness ratio of the linearised bearing [s] (Kraemer; paper Table 1 implies 2.5e-5 s).
-    DEFAULT_DAMPING_RATIO_S = 2.5e-5
+    #: Damping-to-stiffness ratio of Kraemer's rule [s] (paper Table 1 follows it: c = 2.5e-5 s x k).
+    KRAEMER_DAMPING_RATIO_S = 2.5e-5
 
     def __init__(self, geometry: BearingGeometry, dent: Dent | None = None):
         self.geometry = geometry
@@ -248,14 +337,20 @@ class Bearing:
         # Race radii in the rolling direction (Sopanen/LUT; clearance and contact angle included) [m]
         self.outer_race_radius_m = (dm + (d + cd / 2.0) * math.cos(a0)) / (2.0 * math.cos(a0))
         self.inner_race_radius_m = (dm - (d + cd / 2.0) * math.cos(a0)) / (2.0 * math.cos(a0))
+        #: distance between the two groove-curvature centres when the ball just touches both races [m]
+        self.groove_centre_distance_m = (g.inner_conformity + g.outer_conformity - 1.0) * d
+        self._a0 = self.groove_centre_distance_m
+        self._ar0 = self._a0 * math.cos(a0) - 0.5 * cd          # A_r at e = 0
+        self._aa0 = self._a0 * math.sin(a0)                      # A_a at e = 0
         self.contact = self._hertz_contact()
         self._k = self.contact.k_total_n_m15
         self._ball_offsets = TWO_PI * np.arange(g.n_balls) / g.n_balls + g.first_ball_angle_rad
-        self._cos_a0 = math.cos(a0)
+        self._rb = 0.5 * d
         if dent is not None:
             self._dent_half_angle = dent.length_m / (2.0 * self.outer_race_radius_m)
-            self._dent_edge = dent.edge_fraction * self._dent_half_angle
-            self._dent_depth_eff = min(dent.depth_m, self.dent_geometric_depth_limit_m)
+            self._dent_edge = dent.edge_fraction * self._dent_half_angle if dent.edge == "cubic" else 0.0
+            self._dent_depth_eff = (min(dent.depth_m, self.dent_geometric_depth_limit_m) if dent.edge == "cubic"
+                                    else float(self._ball_drop(np.array(self._dent_half_angle))))
         else:
             self._dent_half_angle = self._dent_edge = self._dent_depth_eff = 0.0
 
@@ -264,7 +359,8 @@ class Bearing:
         """Defect frequencies per 1 Hz of shaft speed (stationary outer race, rolling without slip).
 
         ``FTF = (1 - g)/2``, ``BPFO = z (1 - g)/2``, ``BPFI = z (1 + g)/2``, ``BSF = d_m/(2 d) (1 - g^2)`` with
-        ``g = d cos(alpha) / d_m``.
+        ``g = d cos(alpha) / d_m`` at the nominal contact angle alpha (docs/method.md: the loaded contact angle
+        under an axial load would move them by about 1 %; every model of bkabem uses these same ratios).
         """
         g = self.geometry
         r = g.ball_diameter_m * math.cos(g.contact_angle_rad) / g.pitch_diameter_m
@@ -323,33 +419,71 @@ class Bearing:
 
     @property
     def dent_geometric_depth_limit_m(self) -> float:
-        """Deepest a ball can sink into a dent of this length: ``r_b - sqrt(r_b^2 - (l/2)^2)`` [m].
+        """Deepest a ball can sink into a dent of this length: its sagitta over the pit [m].
 
-        A dent shorter than the ball's chord cannot be felt to its full depth; the effective depth is the smaller
-        of the two. For the paper's 2 mm dent and 8.73 mm balls this is 116 um > 50 um (full depth felt).
+        ``r_b - sqrt(r_b^2 - (l/2)^2)`` on a flat race (the ``"cubic"`` profile's limit; the ``"ball"`` profile
+        follows the ball over the edges in the curved race and needs no separate limit). 116 um for the paper's
+        2 mm dent and 8.73 mm balls.
         """
         if self.dent is None:
             return 0.0
-        rb = self.geometry.ball_diameter_m / 2.0
+        rb = self._rb
         half = min(self.dent.length_m / 2.0, rb)
         return rb - math.sqrt(rb * rb - half * half)
 
     @property
     def dent_effective_depth_m(self) -> float:
-        """Depth by which a ball's deformation is reduced at the dent centre [m]."""
+        """Largest radial drop of a ball centre in the dent (at its centre) [m]."""
         return self._dent_depth_eff
 
-    def dent_depth_m(self, ball_angle_rad):
-        """Reduction of the ball deformation [m] at ball attitude angles [rad] (Eqs. 1-2).
+    @property
+    def dent_entry_ramp_rad(self) -> float:
+        """Angle over which a ball sinks from the race to the full depth at each edge [rad] (0: sharp/no dent).
 
-        ``h S(wrap(beta - phi_d))``, S = 1 inside the dent and 0 outside with cubic edges; the wrap to
-        [-pi, pi) handles the ``n 2 pi`` of Eq. (2) exactly.
+        ``"ball"``: from the ball-over-edge geometry (the angle at which the drop reaches the depth, or the
+        half-angle when the pit is too short for that); ``"cubic"``: ``edge_fraction`` x the half-angle.
+        """
+        if self.dent is None:
+            return 0.0
+        if self.dent.edge == "cubic":
+            return self._dent_edge
+        psi = np.linspace(0.0, self._dent_half_angle, 2049)
+        full = np.nonzero(self._ball_drop(psi) >= self._dent_depth_eff * (1.0 - 1e-9))[0]
+        return float(psi[full[0]]) if full.size else float(self._dent_half_angle)
+
+    def _ball_drop(self, psi):
+        """Radial drop [m] of a ball centre at angular distance ``psi`` [rad] inside the nearer sharp edge.
+
+        The ball (radius r_b) rests on the edge point of the concave race (radius R_o): its centre lies on the
+        circle of radius r_b about that point, ``r_c = R_o cos(psi) - sqrt(r_b^2 - R_o^2 sin^2(psi))``, against
+        ``R_o - r_b`` on the intact race; the drop is at most the dent depth.
+        """
+        ro, rb = self.outer_race_radius_m, self._rb
+        psi = np.asarray(psi, dtype=float)
+        s = np.minimum(ro * np.sin(np.clip(psi, 0.0, None)), rb)
+        drop = ro * np.cos(psi) - np.sqrt(np.maximum(rb * rb - s * s, 0.0)) - (ro - rb)
+        drop = np.where(ro * np.sin(np.clip(psi, 0.0, None)) >= rb, np.inf, drop)
+        return np.clip(drop, 0.0, self.dent.depth_m)
+
+    def dent_depth_m(self, ball_angle_rad):
+        """Radial drop of the ball centre [m] at ball attitude angles [rad] (paper Eqs. 1-2; :class:`Dent`).
+
+        Zero outside the dent; the wrap of ``beta - phi_d`` to [-pi, pi) handles the ``n 2 pi`` of Eq. (2)
+        exactly.
         """
         if self.dent is None or self._dent_depth_eff == 0.0:
             return np.zeros(np.shape(ball_angle_rad))
-        rel = np.abs(wrap_to_pi(np.asarray(ball_angle_rad) - self.dent.angle_rad))
+        return self.dent_drop_m(np.abs(wrap_to_pi(np.asarray(ball_angle_rad) - self.dent.angle_rad)))
+
+    def dent_drop_m(self, rel_angle_rad):
+        """Radial drop [m] at an absolute angular distance ``rel_angle_rad`` [rad] from the dent centre."""
+        rel = np.asarray(rel_angle_rad, dtype=float)
+        if self.dent is None or self._dent_depth_eff == 0.0:
+            return np.zeros(rel.shape)
         a = self._dent_half_angle
-        return self._dent_depth_eff * (1.0 - step_cubic(rel, a - self._dent_edge, a))
+        if self.dent.edge == "cubic":
+            return self._dent_depth_eff * (1.0 - step_cubic(rel, a - self._dent_edge, a))
+        return np.where(rel < a, self._ball_drop(a - rel), 0.0)
 
     # ------------------------------------------------------------------ EHL
     def ehl_film_thickness_m(self, shaft_speed_hz: float, radial_load_n: float) -> float:
@@ -374,23 +508,32 @@ class Bearing:
         return h
 
     # ------------------------------------------------------------------ forces
-    def ball_deformations_m(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0, with_dent: bool = True):
-        """Total elastic deformation of every ball [m] (Eq. 1), negative = no contact.
-
-        ``delta_i = e_x cos beta_i + e_y sin beta_i - c_d/2 + h_film - h_dent(beta_i)`` (contact angle 0 in the
-        lateral model). Shape: ``broadcast(e_x, e_y, cage_angle).shape + (n_balls,)``.
-        """
+    def _geometry(self, e_x_m, e_y_m, cage_angle_rad, e_z_m, with_dent):
+        """Per ball: direction cosines, radial and axial groove-centre offsets A_r, A_a [m]."""
         beta = self.ball_angles_rad(cage_angle_rad)
+        cb, sb = np.cos(beta), np.sin(beta)
         ex = np.asarray(e_x_m, dtype=float)[..., None]
         ey = np.asarray(e_y_m, dtype=float)[..., None]
-        delta = ex * np.cos(beta) + ey * np.sin(beta) - 0.5 * self.geometry.diametral_clearance_m + film_m
+        ar = self._ar0 + ex * cb + ey * sb
         if with_dent and self.dent is not None:
-            delta = delta - self.dent_depth_m(beta)
-        return delta
+            ar = ar - self.dent_depth_m(beta)
+        aa = self._aa0 + np.asarray(e_z_m, dtype=float)[..., None] + np.zeros_like(ar)
+        return cb, sb, ar, aa
+
+    def ball_deformations_m(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0, with_dent: bool = True,
+                            e_z_m=0.0):
+        """Total elastic deformation of every ball [m] (Eq. 1), negative = no contact.
+
+        ``delta_i = sqrt(A_r^2 + A_a^2) - A_0 + h_film`` (module docstring); with no axial offset this is
+        ``e_x cos beta_i + e_y sin beta_i - c_d/2 + h_film - h_dent(beta_i)``. Shape:
+        ``broadcast(e_x, e_y, cage_angle, e_z).shape + (n_balls,)``.
+        """
+        _, _, ar, aa = self._geometry(e_x_m, e_y_m, cage_angle_rad, e_z_m, with_dent)
+        return np.hypot(ar, aa) - self._a0 + film_m
 
     def forces_n(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0, with_stiffness: bool = False,
-                 with_dent: bool = True):
-        """Bearing force on the shaft [N] (Eqs. 3-4), optionally with its stiffness ``K = -dF/de`` [N/m].
+                 with_dent: bool = True, e_z_m=0.0):
+        """Lateral bearing force on the shaft [N] (Eqs. 3-4), optionally with its stiffness ``K = -dF/de`` [N/m].
 
         Parameters
         ----------
@@ -401,9 +544,11 @@ class Bearing:
         film_m : float
             EHL film thickness added to every ball's deformation [m].
         with_stiffness : bool
-            Also return ``(k_xx, k_xy, k_yy)`` [N/m] (the tangent stiffness is symmetric).
+            Also return ``(k_xx, k_xy, k_yy)`` [N/m], the lateral tangent at held ``e_z`` (symmetric).
         with_dent : bool
             False: the bearing as if it had no dent (static equilibrium, linearisation).
+        e_z_m : array_like
+            Axial displacement of the inner race [m], held (e.g. the static value under the axial load).
 
         Returns
         -------
@@ -411,80 +556,163 @@ class Bearing:
             Force components on the shaft [N].
         (k_xx, k_xy, k_yy) : tuple of ndarray, only with ``with_stiffness``.
         """
-        beta = self.ball_angles_rad(cage_angle_rad)
-        cb, sb = np.cos(beta), np.sin(beta)
-        ex = np.asarray(e_x_m, dtype=float)[..., None]
-        ey = np.asarray(e_y_m, dtype=float)[..., None]
-        delta = ex * cb + ey * sb - 0.5 * self.geometry.diametral_clearance_m + film_m
-        if with_dent and self.dent is not None:
-            delta = delta - self.dent_depth_m(beta)
-        dpos = np.maximum(delta, 0.0)
-        root = np.sqrt(dpos)
-        q = self._k * dpos * root                       # ball loads [N]
-        fx = -np.sum(q * cb, axis=-1) * self._cos_a0
-        fy = -np.sum(q * sb, axis=-1) * self._cos_a0
+        cb, sb, ar, aa = self._geometry(e_x_m, e_y_m, cage_angle_rad, e_z_m, with_dent)
+        a = np.hypot(ar, aa)
+        delta = np.maximum(a - self._a0 + film_m, 0.0)
+        root = np.sqrt(delta)
+        q = self._k * delta * root                      # ball loads [N]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            c_phi = np.where(a > 0.0, ar / a, 1.0)      # cos of the loaded contact angle
+        qr = q * c_phi
+        fx = -np.sum(qr * cb, axis=-1)
+        fy = -np.sum(qr * sb, axis=-1)
         if not with_stiffness:
             return fx, fy
-        dq = 1.5 * self._k * root                       # dQ/d delta [N/m]
-        kxx = np.sum(dq * cb * cb, axis=-1) * self._cos_a0
-        kxy = np.sum(dq * cb * sb, axis=-1) * self._cos_a0
-        kyy = np.sum(dq * sb * sb, axis=-1) * self._cos_a0
+        # d(Q cos phi t)/de_lat = [Q' cos^2 phi + (Q / A) sin^2 phi] t t^T    (t = (cos beta, sin beta))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            w = 1.5 * self._k * root * c_phi * c_phi + np.where(a > 0.0, q * (1.0 - c_phi * c_phi) / a, 0.0)
+        kxx = np.sum(w * cb * cb, axis=-1)
+        kxy = np.sum(w * cb * sb, axis=-1)
+        kyy = np.sum(w * sb * sb, axis=-1)
         return fx, fy, (kxx, kxy, kyy)
 
-    def ball_loads_n(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0, with_dent: bool = True):
+    def forces_3d_n(self, e_m, cage_angle_rad: float = 0.0, film_m: float = 0.0, with_dent: bool = False):
+        """Force ``(F_x, F_y, F_z)`` on the shaft [N] and its 3 x 3 stiffness ``-dF/de`` [N/m] at one state.
+
+        ``K = sum_i [Q_i' n_i n_i^T + (Q_i / A_i)(P_i - n_i n_i^T)]`` with the contact normal
+        ``n_i = (cos phi cos beta, cos phi sin beta, sin phi)`` and ``P_i`` the projector on the plane of ball i.
+        """
+        e = np.asarray(e_m, dtype=float)
+        cb, sb, ar, aa = self._geometry(e[0], e[1], cage_angle_rad, e[2], with_dent)
+        a = np.hypot(ar, aa)
+        delta = np.maximum(a - self._a0 + film_m, 0.0)
+        q = self._k * delta ** 1.5
+        dq = 1.5 * self._k * np.sqrt(delta)
+        n = np.stack([ar / a * cb, ar / a * sb, aa / a], axis=-1)              # (z, 3)
+        t = np.stack([cb, sb, np.zeros_like(cb)], axis=-1)
+        ez = np.array([0.0, 0.0, 1.0])
+        proj = t[:, :, None] * t[:, None, :] + ez[None, :, None] * ez[None, None, :]
+        nn = n[:, :, None] * n[:, None, :]
+        k = np.sum(dq[:, None, None] * nn + (q / a)[:, None, None] * (proj - nn), axis=0)
+        return -np.sum(q[:, None] * n, axis=0), k
+
+    def ball_loads_n(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0, with_dent: bool = True, e_z_m=0.0):
         """Load on every ball [N], ``K_tot max(delta, 0)^1.5`` (Eq. 3)."""
-        delta = self.ball_deformations_m(e_x_m, e_y_m, cage_angle_rad, film_m, with_dent)
+        delta = self.ball_deformations_m(e_x_m, e_y_m, cage_angle_rad, film_m, with_dent, e_z_m)
         return self._k * np.maximum(delta, 0.0) ** 1.5
+
+    def contact_angles_rad(self, e_x_m, e_y_m, cage_angle_rad, e_z_m=0.0, with_dent: bool = True):
+        """Loaded contact angle ``phi_i = atan2(A_a, A_r)`` of every ball [rad]."""
+        _, _, ar, aa = self._geometry(e_x_m, e_y_m, cage_angle_rad, e_z_m, with_dent)
+        return np.arctan2(aa, ar)
 
     # ------------------------------------------------------------------ statics
     def static_equilibrium_m(self, load_x_n: float, load_y_n: float, cage_angle_rad: float = 0.0,
-                             film_m: float = 0.0, with_dent: bool = False, tol_n: float = 1e-9):
+                             film_m: float = 0.0, with_dent: bool = False, tol_n: float = 1e-9,
+                             axial_load_n: float = 0.0):
         """Displacement e [m] at which the bearing carries an external load on the shaft.
 
-        Solves ``F_bearing(e) + W = 0`` by Newton's method with the analytic tangent stiffness, where
-        ``W = (load_x, load_y)`` [N] is the external load on the shaft (gravity: ``(0, -m g)``).
+        Solves ``F_bearing(e) + W = 0`` by damped Newton with the analytic tangent stiffness, where
+        ``W = (load_x, load_y)`` [N] is the external load on the shaft (gravity: ``(0, -m g)``) and, if
+        ``axial_load_n > 0``, a thrust of that size on the shaft along -z.
+
+        Returns
+        -------
+        ndarray (2,) ``(e_x, e_y)`` without an axial load, else (3,) ``(e_x, e_y, e_z)``.
 
         Raises
         ------
         ValueError
             If the load is zero or Newton does not converge.
         """
+        axial = float(axial_load_n)
+        if axial < 0.0:
+            raise ValueError(f"axial_load_n: must be >= 0 (got {axial})")
         w = np.array([load_x_n, load_y_n], dtype=float)
         wn = float(np.hypot(*w))
-        if wn == 0.0:
+        if wn == 0.0 and axial == 0.0:
             raise ValueError("static equilibrium needs a non-zero load")
         g = self.geometry
-        q_guess = 5.0 * wn / g.n_balls
-        mag = 0.5 * g.diametral_clearance_m - film_m + (q_guess / self._k) ** (2.0 / 3.0)
-        e = w / wn * max(mag, 1e-9)           # the shaft moves along the load
-        for _ in range(100):
-            fx, fy, (kxx, kxy, kyy) = self.forces_n(e[0], e[1], cage_angle_rad, film_m, with_stiffness=True,
-                                                    with_dent=with_dent)
-            r = np.array([fx + w[0], fy + w[1]])
-            if np.hypot(*r) <= tol_n * max(wn, 1.0):
+        if axial == 0.0:
+            q_guess = 5.0 * wn / g.n_balls
+            mag = 0.5 * g.diametral_clearance_m - film_m + (q_guess / self._k) ** (2.0 / 3.0)
+            e = w / wn * max(mag, 1e-9)           # the shaft moves along the load
+            for _ in range(100):
+                fx, fy, (kxx, kxy, kyy) = self.forces_n(e[0], e[1], cage_angle_rad, film_m, with_stiffness=True,
+                                                        with_dent=with_dent)
+                r = np.array([fx + w[0], fy + w[1]])
+                if np.hypot(*r) <= tol_n * max(wn, 1.0):
+                    return e
+                kmat = np.array([[kxx, kxy], [kxy, kyy]], dtype=float)
+                if np.linalg.cond(kmat) > 1e12:  # a direction has no ball in contact: push along the load
+                    e = e + w / wn * 1e-7
+                    continue
+                step = np.linalg.solve(kmat, r)      # F(e + s) ~ F(e) - K s = -W
+                n = np.hypot(*step)                  # damped: never more than 10 um at once (contact sets change)
+                if n > 1e-5:
+                    step *= 1e-5 / n
+                e = e + step
+            raise ValueError("bearing static equilibrium did not converge")
+        # with thrust: the axial offset that takes up the play first (all balls touching), then Newton in 3-D
+        load = np.array([w[0], w[1], -axial])
+        ln = float(np.linalg.norm(load))
+        aa_touch = math.sqrt(max(self._a0**2 - self._ar0**2, 0.0)) - self._aa0
+        q_guess = axial / (g.n_balls * 0.4)
+        e = np.array([0.0, 0.0, -(aa_touch + (q_guess / self._k) ** (2.0 / 3.0))])
+        for _ in range(200):
+            f, k = self.forces_3d_n(e, cage_angle_rad, film_m, with_dent)
+            r = f + load
+            if np.linalg.norm(r) <= tol_n * max(ln, 1.0):
                 return e
-            kmat = np.array([[kxx, kxy], [kxy, kyy]], dtype=float)
-            if np.linalg.cond(kmat) > 1e12:  # a direction has no ball in contact: push along the load
-                e = e + w / wn * 1e-7
+            if np.linalg.cond(k) > 1e12:
+                e = e + load / ln * 1e-7
                 continue
-            step = np.linalg.solve(kmat, r)      # F(e + s) ~ F(e) - K s = -W
-            # damped step: never more than 10 um at once (contact sets change)
-            n = np.hypot(*step)
-            if n > 1e-5:
-                step *= 1e-5 / n
+            step = np.linalg.solve(k, r)
+            n = np.linalg.norm(step)
+            if n > 2e-6:
+                step *= 2e-6 / n
             e = e + step
-        raise ValueError("bearing static equilibrium did not converge")
+        raise ValueError("bearing static equilibrium under the axial load did not converge")
+
+    def state(self, load_x_n: float, load_y_n: float, axial_load_n: float = 0.0, film_m: float = 0.0) -> BearingState:
+        """The static equilibrium under a radial load ``(load_x, load_y)`` on the shaft and a thrust [N]."""
+        e = self.static_equilibrium_m(load_x_n, load_y_n, film_m=film_m, axial_load_n=axial_load_n)
+        e3 = np.r_[e, 0.0] if e.size == 2 else e
+        q = self.ball_loads_n(e3[0], e3[1], 0.0, film_m, with_dent=False, e_z_m=e3[2])
+        phi = np.where(q > 0.0, self.contact_angles_rad(e3[0], e3[1], 0.0, e3[2], with_dent=False), np.nan)
+        return BearingState(displacement_m=e3, radial_load_n=np.array([load_x_n, load_y_n], float),
+                            axial_load_n=float(axial_load_n), ball_loads_n=q, contact_angles_rad=phi)
 
     def linearise(self, load_x_n: float, load_y_n: float, cage_angle_rad: float = 0.0, film_m: float = 0.0,
-                  damping_ratio_s: float | None = None) -> BearingLinearisation:
-        """Stiffness and damping linearised at the static equilibrium under a load (dent ignored).
+                  damping_ratio_s: float | None = None, axial_load_n: float = 0.0, damping_n_s_m: float | None = None,
+                  average_over_pitch: bool = False, n_angles: int = 64) -> BearingLinearisation:
+        """Lateral stiffness and damping at the static equilibrium under a load (dent ignored, ``e_z`` held).
 
-        ``K = -dF/de`` from the analytic tangent; damping ``C = damping_ratio_s K`` with the default 2.5e-5 s.
+        ``K = -dF/de`` from the analytic tangent at ``cage_angle_rad`` (the paper's and LUT's procedure), or with
+        ``average_over_pitch`` its mean over one ball pitch of cage angle at the same displacement. Damping: a
+        viscous ``damping_n_s_m`` in both directions if given, else ``C = damping_ratio_s K`` (Kraemer's rule,
+        default 2.5e-5 s, which paper Table 1 follows).
         """
-        ratio = self.DEFAULT_DAMPING_RATIO_S if damping_ratio_s is None else damping_ratio_s
-        e = self.static_equilibrium_m(load_x_n, load_y_n, cage_angle_rad, film_m)
-        _, _, (kxx, kxy, kyy) = self.forces_n(e[0], e[1], cage_angle_rad, film_m, with_stiffness=True,
-                                              with_dent=False)
-        qmax = float(np.max(self.ball_loads_n(e[0], e[1], cage_angle_rad, film_m, with_dent=False)))
-        k = np.array([[kxx, kxy], [kxy, kyy]], dtype=float)
-        return BearingLinearisation(displacement_m=e, stiffness_n_m=k, damping_n_s_m=ratio * k, max_ball_load_n=qmax)
+        st = self.state(load_x_n, load_y_n, axial_load_n, film_m)
+        e = st.displacement_m
+        if average_over_pitch:
+            theta = cage_angle_rad + np.arange(n_angles) * (TWO_PI / self.geometry.n_balls / n_angles)
+        else:
+            theta = np.array([cage_angle_rad])
+        _, _, (kxx, kxy, kyy) = self.forces_n(e[0], e[1], theta, film_m, with_stiffness=True, with_dent=False,
+                                              e_z_m=e[2])
+        k = np.array([[np.mean(kxx), np.mean(kxy)], [np.mean(kxy), np.mean(kyy)]], dtype=float)
+        if average_over_pitch:
+            var = float((kyy.max() - kyy.min()) / max(np.mean(kyy), 1e-300))
+        else:
+            th = cage_angle_rad + np.arange(n_angles) * (TWO_PI / self.geometry.n_balls / n_angles)
+            _, _, (_, _, kyy_p) = self.forces_n(e[0], e[1], th, film_m, with_stiffness=True, with_dent=False,
+                                                e_z_m=e[2])
+            var = float((kyy_p.max() - kyy_p.min()) / max(np.mean(kyy_p), 1e-300))
+        if damping_n_s_m is not None:
+            c = float(damping_n_s_m) * np.eye(2)
+        else:
+            ratio = self.KRAEMER_DAMPING_RATIO_S if damping_ratio_s is None else damping_ratio_s
+            c = ratio * k
+        return BearingLinearisation(state=st, stiffness_n_m=k, damping_n_s_m=c, stiffness_variation=var,
+                                    averaged=average_over_pitch)

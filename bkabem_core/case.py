@@ -23,6 +23,8 @@ from .bearing import Bearing, BearingGeometry, Dent
 from .excitation import FourDofParameters
 
 DEFAULT_CASE = "electric_motor_6010"
+#: Version of the case format this code reads; version-1 files are migrated (:func:`migrate_v1`).
+SCHEMA_VERSION = 2
 
 
 class CaseError(ValueError):
@@ -46,7 +48,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     "case": {
         "name": ("str", None),
         "description": ("str", None),
-        "schema_version": ("int", ("in", {1})),
+        "schema_version": ("int", ("in", {SCHEMA_VERSION})),
     },
     "bearing": {
         "designation": ("str", None),
@@ -66,6 +68,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "dynamic_viscosity_pa_s": ("float", _NONNEG),
         "ehl_film": ("bool", None),
         "first_ball_angle_deg": ("float", ("range", -360.0, 360.0)),
+        "damping_n_s_m": ("float", _NONNEG),
     },
     "dent": {
         "bearing": ("str", ("in", {"de", "nde"})),
@@ -73,15 +76,19 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "length_m": ("float", _POS),
         "depth_m": ("float", _NONNEG),
         "angle_deg": ("float", ("range", -360.0, 360.0)),
+        "edge": ("str", ("in", {"ball", "cubic"})),
         "edge_fraction": ("float", ("range", 0.0, 1.0)),
     },
     "excitation": {
+        "method": ("str", ("in", {"quasi_static", "four_dof"})),
+        "load": ("str", ("in", {"fe_share", "rotor_weight"})),
+        "bearings": ("str", ("in", {"all", "faulty"})),
+        "force": ("str", ("in", {"spring", "paper"})),
         "rotor_mass_kg": ("float", _POS),
         "housing_mass_kg": ("float", _POS),
         "support_stiffness_n_m": ("float", _POS),
         "support_damping_n_s_m": ("float", _NONNEG),
-        "bearing_damping_n_s_m": ("float", _NONNEG),
-        "gravity_m_s2": ("float", _NONNEG),
+        "gravity_m_s2": ("float", _POS),
         "reference_speed_hz": ("float", _POS),
         "settle_time_s": ("float", _NONNEG),
         "record_cage_periods": ("int", ("ge", 1)),
@@ -94,10 +101,12 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     "bearings.*": {
         "rotor_node": ("int", ("ge", 1)),
         "housing_node": ("int", ("ge", 1)),
-        "stiffness_vertical_n_m": ("float", _POS),
-        "stiffness_horizontal_n_m": ("float", _POS),
-        "damping_vertical_n_s_m": ("float", _NONNEG),
-        "damping_horizontal_n_s_m": ("float", _NONNEG),
+        "axial_load_n": ("float", _NONNEG),
+        "linearisation": ("str", ("in", {"model", "table"})),
+        "table_stiffness_vertical_n_m": ("float", _POS),
+        "table_stiffness_horizontal_n_m": ("float", _POS),
+        "table_damping_vertical_n_s_m": ("float", _NONNEG),
+        "table_damping_horizontal_n_s_m": ("float", _NONNEG),
     },
     "housings[]": {
         "name": ("str", ("in", {"de", "nde"})),
@@ -115,6 +124,10 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "shear_effects": ("bool", None),
         "rotary_inertia": ("bool", None),
         "gyroscopic": ("bool", None),
+        "damping_model": ("str", ("in", {"stiffness", "modal", "none"})),
+        "damping_ratio": ("float", ("range", 0.0, 0.5)),
+        "damping_reference_hz": ("float", _POS),
+        "elements_per_wavelength": ("float", ("range", 0.0, 64.0)),
         "node_positions_m": ("float[]", None),
         "outer_diameters_m": ("float[]", _POS),
         "inner_diameters_m": ("float[]", _NONNEG),
@@ -129,6 +142,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     },
     "operating": {
         "max_speed_hz": ("float", _POS),
+        "max_sample_rate_hz": ("float", _POS),
     },
 }
 TOP_LEVEL = ("case", "bearing", "dent", "excitation", "bearings", "housings", "rotor", "operating")
@@ -194,6 +208,36 @@ def _check_table(prefix: str, table, schema: dict, source: str):
         if kind == "float[]" and any(not math.isfinite(x) for x in v):
             raise CaseError(key, "must hold finite numbers only", source)
         _check_value(key, v, check, source)
+
+
+def migrate_v1(raw: dict) -> dict:
+    """A schema-version-1 case as version 2, describing the model version 1 computed.
+
+    Version 1 had the paper's configuration built in: FE bearings from Table 1 (``stiffness_*`` keys), the 4-DOF
+    excitation with the whole rotor weight on the faulty bearing only, Eq. 5 as printed, cubic dent edges, no
+    axial load, no structural damping, one FE element per case element and the damper in ``[excitation]``.
+    """
+    raw = copy.deepcopy(raw)
+    exc = raw.get("excitation", {})
+    damper = exc.pop("bearing_damping_n_s_m", 550.0)
+    raw.setdefault("bearing", {})["damping_n_s_m"] = damper
+    raw.setdefault("dent", {}).setdefault("edge", "cubic")
+    exc.update({"method": "four_dof", "load": "rotor_weight", "bearings": "faulty", "force": "paper"})
+    for b in raw.get("bearings", {}).values():
+        if isinstance(b, dict):
+            for k in ("stiffness_vertical_n_m", "stiffness_horizontal_n_m", "damping_vertical_n_s_m",
+                      "damping_horizontal_n_s_m"):
+                if k in b:
+                    b[f"table_{k}"] = b.pop(k)
+            b.update({"axial_load_n": 0.0, "linearisation": "table"})
+    rot = raw.setdefault("rotor", {})
+    rot.setdefault("damping_model", "none")
+    rot.setdefault("damping_ratio", 0.0)
+    rot.setdefault("damping_reference_hz", 1000.0)
+    rot.setdefault("elements_per_wavelength", 0.0)
+    raw.setdefault("operating", {}).setdefault("max_sample_rate_hz", 51200.0)
+    raw.setdefault("case", {})["schema_version"] = SCHEMA_VERSION
+    return raw
 
 
 def validate_case_dict(raw: dict, source: str = "") -> None:
@@ -341,6 +385,8 @@ class Case:
     @classmethod
     def from_dict(cls, raw: dict, source: str = "") -> "Case":
         raw = copy.deepcopy(raw)
+        if isinstance(raw.get("case"), dict) and raw["case"].get("schema_version") == 1:
+            raw = migrate_v1(raw)
         validate_case_dict(raw, source)
         return cls(name=raw["case"]["name"], source=source, raw=raw)
 
@@ -377,7 +423,7 @@ class Case:
         d = self.raw["dent"]
         return Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]),
                     angle_rad=math.radians(d["angle_deg"]), edge_fraction=float(d["edge_fraction"]),
-                    bearing=d["bearing"], race=d["race"])
+                    bearing=d["bearing"], race=d["race"], edge=d["edge"])
 
     def bearing(self, location: str | None = None) -> Bearing:
         """The bearing at ``location`` (``"de"``/``"nde"``; default: the faulty one) with its dent, if any."""
@@ -386,8 +432,31 @@ class Case:
         return Bearing(self.bearing_geometry(), dent if loc == dent.bearing else None)
 
     def four_dof_parameters(self) -> FourDofParameters:
+        """The 4-DOF model's parameters (``[excitation]``; the bearing damper from ``[bearing]``)."""
         e = self.raw["excitation"]
-        return FourDofParameters(**{k: e[k] for k in FourDofParameters.__dataclass_fields__})
+        fields = {k: e[k] for k in FourDofParameters.__dataclass_fields__ if k in e}
+        return FourDofParameters(bearing_damping_n_s_m=float(self.raw["bearing"]["damping_n_s_m"]), **fields)
+
+    def axial_load_n(self, location: str) -> float:
+        """Axial load of bearing ``location`` [N]."""
+        return float(self.raw["bearings"][location]["axial_load_n"])
+
+    @property
+    def bearing_damping_n_s_m(self) -> float:
+        """The viscous damper across each bearing [N s/m]."""
+        return float(self.raw["bearing"]["damping_n_s_m"])
+
+    @property
+    def gravity_m_s2(self) -> float:
+        return float(self.raw["excitation"]["gravity_m_s2"])
+
+    @property
+    def max_frequency_hz(self) -> float:
+        """Highest frequency the model must serve [Hz]: half the case's highest sample rate, or the highest kept
+        order at the highest speed if that is more (the FE mesh is converged up to it)."""
+        op, ex = self.raw["operating"], self.raw["excitation"]
+        top = ex["max_order"] * self.bearing().fault_multipliers().bpfo * op["max_speed_hz"]
+        return float(max(0.5 * op["max_sample_rate_hz"], top))
 
     @property
     def faulty_bearing(self) -> str:

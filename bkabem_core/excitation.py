@@ -1,18 +1,27 @@
-"""The 4-DOF quasi-static bearing model and its spectrum: the "bearing kinematics" of BKA-BEM.
+"""The bearing excitation of BKA-BEM: the "bearing kinematics" as orders of the ball-pass frequency.
 
-Paper section 3: the rotor and the housing of the faulty bearing, two lateral DOFs each, are connected by the
-nonlinear ball-bearing force with the dent (Eqs. 1-4) and a viscous bearing damper; the housing sits on a
-spring-damper support; gravity acts on both. The model is integrated at the reference speed with a stiff
-(implicit) solver (LSODA, switching to BDF when stiff) from the static equilibrium, the start transient is discarded and a whole number of cage
-periods is recorded. The FFT of the rotor-housing relative displacement over exactly those periods gives the
-DC part and the amplitude A_k and phase phi_k (cosine convention) of every BPFO order k, for the vertical and
-horizontal directions:
+For one bearing (with its dent, or healthy) under its static load, the relative displacement rotor - housing that
+the ball set and the defect impose repeats once per ball pass (every ball sees the same load zone and the same
+fixed dent), so it is a sum of BPFO orders, vertical and horizontal:
 
-    u(t) = DC + sum_k A_k cos(k omega_BPFO t + phi_k),      t = 0 when the cage angle is 0.
+    u(t) = DC + sum_k A_k cos(k omega_BPFO t + phi_k),      t = 0 when the cage angle is 0,
 
-Because every ball sees the same load and dent, the response repeats with the ball-pass period, so only BPFO
-orders carry energy (checked in the tests). In the angle domain ``omega_BPFO t = z theta_cage``, which is how
-the synthesiser places the orders under a varying speed.
+or in the angle domain ``omega_BPFO t = z theta_cage``, which is how the synthesiser places the orders under a
+varying speed. Two ways to get A_k and phi_k (``[excitation] method``):
+
+``quasi_static`` (:func:`quasi_static_excitation`)
+    The bearing's static equilibrium under its load at every cage angle of one ball pitch (no inertia), Newton on
+    ``F(e, theta) + W = 0``, then an FFT over the pitch. Exactly periodic, no transient, no model dynamics: valid
+    at every order (a few ms for 2048 angles).
+``four_dof`` (:func:`compute_excitation`, paper section 3)
+    The paper's 4-DOF model: rotor and housing of the bearing, two lateral DOFs each, connected by the nonlinear
+    ball-bearing force with the dent and a viscous bearing damper; the housing on a spring-damper support; gravity
+    on both. Integrated at the reference speed with a stiff (implicit) solver (LSODA) from the static
+    equilibrium, the start transient discarded and a whole number of cage periods recorded. Its orders near and
+    above the model's own housing-on-bearing resonance (~1 kHz at 1 Hz, order ~165) carry that ringing, not
+    bearing kinematics (docs/method.md compares the two).
+
+Both hold the axial displacement of the bearing at its static value under the axial load (:mod:`bearing`).
 
 Units: SI (m, s, N, kg, rad).
 """
@@ -22,14 +31,15 @@ from __future__ import annotations
 import copy
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.integrate import odeint
 
-from .bearing import TWO_PI, Bearing
+from .bearing import TWO_PI, Bearing, BearingState
 
 DIRECTIONS = ("vertical", "horizontal")
+METHODS = ("quasi_static", "four_dof")
 
 
 @dataclass(frozen=True)
@@ -39,7 +49,7 @@ class FourDofParameters:
     Attributes
     ----------
     rotor_mass_kg, housing_mass_kg : float
-        Lumped rotor and housing masses [kg].
+        Lumped rotor and housing masses [kg]. The rotor's weight is the bearing's radial load.
     support_stiffness_n_m, support_damping_n_s_m : float
         Housing-to-ground support, same in both lateral directions [N/m], [N s/m].
     bearing_damping_n_s_m : float
@@ -80,14 +90,14 @@ class FourDofParameters:
 
 @dataclass
 class Excitation:
-    """Spectrum of the rotor-housing relative displacement from the 4-DOF model.
+    """Spectrum of the rotor-housing relative displacement imposed by one bearing.
 
     Attributes
     ----------
     bpfo_per_hz : float
         BPFO multiplier (BPFO per 1 Hz of shaft speed) [-].
     reference_speed_hz : float
-        Shaft speed of the 4-DOF integration [Hz].
+        Shaft speed of the 4-DOF integration [Hz] (the time axis of ``time_s`` for the quasi-static method).
     orders : ndarray of int (n_orders,)
         Kept BPFO orders k (1 = BPFO).
     amplitude_m : dict direction -> ndarray (n_orders,)
@@ -97,24 +107,34 @@ class Excitation:
     dc_m : dict direction -> float
         Mean relative displacement [m] (static deflection of the bearing incl. clearance).
     peak_to_peak_m : dict direction -> float
-        Peak-to-peak of the recorded relative displacement [m].
+        Peak-to-peak of the relative displacement over one period [m].
     clearance_m : float
         Diametral clearance of the bearing [m].
     all_orders, all_amplitude_m, all_phase_rad :
         Every resolved order (before the threshold), for plots and diagnostics.
     time_s, relative_displacement_m : ndarray
-        The recorded window (time from the start of recording [s]; shape (2, N): vertical, horizontal [m]).
+        The recorded window (time from its start at the reference speed [s]; shape (2, N): vertical,
+        horizontal [m]).
     off_order_fraction : float
-        RMS of the non-BPFO FFT bins relative to the RMS of the BPFO bins (should be ~0) [-].
+        RMS of the non-BPFO FFT bins relative to the RMS of the BPFO bins (~0; for the quasi-static method only the
+        Nyquist bin is not an order) [-].
     static_displacement_m : ndarray (2,)
         Static equilibrium e (horizontal x, vertical y) without the dent [m].
     wall_time_s : float
-        Time spent integrating and transforming [s].
+        Time spent computing and transforming [s].
     n_steps : int
-        Right-hand-side evaluations of the integrator.
+        Right-hand-side evaluations of the integrator (Newton iterations for the quasi-static method).
     housing_resonance_hz : float
-        Housing-on-bearing natural frequency of the 4-DOF model at the static equilibrium (vertical) [Hz];
-        orders near and above it carry the 4-DOF model's own ringing rather than bearing kinematics.
+        4-DOF: housing-on-bearing natural frequency of the model at the static equilibrium (vertical) [Hz]; orders
+        near and above it carry the model's own ringing. NaN for the quasi-static method (no dynamics).
+    method : str
+        ``"quasi_static"`` or ``"four_dof"``.
+    bearing : str
+        Location of the bearing (``"de"``/``"nde"``), if known.
+    radial_load_n, axial_load_n : float
+        Radial (vertical, downward) and axial load the bearing carries [N].
+    state : BearingState or None
+        The static equilibrium the excitation starts from.
     """
 
     bpfo_per_hz: float
@@ -135,12 +155,21 @@ class Excitation:
     wall_time_s: float
     n_steps: int
     housing_resonance_hz: float = float("nan")
+    method: str = "four_dof"
+    bearing: str = ""
+    radial_load_n: float = float("nan")
+    axial_load_n: float = 0.0
+    state: BearingState | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict:
         """JSON-ready summary (field names of the CLI contract)."""
         return {
+            "bearing": self.bearing,
+            "method": self.method,
             "bpfo_per_hz": self.bpfo_per_hz,
             "reference_speed_hz": self.reference_speed_hz,
+            "radial_load_n": self.radial_load_n,
+            "axial_load_n": self.axial_load_n,
             "dc_m": {d: float(self.dc_m[d]) for d in DIRECTIONS},
             "orders": [int(k) for k in self.orders],
             "amplitude_m": {d: self.amplitude_m[d].tolist() for d in DIRECTIONS},
@@ -151,22 +180,41 @@ class Excitation:
             "static_displacement_m": {"vertical": float(self.static_displacement_m[1]),
                                       "horizontal": float(self.static_displacement_m[0])},
             "n_resolved_orders": int(len(self.all_orders)),
-            "housing_resonance_hz": self.housing_resonance_hz,
+            "housing_resonance_hz": _json_float(self.housing_resonance_hz),
             "wall_time_s": self.wall_time_s,
             "integrator_steps": self.n_steps,
         }
 
     def with_selection(self, relative_amplitude_threshold: float, max_order: int = 0) -> "Excitation":
-        """The same result with the kept orders chosen again (no re-integration).
+        """The same result with the kept orders chosen again (no re-computation).
 
         ``max_order=24, relative_amplitude_threshold=0`` is the paper's choice (BPFO and 23 harmonics).
         """
         keep = select_orders(self.all_amplitude_m, relative_amplitude_threshold, max_order)
+        return self.on_orders(self.all_orders[keep])
+
+    def on_orders(self, orders) -> "Excitation":
+        """The same result on the given orders (zero amplitude where an order is not resolved)."""
+        orders = np.asarray(orders, dtype=int)
         out = copy.copy(self)
-        out.orders = self.all_orders[keep]
-        out.amplitude_m = {d: self.all_amplitude_m[d][keep] for d in DIRECTIONS}
-        out.phase_rad = {d: self.all_phase_rad[d][keep] for d in DIRECTIONS}
+        ok = (orders >= 1) & (orders <= self.all_orders[-1])
+        out.orders = orders
+        out.amplitude_m, out.phase_rad = {}, {}
+        for d in DIRECTIONS:
+            a = np.zeros(orders.size)
+            p = np.zeros(orders.size)
+            a[ok] = self.all_amplitude_m[d][orders[ok] - 1]
+            p[ok] = self.all_phase_rad[d][orders[ok] - 1]
+            out.amplitude_m[d], out.phase_rad[d] = a, p
         return out
+
+    def complex_amplitude_m(self) -> np.ndarray:
+        """``U_k = A_k e^{i phi_k}`` (K, 2) [m], columns (vertical, horizontal)."""
+        return np.stack([self.amplitude_m[d] * np.exp(1j * self.phase_rad[d]) for d in DIRECTIONS], axis=1)
+
+
+def _json_float(x: float):
+    return float(x) if math.isfinite(x) else None
 
 
 def select_orders(all_amplitude_m: dict, relative_amplitude_threshold: float, max_order: int) -> np.ndarray:
@@ -178,6 +226,128 @@ def select_orders(all_amplitude_m: dict, relative_amplitude_threshold: float, ma
     return keep
 
 
+def _orders_from_record(rel: np.ndarray, periods: int, threshold: float, max_order: int):
+    """FFT over a record of ``periods`` whole ball passes (2, N): (all orders, amp (2, K), phase (2, K), DC (2,),
+    off-order fraction, kept mask)."""
+    n = rel.shape[1]
+    spec = np.fft.rfft(rel, axis=1) / n
+    k_max = (n // 2 - 1) // periods                      # the Nyquist bin is not an order
+    all_orders = np.arange(1, k_max + 1)
+    bins = all_orders * periods
+    amp = 2.0 * np.abs(spec[:, bins])
+    pha = np.angle(spec[:, bins])
+    mask = np.ones(spec.shape[1], dtype=bool)
+    mask[0] = False
+    mask[bins] = False
+    on = np.sqrt(np.sum(np.abs(spec[:, bins]) ** 2))
+    off = np.sqrt(np.sum(np.abs(spec[:, mask]) ** 2))
+    keep = select_orders({"vertical": amp[0], "horizontal": amp[1]}, threshold, max_order)
+    return all_orders, amp, pha, spec[:, 0].real, (float(off / on) if on > 0 else 0.0), keep
+
+
+# --------------------------------------------------------------------------- quasi-static
+def quasi_static_path_m(bearing: Bearing, radial_load_n, axial_load_n: float, cage_angles_rad,
+                        film_m: float = 0.0, tol_m: float = 1e-15, max_iter: int = 100):
+    """Static equilibrium ``e(theta)`` [m] (N, 2: e_x, e_y) of the bearing with its dent at each cage angle.
+
+    Solves ``F(e, theta; e_z0) + W = 0`` for all angles at once (batched damped Newton with the analytic 2 x 2
+    tangent), the axial displacement held at ``e_z0``, its static value under the axial load.
+
+    Returns
+    -------
+    path : ndarray (N, 2)
+    state : BearingState
+        The healthy static equilibrium (start of the iteration).
+    iterations : int
+    """
+    w = np.asarray(radial_load_n, dtype=float)
+    state = bearing.state(w[0], w[1], axial_load_n, film_m)
+    e0 = state.displacement_m
+    theta = np.asarray(cage_angles_rad, dtype=float)
+    ex = np.full(theta.shape, e0[0])
+    ey = np.full(theta.shape, e0[1])
+    for it in range(1, max_iter + 1):
+        fx, fy, (kxx, kxy, kyy) = bearing.forces_n(ex, ey, theta, film_m, with_stiffness=True, e_z_m=e0[2])
+        rx, ry = fx + w[0], fy + w[1]
+        det = kxx * kyy - kxy * kxy
+        sx = (kyy * rx - kxy * ry) / det                 # K s = r  (F(e + s) ~ F(e) - K s = -W)
+        sy = (kxx * ry - kxy * rx) / det
+        n = np.hypot(sx, sy)
+        scale = np.minimum(1.0, 2e-6 / np.maximum(n, 1e-300))   # never more than 2 um at once (contacts change)
+        ex += sx * scale
+        ey += sy * scale
+        if np.max(n) <= tol_m:
+            break
+    else:
+        raise RuntimeError(f"quasi-static bearing equilibrium did not converge (last step {np.max(n):.2e} m)")
+    return np.stack([ex, ey], axis=1), state, it
+
+
+def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n: float = 0.0,
+                            samples_per_ball_pass: int = 2048, relative_amplitude_threshold: float = 1e-3,
+                            max_order: int = 0, reference_speed_hz: float = 1.0, location: str = "",
+                            film_m: float = 0.0) -> Excitation:
+    """Excitation of one bearing from its quasi-static equilibrium over one ball pitch (no inertia).
+
+    Parameters
+    ----------
+    bearing : Bearing
+        The bearing with its dent (or healthy: then only its ball-passage variation remains).
+    radial_load_n : float
+        Downward radial load on the shaft that the bearing carries [N] (its share of the rotor weight).
+    axial_load_n : float
+        Axial load [N]; the axial displacement is held at its static value under it.
+    samples_per_ball_pass : int
+        Cage angles per ball pitch; orders up to half of it are resolved.
+    relative_amplitude_threshold, max_order :
+        Order selection (:func:`select_orders`).
+    reference_speed_hz : float
+        Only labels the time axis of the result ([s] at this shaft speed).
+    location : str
+        ``"de"``/``"nde"``, recorded in the result.
+
+    Returns
+    -------
+    Excitation
+        ``method = "quasi_static"``, exactly periodic, no housing resonance.
+    """
+    t0 = time.perf_counter()
+    z = bearing.geometry.n_balls
+    n = int(samples_per_ball_pass)
+    pitch = TWO_PI / z
+    theta = pitch * np.arange(n) / n
+    path, state, iterations = quasi_static_path_m(bearing, (0.0, -float(radial_load_n)), axial_load_n, theta,
+                                                  film_m)
+    rel = np.vstack([path[:, 1], path[:, 0]])                     # vertical, horizontal
+    all_orders, amp, pha, dc, off, keep = _orders_from_record(rel, 1, relative_amplitude_threshold, max_order)
+    ftf = bearing.fault_multipliers().ftf
+    return Excitation(
+        bpfo_per_hz=bearing.fault_multipliers().bpfo,
+        reference_speed_hz=float(reference_speed_hz),
+        orders=all_orders[keep],
+        amplitude_m={"vertical": amp[0, keep], "horizontal": amp[1, keep]},
+        phase_rad={"vertical": pha[0, keep], "horizontal": pha[1, keep]},
+        dc_m={"vertical": float(dc[0]), "horizontal": float(dc[1])},
+        peak_to_peak_m={"vertical": float(np.ptp(rel[0])), "horizontal": float(np.ptp(rel[1]))},
+        clearance_m=bearing.geometry.diametral_clearance_m,
+        all_orders=all_orders,
+        all_amplitude_m={"vertical": amp[0], "horizontal": amp[1]},
+        all_phase_rad={"vertical": pha[0], "horizontal": pha[1]},
+        time_s=theta / (TWO_PI * ftf * reference_speed_hz),
+        relative_displacement_m=rel,
+        off_order_fraction=off,
+        static_displacement_m=state.displacement_m[:2].copy(),
+        wall_time_s=time.perf_counter() - t0,
+        n_steps=iterations,
+        method="quasi_static",
+        bearing=location,
+        radial_load_n=float(radial_load_n),
+        axial_load_n=float(axial_load_n),
+        state=state,
+    )
+
+
+# --------------------------------------------------------------------------- 4-DOF
 class FourDofModel:
     """Rotor + housing of one bearing, two lateral DOFs each, nonlinear bearing force with the dent.
 
@@ -186,50 +356,52 @@ class FourDofModel:
     Parameters
     ----------
     bearing : Bearing
-        The faulty bearing (its ``dent`` is used).
+        The bearing (its ``dent`` is used, if any).
     params : FourDofParameters
+    axial_load_n : float
+        Axial load [N]; the axial displacement is held at its static value under it.
     """
 
-    def __init__(self, bearing: Bearing, params: FourDofParameters):
+    def __init__(self, bearing: Bearing, params: FourDofParameters, axial_load_n: float = 0.0):
         self.bearing = bearing
         self.p = params
+        self.axial_load_n = float(axial_load_n)
         g = bearing.geometry
         self.z = g.n_balls
         self.ftf = bearing.fault_multipliers().ftf
         self.cage_speed_rad_s = TWO_PI * self.ftf * params.reference_speed_hz
         self._u0 = np.exp(1j * bearing._ball_offsets)
-        self._half_cd = 0.5 * g.diametral_clearance_m
         self._k = bearing.contact_constant_n_m15
-        self._cos_a0 = math.cos(g.contact_angle_rad)
-        self._kc = self._k * self._cos_a0
-        self._k15 = 1.5 * self._k * self._cos_a0
+        self._a0 = bearing.groove_centre_distance_m
+        self._ar0 = bearing._ar0
         self._beta0 = g.first_ball_angle_rad
         self._inv_mr = 1.0 / params.rotor_mass_kg
         self._inv_mh = 1.0 / params.housing_mass_kg
         self._dy = np.zeros(8)
         self._jac_const = self._constant_jacobian()
         self._static = None
+        w = params.rotor_mass_kg * params.gravity_m_s2
+        self.state = bearing.state(0.0, -w, self.axial_load_n)
+        self._aa = bearing._aa0 + self.state.displacement_m[2]    # held axial groove-centre offset [m]
         d = bearing.dent
         self._dent = d is not None and bearing.dent_effective_depth_m > 0.0
         if self._dent:
             self._phi_d = d.angle_rad
-            self._h = bearing.dent_effective_depth_m
             self._a = bearing.dent_half_angle_rad
-            self._a0 = self._a - bearing._dent_edge
             self._one_ball_dent = 2.0 * self._a < TWO_PI / self.z
 
     # -- bearing force on the rotor, scalar fast path (RHS of the integrator) --
     def _bearing(self, ex, ey, t, stiffness=True):
         """Bearing force on the rotor [N] and, optionally, its tangent stiffness [N/m] (Eqs. 1-4).
 
-        Scalar fast path of :meth:`Bearing.forces_n` (tested equal to it): ball directions as unit complex
-        numbers ``u_i = exp(i beta_i)``, so ``delta_i = Re(conj(e) u_i) - c_d/2 - h_dent`` and
-        ``F_x + i F_y = -sum Q_i u_i``; the stiffness follows from ``sum dQ_i`` and ``sum dQ_i u_i^2``.
+        Scalar fast path of :meth:`Bearing.forces_n` at the held axial offset (tested equal to it): ball
+        directions as unit complex numbers ``u_i = exp(i beta_i)``, ``A_r = A_r0 + Re(conj(e) u_i) - drop``,
+        ``F_x + i F_y = -sum Q_i cos(phi_i) u_i``; the stiffness from ``sum w_i`` and ``sum w_i u_i^2``.
         """
         th = math.fmod(self.cage_speed_rad_s * t, TWO_PI)
         u = self._u0 * complex(math.cos(th), math.sin(th))
-        delta = (complex(ex, -ey) * u).real
-        delta -= self._half_cd
+        ar = (complex(ex, -ey) * u).real
+        ar += self._ar0
         if self._dent:
             if self._one_ball_dent:
                 # only the ball nearest to the dent can be inside it (dent shorter than the ball pitch)
@@ -237,21 +409,30 @@ class FourDofModel:
                 i = int(round((self._phi_d - th - self._beta0) / pitch)) % self.z
                 rel = abs(math.remainder(th + self._beta0 + i * pitch - self._phi_d, TWO_PI))
                 if rel < self._a:
-                    if rel <= self._a0:
-                        delta[i] -= self._h
-                    else:
-                        x = (rel - self._a0) / (self._a - self._a0)
-                        delta[i] -= self._h * (1.0 - x * x * (3.0 - 2.0 * x))
+                    ar[i] -= float(self.bearing.dent_drop_m(rel))
             else:
-                delta -= self.bearing.dent_depth_m(np.angle(u))
-        np.maximum(delta, 0.0, out=delta)
-        root = np.sqrt(delta)
-        f = -self._kc * np.dot(delta * root, u)
-        if not stiffness:
-            return f.real, f.imag
-        dq = root * self._k15
-        s0 = dq.sum()
-        s2 = np.dot(dq, u * u)
+                ar -= self.bearing.dent_depth_m(np.angle(u))
+        if self._aa == 0.0:
+            delta = ar - self._a0
+            np.maximum(delta, 0.0, out=delta)
+            root = np.sqrt(delta)
+            f = -self._k * np.dot(delta * root, u)
+            if not stiffness:
+                return f.real, f.imag
+            w = root * (1.5 * self._k)
+        else:
+            a = np.sqrt(ar * ar + self._aa * self._aa)
+            delta = a - self._a0
+            np.maximum(delta, 0.0, out=delta)
+            root = np.sqrt(delta)
+            c = ar / a
+            q = self._k * delta * root
+            f = -np.dot(q * c, u)
+            if not stiffness:
+                return f.real, f.imag
+            w = 1.5 * self._k * root * c * c + q * (1.0 - c * c) / a
+        s0 = w.sum()
+        s2 = np.dot(w, u * u)
         return f.real, f.imag, 0.5 * (s0 + s2.real), 0.5 * s2.imag, 0.5 * (s0 - s2.real)
 
     def rhs(self, t, y):
@@ -295,19 +476,20 @@ class FourDofModel:
     def static_state(self):
         """State at the static equilibrium without the dent (housing on its support, bearing loaded).
 
-        Solved once per model (a Newton solve); returns copies (state (8,), bearing e (2,)).
+        Returns copies (state (8,), bearing e (2,)).
         """
         if self._static is None:
             p = self.p
-            e = self.bearing.static_equilibrium_m(0.0, -p.rotor_mass_kg * p.gravity_m_s2)
+            e = self.state.displacement_m[:2]
             yh = -(p.rotor_mass_kg + p.housing_mass_kg) * p.gravity_m_s2 / p.support_stiffness_n_m
-            self._static = (np.array([e[0], yh + e[1], 0.0, yh, 0.0, 0.0, 0.0, 0.0]), e)
+            self._static = (np.array([e[0], yh + e[1], 0.0, yh, 0.0, 0.0, 0.0, 0.0]), e.copy())
         return self._static[0].copy(), self._static[1].copy()
 
     def housing_resonance_hz(self) -> float:
         """Vertical housing-on-bearing natural frequency at the static equilibrium [Hz] (rotor held fixed)."""
         e = self.static_state()[1]
-        _, _, (_, _, kyy) = self.bearing.forces_n(e[0], e[1], 0.0, with_stiffness=True, with_dent=False)
+        _, _, (_, _, kyy) = self.bearing.forces_n(e[0], e[1], 0.0, with_stiffness=True, with_dent=False,
+                                                  e_z_m=self.state.displacement_m[2])
         k = float(kyy) + self.p.support_stiffness_n_m
         return math.sqrt(k / self.p.housing_mass_kg) / TWO_PI
 
@@ -316,7 +498,8 @@ class FourDofModel:
         bp = 1.0 / (self.z * self.ftf * self.p.reference_speed_hz)
         if not self._dent:
             return bp / 50.0
-        edge = (self._a - self._a0) if self._a > self._a0 else self._a / 10.0
+        ramp = self.bearing.dent_entry_ramp_rad
+        edge = ramp if ramp > 0.0 else self._a / 10.0
         return min(bp / 50.0, 0.5 * edge / self.cage_speed_rad_s)
 
     def integrate(self, progress=None):
@@ -348,45 +531,37 @@ class FourDofModel:
         return t_eval - t0, rel, n_eval
 
 
-def compute_excitation(bearing: Bearing, params: FourDofParameters) -> Excitation:
+def compute_excitation(bearing: Bearing, params: FourDofParameters, axial_load_n: float = 0.0,
+                       location: str = "") -> Excitation:
     """Integrate the 4-DOF model and transform it into BPFO orders (DC, A_k, phi_k, vertical and horizontal).
 
     Parameters
     ----------
     bearing : Bearing
-        The faulty bearing with its dent.
+        The bearing with its dent (or healthy).
     params : FourDofParameters
+        The bearing's radial load is ``rotor_mass_kg x gravity_m_s2``.
+    axial_load_n : float
+        Axial load [N] (axial displacement held at its static value under it).
+    location : str
+        ``"de"``/``"nde"``, recorded in the result.
 
     Returns
     -------
     Excitation
     """
     t_start = time.perf_counter()
-    model = FourDofModel(bearing, params)
+    model = FourDofModel(bearing, params, axial_load_n)
     t, rel, n_steps = model.integrate()
-    n = rel.shape[1]
-    spec = np.fft.rfft(rel, axis=1) / n
-    stride = params.record_cage_periods * model.z            # FFT bins per BPFO order
-    k_max = (n // 2 - 1) // stride                              # the Nyquist bin is not an order
-    all_orders = np.arange(1, k_max + 1)
-    bins = all_orders * stride
-    amp = 2.0 * np.abs(spec[:, bins])
-    pha = np.angle(spec[:, bins])
-    mask = np.ones(spec.shape[1], dtype=bool)
-    mask[0] = False
-    mask[bins] = False
-    on = np.sqrt(np.sum(np.abs(spec[:, bins]) ** 2))
-    off = np.sqrt(np.sum(np.abs(spec[:, mask]) ** 2))
-    keep = select_orders({"vertical": amp[0], "horizontal": amp[1]}, params.relative_amplitude_threshold,
-                         params.max_order)
-    orders = all_orders[keep]
-    ex = Excitation(
+    all_orders, amp, pha, dc, off, keep = _orders_from_record(rel, params.record_cage_periods * model.z,
+                                                              params.relative_amplitude_threshold, params.max_order)
+    return Excitation(
         bpfo_per_hz=bearing.fault_multipliers().bpfo,
         reference_speed_hz=params.reference_speed_hz,
-        orders=orders,
+        orders=all_orders[keep],
         amplitude_m={"vertical": amp[0, keep], "horizontal": amp[1, keep]},
         phase_rad={"vertical": pha[0, keep], "horizontal": pha[1, keep]},
-        dc_m={"vertical": float(spec[0, 0].real), "horizontal": float(spec[1, 0].real)},
+        dc_m={"vertical": float(dc[0]), "horizontal": float(dc[1])},
         peak_to_peak_m={"vertical": float(np.ptp(rel[0])), "horizontal": float(np.ptp(rel[1]))},
         clearance_m=bearing.geometry.diametral_clearance_m,
         all_orders=all_orders,
@@ -394,10 +569,14 @@ def compute_excitation(bearing: Bearing, params: FourDofParameters) -> Excitatio
         all_phase_rad={"vertical": pha[0], "horizontal": pha[1]},
         time_s=t,
         relative_displacement_m=rel,
-        off_order_fraction=float(off / on) if on > 0 else 0.0,
+        off_order_fraction=off,
         static_displacement_m=model.static_state()[1],
         wall_time_s=time.perf_counter() - t_start,
         n_steps=n_steps,
         housing_resonance_hz=model.housing_resonance_hz(),
+        method="four_dof",
+        bearing=location,
+        radial_load_n=params.rotor_mass_kg * params.gravity_m_s2,
+        axial_load_n=float(axial_load_n),
+        state=model.state,
     )
-    return ex

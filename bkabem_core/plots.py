@@ -23,7 +23,9 @@ def plot_excitation(ex: Excitation, png_path: str) -> None:
     fig, ax = plt.subplots(2, 2, figsize=(12, 7), constrained_layout=True)
     for j, d in enumerate(DIRECTIONS):
         ax[0, j].plot(ex.time_s, ex.relative_displacement_m[j] * 1e6, lw=0.8)
-        ax[0, j].set(title=f"4-DOF relative displacement, {d}", xlabel="time [s]", ylabel="rotor - housing [µm]")
+        what = "4-DOF" if ex.method == "four_dof" else "quasi-static"
+        ax[0, j].set(title=f"{ex.bearing.upper()} {what} relative displacement, {d}",
+                     xlabel=f"time at {ex.reference_speed_hz:g} Hz shaft speed [s]", ylabel="rotor - housing [µm]")
         ax[0, j].grid(alpha=0.3)
         k = ex.all_orders[:80]
         a = ex.all_amplitude_m[d][:80] * 1e6

@@ -38,6 +38,10 @@ __all__ = [
     "LinearBearing",
     "Rotor",
     "rotor_from_case",
+    "Mesh",
+    "mesh_for",
+    "shortest_wavelength_m",
+    "structural_damping",
     "STANDARD_GRAVITY_M_S2",
 ]
 
@@ -423,7 +427,15 @@ class Rotor:
         disks: Sequence[Disk] = (),
         point_masses: Sequence[PointMass] = (),
         bearings: Sequence[LinearBearing] = (),
+        modal_damping_ratio: float = 0.0,
+        stiffness_damping_s: float = 0.0,
     ) -> None:
+        if not 0.0 <= modal_damping_ratio < 1.0:
+            raise ValueError(f"modal_damping_ratio must be in [0, 1), got {modal_damping_ratio}")
+        if not 0.0 <= stiffness_damping_s < 1e-2:
+            raise ValueError(f"stiffness_damping_s must be in [0, 1e-2) s, got {stiffness_damping_s}")
+        self.modal_damping_ratio = float(modal_damping_ratio)
+        self.stiffness_damping_s = float(stiffness_damping_s)
         self.shaft_elements: tuple[ShaftElement, ...] = tuple(shaft_elements)
         self.disks: tuple[Disk, ...] = tuple(disks)
         self.point_masses: tuple[PointMass, ...] = tuple(point_masses)
@@ -444,8 +456,10 @@ class Rotor:
         if not all_nodes:
             raise ValueError("the rotor has no nodes (no shaft elements and no point masses)")
 
-        self.node_labels: tuple[int, ...] = tuple(sorted(all_nodes))
-        self.shaft_node_labels: tuple[int, ...] = tuple(sorted(shaft_nodes))
+        # DOF order: shaft nodes along the chain of elements (so the shaft matrix is block-tridiagonal whatever the
+        # labels of nodes added by mesh refinement), then the point-mass-only nodes in label order
+        self.shaft_node_labels: tuple[int, ...] = self._chain_order(shaft_nodes)
+        self.node_labels: tuple[int, ...] = self.shaft_node_labels + tuple(sorted(mass_nodes - shaft_nodes))
         self._node_dirs: dict[int, tuple[str, ...]] = {}
         self._node_start: dict[int, int] = {}
         start = 0
@@ -455,6 +469,20 @@ class Rotor:
             self._node_start[n] = start
             start += len(dirs)
         self.ndof: int = start
+
+    def _chain_order(self, shaft_nodes: set[int]) -> tuple[int, ...]:
+        """Shaft node labels along the element chain from its free end, or sorted if the elements branch."""
+        if not shaft_nodes:
+            return ()
+        by_left = {e.node_left: e.node_right for e in self.shaft_elements}
+        rights = set(by_left.values())
+        starts = [n for n in shaft_nodes if n not in rights]
+        if len(by_left) != len(self.shaft_elements) or len(starts) != 1:
+            return tuple(sorted(shaft_nodes))
+        chain = [starts[0]]
+        while chain[-1] in by_left and len(chain) <= len(shaft_nodes):
+            chain.append(by_left[chain[-1]])
+        return tuple(chain) if len(chain) == len(shaft_nodes) else tuple(sorted(shaft_nodes))
 
     @staticmethod
     def _named_bearings(bearings: Iterable[LinearBearing]) -> list[LinearBearing]:
@@ -533,8 +561,57 @@ class Rotor:
 
     @cached_property
     def C(self) -> np.ndarray:
-        """Damping matrix (ndof, ndof): bearings only (the shaft is undamped)."""
-        return self._assemble((self._xy_dofs(b.nodes), b.damping_matrix()) for b in self.bearings)
+        """Damping matrix (ndof, ndof): bearings and supports, plus the rotor's structural damping.
+
+        Structural damping of the shaft: ``stiffness_damping_s`` x the shaft elements' stiffness (element by element,
+        so the matrix keeps the shaft's band: damping ratio ``pi beta f`` of a mode at f), and/or modal damping of
+        every elastic free-free rotor mode (:meth:`structural_damping_matrix`, dense over the shaft DOFs).
+        """
+        parts = [(self._xy_dofs(b.nodes), b.damping_matrix()) for b in self.bearings]
+        if self.stiffness_damping_s > 0.0:
+            parts += [(self._shaft_idx(e), self.stiffness_damping_s * e.stiffness_matrix()) for e in self.shaft_elements]
+        c = np.array(self._assemble(parts))
+        if self.modal_damping_ratio > 0.0:
+            idx = np.concatenate([self.node_dofs(n) for n in self.shaft_node_labels])
+            c[np.ix_(idx, idx)] += self.structural_damping_matrix()
+        return _readonly(c)
+
+    def free_free_modes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Modes of the rotor alone (shaft and disks, no bearings, supports or housings), free-free.
+
+        Returns
+        -------
+        frequencies_hz : ndarray (n,)
+            Ascending; the first four (rigid-body translation and tilt in both planes) are ~0.
+        mode_shapes : ndarray (n, n)
+            Mass-normalised columns over the shaft DOFs (``shaft_node_labels`` order).
+        """
+        idx = np.concatenate([self.node_dofs(n) for n in self.shaft_node_labels])
+        parts_m = [(self._shaft_idx(e), e.mass_matrix()) for e in self.shaft_elements]
+        parts_m += [(self.node_dofs(d.node), d.mass_matrix()) for d in self.disks]
+        parts_k = [(self._shaft_idx(e), e.stiffness_matrix()) for e in self.shaft_elements]
+        m = self._assemble(parts_m)[np.ix_(idx, idx)]
+        k = self._assemble(parts_k)[np.ix_(idx, idx)]
+        w2, phi = scipy.linalg.eigh(k, m)
+        return np.sqrt(np.clip(w2, 0.0, None)) / (2.0 * np.pi), phi
+
+    def structural_damping_matrix(self) -> np.ndarray:
+        """Modal damping of the rotor over its shaft DOFs: every free-free elastic mode damped by
+        ``modal_damping_ratio`` (the rigid-body modes not at all).
+
+        ``C_r = M Phi diag(2 zeta omega_r) Phi^T M`` over the elastic free-free modes ``Phi`` (mass-normalised) of
+        shaft and disks: in those coordinates ``Phi^T C_r Phi = diag(2 zeta omega_r)``. Dense over the shaft DOFs.
+        The bearings, supports and housings keep their own dampers.
+        """
+        f, phi = self.free_free_modes()
+        idx = np.concatenate([self.node_dofs(n) for n in self.shaft_node_labels])
+        parts_m = [(self._shaft_idx(e), e.mass_matrix()) for e in self.shaft_elements]
+        parts_m += [(self.node_dofs(d.node), d.mass_matrix()) for d in self.disks]
+        m = self._assemble(parts_m)[np.ix_(idx, idx)]
+        elastic = f > 1.0              # [Hz]: the four rigid-body modes are numerically ~0, the first bending > 100 Hz
+        u = m @ phi[:, elastic]
+        w = 2.0 * np.pi * f[elastic]
+        return (u * (2.0 * self.modal_damping_ratio * w)) @ u.T
 
     @cached_property
     def G(self) -> np.ndarray:
@@ -561,7 +638,7 @@ class Rotor:
 
     @cached_property
     def shaft_node_positions_m(self) -> dict[int, float]:
-        """Axial position of each shaft node (m), chaining element lengths from the lowest label (z = 0).
+        """Axial position of each shaft node (m), chaining element lengths from the chain's free end (z = 0).
 
         Raises
         ------
@@ -680,8 +757,65 @@ def _require(d: Mapping, key: str, where: str):
         raise KeyError(f"case file: missing key {key!r} in [{where}]") from None
 
 
-def rotor_from_case(case_dict: Mapping) -> Rotor:
-    """Build the rotor model from a parsed case TOML (``tomllib.load`` result).
+@dataclass(frozen=True)
+class Mesh:
+    """How the case's shaft elements are subdivided for the FE model.
+
+    Attributes
+    ----------
+    pieces : tuple of int
+        Number of equal sub-elements of each case element.
+    max_frequency_hz : float
+        Frequency the mesh is made for [Hz] (0: no refinement).
+    elements_per_wavelength : float
+        Sub-elements per shortest wavelength at ``max_frequency_hz`` (see :func:`mesh_for`).
+    """
+
+    pieces: tuple[int, ...]
+    max_frequency_hz: float = 0.0
+    elements_per_wavelength: float = 0.0
+
+    @property
+    def n_elements(self) -> int:
+        return int(sum(self.pieces))
+
+    def doubled(self) -> "Mesh":
+        """Every piece split in two again (the convergence check)."""
+        return Mesh(tuple(2 * n for n in self.pieces), self.max_frequency_hz, 2 * self.elements_per_wavelength)
+
+
+def shortest_wavelength_m(outer_diameter_m: float, inner_diameter_m: float, material: Material,
+                          frequency_hz: float) -> float:
+    """Shortest wavelength [m] of the waves a Timoshenko shaft section carries at ``frequency_hz``.
+
+    The smaller of the Euler-Bernoulli bending wavelength ``2 pi (E I / rho A)^(1/4) / sqrt(omega)`` and the shear
+    wavelength ``sqrt(kappa G / rho) / f`` (the slower of the two branches of Timoshenko's dispersion relation sets
+    the element size at high frequency).
+    """
+    e = ShaftElement(0, 1, 1.0, outer_diameter_m, inner_diameter_m, material)
+    w = 2.0 * np.pi * frequency_hz
+    bending = 2.0 * np.pi * (material.youngs_modulus_pa * e.second_moment_m4
+                             / (material.density_kg_m3 * e.area_m2)) ** 0.25 / np.sqrt(w)
+    shear = np.sqrt(e.shear_coefficient * material.shear_modulus_pa / material.density_kg_m3) / frequency_hz
+    return float(min(bending, shear))
+
+
+def mesh_for(case_dict: Mapping, max_frequency_hz: float, elements_per_wavelength: float) -> Mesh:
+    """Subdivision of every case element so that each sub-element is at most 1 / ``elements_per_wavelength`` of
+    the shortest wavelength of its section at ``max_frequency_hz`` (:func:`shortest_wavelength_m`)."""
+    r = case_dict["rotor"]
+    mat = Material(float(r["youngs_modulus_pa"]), float(r["poisson_ratio"]), float(r["density_kg_m3"]))
+    z = np.asarray(r["node_positions_m"], dtype=float)
+    pieces = []
+    for i, (do, di) in enumerate(zip(r["outer_diameters_m"], r["inner_diameters_m"])):
+        h = shortest_wavelength_m(float(do), float(di), mat, max_frequency_hz) / elements_per_wavelength
+        pieces.append(max(1, int(np.ceil((z[i + 1] - z[i]) / h - 1e-9))))
+    return Mesh(tuple(pieces), float(max_frequency_hz), float(elements_per_wavelength))
+
+
+def rotor_from_case(case_dict: Mapping, bearings: Mapping[str, tuple] | None = None, mesh: Mesh | None = None,
+                    damping: dict | None = None, with_bearings: bool = True) -> Rotor:
+    """Build the rotor model from a parsed case (``Case.raw``).
 
     Uses ``[rotor]`` (material, flags, ``node_positions_m``, ``outer_diameters_m``,
     ``inner_diameters_m``; element ``i`` joins shaft nodes ``i+1`` and ``i+2``), ``[[rotor.disks]]``,
@@ -694,6 +828,16 @@ def rotor_from_case(case_dict: Mapping) -> Rotor:
     ----------
     case_dict : mapping
         Parsed case file.
+    bearings : mapping, optional
+        ``name -> (k_xx, k_yy, c_xx, c_yy)`` [N/m, N s/m] for the rotor-housing bearings (e.g. linearised from the
+        bearing model); default: the case's ``table_*`` values.
+    mesh : Mesh, optional
+        Subdivision of the case elements (default: none, one FE element per case element). Nodes added inside
+        an element get labels above every label of the case, so the case's node numbers keep their meaning.
+    damping : dict, optional
+        Structural damping as :class:`Rotor` keywords (default: the case's, :func:`structural_damping`).
+    with_bearings : bool
+        False: leave the rotor-housing bearings out (the time-domain model puts nonlinear bearings there).
 
     Returns
     -------
@@ -717,10 +861,21 @@ def rotor_from_case(case_dict: Mapping) -> Rotor:
     if np.any(lengths <= 0):
         raise ValueError("[rotor]: node_positions_m must be strictly increasing")
     flags = {k: bool(r.get(k, True)) for k in ("shear_effects", "rotary_inertia", "gyroscopic")}
-    shaft = [
-        ShaftElement(i + 1, i + 2, float(lengths[i]), float(od[i]), float(idi[i]), mat, **flags)
-        for i in range(len(od))
-    ]
+    pieces = mesh.pieces if mesh is not None else (1,) * len(od)
+    if len(pieces) != len(od):
+        raise ValueError(f"mesh: {len(pieces)} pieces for {len(od)} case elements")
+    labels = [int(h["node"]) for h in case_dict.get("housings", [])] + list(range(1, len(z) + 1))
+    next_label = max(labels) + 1
+    shaft = []
+    for i in range(len(od)):
+        left = i + 1
+        for j in range(pieces[i]):
+            right = i + 2 if j == pieces[i] - 1 else next_label
+            if right == next_label:
+                next_label += 1
+            shaft.append(ShaftElement(left, right, float(lengths[i]) / pieces[i], float(od[i]), float(idi[i]), mat,
+                                      **flags))
+            left = right
     disks = [
         Disk(
             node=int(d["node"]),
@@ -732,12 +887,12 @@ def rotor_from_case(case_dict: Mapping) -> Rotor:
         for d in r.get("disks", [])
     ]
     point_masses: list[PointMass] = []
-    bearings: list[LinearBearing] = []
+    elements: list[LinearBearing] = []
     for h in case_dict.get("housings", []):
         name = str(_require(h, "name", "housings"))
         node = int(_require(h, "node", "housings"))
         point_masses.append(PointMass(node, float(_require(h, "mass_kg", "housings")), name=f"housing_{name}"))
-        bearings.append(LinearBearing(
+        elements.append(LinearBearing(
             node=node, other_node=None,
             kxx_n_m=float(h["support_stiffness_horizontal_n_m"]),
             kyy_n_m=float(h["support_stiffness_vertical_n_m"]),
@@ -745,14 +900,34 @@ def rotor_from_case(case_dict: Mapping) -> Rotor:
             cyy_n_s_m=float(h["support_damping_vertical_n_s_m"]),
             name=f"support_{name}",
         ))
-    for name, b in case_dict.get("bearings", {}).items():
-        bearings.append(LinearBearing(
-            node=int(_require(b, "rotor_node", f"bearings.{name}")),
-            other_node=int(_require(b, "housing_node", f"bearings.{name}")),
-            kxx_n_m=float(b["stiffness_horizontal_n_m"]),
-            kyy_n_m=float(b["stiffness_vertical_n_m"]),
-            cxx_n_s_m=float(b["damping_horizontal_n_s_m"]),
-            cyy_n_s_m=float(b["damping_vertical_n_s_m"]),
-            name=str(name),
-        ))
-    return Rotor(shaft, disks, point_masses, bearings)
+    if with_bearings:
+        for name, b in case_dict.get("bearings", {}).items():
+            if bearings is not None and name in bearings:
+                kxx, kyy, cxx, cyy = (float(v) for v in bearings[name])
+            else:
+                kxx, kyy = float(b["table_stiffness_horizontal_n_m"]), float(b["table_stiffness_vertical_n_m"])
+                cxx, cyy = float(b["table_damping_horizontal_n_s_m"]), float(b["table_damping_vertical_n_s_m"])
+            elements.append(LinearBearing(
+                node=int(_require(b, "rotor_node", f"bearings.{name}")),
+                other_node=int(_require(b, "housing_node", f"bearings.{name}")),
+                kxx_n_m=kxx, kyy_n_m=kyy, cxx_n_s_m=cxx, cyy_n_s_m=cyy, name=str(name),
+            ))
+    damping = structural_damping(case_dict) if damping is None else damping
+    return Rotor(shaft, disks, point_masses, elements, **damping)
+
+
+def structural_damping(case_dict: Mapping) -> dict:
+    """Structural damping of the case's rotor as :class:`Rotor` keywords.
+
+    ``[rotor] damping_model = "stiffness"``: ``beta = damping_ratio / (pi damping_reference_hz)`` times the shaft
+    stiffness (damping ratio proportional to frequency, ``damping_ratio`` at ``damping_reference_hz``);
+    ``"modal"``: ``damping_ratio`` on every elastic free-free rotor mode; ``"none"``.
+    """
+    r = case_dict["rotor"]
+    model = r.get("damping_model", "none")
+    zeta = float(r.get("damping_ratio", 0.0))
+    if model == "stiffness":
+        return {"stiffness_damping_s": zeta / (np.pi * float(r["damping_reference_hz"]))}
+    if model == "modal":
+        return {"modal_damping_ratio": zeta}
+    return {}

@@ -981,8 +981,8 @@ class Synthesizer:
             if df > 0:
                 knots += max((t_end[i + 1] - t_end[i]) / self.knot_s, df / self.max_speed_step_hz) + 1
         made = self._modal is not None or self.model.has_order_modal_form(self._comb)
-        n_k, scale = self.model.orders.size, (self.model.rotor.ndof / 60.0) ** 3
-        setup = 0.0 if made else self._COST_MODAL_SETUP_PER_ORDER_S * n_k * scale
+        n_k, scale = self.model.orders.size, self.model.basis.size / 60.0     # cost per pole, relative to 60 DOF
+        setup = 0.0 if made or self.model.has_line_modes() else self._COST_MODAL_SETUP_PER_ORDER_S * n_k * scale ** 3
         if made:
             cells = self.model.order_modal_form(self._comb).speed_cells().missing(f_end.min(), f_end.max())
         else:

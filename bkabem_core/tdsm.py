@@ -1,16 +1,21 @@
 """Time-domain solution method (TDSM): the full nonlinear rotor-bearing model integrated in time.
 
-This is the reference BKA-BEM is validated against (paper section 5). Same case as the core:
+This is the reference BKA-BEM is validated against (paper section 5). It is the same machine as the core
+(:class:`bkabem_core.machine.Machine`):
 
-* the FE rotor of :func:`bkabem_core.rotor.rotor_from_case` (Timoshenko shaft, disks, both housings on their
-  supports), **without** the two linear ``[bearings.de]``/``[bearings.nde]`` elements;
-* instead, between rotor node and housing node of each bearing, the nonlinear Sopanen-Mikkola ball force of
-  :class:`bkabem_core.bearing.Bearing` (Hertz contacts with the case's clearance; the dent in the faulty bearing,
-  the other one healthy) in parallel with the viscous damper ``[excitation] bearing_damping_n_s_m`` (the paper's
-  0.55 N s/mm, the same damper as the 4-DOF model);
+* the FE rotor (Timoshenko shaft refined for the case's highest frequency, disks, both housings on their
+  supports, the rotor's structural damping) with, between rotor node and housing node of each bearing, the
+  nonlinear Sopanen ball force of :class:`bkabem_core.bearing.Bearing` (Hertz contacts, the case's clearance, the
+  axial displacement held at its static value under the axial load; the dent in the faulty bearing, the other one
+  healthy) in parallel with the viscous bearing damper ``[bearing] damping_n_s_m`` (the same damper as in the FE
+  and the 4-DOF model);
 * gravity on every mass; constant shaft speed Omega (in ``Omega G``) and cage angle ``theta = 2 pi FTF f t``
   (t = 0 at cage angle 0, the BKA-BEM phase reference);
 * integrated from the static equilibrium of this nonlinear model (solved, with the dent ignored at t = 0).
+
+The linear part is written with the FE's linear bearing springs ``K_b`` inside (the machine's linearisation) and
+the ball forces as ``g(u) = f(u) + K_b u`` outside: the same equations, and a linear part without rigid-body
+modes.
 
 Integrator
 ----------
@@ -22,21 +27,21 @@ bearing forces (DE x, y; NDE x, y; minus their static values) one constant step 
 precomputed once. Two schemes:
 
 ``"exponential"`` (default)
-    ``z = [x, v]``; the linear part (FE rotor, housings, supports, dampers, ``Omega G``) is discretised exactly
-    (matrix exponential) and the bearing forces are linear in time over a step (first-order hold). No mode of
-    the linear part suffers period error or numerical damping at any step, which matters here: the shaft has
-    bending modes at 2-5 kHz with damping ratios of 0.001-0.004 that some BPFO harmonics hit.
+    The linear part (FE rotor, housings, supports, dampers, ``Omega G``) is discretised exactly and the bearing
+    forces are linear in time over a step (first-order hold). The state is kept in the eigenvector coordinates
+    of the linear part (``z = V^-1 [x, v]``, all 2 ndof modes, no truncation), where ``T`` is diagonal: a step
+    costs O(ndof), and no mode suffers period error or numerical damping at any step.
 ``"newmark"``
     ``z = [x, v, a]``; HHT-alpha (``hht_alpha = 0``: Newmark average acceleration, exact discrete energy balance
-    for a linear model). Second order too, but its period error shifts the lightly damped shaft resonances: it
-    needs a 4-8 times smaller step for the same accuracy of the resonant orders (docs/validation.md).
+    for a linear model), dense matrices. Second order too, but its period error shifts the lightly damped
+    resonances: it needs a 4-8 times smaller step for the same accuracy (docs/validation.md); meant for coarse
+    meshes (``mesh=None``) and the energy-balance tests.
 
 In both, the bearing relative displacements ``u = B^T x`` satisfy ``u = u_pred + H f(u)`` with the precomputed
 4 x 4 flexibility ``H``: Newton iterates on these 4 unknowns only (one ball-force evaluation and a 4 x 4 update
-per iteration), and the full state is updated once per step. ``|H K_contact|`` is about 1e-3 at these steps, so
-the Newton update uses ``(I + H K)^-1 ~ I - H K`` (checked at set-up; the exact 4 x 4 solve otherwise). There is
-no model reduction: the FE has 60 DOFs, a step is one 120 x 120 matrix-vector product, and reduction would add
-an error without saving time (the cost is Python overhead of the ball-force evaluation, see BENCHMARKS.md).
+per iteration), and the full state is updated once per step. ``|H (K_t - K_b)|`` is small at these steps, so
+the Newton update uses ``(I + H (K_t - K_b))^-1 ~ I - H (K_t - K_b)`` (checked at set-up; the exact 4 x 4 solve
+otherwise).
 
 The step is chosen as ``h = T_bpfo / N`` (N integer, ``h <= max_step_s``), so every BPFO period holds exactly N
 steps: the steady-state response is BPFO-periodic and its FFT over whole periods has no leakage. The ball
@@ -48,7 +53,6 @@ Units: SI (m, s, N, rad). Axes as in :mod:`bkabem_core.rotor`: x horizontal, y v
 
 from __future__ import annotations
 
-import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -58,13 +62,14 @@ import scipy.linalg
 
 from .bearing import TWO_PI
 from .case import Case
+from .machine import BEARINGS, Machine
 from .rotor import Rotor, rotor_from_case
 
-__all__ = ["Tdsm", "TdsmResult", "PeriodicSolution", "StaticEquilibrium", "HertzPair", "LinearPair", "LOCATIONS", "DIRECTIONS"]
+__all__ = ["Tdsm", "TdsmResult", "StaticEquilibrium", "HertzPair", "LinearPair", "LOCATIONS", "DIRECTIONS",
+           "BEARINGS"]
 
 LOCATIONS = ("de_rotor", "de_housing", "nde_rotor", "nde_housing")
 DIRECTIONS = ("vertical", "horizontal")
-BEARINGS = ("de", "nde")
 _DIR_DOF = {"vertical": "y", "horizontal": "x"}
 
 
@@ -75,8 +80,9 @@ class HertzPair:
     ``evaluate(u, j)`` returns the forces on the two rotor nodes (4,) ``[F_x DE, F_y DE, F_x NDE, F_y NDE]`` [N]
     and the tangent stiffness ``K = -dF/du`` (4, 4, block diagonal) [N/m] for relative displacements
     ``u = [e_x DE, e_y DE, e_x NDE, e_y NDE]`` [m] at table step ``j`` (cage angle ``j h omega_cage`` modulo one
-    ball pitch). Same equations as :meth:`Bearing.forces_n` (Eqs. 1, 3, 4; the dent of ``Bearing.dent_depth_m``),
-    written for both bearings at once: one (4 x z) @ (z x 6) product gives all force and stiffness sums.
+    ball pitch). Same equations as :meth:`Bearing.forces_n` (module docstring of :mod:`bearing`: groove-centre
+    offsets, loaded contact angle at the held axial displacement, the dent's radial drop), written for both
+    bearings at once: one (4 x z) @ (z x 6) product gives all force and stiffness sums.
 
     Parameters
     ----------
@@ -86,9 +92,11 @@ class HertzPair:
         Cage angles of the table steps [rad].
     films_m : (float, float)
         EHL film thickness of each bearing [m] (0 if the case disables it).
+    axial_m : (float, float)
+        Held axial displacement ``e_z`` of each bearing [m] (its static value under the axial load).
     """
 
-    def __init__(self, bearings, cage_angles_rad, films_m=(0.0, 0.0)):
+    def __init__(self, bearings, cage_angles_rad, films_m=(0.0, 0.0), axial_m=(0.0, 0.0)):
         b0, b1 = bearings
         g0, g1 = b0.geometry, b1.geometry
         if (g0.n_balls != g1.n_balls or g0.first_ball_angle_rad != g1.first_ball_angle_rad
@@ -101,40 +109,91 @@ class HertzPair:
         self.cs = np.ascontiguousarray(np.stack([c, s], axis=1))            # (N, 2, z)
         # right-hand factors of the sums: [cos, sin, cos^2, cos sin, sin^2, 0]
         self.rt = np.ascontiguousarray(np.stack([c, s, c * c, c * s, s * s, np.zeros_like(c)], axis=2))
-        off = np.empty((len(cage_angles_rad), 2, g0.n_balls))
+        ar0 = np.empty((len(cage_angles_rad), 2, g0.n_balls))
         for i, b in enumerate(bearings):
-            off[:, i, :] = 0.5 * b.geometry.diametral_clearance_m - films_m[i]
+            ar0[:, i, :] = b._ar0
             if b.dent is not None:
-                off[:, i, :] += b.dent_depth_m(beta)
-        self.offset = off
-        self.k = np.array([b.contact_constant_n_m15 * math.cos(b.geometry.contact_angle_rad) for b in bearings])
-        # Y = [delta^1.5 (2 rows); delta^0.5 (2 rows)] @ rt  -> (4, 6), flattened 24:
-        # F = -k Y[b, 0:2];  K = 1.5 k [[Y[2+b, 2], Y[2+b, 3]], [Y[2+b, 3], Y[2+b, 4]]]
+                ar0[:, i, :] -= b.dent_depth_m(beta)
+        self.ar0 = ar0                                                       # A_r at u = 0 [m]
+        self.aa = np.array([b._aa0 + axial_m[i] for i, b in enumerate(bearings)])[:, None]   # (2, 1) A_a [m]
+        self.a0 = np.array([b.groove_centre_distance_m for b in bearings])[:, None]
+        self.film = np.asarray(films_m, dtype=float)[:, None]
+        self.axial = bool(np.any(self.aa != 0.0))
+        self.k = np.array([b.contact_constant_n_m15 for b in bearings])
+        self._kc = self.k[:, None]
+        # Y = [Q cos(phi) (2 rows); w (2 rows)] @ rt -> (4, 6), flattened 24:
+        # F = -Y[b, 0:2];  K = [[Y[2+b, 2], Y[2+b, 3]], [Y[2+b, 3], Y[2+b, 4]]]
         self._f_idx = np.array([0, 1, 6, 7])
-        self._f_scale = -np.repeat(self.k, 2)
         kmap = np.full((4, 4), 17)                                           # Y[2, 5] = 0
         kmap[0, 0], kmap[0, 1], kmap[1, 0], kmap[1, 1] = 14, 15, 15, 16
         kmap[2, 2], kmap[2, 3], kmap[3, 2], kmap[3, 3] = 20, 21, 21, 22
         self._k_idx = kmap
-        self._k_scale = 1.5 * np.repeat(self.k, 2)[:, None]
         self._buf = np.empty((4, g0.n_balls))
+        self._cs_t = None
         self.n_table = len(cage_angles_rad)
+
+    def _terms(self, ar):
+        """Per ball: Q cos(phi) and the tangent weight w (module docstring of :mod:`bearing`), broadcasting."""
+        if not self.axial:
+            delta = ar - self.a0 + self.film
+            np.maximum(delta, 0.0, out=delta)
+            root = np.sqrt(delta)
+            return self._kc * delta * root, (1.5 * self._kc) * root
+        a = np.sqrt(ar * ar + self.aa * self.aa)
+        delta = a - self.a0 + self.film
+        np.maximum(delta, 0.0, out=delta)
+        root = np.sqrt(delta)
+        c = ar / a
+        q = self._kc * delta * root
+        return q * c, (1.5 * self._kc) * root * c * c + q * (1.0 - c * c) / a
 
     def evaluate(self, u, j):
         buf = self._buf
-        delta = u.reshape(2, 2).dot(self.cs[j])
-        delta -= self.offset[j]
-        np.maximum(delta, 0.0, out=delta)
-        np.sqrt(delta, out=buf[2:])
-        np.multiply(delta, buf[2:], out=buf[:2])
+        ar = u.reshape(2, 2).dot(self.cs[j])
+        ar += self.ar0[j]
+        buf[:2], buf[2:] = self._terms(ar)
         y = buf.dot(self.rt[j]).ravel()
-        return y[self._f_idx] * self._f_scale, y[self._k_idx] * self._k_scale
+        return -y[self._f_idx], y[self._k_idx]
 
     def potential_energy_j(self, u, j):
         """Elastic energy stored in the ball contacts [J] (``sum 2/5 K delta^2.5``)."""
-        delta = u.reshape(2, 2).dot(self.cs[j]) - self.offset[j]
-        delta = np.maximum(delta, 0.0)
+        ar = u.reshape(2, 2).dot(self.cs[j]) + self.ar0[j]
+        a = np.sqrt(ar * ar + self.aa * self.aa)
+        delta = np.maximum(a - self.a0 + self.film, 0.0)
         return float(np.sum(0.4 * self.k[:, None] * delta ** 2.5))
+
+    def forces_only(self, u_t):
+        """Ball forces (N, 4) at the N table instants, without the stiffness (cheaper than :meth:`forces_many`)."""
+        n = u_t.shape[0]
+        if self._cs_t is None:
+            self._cs_t = np.ascontiguousarray(np.swapaxes(self.cs, 1, 2))             # (N, z, 2)
+        ar = np.matmul(u_t.reshape(n, 2, 2), self.cs)
+        ar += self.ar0
+        if self.axial:
+            a = np.sqrt(ar * ar + self.aa * self.aa)
+            delta = a - self.a0 + self.film
+            np.maximum(delta, 0.0, out=delta)
+            qc = (self._kc * delta * np.sqrt(delta)) * (ar / a)
+        else:
+            delta = ar - self.a0 + self.film
+            np.maximum(delta, 0.0, out=delta)
+            qc = self._kc * delta * np.sqrt(delta)
+        return -np.matmul(qc, self._cs_t).reshape(n, 4)
+
+    def forces_many(self, u_t):
+        """Ball forces (N, 4) and block-diagonal tangent stiffnesses (N, 4, 4) at the N table instants."""
+        n = u_t.shape[0]
+        ar = np.einsum("nbd,ndi->nbi", u_t.reshape(n, 2, 2), self.cs) + self.ar0
+        qc, w = self._terms(ar)
+        c, s = self.cs[:, None, 0, :], self.cs[:, None, 1, :]
+        f = -np.stack([np.sum(qc * c, axis=-1), np.sum(qc * s, axis=-1)], axis=-1).reshape(n, 4)
+        kxx, kxy, kyy = np.sum(w * c * c, -1), np.sum(w * c * s, -1), np.sum(w * s * s, -1)
+        kt = np.zeros((n, 4, 4))
+        for b in range(2):
+            kt[:, 2 * b, 2 * b] = kxx[:, b]
+            kt[:, 2 * b, 2 * b + 1] = kt[:, 2 * b + 1, 2 * b] = kxy[:, b]
+            kt[:, 2 * b + 1, 2 * b + 1] = kyy[:, b]
+        return f, kt
 
 
 class LinearPair:
@@ -160,8 +219,11 @@ class LinearPair:
     def potential_energy_j(self, u, j):
         return float(0.5 * np.sum(self._kflat * u * u))
 
+    def forces_many(self, u_t):
+        n = u_t.shape[0]
+        return -u_t * self._kflat, np.broadcast_to(self.kt, (n, 4, 4)).copy()
 
-# --------------------------------------------------------------------------- results
+
 @dataclass
 class StaticEquilibrium:
     """Static equilibrium of the nonlinear model under gravity (dent ignored, cage angle 0).
@@ -339,50 +401,6 @@ class TdsmResult:
         return np.array(out)
 
 
-@dataclass
-class PeriodicSolution:
-    """BPFO-periodic steady state of the nonlinear model found in the frequency domain (harmonic balance).
-
-    Attributes
-    ----------
-    speed_hz, bpfo_hz : float
-    orders : ndarray (K,)
-        BPFO orders 1..K.
-    complex_amplitude : ndarray complex (K, 4, 2)
-        ``X`` at LOCATIONS x DIRECTIONS with ``x(t) = Re(X e^{i 2 pi k BPFO t})``, t = 0 at cage angle 0 (the
-        convention of :meth:`TdsmResult.order_spectrum` and of BKA-BEM).
-    dc_m : ndarray (4, 2)
-        Mean absolute displacement [m] (static sag included).
-    bearing_complex_amplitude : ndarray complex (K, 2, 2)
-        Rotor-minus-housing displacement at (de, nde) x DIRECTIONS [m].
-    bearing_dc_m : ndarray (2, 2)
-        Mean rotor-minus-housing displacement [m].
-    linearised : bool
-        True: one Newton step from the static equilibrium (the linear time-periodic model); False: converged
-        nonlinear harmonic balance.
-    iterations : int
-    residual_m : float
-        Last Newton update (max norm over the harmonics of the 4 bearing coordinates) [m].
-    converged : bool
-    wall_time_s : float
-    n_time : int
-        Time samples per BPFO period of the alternating frequency-time force evaluation.
-    """
-
-    speed_hz: float
-    bpfo_hz: float
-    orders: np.ndarray
-    complex_amplitude: np.ndarray
-    dc_m: np.ndarray
-    bearing_complex_amplitude: np.ndarray
-    bearing_dc_m: np.ndarray
-    linearised: bool
-    iterations: int
-    residual_m: float
-    converged: bool
-    wall_time_s: float
-    n_time: int
-
 
 class _State:
     """Integrator state carried between :meth:`Tdsm._integrate` calls."""
@@ -398,6 +416,8 @@ class _State:
         self.recorded = 0
 
 
+
+
 # --------------------------------------------------------------------------- the model
 class Tdsm:
     """The nonlinear rotor-bearing model of a case at one constant shaft speed, ready to integrate.
@@ -409,34 +429,38 @@ class Tdsm:
         Shaft speed [Hz] (> 0).
     max_step_s : float, optional
         Largest integration step [s]; the step is ``T_bpfo / ceil(T_bpfo / max_step_s)``. Default: the smaller
-        of ``MAX_STEP_S`` (10 us) and a quarter of the time a ball takes to cross one smoothed dent edge (33 us
-        at 30 Hz, 13 us at 75 Hz for the embedded case), from the step-size study in docs/validation.md.
+        of ``MAX_STEP_S`` and a quarter of the time a ball takes to enter the dent (its entry ramp), from the
+        step-size study in docs/validation.md.
     hht_alpha : float
         HHT-alpha parameter in [-1/3, 0] of the ``"newmark"`` scheme; 0 = average acceleration.
     bearing_damping_n_s_m : float, optional
         Viscous damper between rotor and housing at each bearing [N s/m] (default: the case's
-        ``[excitation] bearing_damping_n_s_m``).
+        ``[bearing] damping_n_s_m``).
     bearing_model : {"hertz", "linear"}
-        ``"linear"`` replaces the ball forces by the case's linear bearing springs (integrator tests).
+        ``"linear"`` replaces the ball forces by the FE's linear bearing springs (integrator tests: the model is
+        then exactly the linear FE).
     newton_tol_m : float
         A Newton update smaller than this (Euclidean norm over the 4 bearing coordinates) ends the iteration
         [m]. Every update is followed by the linearised force correction ``f += K du``, so the error left is
-        second order in the update (about 1e-15 m for a 1 nm update here; tests/test_tdsm.py checks that
-        1e-9 and 1e-13 give the same spectrum).
+        second order in the update.
     max_newton : int
         Iteration limit per step (a step that does not converge raises ``RuntimeError``).
     scheme : {"exponential", "newmark"}
         Time discretisation (module docstring).
+    machine : Machine, "auto" mesh or None
+        The machine (default: ``Machine(case)``, mesh refined for the case); ``mesh=None`` builds it on the
+        case's own elements (coarse; tests of the integrator).
     """
 
-    #: Largest default step [s] (the ~1 kHz housing modes and orders up to ~10 kHz need no more).
+    #: Largest default step [s].
     MAX_STEP_S = 1.0e-5
-    #: Default steps per dent edge (the cubic STEP ramp where a ball enters or leaves the dent).
+    #: Default steps per dent entry ramp (where a ball sinks into the dent).
     STEPS_PER_DENT_EDGE = 4
 
     def __init__(self, case: Case, speed_hz: float, max_step_s: float | None = None, hht_alpha: float = 0.0,
                  bearing_damping_n_s_m: float | None = None, bearing_model: str = "hertz",
-                 newton_tol_m: float = 1.0e-9, max_newton: int = 30, scheme: str = "exponential"):
+                 newton_tol_m: float = 1.0e-9, max_newton: int = 30, scheme: str = "exponential",
+                 machine: Machine | None = None, mesh="auto"):
         t_setup = time.perf_counter()
         speed_hz = float(speed_hz)
         if not (math.isfinite(speed_hz) and speed_hz > 0.0):
@@ -456,40 +480,35 @@ class Tdsm:
         self.scheme = scheme
         self.newton_tol_m = float(newton_tol_m)
         self.max_newton = int(max_newton)
-        exc = case.raw["excitation"]
-        self.gravity_m_s2 = float(exc["gravity_m_s2"])
-        self.bearing_damping_n_s_m = float(exc["bearing_damping_n_s_m"] if bearing_damping_n_s_m is None
+        self.gravity_m_s2 = case.gravity_m_s2
+        self.bearing_damping_n_s_m = float(case.bearing_damping_n_s_m if bearing_damping_n_s_m is None
                                            else bearing_damping_n_s_m)
-        brg = case.raw["bearings"]
+        self.machine = machine if machine is not None else Machine(case, mesh=mesh)
+        sites = self.machine.sites
 
-        # ---- FE model: the case's rotor with the linear bearings replaced by the damper only
-        raw = copy.deepcopy(case.raw)
-        for name in BEARINGS:
-            b = raw["bearings"][name]
-            b["stiffness_vertical_n_m"] = b["stiffness_horizontal_n_m"] = 0.0
-            b["damping_vertical_n_s_m"] = b["damping_horizontal_n_s_m"] = self.bearing_damping_n_s_m
-        self.rotor: Rotor = rotor_from_case(raw)
+        # ---- FE model: the machine's rotor, its linear bearing springs K_b and the bearing damper
+        cb = self.bearing_damping_n_s_m
+        self._k_ref = np.array([sites[b].stiffness_n_m for b in BEARINGS], dtype=float)     # (2, 2): xx, yy
+        elements = {b: (self._k_ref[i, 0], self._k_ref[i, 1], cb, cb) for i, b in enumerate(BEARINGS)}
+        self.rotor: Rotor = rotor_from_case(case.raw, bearings=elements, mesh=self.machine.mesh)
         rot = self.rotor
         n = rot.ndof
         self.ndof = n
         idx = rot.dof_index
-        self._rotor_nodes = [brg[b]["rotor_node"] for b in BEARINGS]
-        self._housing_nodes = [brg[b]["housing_node"] for b in BEARINGS]
         bmat = np.zeros((n, 4))
         for i, b in enumerate(BEARINGS):
             for j, d in enumerate(("x", "y")):
-                bmat[idx(brg[b]["rotor_node"], d), 2 * i + j] = 1.0
-                bmat[idx(brg[b]["housing_node"], d), 2 * i + j] = -1.0
+                bmat[idx(sites[b].rotor_node, d), 2 * i + j] = 1.0
+                bmat[idx(sites[b].housing_node, d), 2 * i + j] = -1.0
         self.B = bmat
-        nodes = {"de_rotor": brg["de"]["rotor_node"], "de_housing": brg["de"]["housing_node"],
-                 "nde_rotor": brg["nde"]["rotor_node"], "nde_housing": brg["nde"]["housing_node"]}
+        nodes = {"de_rotor": sites["de"].rotor_node, "de_housing": sites["de"].housing_node,
+                 "nde_rotor": sites["nde"].rotor_node, "nde_housing": sites["nde"].housing_node}
         self.out_dofs = np.array([[idx(nodes[loc], _DIR_DOF[d]) for d in DIRECTIONS] for loc in LOCATIONS])
-        # reference (Table 1) linear bearing stiffness: needed only to make the static problem non-singular
-        self._k_ref = np.array([[brg[b]["stiffness_horizontal_n_m"], brg[b]["stiffness_vertical_n_m"]]
-                                for b in BEARINGS], dtype=float)
+        self._kb = np.diag(self._k_ref.reshape(4))
 
         # ---- bearings and kinematics
-        self.bearings = (case.bearing("de"), case.bearing("nde"))
+        self.bearings = (sites["de"].bearing, sites["nde"].bearing)
+        self.axial_m = tuple(float(sites[b].state.displacement_m[2]) for b in BEARINGS)
         fm = self.bearings[0].fault_multipliers()
         self.ftf_hz = fm.ftf * speed_hz
         self.bpfo_hz = fm.bpfo * speed_hz
@@ -499,21 +518,20 @@ class Tdsm:
             max_step_s = self.MAX_STEP_S
             faulty = [b for b in self.bearings if b.dent is not None and b.dent_effective_depth_m > 0.0]
             if faulty:
-                b = faulty[0]
-                edge = b._dent_edge if b._dent_edge > 0.0 else 0.25 * b.dent_half_angle_rad
+                ramp = faulty[0].dent_entry_ramp_rad
+                edge = ramp if ramp > 0.0 else 0.25 * faulty[0].dent_half_angle_rad
                 max_step_s = min(max_step_s, edge / self.cage_speed_rad_s / self.STEPS_PER_DENT_EDGE)
         self.steps_per_bpfo = max(1, math.ceil(self.bpfo_period_s / max_step_s - 1e-9))
         self.h = self.bpfo_period_s / self.steps_per_bpfo
         if case.raw["bearing"].get("ehl_film", False):
-            loads = self._lever_loads()
-            films = tuple(b.ehl_film_thickness_m(speed_hz, float(np.hypot(*loads[i])))
-                          for i, b in enumerate(self.bearings))
+            films = tuple(b.ehl_film_thickness_m(speed_hz, float(np.hypot(*sites[name].radial_load_n)))
+                          for b, name in zip(self.bearings, BEARINGS))
         else:
             films = (0.0, 0.0)
         self.films_m = films
         cage = self.cage_speed_rad_s * self.h * np.arange(self.steps_per_bpfo)
         if bearing_model == "hertz":
-            self.forces = HertzPair(self.bearings, cage, films)
+            self.forces = HertzPair(self.bearings, cage, films, self.axial_m)
         else:
             self.forces = LinearPair(self._k_ref, self.steps_per_bpfo)
 
@@ -521,56 +539,56 @@ class Tdsm:
         self.static = self.static_equilibrium()
         self._u_static = np.concatenate([self.static.relative_m[b] for b in BEARINGS])
         self._f_static = np.concatenate([self.static.force_n[b] for b in BEARINGS])
-        if scheme == "newmark":
+        self._integrator = False                # the step matrices are made on the first run (the_integrator())
+        self.setup_time_s = time.perf_counter() - t_setup
+
+    def the_integrator(self):
+        """Make the step matrices (``T``, ``W``, ``W_p``, ``B_z``, ``H``) if not made yet; return self."""
+        if self._integrator:
+            return self
+        t0 = time.perf_counter()
+        if self.scheme == "newmark":
             self._build_integrator()
         else:
             self._build_exponential()
         self.state_size = self.T.shape[0]
-        # the approximate Newton inverse I - H K needs |H K| << 1 (checked with a 10x stiffer contact)
+        # the approximate Newton inverse I - H (K_t - K_b) needs |H (K_t - K_b)| << 1
         _, k_st = self.forces.evaluate(self._u_static, 0)
-        self.newton_contraction = float(np.linalg.norm(self.H, 2) * np.linalg.norm(k_st, 2))
+        self.newton_contraction = float(np.linalg.norm(self.H, 2) * max(np.linalg.norm(k_st - self._kb, 2),
+                                                                        0.1 * np.linalg.norm(self._kb, 2)))
         self.newton_exact = 10.0 * self.newton_contraction > 0.1
-        self.setup_time_s = time.perf_counter() - t_setup
+        self._integrator = True
+        self.setup_time_s += time.perf_counter() - t0
+        return self
 
     # ------------------------------------------------------------------ statics
-    def _lever_loads(self):
-        """Static bearing forces on the rotor nodes from the linear FE (statically determinate) [N], (2, 2)."""
-        full = rotor_from_case(self.case.raw)
-        loads = full.static_bearing_loads_n(self.gravity_m_s2)
-        return np.array([loads[b] for b in BEARINGS], dtype=float)
-
     def static_equilibrium(self, tol_m: float = 1e-15, max_iter: int = 100) -> StaticEquilibrium:
-        """Solve ``K q = F_g + B f(B^T q)`` with the ball forces at cage angle 0, dent ignored.
+        """Solve ``K q = F_g + B g(B^T q)`` with the ball forces at cage angle 0, dent ignored.
 
-        The rotor hangs in the bearings only, so the FE stiffness alone is singular; a reference spring
-        ``K_r`` (the Table-1 bearing) is added on both sides, ``(K + B K_r B^T) q = F_g + B (f(u) + K_r u)``,
-        and the problem is condensed onto the 4 bearing coordinates ``u`` and solved by Newton's method from the
-        bearing model's own static solution under the lever-rule loads.
+        ``K`` holds the linear bearing springs ``K_b`` and ``g(u) = f(u) + K_b u`` (module docstring); the problem
+        is condensed onto the 4 bearing coordinates ``u`` and solved by Newton's method from the bearing model's
+        own static solution under the lever-rule loads.
         """
         rot = self.rotor
-        kr = self._k_ref.reshape(4)
-        ks = rot.K + (self.B * kr) @ self.B.T
+        kb = self._k_ref.reshape(4)
         fg = rot.gravity_force(self.gravity_m_s2)
-        lu = scipy.linalg.lu_factor(ks)
+        lu = scipy.linalg.lu_factor(rot.K)
         flex_b = scipy.linalg.lu_solve(lu, self.B)
         q_g = scipy.linalg.lu_solve(lu, fg)
         hs = self.B.T @ flex_b
         u0 = self.B.T @ q_g
-        # starting point: each bearing alone under the statically determinate load
-        loads = self._lever_loads()
+        sites = self.machine.sites
         if self.bearing_model == "hertz":
-            u = np.concatenate([self._bearing_alone(i, -loads[i]) for i in range(2)])
-            j0 = 0
-            pair = HertzPair(self.bearings, np.zeros(1), self.films_m)
+            u = np.concatenate([sites[b].state.displacement_m[:2] for b in BEARINGS])
+            pair = HertzPair(self.bearings, np.zeros(1), self.films_m, self.axial_m)
         else:
             u = u0.copy()
-            j0 = 0
             pair = self.forces
         for it in range(1, max_iter + 1):
-            f, kt = pair.evaluate(u, j0)
-            g = f + kr * u
+            f, kt = pair.evaluate(u, 0)
+            g = f + kb * u
             r = u - u0 - hs @ g
-            jac = np.eye(4) + hs @ (kt - np.diag(kr))
+            jac = np.eye(4) + hs @ (kt - np.diag(kb))
             du = np.linalg.solve(jac, -r)
             nrm = np.max(np.abs(du))
             if nrm > 1e-6:
@@ -580,16 +598,11 @@ class Tdsm:
                 break
         else:
             raise RuntimeError("TDSM static equilibrium did not converge")
-        f, _ = pair.evaluate(u, j0)
-        q = q_g + flex_b @ (f + kr * u)
+        f, _ = pair.evaluate(u, 0)
+        q = q_g + flex_b @ (f + kb * u)
         return StaticEquilibrium(q_m=q, relative_m={b: u[2 * i:2 * i + 2].copy() for i, b in enumerate(BEARINGS)},
                                  force_n={b: f[2 * i:2 * i + 2].copy() for i, b in enumerate(BEARINGS)},
                                  iterations=it)
-
-    def _bearing_alone(self, i, load_n):
-        if self.bearing_model != "hertz":
-            return -load_n / self._k_ref[i]
-        return self.bearings[i].static_equilibrium_m(load_n[0], load_n[1], 0.0, self.films_m[i])
 
     # ------------------------------------------------------------------ integrator
     def _build_integrator(self):
@@ -618,15 +631,19 @@ class Tdsm:
         bz[:, :n] = self.B.T
         self.Bz = bz
         self.H = bz @ self.W                                                          # (4, 4)
+        self.O = np.zeros((8, 3 * n))
+        self.O[np.arange(8), self.out_dofs.reshape(-1)] = 1.0
+        self.diagonal = False
+        self.to_physical = None
 
     def _build_exponential(self):
-        """Exact discretisation of the linear part with a first-order-hold bearing force.
+        """Exact discretisation of the linear part with a first-order-hold bearing force, in modal coordinates.
 
-        ``y = [x, v]``, ``y' = A y + B_f f(t)``; with ``f`` linear in time over a step,
-        ``y_{n+1} = e^{A h} y_n + (P_0 - P_1) f_n + P_1 f_{n+1}`` where ``P_0 = int_0^h e^{A(h-s)} ds B_f`` and
-        ``P_1 = 1/h int_0^h e^{A(h-s)} s ds B_f`` (one augmented matrix exponential, Van Loan). Every mode of the
-        linear part keeps its exact frequency and damping at any step; the only discretisation error is the
-        linear interpolation of the 4 bearing forces over a step (second order in h).
+        ``y = [x, v]``, ``y' = A y + B_f f(t)``, ``A = V diag(lambda) V^-1``; with ``f`` linear in time over a step,
+        mode r advances as ``w_{n+1} = e^{lambda h} w_n + (p_0 - p_1) g_n + p_1 g_{n+1}`` (``g = V^-1 B_f f``,
+        ``p_0 = (e^{lambda h} - 1) / lambda``, ``p_1 = (e^{lambda h} - 1 - lambda h) / (lambda^2 h)``): every mode
+        keeps its exact frequency and damping at any step; the only discretisation error is the linear
+        interpolation of the 4 bearing forces over a step (second order in h).
         """
         rot, n, h = self.rotor, self.ndof, self.h
         cw = rot.C + TWO_PI * self.speed_hz * rot.G
@@ -637,132 +654,29 @@ class Tdsm:
         a[n:, n:] = -minv @ cw
         bf = np.zeros((2 * n, 4))
         bf[n:] = minv @ self.B
-        aug = np.zeros((2 * n + 8, 2 * n + 8))
-        aug[:2 * n, :2 * n] = a * h
-        aug[:2 * n, 2 * n:2 * n + 4] = bf * h
-        aug[2 * n:2 * n + 4, 2 * n + 4:] = np.eye(4)
-        e = scipy.linalg.expm(aug)
-        phi, p0, p1 = e[:2 * n, :2 * n], e[:2 * n, 2 * n:2 * n + 4], e[:2 * n, 2 * n + 4:]
-        self.T = np.ascontiguousarray(phi)
-        self.W = np.ascontiguousarray(p1)
-        self.Wp = np.ascontiguousarray(p0 - p1)
-        bz = np.zeros((4, 2 * n))
-        bz[:, :n] = self.B.T
-        self.Bz = bz
-        self.H = bz @ self.W
+        lam, vec = scipy.linalg.eig(a)
+        lu = scipy.linalg.lu_factor(vec)
+        gam = scipy.linalg.lu_solve(lu, bf.astype(complex))                             # V^-1 B_f (2n, 4)
+        z = lam * h
+        small = np.abs(z) < 1e-4
+        em1 = np.expm1(z)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            p0 = np.where(small, h * (1 + z / 2 + z * z / 6), em1 / lam)
+            p1 = np.where(small, h * (0.5 + z / 6 + z * z / 24), (em1 - z) / (lam * lam * h))
+        self.T = np.exp(z)                                                              # diagonal (2n,)
+        self.W = np.ascontiguousarray(p1[:, None] * gam)
+        self.Wp = np.ascontiguousarray((p0 - p1)[:, None] * gam)
+        self.Bz = np.ascontiguousarray(self.B.T @ vec[:n])                             # (4, 2n): u = Re(Bz w)
+        self.H = (self.Bz @ self.W).real
+        self.O = np.ascontiguousarray(vec[self.out_dofs.reshape(-1)])                  # (8, 2n)
+        self.diagonal = True
+        self.eigenvalues = lam
+        self._vec, self._vec_lu = vec, lu
+        self.to_physical = lambda w: (w @ vec.T).real                                  # (N, 2n) -> [x, v]
 
-    # ------------------------------------------------------------------ helpers
-    def harmonic_balance(self, n_orders: int = 50, n_time: int = 8192, linearised: bool = False,
-                         tol_m: float = 1e-14, max_iter: int = 30) -> PeriodicSolution:
-        """The BPFO-periodic steady state of this nonlinear model, solved in the frequency domain.
-
-        Harmonic balance with alternating frequency-time evaluation of the ball forces, condensed onto the 4
-        bearing coordinates: with ``U_k`` the harmonics (k = -K..K) of the relative displacements ``u - u_s``,
-        the FE (with a reference spring ``K_r`` per bearing, compensated in the force) gives
-        ``U_k = G(w_k) [F(u_s + U(t), theta(t)) - F_s + K_r U]_k`` with the 4 x 4 receptance
-        ``G(w) = B^T (K + B K_r B^T - w^2 M + i w (C + Omega G))^-1 B``. Newton's method on the 4 (2K+1) complex
-        unknowns; the Jacobian ``I + G(w_k) (K_t - K_r)_{k-j}`` couples the orders through the harmonics of the
-        tangent stiffness ``K_t(t)`` (ball passage and dent). The forces are evaluated at ``n_time`` instants per
-        BPFO period (the dent edges need thousands) and transformed by FFT.
-
-        ``linearised=True`` stops after the first Newton step from the static equilibrium: the linear
-        time-periodic (parametric) model, in which the ball forces and stiffnesses at the static displacement
-        are the excitation and the time-varying stiffness.
-
-        Same equations as :meth:`run` (HertzPair forces, same FE, damper, gyroscopics); only the periodic part is
-        computed, so no start transient. The harmonics above ``n_orders`` are truncated.
-        """
-        if self.bearing_model != "hertz":
-            raise ValueError("harmonic_balance needs the Hertz bearing model")
-        t0 = time.perf_counter()
-        rot = self.rotor
-        kk = int(n_orders)
-        ks = np.arange(-kk, kk + 1)
-        nk = ks.size
-        w = TWO_PI * self.bpfo_hz * ks
-        # reference spring: mean tangent at the static state (conditioning only; the solution does not depend
-        # on it)
-        grid = HertzPair(self.bearings, self.cage_speed_rad_s * self.bpfo_period_s * np.arange(n_time) / n_time,
-                         self.films_m)
-        kt0 = self._tangents(grid, np.broadcast_to(self._u_static, (n_time, 4)))
-        k_ref = np.diag(np.diag(kt0.mean(axis=0)))
-        kz = rot.K + self.B @ k_ref @ self.B.T
-        cw = rot.C + TWO_PI * self.speed_hz * rot.G
-        pos = ks >= 0
-        zp = kz[None] - (w[pos] ** 2)[:, None, None] * rot.M[None] + 1j * w[pos][:, None, None] * cw[None]
-        hb_pos = np.linalg.solve(zp, np.broadcast_to(self.B.astype(complex), (int(pos.sum()),) + self.B.shape))
-        hb = np.concatenate([np.conj(hb_pos[:0:-1]), hb_pos])                       # (nk, ndof, 4), k = -K..K
-        g = np.einsum("ai,kaj->kij", self.B, hb)                                     # (nk, 4, 4)
-        diff = (ks[:, None] - ks[None, :]) % n_time
-        u_harm = np.zeros((nk, 4), dtype=complex)
-        f_s = self._f_static
-        kr = np.diag(k_ref)
-        converged = False
-        it = 0
-        nrm = float("inf")
-        for it in range(1, max_iter + 1):
-            u_t = self._synth(u_harm, ks, n_time) + self._u_static
-            f_t, kt_t = self._forces_many(grid, u_t)
-            phi = np.fft.fft(f_t - f_s, axis=0)[ks % n_time] / n_time + u_harm * kr   # (nk, 4)
-            res = u_harm - np.einsum("kij,kj->ki", g, phi)
-            dk = np.fft.fft(kt_t, axis=0) / n_time                                     # (N, 4, 4)
-            dk[0] -= k_ref
-            jac = np.einsum("aij,abjl->aibl", g, dk[diff]).reshape(4 * nk, 4 * nk)
-            jac[np.diag_indices(4 * nk)] += 1.0
-            if it == 1:
-                phi0, dk0 = phi - u_harm * kr, dk                                      # at the static state
-            du = np.linalg.solve(jac, res.reshape(-1)).reshape(nk, 4)
-            du = 0.5 * (du + np.conj(du[::-1]))                                        # keep u(t) real
-            u_harm -= du
-            nrm = float(np.max(np.abs(du)))
-            if linearised or nrm <= tol_m:
-                converged = nrm <= tol_m or linearised
-                break
-        if linearised:
-            # the linear time-periodic model's force: F(u_s) - F_s - (K_t(u_s) - K_r) * U (a convolution)
-            phi = phi0 - np.einsum("abjl,bl->aj", dk0[diff], u_harm)
-        else:
-            u_t = self._synth(u_harm, ks, n_time) + self._u_static
-            f_t, _ = self._forces_many(grid, u_t)
-            phi = np.fft.fft(f_t - f_s, axis=0)[ks % n_time] / n_time + u_harm * kr
-        x = np.einsum("kaj,kj->ka", hb[:, self.out_dofs.reshape(-1), :], phi).reshape(nk, 4, 2)
-        rel = np.stack([x[:, 0] - x[:, 1], x[:, 2] - x[:, 3]], axis=1)                # (nk, 2, 2)
-        i0 = kk
-        q_s = self.static.q_m[self.out_dofs]
-        rel_s = np.stack([q_s[0] - q_s[1], q_s[2] - q_s[3]])
-        return PeriodicSolution(
-            speed_hz=self.speed_hz, bpfo_hz=self.bpfo_hz, orders=ks[i0 + 1:], complex_amplitude=2.0 * x[i0 + 1:],
-            dc_m=q_s + x[i0].real, bearing_complex_amplitude=2.0 * rel[i0 + 1:], bearing_dc_m=rel_s + rel[i0].real,
-            linearised=linearised, iterations=it, residual_m=nrm, converged=converged,
-            wall_time_s=time.perf_counter() - t0, n_time=n_time)
-
-    @staticmethod
-    def _synth(u_harm, ks, n_time):
-        spec = np.zeros((n_time, 4), dtype=complex)
-        spec[ks % n_time] = u_harm
-        return np.fft.ifft(spec, axis=0).real * n_time
-
-    @staticmethod
-    def _forces_many(pair: HertzPair, u_t):
-        """Ball forces (N, 4) and block-diagonal tangent stiffnesses (N, 4, 4) at N table instants."""
-        n = u_t.shape[0]
-        delta = np.einsum("nbd,ndi->nbi", u_t.reshape(n, 2, 2), pair.cs) - pair.offset
-        np.maximum(delta, 0.0, out=delta)
-        root = np.sqrt(delta)
-        q = delta * root * pair.k[None, :, None]
-        dq = 1.5 * root * pair.k[None, :, None]
-        c, s = pair.cs[:, None, 0, :], pair.cs[:, None, 1, :]
-        f = -np.stack([np.sum(q * c, axis=-1), np.sum(q * s, axis=-1)], axis=-1).reshape(n, 4)
-        kxx, kxy, kyy = np.sum(dq * c * c, -1), np.sum(dq * c * s, -1), np.sum(dq * s * s, -1)
-        kt = np.zeros((n, 4, 4))
-        for b in range(2):
-            kt[:, 2 * b, 2 * b] = kxx[:, b]
-            kt[:, 2 * b, 2 * b + 1] = kt[:, 2 * b + 1, 2 * b] = kxy[:, b]
-            kt[:, 2 * b + 1, 2 * b + 1] = kyy[:, b]
-        return f, kt
-
-    def _tangents(self, pair, u_t):
-        return self._forces_many(pair, np.ascontiguousarray(u_t))[1]
+    def to_modal(self, y):
+        """A physical state ``[x, v]`` (2 ndof,) as the exponential scheme's modal state."""
+        return scipy.linalg.lu_solve(self._vec_lu, np.asarray(y, dtype=complex))
 
     def settings(self) -> dict:
         return {"case": self.case.name, "case_hash": self.case.case_hash, "speed_hz": self.speed_hz,
@@ -770,7 +684,9 @@ class Tdsm:
                 "hht_alpha": self.hht_alpha,
                 "bearing_damping_n_s_m": self.bearing_damping_n_s_m, "bearing_model": self.bearing_model,
                 "newton_tol_m": self.newton_tol_m, "films_m": list(self.films_m),
-                "gravity_m_s2": self.gravity_m_s2}
+                "gravity_m_s2": self.gravity_m_s2, "ndof": self.ndof, "fe_elements": self.machine.mesh.n_elements,
+                "axial_m": list(self.axial_m)}
+
 
     # ------------------------------------------------------------------ run
     def run(self, duration_s: float, settle_s: float | None = None, record_every: int = 1,
@@ -806,6 +722,7 @@ class Tdsm:
         """
         if not duration_s > 0:
             raise ValueError(f"duration_s: must be > 0 (got {duration_s})")
+        self.the_integrator()
         if settle_s is not None and settle_s < 0:
             raise ValueError(f"settle_s: must be >= 0 (got {settle_s})")
         record_every = int(record_every)
@@ -816,9 +733,14 @@ class Tdsm:
         periods = lambda t: math.ceil(t / self.bpfo_period_s - 1e-9)
         n_rec = max(1, periods(duration_s)) * nbp
         n_samples = n_rec // record_every
-        st = _State(np.zeros(self.state_size) if initial_state is None else np.array(initial_state, dtype=float))
-        f0, _ = self.forces.evaluate(self._u_static + self.Bz.dot(st.z), 0)
-        st.f_dev = f0 - self._f_static
+        if initial_state is None:
+            z0 = np.zeros(self.state_size, dtype=complex if self.diagonal else float)
+        else:
+            z0 = self.to_modal(initial_state) if self.diagonal else np.array(initial_state, dtype=float)
+        st = _State(z0)
+        du0 = self.Bz.dot(st.z).real
+        f0, _ = self.forces.evaluate(self._u_static + du0, 0)
+        st.f_dev = f0 - self._f_static + self._kb.dot(du0)
         st.f_old = st.f_dev.copy()
         bar = None
         if progress:
@@ -831,7 +753,8 @@ class Tdsm:
         settled = True
         n_settle = 0
         rec_x = np.empty((n_samples, 12))
-        states = np.empty((n_samples, self.state_size)) if record_state else None
+        states = np.empty((n_samples, self.state_size), dtype=complex if self.diagonal else float) \
+            if record_state else None
         try:
             # ---- settle
             if settle_s is not None:
@@ -899,7 +822,7 @@ class Tdsm:
         res.settled = settled
         res.settle_log = settle_log
         if states is not None:
-            res.state = states[:n_done]
+            res.state = self.to_physical(states[:n_done]) if self.diagonal else states[:n_done]
         return res
 
     def _integrate(self, st, n_steps, rec=None, rec_every=1, states=None, bar=None, chunk=4096):
@@ -908,10 +831,10 @@ class Tdsm:
 
         Sets ``st.interrupted`` on Ctrl-C (the steps done so far are kept) and ``st.recorded``.
         """
-        T, W, Wp, Bz, H = self.T, self.W, self.Wp, self.Bz, self.H
+        T, W, Wp, Bz, H, O = self.T, self.W, self.Wp, self.Bz, self.H, self.O
         use_wp = self.scheme == "exponential" or self.hht_alpha != 0.0
-        out_idx = self.out_dofs.reshape(-1)
-        u_s, f_s = self._u_static, self._f_static
+        advance = np.multiply if self.diagonal else np.dot      # T is diagonal in modal coordinates
+        u_s, f_s, kb = self._u_static, self._f_static, self._kb
         evaluate = self.forces.evaluate
         tol2, max_newton = self.newton_tol_m ** 2, self.max_newton
         exact = self.newton_exact
@@ -931,24 +854,27 @@ class Tdsm:
                 for k in range(k0, k1):
                     if rec is not None and k % rec_every == 0:
                         i = k // rec_every
-                        rec[i, :8] = z[out_idx]
-                        rec[i, 8:] = f_dev
+                        rec[i, :8] = O.dot(z).real
+                        rec[i, 8:] = f_dev - kb.dot(Bz.dot(z).real)     # ball-force deviation (K_b u removed)
                         if states is not None:
                             states[i] = z
                         recorded = i + 1
                     n_ = n0 + k
                     j = (n_ + 1) % nbp                 # table step of t_{n+1}
-                    zp = T.dot(z)
+                    zp = advance(T, z)
                     if use_wp:
                         zp += Wp.dot(f_dev)
-                    up = Bz.dot(zp)
+                    up = Bz.dot(zp).real
                     up += u_s                           # relative displacement without the force f_{n+1}
                     u = up + H.dot(f_dev + f_dev - f_old)   # start: force extrapolated from the last two steps
-                    # Newton on u = up + H f(u): J = I + H K with |H K| ~ 1e-3 at these steps, so
-                    # J^-1 ~ I - H K (error (H K)^2) unless `exact`; the converged u is the same.
+                    # Newton on u = up + H f(u) with f = ball force + K_b u (deviations): J = I + H (K_t - K_b),
+                    # small at these steps, so J^-1 ~ I - H (K_t - K_b) unless `exact`; the converged u is the same.
                     for it in range(1, max_newton + 1):
                         f, kt = evaluate(u, j)
                         f -= f_s
+                        du_s = u - u_s
+                        f += kb.dot(du_s)
+                        kt = kt - kb
                         r = u - up - H.dot(f)
                         if exact or it > 3:
                             du = solve(eye4 + H.dot(kt), r)

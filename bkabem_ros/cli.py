@@ -1,7 +1,7 @@
 """ROS 2 commands of the ``bkabem`` CLI: ``node``, ``speed``, ``echo``, ``fleet`` (+ ``record``/``replay`` when
 their modules exist).
 
-``bkabem_core.cli`` calls :func:`add_ros_commands`. Every command accepts ``--ros-args ...`` as its last
+``bkabem_ros.main`` (the ``bkabem`` entry point) calls :func:`add_ros_commands`. Every command accepts ``--ros-args ...`` as its last
 option; everything after it goes to ROS unchanged (``-p name:=value``, ``--params-file F``, ``-r __ns:=/m1``,
 ``--log-level debug``). Bad arguments: one line on stderr, exit code 2.
 """
@@ -14,33 +14,30 @@ import importlib.util
 from pathlib import Path
 
 
-def fail(command: str, message: str):
-    """Bad input: one line on stderr, exit code 2. (Not ``raise UsageError``: under ``python -m bkabem_core.cli``
-    the CLI module runs as ``__main__`` and would not catch the class imported from ``bkabem_core.cli``.)"""
-    import sys
+from .cli_base import UsageError, finite_float, pos_int
 
-    sys.stderr.write(f"bkabem {command}: error: {message}\n")
-    raise SystemExit(2)
+
+def fail(command: str, message: str):
+    """Bad input of ``command``: raise :class:`UsageError` (the command line writes the one line, exit code 2)."""
+    raise UsageError(message)
 
 
 def _shorthand(p) -> None:
     """Node options that map to parameters (docs/ros_node.md lists them all)."""
-    from bkabem_core.cli import _finite_float, _pos_int
-
     p.add_argument("--name", default="bkabem", help="node name (default bkabem)")
     p.add_argument("--namespace", default=None, help="node namespace, e.g. /machine_00 (topics are relative)")
     p.add_argument("--params-file", action="append", default=[], metavar="FILE",
                    help="ROS parameter YAML file (same as --ros-args --params-file FILE); repeatable")
     p.add_argument("--machine-id", default=None, help="parameter machine_id")
-    p.add_argument("--sample-rate", type=_finite_float("--sample-rate", 0.0, strict=True), default=None,
+    p.add_argument("--sample-rate", type=finite_float("--sample-rate", 0.0, strict=True), default=None,
                    help="parameter sample_rate [Hz] (default 25600)")
-    p.add_argument("--chunk-duration", type=_finite_float("--chunk-duration", 0.0, strict=True), default=None,
+    p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=None,
                    help="parameter chunk_duration [s] (default 0.1)")
-    p.add_argument("--seed", type=_pos_int("--seed", 0), default=None, help="parameter seed")
+    p.add_argument("--seed", type=pos_int("--seed", 0), default=None, help="parameter seed")
     p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None, help="parameter qos")
     p.add_argument("--speed-unit", choices=("rad/s", "hz", "rpm"), default=None,
                    help="parameter speed_unit (default rad/s)")
-    p.add_argument("--spectrum-rate", type=_finite_float("--spectrum-rate", 0.0), default=None,
+    p.add_argument("--spectrum-rate", type=finite_float("--spectrum-rate", 0.0), default=None,
                    help="parameter spectrum_rate [Hz]")
     p.add_argument("--wait-for-speed", action="store_true", default=None, help="parameter wait_for_speed=true")
     p.add_argument("--sim-time", action="store_true", help="parameter use_sim_time=true (follow /clock)")

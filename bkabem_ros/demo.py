@@ -245,13 +245,13 @@ def _print_summary(r: DemoResult, say) -> None:
 
 def add_run_up_arguments(p) -> None:
     """The run-up options shared by ``bkabem demo-run`` and ``bkabem demo``."""
-    from bkabem_core.cli import _finite_float
+    from .cli_base import finite_float
 
-    p.add_argument("--ramp", type=_finite_float("--ramp", 0.0), default=20.0, help="run-up time [s] (default 20)")
-    p.add_argument("--hold", type=_finite_float("--hold", 0.0), default=10.0, help="hold time [s] (default 10)")
-    p.add_argument("--top-hz", type=_finite_float("--top-hz", 0.0, strict=True), default=50.0,
+    p.add_argument("--ramp", type=finite_float("--ramp", 0.0), default=20.0, help="run-up time [s] (default 20)")
+    p.add_argument("--hold", type=finite_float("--hold", 0.0), default=10.0, help="hold time [s] (default 10)")
+    p.add_argument("--top-hz", type=finite_float("--top-hz", 0.0, strict=True), default=50.0,
                    help="final shaft speed [Hz] (default 50)")
-    p.add_argument("--sample-rate", type=_finite_float("--sample-rate", 0.0, strict=True), default=25600.0,
+    p.add_argument("--sample-rate", type=finite_float("--sample-rate", 0.0, strict=True), default=25600.0,
                    help="samples per second and channel (default 25600)")
     p.add_argument("--no-rerun", action="store_true", help="no .rrd")
 
@@ -295,9 +295,9 @@ def make_example(out_dir=Path("recordings"), quiet: bool = False) -> Path:
 
 def standalone(argv=None) -> int:
     """``python -m bkabem_ros.demo ARGS`` = ``bkabem demo-run ARGS`` (same errors and exit codes)."""
-    from bkabem_core.cli import run_subcommand
+    from .cli_base import subcommand_main
 
-    return run_subcommand("demo-run", add_parser, argv)
+    return subcommand_main("demo-run", add_parser, argv)
 
 
 if __name__ == "__main__":  # pragma: no cover

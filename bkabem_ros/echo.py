@@ -105,14 +105,14 @@ def _json_default(o):
 
 def add_parser(sub, add_case=None):
     """Register ``bkabem echo``."""
-    from bkabem_core.cli import _finite_float, _pos_int
+    from .cli_base import finite_float, pos_int
 
     p = sub.add_parser("echo", help="print one line per message on bkabem topics",
                        description=__doc__.split("\n\n")[0])
     p.add_argument("topics", nargs="*", help="topics (relative to --namespace); default: all bkabem topics")
     p.add_argument("--namespace", default="", help="namespace of the machine, e.g. /machine_00")
-    p.add_argument("--count", type=_pos_int("--count", 1), default=None, help="exit after this many messages")
-    p.add_argument("--seconds", type=_finite_float("--seconds", 0.0, strict=True), default=None,
+    p.add_argument("--count", type=pos_int("--count", 1), default=None, help="exit after this many messages")
+    p.add_argument("--seconds", type=finite_float("--seconds", 0.0, strict=True), default=None,
                    help="exit after this long")
     p.add_argument("--qos", choices=("sensor_data", "reliable"), default="sensor_data",
                    help="subscription QoS; sensor_data (best effort) receives from both kinds of publisher")

@@ -104,25 +104,25 @@ def _print_stats(st: dict) -> None:
 
 def add_parser(sub, add_case):
     """Register ``bkabem fleet``."""
-    from bkabem_core.cli import _finite_float, _pos_int
+    from .cli_base import finite_float, pos_int
 
     p = sub.add_parser("fleet", help="start N namespaced bkabem nodes (a fleet of machines)",
                        description=__doc__.split("\n\n")[0])
-    p.add_argument("--machines", type=_pos_int("--machines", 1), required=True, help="number of machines")
-    p.add_argument("--processes", type=_pos_int("--processes", 1), default=None,
+    p.add_argument("--machines", type=pos_int("--machines", 1), required=True, help="number of machines")
+    p.add_argument("--processes", type=pos_int("--processes", 1), default=None,
                    help="processes to spread the machines over (default: 1 up to 4 machines, else CPU count)")
     p.add_argument("--case", action="append", default=[], metavar="CASE",
                    help="case (embedded name or TOML); repeat to cycle several cases over the machines")
     p.add_argument("--defect-depths", default=None, metavar="M[,M...]",
                    help="dent depths in m, cycled over the machines (e.g. 0,2e-5,5e-5)")
-    p.add_argument("--seed", type=_pos_int("--seed", 0), default=0, help="seed of machine 0 (machine i: seed+i)")
+    p.add_argument("--seed", type=pos_int("--seed", 0), default=0, help="seed of machine 0 (machine i: seed+i)")
     p.add_argument("--prefix", default="machine_", help="namespace prefix (default machine_)")
-    p.add_argument("--sample-rate", type=_finite_float("--sample-rate", 0.0, strict=True), default=None)
-    p.add_argument("--chunk-duration", type=_finite_float("--chunk-duration", 0.0, strict=True), default=None)
+    p.add_argument("--sample-rate", type=finite_float("--sample-rate", 0.0, strict=True), default=None)
+    p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=None)
     p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None)
     p.add_argument("--params-file", action="append", default=[], metavar="FILE",
                    help="parameter YAML applied to every machine (use /** as the node key)")
-    p.add_argument("--seconds", type=_finite_float("--seconds", 0.0, strict=True), default=None,
+    p.add_argument("--seconds", type=finite_float("--seconds", 0.0, strict=True), default=None,
                    help="stop after this long and print per-machine publish statistics")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None)
     p.add_argument("--worker", default=None, help=argparse.SUPPRESS)   # internal: JSON list of machines
@@ -159,7 +159,7 @@ def main(args) -> int:
         return run_in_process(machines, common, ros_args, args.seconds, report)
 
     groups = [machines[i::n_proc] for i in range(n_proc)]
-    base = [sys.executable, "-m", "bkabem_core.cli", "fleet", "--machines", str(args.machines)]
+    base = [sys.executable, "-m", "bkabem_ros", "fleet", "--machines", str(args.machines)]
     for flag, val in (("--sample-rate", args.sample_rate), ("--chunk-duration", args.chunk_duration),
                       ("--qos", args.qos), ("--seconds", args.seconds)):
         if val is not None:

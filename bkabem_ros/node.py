@@ -163,9 +163,9 @@ def prepare_model(case, logger=None):
 _EXCITATION_CODE = (
     "import json, pickle, sys\n"
     "from bkabem_core.case import Case\n"
-    "from bkabem_core.excitation import compute_excitation\n"
+    "from bkabem_core.machine import Machine\n"
     "case = Case.from_dict(json.load(sys.stdin))\n"
-    "sys.stdout.buffer.write(pickle.dumps(compute_excitation(case.bearing(), case.four_dof_parameters())))\n"
+    "sys.stdout.buffer.write(pickle.dumps(Machine(case, mesh=None).excitations()))\n"
 )
 
 
@@ -467,8 +467,8 @@ class VibrationNode(_node_base()):
         """The waveform synthesiser (bkabem_core.synth): all physics of the samples lives there."""
         from bkabem_core.synth import Synthesizer
 
-        # spectrum="exact": a steady ~1 ms per new speed, and no modal set-up (~1.5 s) inside the timer when a
-        # defect-depth change swaps the model
+        # spectrum="exact": the model's own response at each new speed (a pole sum of the reduced model, ~0.1 ms),
+        # no speed cells to build inside the timer when a defect-depth change swaps the model
         synth = Synthesizer(model, sample_rate_hz=self.sample_rate, chunk_s=self.samples_per_chunk / self.sample_rate,
                             seed=self._seed, slip=self._slip, band_limit="taper", features=False, spectrum="exact")
         if synth.chunk_samples != self.samples_per_chunk:
@@ -725,7 +725,7 @@ class VibrationNode(_node_base()):
         if self._depth_job is not None and not self._depth_job.done():
             self._depth_pending = depth_m
             return
-        self.get_logger().info(f"defect_depth {depth_m:g} m: recomputing the 4-DOF excitation in a helper process")
+        self.get_logger().info(f"defect_depth {depth_m:g} m: recomputing the bearing excitations in a helper process")
         self._depth_job = _ExcitationJob(self._base_case.with_overrides({"dent.depth_m": depth_m}))
         self._depth_pending = None
 
@@ -741,7 +741,7 @@ class VibrationNode(_node_base()):
         else:
             from bkabem_core.harmonic import BkaBem
 
-            model = BkaBem(job.case, excitation=ex)
+            model = BkaBem(job.case, excitation=ex, like=self.model)
             self._case = job.case
             self.model = model
             self._swap_model(model)

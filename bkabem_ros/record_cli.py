@@ -33,7 +33,7 @@ def _size(text: str) -> int:
 
 def add_parser(sub, add_case=None):
     """Register ``bkabem record`` on an argparse subparsers object."""
-    from bkabem_core.cli import _finite_float
+    from .cli_base import finite_float
 
     p = sub.add_parser("record", help="record the node's topics into a ROS 2 MCAP file (or --recover one)",
                        description=__doc__)
@@ -42,16 +42,16 @@ def add_parser(sub, add_case=None):
                    help="topics to record (relative names follow --namespace); default: speed and every "
                         "bkabem_msgs topic")
     p.add_argument("--namespace", default="", help="namespace of the node, e.g. /machine_00")
-    p.add_argument("--duration", type=_finite_float("--duration", 0.0, strict=True), default=None,
+    p.add_argument("--duration", type=finite_float("--duration", 0.0, strict=True), default=None,
                    help="stop after this many seconds (default: until Ctrl-C)")
     p.add_argument("--chunk-size", type=_size, default=1 << 20,
                    help="uncompressed chunk size that triggers a write (default 1M)")
-    p.add_argument("--chunk-duration", type=_finite_float("--chunk-duration", 0.0, strict=True), default=1.0,
+    p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=1.0,
                    help="write a chunk at the latest after this many seconds; a crash loses at most this "
                         "(default 1)")
     p.add_argument("--rotate-size", type=_size, default=None,
                    help="start a new file (<stem>_N.mcap) at this size")
-    p.add_argument("--rotate-duration", type=_finite_float("--rotate-duration", 0.0, strict=True), default=None,
+    p.add_argument("--rotate-duration", type=finite_float("--rotate-duration", 0.0, strict=True), default=None,
                    help="start a new file after this many seconds of recording")
     p.add_argument("--recover", nargs=2, metavar=("SRC", "DST"), default=None,
                    help="rebuild a cut recording SRC (kill -9, power loss) into a complete DST, and exit")
@@ -63,7 +63,7 @@ def add_parser(sub, add_case=None):
 
 
 def main(args) -> int:
-    from bkabem_core.cli import UsageError
+    from .cli_base import UsageError
 
     from . import mcap_io
 
@@ -105,9 +105,9 @@ def main(args) -> int:
 
 def standalone(argv=None) -> int:
     """``python -m bkabem_ros.record_cli ARGS`` = ``bkabem record ARGS`` (same errors and exit codes)."""
-    from bkabem_core.cli import run_subcommand
+    from .cli_base import subcommand_main
 
-    return run_subcommand("record", add_parser, argv)
+    return subcommand_main("record", add_parser, argv)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -17,26 +17,26 @@ __all__ = ["add_parser", "main"]
 
 def add_parser(sub, add_case=None):
     """Register ``bkabem replay`` on an argparse subparsers object."""
-    from bkabem_core.cli import _finite_float
+    from .cli_base import finite_float
 
     from .rerun_io import DEFAULT_CONNECT_URL
 
     p = sub.add_parser("replay", help="republish an MCAP recording on ROS 2 and/or convert it for Rerun",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE.mcap", help="recording (bkabem or rosbag2 MCAP)")
-    p.add_argument("--rate", type=_finite_float("--rate", 0.0, strict=True), default=1.0,
+    p.add_argument("--rate", type=finite_float("--rate", 0.0, strict=True), default=1.0,
                    help="playback speed factor (default 1)")
     p.add_argument("--loop", action="store_true", help="start again at the end (until Ctrl-C)")
-    p.add_argument("--start-offset", type=_finite_float("--start-offset", 0.0), default=0.0,
+    p.add_argument("--start-offset", type=finite_float("--start-offset", 0.0), default=0.0,
                    help="skip the first seconds of the recording")
     p.add_argument("--remap", action="append", default=[], metavar="OLD:=NEW",
                    help="publish recorded topic OLD as NEW (repeatable)")
     p.add_argument("--topics", nargs="+", default=None, metavar="TOPIC", help="only these recorded topics")
     p.add_argument("--namespace", default="", help="prefix for the published topic names")
-    p.add_argument("--clock", nargs="?", type=_finite_float("--clock", 0.0, strict=True), const=100.0,
+    p.add_argument("--clock", nargs="?", type=finite_float("--clock", 0.0, strict=True), const=100.0,
                    default=None, metavar="HZ",
                    help="publish /clock (the recording's time) at HZ (default 100) for use_sim_time")
-    p.add_argument("--wait-subscribers", type=_finite_float("--wait-subscribers", 0.0), default=0.0,
+    p.add_argument("--wait-subscribers", type=finite_float("--wait-subscribers", 0.0), default=0.0,
                    help="wait up to this long (s) until every topic has a subscriber")
     p.add_argument("--rerun-save", metavar="OUT.rrd", default=None, help="write the recording as a Rerun file")
     p.add_argument("--rerun-connect", nargs="?", const=DEFAULT_CONNECT_URL, default=None, metavar="URL",
@@ -54,7 +54,7 @@ def add_parser(sub, add_case=None):
 def main(args) -> int:
     from pathlib import Path
 
-    from bkabem_core.cli import UsageError
+    from .cli_base import UsageError
 
     from . import replay as rp
 
@@ -109,9 +109,9 @@ def main(args) -> int:
 
 def standalone(argv=None) -> int:
     """``python -m bkabem_ros.replay_cli ARGS`` = ``bkabem replay ARGS`` (same errors and exit codes)."""
-    from bkabem_core.cli import run_subcommand
+    from .cli_base import subcommand_main
 
-    return run_subcommand("replay", add_parser, argv)
+    return subcommand_main("replay", add_parser, argv)
 
 
 if __name__ == "__main__":  # pragma: no cover

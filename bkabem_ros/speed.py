@@ -185,7 +185,7 @@ def _csv_profile(path: Path, unit: str) -> SpeedProfile:
 # --------------------------------------------------------------------------- the publisher
 def add_parser(sub, add_case=None):
     """Register ``bkabem speed``."""
-    from bkabem_core.cli import _finite_float
+    from .cli_base import finite_float
 
     p = sub.add_parser("speed", help="publish a shaft-speed profile on the speed topic (std_msgs/Float64)",
                        description=__doc__.split("\n\n")[0] + " See bkabem_ros/speed.py for the profile syntax.")
@@ -194,16 +194,16 @@ def add_parser(sub, add_case=None):
     p.add_argument("--unit", default="hz", help="unit of the profile values: hz (default), rpm, rad/s")
     p.add_argument("--publish-unit", default="rad/s",
                    help="unit written on the topic; must match the node's speed_unit (default rad/s, REP 103)")
-    p.add_argument("--rate", type=_finite_float("--rate", 0.0, strict=True), default=50.0,
+    p.add_argument("--rate", type=finite_float("--rate", 0.0, strict=True), default=50.0,
                    help="messages per second (default 50)")
-    p.add_argument("--seconds", type=_finite_float("--seconds", 0.0, strict=True), default=None,
+    p.add_argument("--seconds", type=finite_float("--seconds", 0.0, strict=True), default=None,
                    help="stop after this long (default: a finite profile's end + --hold; constant: forever)")
-    p.add_argument("--hold", type=_finite_float("--hold", 0.0), default=1.0,
+    p.add_argument("--hold", type=finite_float("--hold", 0.0), default=1.0,
                    help="keep publishing the last value this long after a finite profile ends (s)")
     p.add_argument("--topic", default="speed", help="topic name (relative names follow --namespace)")
     p.add_argument("--namespace", default="", help="namespace, e.g. /machine_00")
     p.add_argument("--qos", choices=("reliable", "sensor_data"), default="reliable")
-    p.add_argument("--wait-subscribers", type=_finite_float("--wait-subscribers", 0.0), default=0.0,
+    p.add_argument("--wait-subscribers", type=finite_float("--wait-subscribers", 0.0), default=0.0,
                    help="wait up to this long (s) for a subscriber before starting the profile clock")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stdout")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
@@ -277,6 +277,6 @@ def main(args) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    from bkabem_core.cli import main as _main
+    from bkabem_ros.main import main as _main
 
     sys.exit(_main(["speed", *sys.argv[1:]]))

@@ -18,14 +18,27 @@ def case():
 
 
 @pytest.fixture(scope="session")
-def excitation(case):
-    from bkabem_core.excitation import compute_excitation
+def machine(case):
+    from bkabem_core.machine import Machine
 
-    return compute_excitation(case.bearing(), case.four_dof_parameters())
+    return Machine(case)
 
 
 @pytest.fixture(scope="session")
-def model(case, excitation):
+def model(case, machine):
+    """The default BKA-BEM model of the embedded case (quasi-static excitation of both bearings)."""
     from bkabem_core.harmonic import BkaBem
 
-    return BkaBem(case, excitation=excitation)
+    return BkaBem(case, machine=machine)
+
+
+@pytest.fixture(scope="session")
+def excitation(model):
+    """The faulty (DE) bearing's excitation of the default model."""
+    return model.excitations["de"]
+
+
+@pytest.fixture(scope="session")
+def four_dof_excitation(machine):
+    """The paper's 4-DOF excitation of the DE bearing under its own load."""
+    return machine.excitation("de", method="four_dof")

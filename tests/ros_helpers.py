@@ -61,7 +61,7 @@ def unique_namespace(prefix: str = "t") -> str:
 
 def bkabem_cmd(*args: str) -> list[str]:
     """Command line of the ``bkabem`` CLI run by this interpreter."""
-    return [sys.executable, "-m", "bkabem_core.cli", *args]
+    return [sys.executable, "-m", "bkabem_ros", *args]
 
 
 class Proc:

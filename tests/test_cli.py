@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-CLI = [sys.executable, "-m", "bkabem_core.cli"]
+CLI = [sys.executable, "-m", "bkabem_ros"]
 
 
 def run(*args, check=True):

@@ -1,16 +1,50 @@
-"""BKA-BEM harmonic solve (bkabem_core.harmonic) against independent solutions."""
+"""BKA-BEM harmonic solve (bkabem_core.harmonic, .modal, .solvers) against independent solutions."""
+
+import time
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from bkabem_core.harmonic import LOCATIONS, BkaBem, ShaftSolver
+from bkabem_core import modal, solvers
+from bkabem_core.harmonic import LOCATIONS, BkaBem
+from bkabem_core.machine import Machine
+from bkabem_core.solvers import ShaftSolver
 
 
-def test_block_solver_matches_direct_solve_over_a_sweep(case, excitation, model):
-    direct = BkaBem(case, excitation=excitation, solver="direct")
-    speeds = np.linspace(0.0, case.max_speed_hz, 301)
-    a = model.sweep(speeds).displacement
+@pytest.fixture(scope="module")
+def coarse(case):
+    """The model on the case's own 13 elements (fast time integrations of the linear model)."""
+    return BkaBem(case, machine=Machine(case, mesh=None), solver="block")
+
+
+def test_modal_form_matches_the_full_fe_over_the_speed_range(model):
+    """The reduced model (modes to 1.25 x the case's 25.6 kHz plus static residual vectors) in its pole-residue
+    form against the exact block-tridiagonal solve of the full 428-DOF FE: orders within 40 dB of their channel's
+    largest within 0.05 dB, every order within 1e-4 (displacement) and 1 % (acceleration) of the channel's
+    largest, from standstill to the case's highest speed."""
+    speeds = np.r_[0.5, np.linspace(5.0, model.case.max_speed_hz, 14)]
+    got = model.response(speeds)
+    ref = model.response_full(speeds) if model._block is not None else None
+    if ref is None:
+        model._block = ShaftSolver(model.rotor)
+        ref = model.response_full(speeds)
+        model._block = None
+    assert model.solver == "modal" and model.basis.size < 80
+    for i, f in enumerate(speeds):
+        w2 = (2 * np.pi * model.multipliers * f) ** 2
+        a, b = got[i].reshape(model.orders.size, -1), ref[i].reshape(model.orders.size, -1)
+        big = np.abs(b) >= 0.01 * np.abs(b).max(axis=0)
+        assert np.max(np.abs(20 * np.log10(np.abs(a[big]) / np.abs(b[big])))) < 0.05, f
+        assert np.max(np.abs(a - b).max(0) / np.abs(b).max(0)) < 1e-4, f
+        aa, ba = a * w2[:, None], b * w2[:, None]
+        assert np.max(np.abs(aa - ba).max(0) / np.abs(ba).max(0)) < 1e-2, f
+
+
+def test_block_solver_matches_direct_solve(coarse):
+    direct = BkaBem(coarse.case, machine=coarse.machine, excitation=coarse.excitations, solver="direct")
+    speeds = np.linspace(0.0, coarse.case.max_speed_hz, 31)
+    a = coarse.sweep(speeds).displacement
     b = direct.sweep(speeds).displacement
     scale = np.abs(b).max(axis=(1, 2, 3), keepdims=True)
     assert np.max(np.abs(a - b) / scale) < 1e-8
@@ -44,10 +78,10 @@ def _newmark_steady_state(m, c, k, f_amp, omega, dt, t_end):
     return out
 
 
-def test_harmonic_solve_matches_time_integration_of_the_linear_model(model):
+def test_harmonic_solve_matches_time_integration_of_the_linear_model(coarse):
     """One harmonic force pair at the DE bearing, integrated in time until steady state (Newmark),
     gives the amplitude and phase the frequency-domain solve predicts (Eq. 8 in complex form)."""
-    rot = model.rotor
+    rot = coarse.rotor
     speed_hz, freq_hz = 30.0, 180.0
     big_w, w = 2 * np.pi * speed_hz, 2 * np.pi * freq_hz
     f = np.zeros(rot.ndof, dtype=complex)
@@ -69,14 +103,16 @@ def test_harmonic_solve_matches_time_integration_of_the_linear_model(model):
         assert abs(x_time - x_freq[i]) < 2e-3 * abs(x_freq[i]), (node, d)
 
 
-def test_dc_relative_displacement_equals_excitation_dc(model, excitation):
-    """A static force pair k_b A_0 across the DE bearing: the rotor pivots about the NDE bearing node
-    (no other element is loaded), so rotor - housing at the DE bearing is exactly A_0."""
+def test_dc_relative_displacement_equals_each_excitation_dc(model):
+    """A static force pair k_b A_0 across a bearing: the rotor pivots about the other bearing node (no other element
+    is loaded), so rotor - housing at each bearing is exactly its own excitation's DC."""
     dc = model.dc_m
-    li_r, li_h = LOCATIONS.index("de_rotor"), LOCATIONS.index("de_housing")
-    rel = dc[li_r] - dc[li_h]
-    assert rel[0] == pytest.approx(excitation.dc_m["vertical"], rel=1e-9)
-    assert rel[1] == pytest.approx(excitation.dc_m["horizontal"], rel=1e-6, abs=1e-15)
+    for b in ("de", "nde"):
+        li_r, li_h = LOCATIONS.index(f"{b}_rotor"), LOCATIONS.index(f"{b}_housing")
+        rel = dc[li_r] - dc[li_h]
+        ex = model.excitations[b]
+        assert rel[0] == pytest.approx(ex.dc_m["vertical"], rel=1e-9)
+        assert rel[1] == pytest.approx(ex.dc_m["horizontal"], rel=1e-6, abs=1e-15)
 
 
 def test_spectrum_fields_and_units(model):
@@ -95,13 +131,37 @@ def test_spectrum_fields_and_units(model):
     assert set(d["fault_frequencies_hz"]) == {"ftf", "bpfo", "bpfi", "bsf"}
 
 
-def test_response_scales_with_dent_depth(case):
-    """Halving the dent depth lowers the DE response (sanity of the whole chain)."""
-    shallow = BkaBem(case.with_overrides({"dent.depth_m": 10e-6}))
-    deep = BkaBem(case)
-    a = np.abs(shallow.spectrum(25.0).displacement[:, 0, 0]).max()
-    b = np.abs(deep.spectrum(25.0).displacement[:, 0, 0]).max()
-    assert a < 0.7 * b
+def test_response_scales_with_dent_depth_until_the_ball_loses_contact(case, model):
+    """A dent shallower than the ball's Hertz deflection (~6 um under the DE load) lowers the response; a deeper one
+    unloads the ball completely, so 20 um and 50 um give nearly the same low orders (the entry ramp still differs).
+    A model made `like` another of the same FE reuses its modal basis and line modes: the same numbers as a fresh
+    one, in a fraction of the time."""
+    shallow_case = case.with_overrides({"dent.depth_m": 2e-6})
+    t0 = time.perf_counter()
+    shallow = BkaBem(shallow_case, like=model)
+    t_like = time.perf_counter() - t0
+    assert shallow.basis is model.basis
+    fresh = BkaBem(shallow_case)
+    ref = fresh.spectrum(25.0).displacement
+    np.testing.assert_allclose(shallow.spectrum(25.0).displacement, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+    assert t_like < 0.5 * fresh.preparation_time_s["total"]
+    deep20 = BkaBem(case.with_overrides({"dent.depth_m": 20e-6}), like=model)
+    peak = lambda m: np.abs(m.spectrum(25.0).displacement[:5, 0, 0]).max()
+    assert peak(shallow) < 0.7 * peak(model)
+    assert peak(deep20) == pytest.approx(peak(model), rel=0.05)
+
+
+def test_eq5_as_printed_grows_with_frequency(case, model):
+    """The paper's Eq. 5 also drives the bearing damper with the base motion: F = (k_b + i w c_b) U. With the
+    model's damper the extra term is w c_b / k_b of the spring's (10 % at 3.8 kHz here); the TDSM's damper acts on
+    the actual relative velocity, so the default applies the spring only (docs/method.md)."""
+    paper = BkaBem(case.with_overrides({"excitation.force": "paper"}), like=model)
+    sp, sq = model.spectrum(50.0), paper.spectrum(50.0)
+    site = model.machine.sites["de"]
+    w = 2 * np.pi * sp.frequency_hz
+    ratio = np.abs(paper._force_a[:, 0] + 1j * w * paper._force_b[:, 0]) / np.abs(model._force_a[:, 0])
+    np.testing.assert_allclose(ratio, np.hypot(1.0, w * site.damping_n_s_m[1] / site.stiffness_n_m[1]), rtol=1e-12)
+    assert np.abs(sq.displacement).max() > np.abs(sp.displacement).max()
 
 
 def test_bad_speed_is_rejected(model):
@@ -111,22 +171,18 @@ def test_bad_speed_is_rejected(model):
         model.response([-1.0])
 
 
-def test_compiled_kernel_is_built_and_used(model):
-    """The C kernel is part of the install (setup.py); without it the solver silently gets 6x slower."""
-    from bkabem_core import harmonic
-
-    assert harmonic._KERNEL is not None
-    model.spectrum(20.0)
-    assert model.solver == "block" and model._block.last_fallbacks == 0
+def test_compiled_kernels_are_built_and_used(model, coarse):
+    """The C kernels are part of the install (setup.py); without them the solvers silently get 6x slower."""
+    assert solvers._KERNEL is not None and modal._MODAL_KERNEL is not None
+    assert model.order_modal_form()._c is not None
+    coarse.spectrum(20.0)
+    assert coarse.solver == "block" and coarse._block.last_fallbacks == 0
 
 
 def test_order_modal_form_c_kernel_matches_numpy(model):
-    """The pole-residue sum in C (_modalsum.c: mode-acceleration form, float32 residues) is part of the install and
-    agrees with the numpy sum (plain form, double) within 2e-6 of each output's largest order, for 8 outputs and
-    for fewer (zero-padded to the kernel's 8), from near the static limit up."""
-    from bkabem_core import harmonic
-
-    assert harmonic._MODAL_KERNEL is not None
+    """The pole-residue sum in C (_modalsum.c: mode-acceleration form) agrees with the numpy sum (plain form) within
+    1e-7 of each output's largest order, for 8 outputs and for fewer (zero-padded to the kernel's 8), from near the
+    static limit up."""
     rng = np.random.default_rng(3)
     for comb in (None, rng.standard_normal((3, 8))):
         form = model.order_modal_form(comb)
@@ -135,7 +191,7 @@ def test_order_modal_form_c_kernel_matches_numpy(model):
             got, ref = form(f), form.evaluate_numpy(f)
             assert got.shape == ref.shape == (model.orders.size, 8 if comb is None else 3)
             err = (np.abs(got - ref).max(axis=0) / np.abs(ref).max(axis=0)).max()
-            assert 0 < err <= 2e-6, err                     # > 0: the float32 kernel really ran
+            assert err <= 1e-7, err
     np.testing.assert_allclose(form.static, form.evaluate_numpy(0.0), rtol=1e-9, atol=1e-9 * np.abs(form.static).max())
 
 
@@ -152,7 +208,7 @@ def test_speed_cells_stay_within_their_bound(model, cell_hz, degree):
     pole sum in double, at random speeds, cell borders and the lightly damped resonances' neighbourhood: every
     order and output within the stated tolerance of its reference. The coarse setting (4 Hz cells, degree 3)
     must still hold the bound: more poles are then taken as near, which is what the bound is for."""
-    from bkabem_core.harmonic import SpeedCells
+    from bkabem_core.modal import SpeedCells
 
     form = model.order_modal_form()
     cells = SpeedCells(form, cell_hz=cell_hz, degree=degree, tol=2e-6)
@@ -166,14 +222,13 @@ def test_speed_cells_stay_within_their_bound(model, cell_hz, degree):
         assert np.all(np.abs(got - exact) <= budget * 1.01), (f, np.max(np.abs(got - exact) / budget))
         np.testing.assert_allclose(got, cells.evaluate_numpy(f), rtol=0, atol=1e-12 * np.abs(exact).max())
     near = np.mean([c[2].mean() for c in cells._cells.values()])
-    assert near < (0.2 if degree == 3 else 0.02), near      # the point of cells: few poles are summed exactly
+    assert near < (0.3 if degree == 3 else 0.02), near      # the point of cells: few poles are summed exactly
 
 
 def test_speed_cells_need_their_near_poles(model):
     """Negative control: at the resonance of a pole taken as near, the cell's far-pole interpolant alone misses by
     far more than the budget; the near poles (summed exactly) are what keeps the cells within the bound."""
-    from bkabem_core import harmonic
-    from bkabem_core.harmonic import SpeedCells
+    from bkabem_core.modal import SpeedCells
 
     form = model.order_modal_form()
     cells = SpeedCells(form)
@@ -194,11 +249,11 @@ def test_speed_cells_need_their_near_poles(model):
             assert np.all(np.abs(cells(f) - exact) <= budget * 1.01)
             checked += 1
     assert checked > 10 and worst > 100, (checked, worst)
-    assert harmonic._CELL_KERNEL is not None               # the compiled evaluation is part of the install
+    assert modal._CELL_KERNEL is not None                  # the compiled evaluation is part of the install
 
 
 def test_speed_cells_memory_is_bounded(model):
-    from bkabem_core.harmonic import SpeedCells
+    from bkabem_core.modal import SpeedCells
 
     form = model.order_modal_form()
     cells = SpeedCells(form, max_cells=3)

@@ -181,8 +181,9 @@ def test_spectrum_matches_waveform(stack):
     spec_fft = np.abs(np.fft.rfft(x)) * 2 / x.size
     f = np.fft.rfftfreq(x.size, 1 / FS)
     i = int(np.argmin(np.abs(f - f_line)))
-    a_fft = spec_fft[max(0, i - 2):i + 3].max()
-    assert a_fft == pytest.approx(amp[j], rel=0.25), (f_line, a_fft, amp[j])
+    # the line falls between bins (scalloping up to -3.9 dB): its amplitude is the RMS sum of its leakage bins
+    a_fft = math.sqrt(np.sum(spec_fft[max(0, i - 4):i + 5] ** 2))
+    assert a_fft == pytest.approx(amp[j], rel=0.1), (f_line, a_fft, amp[j])
 
 
 def test_echo_tool(stack):

@@ -1,4 +1,4 @@
-"""Tests of bkabem_core.synth / synth_cli: accuracy against BKA-BEM, continuity, determinism, errors, CLI.
+"""Tests of bkabem_core.synth / bkabem_ros.synth_cli: accuracy against BKA-BEM, continuity, determinism, errors, CLI.
 
 The BKA-BEM model comes from the session fixture ``model`` (tests/conftest.py), built once.
 """
@@ -107,16 +107,17 @@ def test_modal_spectrum_error_bound(model):
 
 
 def test_order_modal_form_matches_the_direct_solver(model):
-    """OrderModalForm (all 8 output displacements) against the dense direct solve, with gyroscopics: the
-    order-wise pencil K + s C + s^2 (M - i G / (k BPFO)) is the same system as Eq. (8) along each order."""
+    """OrderModalForm (all 8 output displacements) against the dense direct solve of the full FE, with gyroscopics:
+    the order-wise pencil K + s C + s^2 (M - i G / (k BPFO)) is the same system as Eq. (8) along each order (on the
+    reduced model: its modal truncation is the 1e-7 left, tests/test_harmonic.py)."""
     from bkabem_core.harmonic import BkaBem as _B
-    direct = _B(model.case, excitation=model.excitation, solver="direct")
+    direct = _B(model.case, excitation=model.excitations, solver="direct", machine=model.machine)
     form = direct.order_modal_form()
     assert np.abs(direct.rotor.G).max() > 0
     for f in (3.7, 41.0):
         ref = direct.response([f])[0].reshape(model.orders.size, -1)
         got = form(f)
-        assert np.abs(got - ref).max() <= 1e-7 * np.abs(ref).max(), np.abs(got - ref).max() / np.abs(ref).max()
+        assert np.abs(got - ref).max() <= 1e-6 * np.abs(ref).max(), np.abs(got - ref).max() / np.abs(ref).max()
     assert np.abs(form.direct).max() <= 1e-9 * np.abs(ref).max()
 
 
@@ -511,7 +512,7 @@ def test_bad_arguments(model):
 
 # ----------------------------------------------------------------------------------------- CLI
 def _cli(args, tmp_path):
-    return subprocess.run([sys.executable, "-m", "bkabem_core.cli", "synth", *args], cwd=tmp_path,
+    return subprocess.run([sys.executable, "-m", "bkabem_ros", "synth", *args], cwd=tmp_path,
                           capture_output=True, text=True, env={"PYTHONPATH": str(ROOT), "OPENBLAS_NUM_THREADS": "1",
                                                                "MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"})
 

@@ -1,8 +1,8 @@
-"""Command-line interface: ``bkabem <command>``.
+"""The core commands of ``bkabem``: ``excitation``, ``spectrum``, ``sweep``, ``validate`` and ``demo``.
 
-Core commands (no ROS needed): ``excitation``, ``spectrum``, ``sweep``, ``validate``, ``synth``, ``demo``.
-Field names of the JSON outputs follow the contract in ``architecture.md``. Bad input: one line on stderr
-naming the argument (or case key) and the reason, exit code 2.
+They parse, call ``bkabem_core`` and print; none imports rclpy (``demo`` only for its ROS part, after the core
+part). Field names of the JSON outputs follow the contract in ``architecture.md``. Errors follow the contract
+of :mod:`bkabem_ros.cli_base` (one line naming the argument or case key, exit code 2).
 """
 
 from __future__ import annotations
@@ -16,59 +16,17 @@ import time
 
 import numpy as np
 
-EXIT_BAD_INPUT = 2
-
-
-class UsageError(Exception):
-    """Bad command-line input; the message names the argument and the reason."""
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with the project's error contract: one line on stderr, exit code 2."""
-
-    def error(self, message):  # noqa: D401 - argparse API
-        sys.stderr.write(f"{self.prog}: error: {message}\n")
-        sys.exit(EXIT_BAD_INPUT)
-
-
-def _finite_float(name: str, minimum: float | None = None, strict: bool = False):
-    def conv(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number (got {text!r})") from None
-        if not math.isfinite(v):
-            raise argparse.ArgumentTypeError(f"{name} must be finite (got {text!r})")
-        if minimum is not None and (v <= minimum if strict else v < minimum):
-            op = ">" if strict else ">="
-            raise argparse.ArgumentTypeError(f"{name} must be {op} {minimum:g} (got {text!r})")
-        return v
-
-    return conv
-
-
-def _pos_int(name: str, minimum: int = 1):
-    def conv(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer (got {text!r})") from None
-        if v < minimum:
-            raise argparse.ArgumentTypeError(f"{name} must be >= {minimum} (got {v})")
-        return v
-
-    return conv
-
+from .cli_base import UsageError, finite_float, output_path, pos_int
 
 # --------------------------------------------------------------------------- helpers
 def _load_case(path):
-    from .case import Case
+    from bkabem_core.case import Case
 
     return Case.load(path)
 
 
-def _model(case, solver="block"):
-    from .harmonic import BkaBem
+def _model(case, solver="modal"):
+    from bkabem_core.harmonic import BkaBem
 
     return BkaBem(case, solver=solver)
 
@@ -80,9 +38,12 @@ def _print_json(obj) -> None:
 
 def _excitation_table(ex, max_rows: int = 24) -> str:
     d = ex.to_dict()
+    what = "quasi-static excitation" if ex.method == "quasi_static" else \
+        f"4-DOF excitation at {ex.reference_speed_hz:g} Hz"
     lines = [
-        f"4-DOF excitation at {ex.reference_speed_hz:g} Hz  (BPFO {ex.bpfo_per_hz:.4f} x shaft Hz, "
-        f"clearance {ex.clearance_m * 1e6:.1f} um, {len(ex.orders)} orders kept of {len(ex.all_orders)})",
+        f"{(ex.bearing or '').upper()} bearing, {what} under {ex.radial_load_n:.1f} N radial + {ex.axial_load_n:.0f} N "
+        f"axial  (BPFO {ex.bpfo_per_hz:.4f} x shaft Hz, clearance {ex.clearance_m * 1e6:.1f} um, "
+        f"{len(ex.orders)} orders kept of {len(ex.all_orders)})",
         f"  DC           vertical {d['dc_m']['vertical'] * 1e6:9.3f} um   horizontal "
         f"{d['dc_m']['horizontal'] * 1e6:9.4f} um",
         f"  peak-to-peak vertical {d['peak_to_peak_m']['vertical'] * 1e6:9.3f} um   horizontal "
@@ -99,7 +60,7 @@ def _excitation_table(ex, max_rows: int = 24) -> str:
 
 
 def _spectrum_table(sp, max_rows: int = 12) -> str:
-    from .harmonic import LOCATIONS
+    from bkabem_core.harmonic import LOCATIONS
 
     ff = sp.fault_frequencies_hz
     lines = [f"BKA-BEM spectrum at {sp.speed_hz:g} Hz shaft speed ({sp.speed_hz * 60:.0f} rpm): FTF {ff.ftf:.3f} Hz, "
@@ -127,17 +88,22 @@ def _spectrum_table(sp, max_rows: int = 12) -> str:
 # --------------------------------------------------------------------------- commands
 def cmd_excitation(args) -> int:
     case = _load_case(args.case)
-    from .excitation import compute_excitation
+    from bkabem_core.machine import BEARINGS, Machine
 
-    ex = compute_excitation(case.bearing(), case.four_dof_parameters())
+    machine = Machine(case, mesh=None)
+    names = BEARINGS if args.all_bearings else machine.excited_bearings()
+    exs = {n: machine.excitation(n, method=args.method) for n in names}
+    ex = exs.get(case.faulty_bearing, next(iter(exs.values())))
     if args.png:
-        from .plots import plot_excitation
+        from bkabem_core.plots import plot_excitation
 
         plot_excitation(ex, args.png)
     if args.json:
-        _print_json(ex.to_dict())
+        out = ex.to_dict()          # the faulty bearing's at the top level (CLI contract), every bearing below
+        out["bearings"] = {n: e.to_dict() for n, e in exs.items()}
+        _print_json(out)
     else:
-        print(_excitation_table(ex))
+        print("\n\n".join(_excitation_table(e) for e in exs.values()))
         if args.png:
             print(f"wrote {args.png}")
     return 0
@@ -148,7 +114,7 @@ def cmd_spectrum(args) -> int:
     model = _model(case)
     sp = model.spectrum(args.speed_hz)
     if args.png:
-        from .plots import plot_spectrum
+        from bkabem_core.plots import plot_spectrum
 
         plot_spectrum(sp, args.png)
     if args.json:
@@ -170,11 +136,11 @@ def cmd_sweep(args) -> int:
     sw = model.sweep(speeds, progress=not (args.json or args.csv) and sys.stderr.isatty())
     elapsed = time.perf_counter() - t0
     if args.png:
-        from .plots import plot_sweep
+        from bkabem_core.plots import plot_sweep
 
         plot_sweep(sw, args.png)
-    from .excitation import DIRECTIONS
-    from .harmonic import LOCATIONS
+    from bkabem_core.excitation import DIRECTIONS
+    from bkabem_core.harmonic import LOCATIONS
 
     acc, disp = sw.acceleration, sw.displacement
     if args.json:
@@ -220,7 +186,7 @@ def cmd_sweep(args) -> int:
 
 def cmd_validate(args) -> int:
     try:
-        from . import validation
+        from bkabem_core import validation
     except ImportError as exc:  # pragma: no cover - until the TDSM lands
         raise UsageError(f"validate is not available: {exc}") from None
     case = _load_case(args.case)
@@ -230,7 +196,9 @@ def cmd_validate(args) -> int:
     if args.duration is not None:
         kwargs["duration_s"] = args.duration
     if args.improvement:
-        kwargs["improvement"] = args.improvement
+        kwargs["improvement"] = None if args.improvement == "none" else args.improvement
+    if args.max_step_us is not None:
+        kwargs["max_step_s"] = args.max_step_us * 1e-6
     result = validation.validate(case, progress=not args.json and sys.stderr.isatty(), **kwargs)
     if args.png:
         validation.plot_validation(result, args.png)
@@ -257,11 +225,14 @@ def cmd_demo(args) -> int:
     model = _model(case)
     prep = time.perf_counter() - t0
     ex = model.excitation
+    info = model.solver_info()
     print(f"== 1/2  BKA-BEM core: case {case.name} ({case.source}, hash {case.case_hash})")
-    print(f"prepared in {prep:.2f} s (4-DOF excitation {model.preparation_time_s['excitation']:.2f} s, "
-          f"{ex.n_steps} RHS evaluations; {model.solver_info()['ndof']}-DOF FE model)")
+    print(f"prepared in {prep:.2f} s (excitation of {', '.join(b.upper() for b in model.excitations)} "
+          f"{model.preparation_time_s['excitation']:.2f} s; {info['ndof']}-DOF FE model of {info['fe_elements']} "
+          f"elements, reduced to {info.get('modal_basis_size', '-')} modes; "
+          f"{info['orders']} orders diagonalised {model.preparation_time_s['solver_setup']:.2f} s)")
     print(_excitation_table(ex, max_rows=12))
-    from .plots import plot_excitation, plot_spectrum, plot_sweep
+    from bkabem_core.plots import plot_excitation, plot_spectrum, plot_sweep
 
     plot_excitation(ex, str(out / "excitation.png"))
     for s in args.speeds:
@@ -281,7 +252,7 @@ def cmd_demo(args) -> int:
     if args.no_ros:
         return 0
     try:
-        from bkabem_ros.demo import run_demo
+        from .demo import run_demo
     except ImportError as exc:
         raise UsageError(f"the ROS 2 part needs the ROS set-up (make demo installs it): {exc}") from None
     print(f"\n== 2/2  ROS 2 node: run-up 0 -> {args.top_hz:g} Hz in {args.ramp:g} s, hold {args.hold:g} s, "
@@ -292,23 +263,27 @@ def cmd_demo(args) -> int:
 
 
 # --------------------------------------------------------------------------- parser
-def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="bkabem", description="BKA-BEM digital-twin vibration source for a faulty ball bearing")
-    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+def add_case(sp) -> None:
+    """``--case`` of every command that loads a case."""
+    sp.add_argument("--case", default=None,
+                    help="embedded case name or TOML file (default: electric_motor_6010)")
 
-    def add_case(sp):
-        sp.add_argument("--case", default=None,
-                        help="embedded case name or TOML file (default: electric_motor_6010)")
 
-    e = sub.add_parser("excitation", help="4-DOF excitation: DC, amplitudes and phases per BPFO order")
+def add_parsers(sub) -> None:
+    """Register ``excitation``, ``spectrum``, ``sweep``, ``validate`` and ``demo`` on an argparse subparsers object."""
+    e = sub.add_parser("excitation", help="bearing excitation: DC, amplitudes and phases per BPFO order")
     add_case(e)
     e.add_argument("--json", action="store_true", help="machine-readable output")
     e.add_argument("--png", help="write a figure of the waveform and orders")
+    e.add_argument("--method", choices=("quasi_static", "four_dof"), default=None,
+                   help="excitation model (default: the case's [excitation] method)")
+    e.add_argument("--all-bearings", action="store_true",
+                   help="every bearing, also those the case does not excite ([excitation] bearings)")
     e.set_defaults(func=cmd_excitation)
 
     s = sub.add_parser("spectrum", help="BKA-BEM spectrum at one shaft speed")
     add_case(s)
-    s.add_argument("--speed-hz", required=True, type=_finite_float("--speed-hz", 0.0),
+    s.add_argument("--speed-hz", required=True, type=finite_float("--speed-hz", 0.0),
                    help="shaft speed [Hz]")
     s.add_argument("--json", action="store_true")
     s.add_argument("--png")
@@ -316,9 +291,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     w = sub.add_parser("sweep", help="BKA-BEM spectra over a range of shaft speeds")
     add_case(w)
-    w.add_argument("--from-hz", required=True, type=_finite_float("--from-hz", 0.0), help="first speed [Hz]")
-    w.add_argument("--to-hz", required=True, type=_finite_float("--to-hz", 0.0), help="last speed [Hz]")
-    w.add_argument("--steps", required=True, type=_pos_int("--steps", 1), help="number of speeds")
+    w.add_argument("--from-hz", required=True, type=finite_float("--from-hz", 0.0), help="first speed [Hz]")
+    w.add_argument("--to-hz", required=True, type=finite_float("--to-hz", 0.0), help="last speed [Hz]")
+    w.add_argument("--steps", required=True, type=pos_int("--steps", 1), help="number of speeds")
     w.add_argument("--png", help="order map and RMS vs speed")
     g = w.add_mutually_exclusive_group()
     g.add_argument("--json", action="store_true")
@@ -327,77 +302,27 @@ def build_parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="time-domain reference (TDSM) against BKA-BEM at one speed")
     add_case(v)
-    v.add_argument("--speed-hz", type=_finite_float("--speed-hz", 0.0, strict=True), default=None)
-    v.add_argument("--duration", type=_finite_float("--duration", 0.0, strict=True), default=None,
+    v.add_argument("--speed-hz", type=finite_float("--speed-hz", 0.0, strict=True), default=None)
+    v.add_argument("--duration", type=finite_float("--duration", 0.0, strict=True), default=None,
                    help="simulated time after the transient [s]")
-    v.add_argument("--improvement", default=None, choices=("nde", "consistent", "full", "parametric", "hbm"),
-                   help="also evaluate this improvement of BKA-BEM (see docs/validation.md)")
+    v.add_argument("--improvement", default=None, choices=("hill", "paper", "four_dof", "hbm", "none"),
+                   help="also evaluate this variant of BKA-BEM (default hill: the improved method; "
+                        "docs/validation.md)")
+    v.add_argument("--max-step-us", type=finite_float("--max-step-us", 0.0, strict=True), default=None,
+                   help="largest TDSM step [us] (default: the TDSM's rule)")
     v.add_argument("--json", action="store_true")
     v.add_argument("--png")
     v.set_defaults(func=cmd_validate)
-
-    try:
-        from .synth_cli import add_synth_arguments, synth_main
-    except ImportError:
-        pass
-    else:
-        y = sub.add_parser("synth", help="synthesise sensor waveforms under a speed profile")
-        add_case(y)
-        add_synth_arguments(y)
-        y.set_defaults(func=synth_main)
 
     d = sub.add_parser("demo", help="the main job: core tables and figures, then the ROS 2 node run-up recorded "
                                     "to MCAP and Rerun")
     add_case(d)
     d.add_argument("--out", default="out/demo", help="folder for the core figures (default out/demo)")
-    d.add_argument("--speeds", type=_finite_float("--speeds", 0.0), nargs="+", default=[10.0, 25.0, 50.0],
+    d.add_argument("--speeds", type=finite_float("--speeds", 0.0), nargs="+", default=[10.0, 25.0, 50.0],
                    help="shaft speeds [Hz] for the spectrum tables")
     d.add_argument("--recordings", default="recordings", help="folder for demo.mcap and demo.rrd")
-    from bkabem_ros.demo import add_run_up_arguments    # options only; rclpy is imported when it runs
+    from .demo import add_run_up_arguments    # options only; rclpy is imported when it runs
 
     add_run_up_arguments(d)
     d.add_argument("--no-ros", action="store_true", help="core part only (no ROS 2 node run)")
     d.set_defaults(func=cmd_demo)
-
-    try:
-        from bkabem_ros.cli import add_ros_commands
-    except ImportError:
-        pass
-    else:
-        add_ros_commands(sub, add_case)
-    return p
-
-
-def run_args(args) -> int:
-    """Run a parsed command with the error contract: bad input -> one line on stderr, exit code 2."""
-    from .case import CaseError
-
-    try:
-        return int(args.func(args) or 0)
-    except (UsageError, CaseError) as exc:
-        sys.stderr.write(f"bkabem {args.command}: error: {exc}\n")
-        return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        sys.stderr.write(f"bkabem {args.command}: interrupted\n")
-        return 130
-    except BrokenPipeError:
-        return 0
-
-
-def run_subcommand(name: str, add_parser, argv=None) -> int:
-    """``python -m <module> ARGS`` = ``bkabem <name> ARGS`` for a module that registers one subcommand."""
-    parser = _Parser(prog="bkabem")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    add_parser(sub)
-    return run_args(parser.parse_args([name, *(sys.argv[1:] if argv is None else argv)]))
-
-
-def main(argv=None) -> int:
-    return run_args(build_parser().parse_args(argv))
-
-
-if __name__ == "__main__":
-    # run the imported module, not this __main__ copy: UsageError raised by other modules is that module's class
-    from bkabem_core.cli import main as _main
-
-    sys.exit(_main())

@@ -15,7 +15,8 @@ multipliers, seed) and the synthesiser's method. Written chunk by chunk: memory 
 ``.csv``: ``# metadata: {json}`` comment line, then a header ``time_s,speed_hz,<channel>_<unit>...`` (units in the
 column names: ``m_s2``, ``m``, ``mm_s``) and one row per sample.
 
-Bad input: one line on stderr naming the argument and the reason, exit code 2.
+Bad input: one line on stderr naming the argument and the reason, exit code 2 (the contract of
+:mod:`bkabem_ros.cli_base`: this module raises, the command line reports).
 """
 
 from __future__ import annotations
@@ -30,9 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .synth import SynthError, Synthesizer, parse_profile
+from bkabem_core.synth import SynthError, Synthesizer, parse_profile
 
-EXIT_BAD_INPUT = 2
+from .cli_base import UsageError
 _UNIT_SUFFIX = {"m/s^2": "m_s2", "m": "m", "mm/s": "mm_s"}
 FEATURE_NAMES = ("mean", "rms", "peak", "peak_to_peak", "crest_factor", "kurtosis")
 
@@ -225,18 +226,14 @@ def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_
 
 def synth_main(args) -> int:
     """The ``bkabem synth`` command for an argparse Namespace; returns the exit code."""
-    from .case import Case, CaseError
-    from .harmonic import BkaBem
+    from bkabem_core.case import Case
+    from bkabem_core.harmonic import BkaBem
 
     try:
         st = _settings(args)
-        case = Case.load(getattr(args, "case", None))
     except SynthError as exc:
-        sys.stderr.write(f"bkabem synth: error: {_rename(exc)}\n")
-        return EXIT_BAD_INPUT
-    except CaseError as exc:
-        sys.stderr.write(f"bkabem synth: error: {exc}\n")
-        return EXIT_BAD_INPUT
+        raise UsageError(str(_rename(exc))) from None
+    case = Case.load(getattr(args, "case", None))
     t_start = time.perf_counter()
     model = BkaBem(case)
     t_model = time.perf_counter() - t_start
@@ -247,8 +244,7 @@ def synth_main(args) -> int:
                             spectrum=args.spectrum, dtype=np.float64 if args.float64 else np.float32)
         chunks = synth.render(st["profile"], st["seconds"])
     except SynthError as exc:
-        sys.stderr.write(f"bkabem synth: error: {_rename(exc)}\n")
-        return EXIT_BAD_INPUT
+        raise UsageError(str(_rename(exc))) from None
     fs = synth.sample_rate_hz
     n_total = int(round(st["seconds"] * fs))
     out = st["out"]
@@ -287,8 +283,7 @@ def synth_main(args) -> int:
             if bar is not None:
                 bar.update(ch.n_samples)
     except SynthError as exc:
-        sys.stderr.write(f"bkabem synth: error: {_rename(exc)}\n")
-        return EXIT_BAD_INPUT
+        raise UsageError(str(_rename(exc))) from None
     finally:
         if bar is not None:
             bar.close()
@@ -326,11 +321,19 @@ def synth_main(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    """Standalone entry: ``python -m bkabem_core.synth_cli --profile ... --out ...``."""
-    p = argparse.ArgumentParser(prog="bkabem synth", description="synthesise sensor waveforms under a speed profile")
+def add_parser(sub):
+    """Register ``bkabem synth`` on an argparse subparsers object."""
+    p = sub.add_parser("synth", help="synthesise sensor waveforms under a speed profile")
     add_synth_arguments(p, with_case=True)
-    return synth_main(p.parse_args(argv))
+    p.set_defaults(func=synth_main)
+    return p
+
+
+def main(argv=None) -> int:
+    """Standalone entry: ``python -m bkabem_ros.synth_cli --profile ... --out ...`` = ``bkabem synth ...``."""
+    from .cli_base import subcommand_main
+
+    return subcommand_main("synth", add_parser, argv)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,7 @@
+"""``python -m bkabem_ros ...`` = ``bkabem ...``."""
+
+import sys
+
+from bkabem_ros.main import main
+
+sys.exit(main())
