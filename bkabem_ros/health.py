@@ -104,9 +104,12 @@ def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], i
     for q, sp in h.get("spectra", {}).items():
         line = (f"- model {q} spectrum at {sp['shaft_hz']:.2f} Hz shaft: BPFO {sp['bpfo']:.2f} Hz, orders "
                 f"{sp['orders'][0]}-{sp['orders'][1]}, drawn to {sp['shown_to_hz'] / 1e3:.2f} kHz")
-        if np.any(sp["static"]):
+        static = np.asarray(sp["static"], dtype=np.float64)
+        if np.any(static):
+            big = float(np.abs(static).max())
             line += "; static part (order 0, not drawn): " + ", ".join(
-                f"{ch} {v:.3g} {sp['unit']}" for ch, v in zip(sp["names"], sp["static"]))
+                f"{ch} {(v if abs(v) > 1e-6 * big else 0.0):.3g} {sp['unit']}"      # round-off shown as 0
+                for ch, v in zip(sp["names"], static))
         out.append(line)
     lines = h.get("lines") or run_lines
     if lines:

@@ -223,19 +223,20 @@ class HeadlessViewer:
                     if v.get("ContainerBlueprint", {}).get("container_kind") == "Tabs"] or [1])
 
     def shoot_every_view(self, settle: int = 2):
-        """{view name: (View, PNG)} of every view of the blueprint, tab by tab (each tab pass
-        waits until the window's screenshot is stable, then shoots each view ``settle`` times
-        until stable); the first tabs are active again afterwards."""
+        """{view name: (View, PNG)} of every view of the blueprint, tab by tab (after a tab
+        switch the first view is shot until two shots agree, the others until ``settle`` agree);
+        the first tabs are active again afterwards."""
         out = {}
         n = self.tab_count()
         for i in range(n):
             if n > 1:
                 self.show_tab(i)
-            self.screenshot(settle=max(settle, 2))          # until the newly shown views have loaded
+                self.client.take_screenshot()               # one frame: the viewer applies the new blueprint
             hidden = self.hidden_views()
-            for view in self.views():
-                if view.name not in out and str(view.view_id) not in hidden:
-                    out[view.name] = (view, self.screenshot(view.view_id, settle=settle))
+            todo = [v for v in self.views() if v.name not in out and str(v.view_id) not in hidden]
+            for k, view in enumerate(todo):
+                # the first shot after a tab switch waits until the newly shown views have loaded
+                out[view.name] = (view, self.screenshot(view.view_id, settle=max(settle, 2) if k == 0 else settle))
         if n > 1:
             self.show_tab(0)
         return out

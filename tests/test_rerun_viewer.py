@@ -43,7 +43,7 @@ def example_rrd(tmp_path_factory):
 
 
 def test_every_view_exists_without_error_and_shows_data(example_rrd):
-    with HeadlessViewer(window_size=(1280, 800)) as v:
+    with HeadlessViewer(window_size=(1024, 640)) as v:       # small: each frame is software-rendered
         st = v.open(example_rrd)
         # opens on the latest data (following), not at t = 0
         rec = st.recordings[0]
