@@ -31,7 +31,7 @@ import numpy as np
 
 from .rerun_io import TIMELINE, rerun_binary
 
-__all__ = ["HeadlessViewer", "ViewStats", "view_statistics", "main"]
+__all__ = ["HeadlessViewer", "ViewStats", "listening_addresses", "main", "view_statistics"]
 
 #: Window size of the headless viewer (logical points) for the screenshots.
 WINDOW_SIZE = (1920, 1080)
@@ -47,6 +47,23 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def listening_addresses(port: int) -> list[str]:
+    """Local addresses listening on TCP ``port``, as /proc/net/tcp{,6} writes them (127.0.0.1 is
+    ``0100007F``): the tests check that a viewer listens on the loopback address only."""
+    out = []
+    for name in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            lines = Path(name).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            parts = line.split()
+            addr, p = parts[1].split(":")
+            if int(p, 16) == port and parts[3] == "0A":       # 0A = LISTEN
+                out.append(addr)
+    return out
 
 
 def lavapipe_available() -> bool:

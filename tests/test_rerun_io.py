@@ -23,6 +23,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from bkabem_ros import mcap_io, msgs, rerun_io  # noqa: E402
+from bkabem_ros.rerun_viewer import listening_addresses as _listening  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 T0 = 1_700_000_000_000_000_000
@@ -300,20 +301,6 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _listening(port: int) -> list[str]:
-    """Local addresses listening on ``port`` (from /proc/net/tcp{,6})."""
-    out = []
-    for name in ("/proc/net/tcp", "/proc/net/tcp6"):
-        try:
-            lines = Path(name).read_text().splitlines()[1:]
-        except OSError:
-            continue
-        for line in lines:
-            parts = line.split()
-            addr, p = parts[1].split(":")
-            if int(p, 16) == port and parts[3] == "0A":       # 0A = LISTEN
-                out.append(addr)
-    return out
 
 
 def test_stream_to_viewer_bound_to_localhost(tmp_path):

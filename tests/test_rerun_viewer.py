@@ -22,7 +22,12 @@ import pytest  # noqa: E402
 
 from bkabem_ros import replay, rerun_io  # noqa: E402
 from bkabem_ros.rerun_blueprint import view_names  # noqa: E402
-from bkabem_ros.rerun_viewer import HeadlessViewer, lavapipe_available, view_statistics  # noqa: E402
+from bkabem_ros.rerun_viewer import (  # noqa: E402
+    HeadlessViewer,
+    lavapipe_available,
+    listening_addresses,
+    view_statistics,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "recordings" / "example_runup.mcap"
@@ -44,6 +49,7 @@ def example_rrd(tmp_path_factory):
 
 def test_every_view_exists_without_error_and_shows_data(example_rrd):
     with HeadlessViewer(window_size=(1024, 640)) as v:       # small: each frame is software-rendered
+        assert listening_addresses(v.port) == ["0100007F"]   # 127.0.0.1 only
         st = v.open(example_rrd)
         # opens on the latest data (following), not at t = 0
         rec = st.recordings[0]
