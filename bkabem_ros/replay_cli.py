@@ -84,7 +84,7 @@ def main(args) -> int:
             if not out.parent.is_dir():
                 raise UsageError(f"--rerun-save: directory {out.parent} does not exist")
         logger = RerunLogger("bkabem", recording_id=path.stem, save_path=args.rerun_save,
-                             connect_url=args.rerun_connect)
+                             connect_url=args.rerun_connect, optimize=True)
     try:
         stats = rp.replay(path, rate=args.rate, loop=args.loop, start_offset_s=args.start_offset,
                           remap=remap, topics=args.topics, clock=args.clock is not None,
@@ -100,6 +100,8 @@ def main(args) -> int:
     if logger is not None:
         where = args.rerun_save or args.rerun_connect
         say(f"logged {stats.logged} messages ({logger.samples_logged} waveform samples) to {where}")
+        if getattr(logger, "optimize_error", None):
+            print(f"bkabem replay: warning: {args.rerun_save} left as written: {logger.optimize_error}", file=sys.stderr)
         if args.rerun_save:
             say(f"open it with: .venv/bin/rerun {args.rerun_save}")
     return 0
