@@ -10,7 +10,7 @@ STAMP  := $(VENV)/.bkabem-installed
 # tiny matrices: one BLAS thread is faster and does not thrash 2-core machines
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: all install ros demo test bench clean help
+.PHONY: all install ros viewer demo test bench screenshots clean help
 
 all: test
 
@@ -18,6 +18,7 @@ help:
 	@echo "make demo    - install everything into $(VENV) and run the main job on the embedded case"
 	@echo "make test    - install everything into $(VENV) and run the tests"
 	@echo "make bench   - run the benchmarks (results: BENCHMARKS.md)"
+	@echo "make screenshots - run the demo and regenerate the Rerun viewer screenshots in docs/img"
 
 $(BIN)/python:
 	$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "bkabem needs CPython 3.11 (ROS 2 Kilted wheels are cp311)"'
@@ -31,13 +32,20 @@ $(STAMP): pyproject.toml setup.py bkabem_core/*.c | $(BIN)/python
 ros: $(STAMP)
 	bash tools/setup_ros.sh $(VENV)
 
-install: $(STAMP) ros
+# software Vulkan (Mesa lavapipe) for the headless Rerun viewer of the tests and screenshots
+viewer:
+	bash tools/setup_viewer.sh
+
+install: $(STAMP) ros viewer
 
 demo: install
 	$(BIN)/bkabem demo
 
 test: install
 	$(BIN)/python -m pytest
+
+screenshots: install
+	$(BIN)/python -m bkabem_ros.rerun_viewer --docs docs/img
 
 bench: install
 	$(BIN)/python bench/bench_core.py

@@ -14,8 +14,8 @@ ROS 2 graph, so ``bkabem echo`` / ``bkabem record`` in another shell see them):
    run-up from 0 to ``top_hz`` in ``ramp_s``, then ``hold_s`` at ``top_hz``;
 4. prints progress every 2 s and a summary: shaft speed, BPFO, and per bearing (DE, NDE) the RMS
    acceleration of the last chunk and the ISO 10816/20816 velocity RMS (10-1000 Hz, mm/s) of the
-   last second, computed from the published waveforms (these per-second values also go to Rerun
-   as features);
+   last second, computed from the published waveforms (the Rerun logger computes the same per
+   second from the waveforms it logs, with the zone limits and the envelope spectrum);
 5. ends with the command that opens the result in the viewer.
 """
 
@@ -31,26 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .condition import iso_velocity_rms_mm_s
+
 __all__ = ["DemoResult", "iso_velocity_rms_mm_s", "main", "run_demo"]
 
 TWO_PI = 2.0 * math.pi
-
-
-def iso_velocity_rms_mm_s(acc_m_s2: np.ndarray, sample_rate_hz: float,
-                          band_hz: tuple[float, float] = (10.0, 1000.0)) -> float:
-    """RMS vibration velocity (mm/s) in ``band_hz`` from an acceleration record (m/s^2), the
-    ISO 10816 / 20816 severity measure: one-sided spectrum, divide by j*2*pi*f, Parseval."""
-    a = np.asarray(acc_m_s2, dtype=np.float64)
-    n = a.size
-    if n < 8:
-        return float("nan")
-    spec = np.fft.rfft(a - a.mean())
-    f = np.fft.rfftfreq(n, 1.0 / sample_rate_hz)
-    keep = (f >= band_hz[0]) & (f <= band_hz[1])
-    v = spec[keep] / (1j * TWO_PI * f[keep])
-    # Parseval for a one-sided spectrum: mean square = 2 * sum |X_k|^2 / n^2 (no DC / Nyquist here)
-    ms = 2.0 * np.sum(np.abs(v) ** 2) / n**2
-    return float(np.sqrt(ms) * 1e3)
 
 
 class _Summary:
@@ -66,8 +51,6 @@ class _Summary:
         self.acc: dict[str, deque] = {}
         self.sample_rate = 0.0
         self.last_stamp = 0
-        self.rerun_logger = None
-        self._next_feature_ns = 0
 
     def __call__(self, topic, type_name, msg, stamp_ns):
         self.counts[topic] = self.counts.get(topic, 0) + 1
@@ -89,13 +72,6 @@ class _Summary:
             while len(buf) > keep:
                 buf.popleft()
             self.last_stamp = stamp_ns
-            if self.rerun_logger is not None and loc == "nde" and stamp_ns >= self._next_feature_ns:
-                self._next_feature_ns = stamp_ns + int(self.window_s * 1e9)
-                for b in self.acc:
-                    iso = self.iso(b)
-                    self.rerun_logger.log_features(b, stamp_ns, {
-                        f"iso_velocity_rms_{c}_mm_s": iso[i] for i, c in enumerate(("vertical", "horizontal"))
-                        if i < len(iso)})
 
     def iso(self, loc: str) -> list[float]:
         buf = self.acc.get(loc)
@@ -189,9 +165,7 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
         summary = _Summary()
         node.add_sink(summary)
         attached = attach_sinks(node, record=mcap, rerun_save=rrd, rerun_connect=rerun_connect,
-                                recording_id="bkabem-demo")
-        if attached.rerun is not None:
-            summary.rerun_logger = attached.rerun.logger
+                                recording_id="bkabem-demo", rerun_optimize=True)
         speed_node = rclpy.create_node("bkabem_demo_speed", context=ctx)
         pub = speed_node.create_publisher(Float64, "speed", 10)
         t_start = [None]
@@ -230,6 +204,8 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
                 err = getattr(s, "error", None)
                 if err is not None:
                     result.errors.append(str(err))
+            if attached.rerun is not None and attached.rerun.logger.optimize_error:
+                say(f"warning: {rrd} left as written: {attached.rerun.logger.optimize_error}")
         if speed_node is not None:
             speed_node.destroy_node()
         if node is not None:

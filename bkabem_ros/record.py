@@ -220,7 +220,7 @@ def _speed_unit(node) -> str:
 def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
                  chunk_size_bytes: int = 1 << 20, chunk_duration_s: float = 1.0,
                  rotate_size_bytes: int | None = None, rotate_duration_s: float | None = None,
-                 recording_id: str | None = None) -> AttachedSinks:
+                 recording_id: str | None = None, rerun_optimize: bool = False) -> AttachedSinks:
     """Attach an MCAP recorder and/or a Rerun logger to a running bkabem node.
 
     ``node`` is a :class:`bkabem_ros.node.VibrationNode` (anything with ``add_sink`` /
@@ -230,7 +230,8 @@ def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
     ``run(..., on_node=lambda n: attach_sinks(n, record=...))``.
 
     A recording error (unwritable path, disk full) is logged once by the node's logger; the node
-    keeps publishing.
+    keeps publishing. ``rerun_optimize``: compact the ``.rrd``'s chunks when detaching (see
+    :class:`~bkabem_ros.rerun_io.RerunLogger`).
 
     Returns
     -------
@@ -270,7 +271,7 @@ def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
 
         try:
             logger = rerun_io.RerunLogger("bkabem", recording_id=recording_id, save_path=rerun_save,
-                                          connect_url=rerun_connect)
+                                          connect_url=rerun_connect, optimize=rerun_optimize)
         except Exception as exc:  # noqa: BLE001 - bad path/URL: keep publishing
             log.error(f"Rerun output not started: {type(exc).__name__}: {exc}")
         else:

@@ -111,7 +111,7 @@ def main(args) -> int:
 
         with _rerun_errors(args):
             logger = RerunLogger("bkabem", recording_id=path.stem, save_path=args.rerun_save,
-                                 connect_url=args.rerun_connect)
+                                 connect_url=args.rerun_connect, optimize=True)
     with _rerun_errors(args):
         try:
             stats = rp.replay(path, rate=args.rate, loop=args.loop, start_offset_s=args.start_offset,
@@ -129,6 +129,8 @@ def main(args) -> int:
     if logger is not None:
         where = args.rerun_save or args.rerun_connect
         say(f"logged {stats.logged} messages ({logger.samples_logged} waveform samples) to {where}")
+        if getattr(logger, "optimize_error", None):
+            print(f"bkabem replay: warning: {args.rerun_save} left as written: {logger.optimize_error}", file=sys.stderr)
         if args.rerun_save:
             say(f"open it with: .venv/bin/rerun {args.rerun_save}")
     if stats.damage:

@@ -1,22 +1,35 @@
 """Stream bkabem messages to the Rerun viewer or into an ``.rrd`` file (rerun-sdk 0.41).
 
-Entities (units in the series names; all on the ``sample_time`` duration timeline, seconds
-since the first stamp the logger saw, :attr:`RerunLogger.t0_ns`):
+The messages are SI; the viewer shows engineers' units, named in every series and view
+(:data:`bkabem_ros.rerun_blueprint.DISPLAY_UNITS`: m/s², µm, mm/s). Everything is on the
+``sample_time`` duration timeline, seconds since the first stamp the logger saw
+(:attr:`RerunLogger.t0_ns`). Entities, ``<loc>`` = ``de`` / ``nde``:
 
-==========================================  ===========================================
-``/<loc>/<quantity>/<channel>``             waveform samples, ``send_columns`` per block
-                                            (sample ``i`` at ``header.stamp + i / sample_rate``)
-``/<loc>/features/<quantity>_rms``         RMS of each block, one series per channel
-``/<loc>/features/<quantity>_peak``        max abs of each block, one series per channel
-``/<loc>/features/<name>``                  per-chunk features given to :meth:`log_features`
-``/<loc>/spectrum/<quantity>/<channel>``    ``BarChart`` of line amplitudes, abscissa in Hz
-``/<loc>/spectrum/<quantity>/bpfo_orders``  ``BarChart`` markers at k x BPFO (k = 1, 2, ...)
-``/speed/shaft_hz``                         shaft speed [Hz]
-``/fault_frequencies/{ftf,bpfo,bpfi,bsf}_hz`` characteristic frequencies [Hz]
-==========================================  ===========================================
+=============================================  ================================================
+``/<loc>/<quantity>``                          every sample: one row per sample, one float32 per
+                                               channel (vertical, horizontal) in the component
+                                               ``VibrationWaveform:samples``, min/max aggregation;
+                                               ``send_columns`` per 0.5 s
+``/<loc>/overview/<quantity>``                 per block: max and min per channel (not for
+                                               displacement), the whole-run overview
+``/<loc>/overview/<quantity>/rms``             per block: RMS per channel
+``/<loc>/trend/displacement``                  per block: peak-to-peak per channel [µm]
+``/<loc>/iso_velocity``                        per condition window (1 s): ISO 10816/20816
+                                               velocity RMS 10-1000 Hz per channel [mm/s]
+``/<loc>/iso_velocity/zones``                  the zone limits A/B, B/C, C/D [mm/s]
+``/<loc>/trend/impulsiveness``                 per window: kurtosis and crest factor [-]
+``/<loc>/envelope/<channel>``                  per window: envelope spectrum (``BarChart``, Hz)
+``/<loc>/spectrum/<quantity>/<channel>``       order spectrum of the model, lines k >= 1
+``/<loc>/{envelope,spectrum/<q>}/markers/<L>`` fault-frequency markers, one entity per line L
+``/<loc>/health``                              ``TextDocument``: zone, impulsiveness, envelope
+                                               finding, static displacement, ground truth
+``/speed/shaft_hz``, ``/speed/shaft_hz_waveform``  shaft speed input / used per chunk [Hz]
+``/fault_frequencies``                         1x, FTF, BPFO, BPFI, BSF, 2xBSF [Hz]
+=============================================  ================================================
 
-``<loc>`` is ``de`` / ``nde``. :func:`blueprint` lays these out: DE and NDE side by side
-(waveforms, spectra, features) above a speed / fault-frequency plot.
+The condition window (:mod:`bkabem_ros.condition`) collects the acceleration of each bearing
+for ``condition_window_s`` and logs its results at the window's end. Markers come from the
+defects and fault-frequency lines of the recording (:mod:`bkabem_ros.fault_lines`).
 
 Nothing here listens on a port: :class:`RerunLogger` either writes a file or connects to a
 viewer (default ``rerun+http://127.0.0.1:9876/proxy``, i.e. ``rerun`` started on this machine,
@@ -31,17 +44,40 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from . import msgs
+from . import condition, fault_lines, health, msgs
+from .rerun_blueprint import DISPLAY_UNITS, TIMELINE, blueprint
 
-__all__ = ["DEFAULT_CONNECT_URL", "RerunLogger", "RerunSink", "blueprint", "rerun_binary"]
+__all__ = ["DEFAULT_CONNECT_URL", "TIMELINE", "RerunLogger", "RerunSink", "blueprint", "rerun_binary"]
 
 #: Viewer address used by ``--rerun-connect`` without a URL (the local viewer's gRPC proxy).
 DEFAULT_CONNECT_URL = "rerun+http://127.0.0.1:9876/proxy"
-TIMELINE = "sample_time"
 
 _CHANNEL_COLORS = {"vertical": (31, 119, 180), "horizontal": (255, 127, 14)}
+_LIGHT_COLORS = {"vertical": (150, 200, 240), "horizontal": (255, 200, 140)}
 _FALLBACK_COLORS = [(44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75)]
-_MARKER_COLOR = (150, 150, 150, 110)
+_ZONE_COLORS = [(120, 200, 80), (240, 200, 40), (230, 60, 50)]
+_SPEED_COLOR = (255, 190, 90)          # light amber: visible on the dark theme
+_SPEED_WAVEFORM_COLOR = (120, 180, 255)
+#: Order-spectrum lines below this fraction of the largest, past the last one above, are not drawn.
+LINE_DISPLAY_FLOOR = 0.01
+#: Scalar rows (trends, speed) are sent in column chunks of this much sample time [s].
+SCALAR_BATCH_S = 1.0
+#: Component holding the waveform samples (float32, one per channel and row).
+SAMPLES_COMPONENT = "VibrationWaveform:samples"
+#: Waveform samples are sent in column chunks of this much sample time [s] (the live viewer
+#: shows them up to that much later; fewer, larger chunks cost less per sample: 0.1 s chunks
+#: cost ~25 % more).
+WAVEFORM_BATCH_S = 0.5
+#: Bars per channel of an envelope spectrum (peak hold over groups of bins beyond that): a bar
+#: narrower than a pixel is not drawn.
+ENVELOPE_BARS = 200
+#: Markers are bars below the zero line (so they never hide a line), this fraction of the
+#: spectrum's top deep and this fraction of the shown range wide.
+MARKER_DEPTH = 0.12
+MARKER_WIDTH = 0.008
+#: Marker bars are re-logged when a frequency moves by more than this fraction or the height
+#: (the spectrum's top) by more than 15 %: in a steady state they cost nothing.
+_MARKER_TOLERANCE = 0.003
 
 
 def rerun_binary() -> str:
@@ -54,32 +90,62 @@ def rerun_binary() -> str:
     return os.path.join(os.path.dirname(rerun_cli.__file__), "rerun")
 
 
-def blueprint(locations=("de", "nde"), quantities=("acceleration", "displacement"),
-              window_s: float = 0.25):
-    """Default viewer layout: one column per bearing location (DE left, NDE right), each with
-    tabs of waveforms (the last ``window_s`` seconds before the time cursor) per quantity, then
-    spectra with BPFO-order markers, then per-block features; below both, speed and fault
-    frequencies over the whole run."""
-    import rerun.blueprint as rrb  # noqa: PLC0415
+def optimize_rrd(path) -> str | None:
+    """Compact the chunks of an ``.rrd`` in place with ``rerun rrd optimize`` (the SDK writes one
+    chunk per send; the viewer loads fewer, larger chunks faster). Returns None, or why the
+    file was left as written."""
+    import os  # noqa: PLC0415
+    import subprocess  # noqa: PLC0415
 
-    window = rrb.VisibleTimeRange(TIMELINE,
-                                  start=rrb.TimeRangeBoundary.cursor_relative(seconds=-window_s),
-                                  end=rrb.TimeRangeBoundary.cursor_relative())
-    columns = []
-    for loc in locations:
-        name = loc.upper()
-        waves = rrb.Tabs(*[rrb.TimeSeriesView(origin=f"/{loc}/{q}", name=f"{name} {q} [{msgs.SI_UNITS[q]}]",
-                                              time_ranges=[window])
-                           for q in quantities], name=f"{name} waveforms")
-        spectra = rrb.Tabs(*[rrb.BarChartView(origin=f"/{loc}/spectrum/{q}",
-                                              name=f"{name} {q} spectrum [{msgs.SI_UNITS[q]}] vs Hz")
-                             for q in quantities], name=f"{name} spectra")
-        feats = rrb.TimeSeriesView(origin=f"/{loc}/features", name=f"{name} per-block features")
-        columns.append(rrb.Vertical(waves, spectra, feats, row_shares=[3, 3, 2], name=name))
-    speed = rrb.TimeSeriesView(origin="/", contents=["/speed/**", "/fault_frequencies/bpfo_hz"],
-                               name="shaft speed and BPFO [Hz]")
-    return rrb.Blueprint(rrb.Vertical(rrb.Horizontal(*columns), speed, row_shares=[4, 1]),
-                         collapse_panels=True)
+    path = str(path)
+    tmp = path + ".optimizing.rrd"
+    try:
+        size = os.path.getsize(path)
+        r = subprocess.run([rerun_binary(), "rrd", "optimize", path, "-o", tmp], capture_output=True, text=True,
+                           timeout=60 + size / 5e6, stdin=subprocess.DEVNULL)
+        if r.returncode != 0 or not os.path.exists(tmp):
+            return f"rerun rrd optimize failed ({r.returncode}): {r.stderr.strip()[-300:]}"
+        os.replace(tmp, path)
+        return None
+    except (OSError, subprocess.SubprocessError) as exc:
+        return f"rerun rrd optimize: {type(exc).__name__}: {exc}"
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def _peak_hold(f: np.ndarray, amp: np.ndarray, bars: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """At most ``bars`` bars: groups of adjacent bins, each bar the largest amplitude of its group
+    (so no line loses height) at the group's centre. Returns (freq, amp, bins per group)."""
+    g = max(1, math.ceil(f.size / bars))
+    if g == 1:
+        return f, amp, 1
+    m = f.size // g * g
+    fg = f[:m].reshape(-1, g).mean(axis=1)
+    ag = amp[:, :m].reshape(amp.shape[0], -1, g).max(axis=2)
+    return fg, ag, g
+
+
+def _display(quantity: str, unit: str) -> tuple[str, float]:
+    """(unit shown, factor) for data in ``unit``: SI is converted, anything else shown as is."""
+    if unit == msgs.SI_UNITS.get(quantity) and quantity in DISPLAY_UNITS:
+        return DISPLAY_UNITS[quantity]
+    return unit, 1.0
+
+
+class _Window:
+    """Acceleration of one bearing collected for the condition window."""
+
+    def __init__(self):
+        self.blocks: list[np.ndarray] = []
+        self.n = 0
+        self.fs = 0.0
+        self.next_index: int | None = None
+        self.names: list[str] = []
+        self.speeds: list[float] = []
+
+    def reset(self) -> None:
+        self.blocks, self.n, self.speeds = [], 0, []
 
 
 class RerunLogger:
@@ -98,17 +164,36 @@ class RerunLogger:
     with_blueprint : bool
         Send :func:`blueprint` as the default layout.
     max_spectrum_rate_hz : float
-        Spectra per second (sample time) logged per location and quantity; the node sends one
-        per chunk while the speed changes, and a bar chart costs ~3 ms to log. 0: all.
+        Order spectra per second (sample time) logged per location and quantity; the node sends
+        one per chunk while the speed changes. 0: all.
+    condition_window_s : float
+        Length of the acceleration window for ISO velocity, kurtosis, crest factor and the
+        envelope spectrum [s] (1 s: 1 Hz envelope resolution).
+    envelope_band_hz : (float, float), optional
+        Envelope band-pass [Hz]; default :func:`bkabem_ros.condition.default_envelope_band`
+        (1 kHz to min(10 kHz, 0.4 fs)).
+    iso_zones : str
+        Key of :data:`bkabem_ros.condition.ISO_ZONE_SETS` for the zone limits.
+    optimize : bool
+        After :meth:`close`, compact the ``.rrd``'s chunks (``rerun rrd optimize``: ~7x fewer,
+        larger chunks, a few % smaller; ~35 ms of CPU per recorded second at 51.2 kHz x 8
+        channels, so off for a long-running node; ``bkabem replay --rerun-save`` and the demo
+        turn it on).
 
     Without ``save_path`` and ``connect_url`` the data is kept in memory (tests).
     """
 
     def __init__(self, app_id: str = "bkabem", recording_id: str | None = None, save_path=None,
                  connect_url: str | None = None, *, with_blueprint: bool = True,
-                 max_spectrum_rate_hz: float = 2.0):
+                 max_spectrum_rate_hz: float = 2.0, condition_window_s: float = 1.0,
+                 envelope_band_hz: tuple[float, float] | None = None,
+                 iso_zones: str = condition.DEFAULT_ISO_ZONES, optimize: bool = False):
         import rerun as rr  # noqa: PLC0415
 
+        if iso_zones not in condition.ISO_ZONE_SETS:
+            raise ValueError(f"iso_zones: {iso_zones!r} is not one of {', '.join(condition.ISO_ZONE_SETS)}")
+        if not condition_window_s > 0:
+            raise ValueError(f"condition_window_s: {condition_window_s} must be > 0")
         self._rr = rr
         self.rec = rr.RecordingStream(app_id, recording_id=recording_id)
         # one timeline only: the data's own time (log_time would be the conversion's wall clock)
@@ -134,16 +219,31 @@ class RerunLogger:
             if bp is not None:
                 self.rec.send_blueprint(bp)
         self.t0_ns: int | None = None
-        self._static_done: set[str] = set()
-        self._lock = threading.Lock()
-        self._bpfo_hz: float | None = None
-        self._speed_stream: tuple[str, str] | None = None
-        self._last_spectrum: dict[tuple[str, str], int] = {}
         self.max_spectrum_rate_hz = float(max_spectrum_rate_hz)
+        self.condition_window_s = float(condition_window_s)
+        self.envelope_band_hz = envelope_band_hz
+        self.iso_zones = iso_zones
+        self.optimize = bool(optimize)
+        self.optimize_error: str | None = None
         self.samples_logged = 0
         self.closed = False
+        self._static_done: set[str] = set()
+        self._lock = threading.Lock()
+        self._speed_stream: tuple[str, str] | None = None
+        self._last_spectrum: dict[tuple[str, str], int] = {}
+        self._markers: dict[str, tuple[tuple[float, ...], float]] = {}
+        self._windows: dict[str, _Window] = {}
+        # the run's fault-frequency lines at the speed `_lines_speed` [rad/s], and its defects
+        self._lines: dict[str, float] = {}
+        self._lines_speed = 0.0
+        self._defects: list[fault_lines.Defect] = []
+        self._health: dict[str, dict] = {}
+        self._rows: dict[str, tuple[list[int], list[np.ndarray]]] = {}
+        self._waves: dict[str, dict] = {}
+        self._offsets: dict[tuple[int, float], np.ndarray] = {}
+        self._bar_keys: dict[str, tuple] = {}
 
-    # ---------------------------------------------------------------- time
+    # ---------------------------------------------------------------- time and style
     def _rel_ns(self, stamp_ns: int) -> int:
         if self.t0_ns is None:
             self.t0_ns = int(stamp_ns)
@@ -152,129 +252,348 @@ class RerunLogger:
     def _at(self, stamp_ns: int) -> None:
         self.rec.set_time(TIMELINE, duration=np.timedelta64(self._rel_ns(stamp_ns), "ns"))
 
-    def _series(self, path: str, name, color=None) -> None:
-        """Static series style: ``name`` (str or one per series) and colors (one or a list)."""
+    def _series(self, path: str, names, colors, *, minmax: bool = False, widths=None) -> None:
+        """Static series style of ``path``: one name and colour per scalar of its rows."""
         if path in self._static_done:
             return
-        rr = self._rr
-        kwargs = {"names": name}
-        if color is not None:
-            kwargs["colors"] = color if isinstance(color, list) else [color]
-        self.rec.log(path, rr.SeriesLines(**kwargs), static=True)
+        kwargs = {"names": list(names), "colors": list(colors)}
+        if minmax:
+            kwargs["aggregation_policy"] = "minmax"
+        if widths is not None:
+            kwargs["widths"] = list(widths)
+        self.rec.log(path, self._rr.SeriesLines(**kwargs), static=True)
         self._static_done.add(path)
 
-    def _scalar(self, path: str, name: str, value: float, color=None) -> None:
-        self._series(path, name, color)
-        self.rec.log(path, self._rr.Scalars(float(value)))
+    def _scalars(self, path: str, values, stamp_ns: int, *, batch: bool = True) -> None:
+        """One row of scalars at ``stamp_ns``. With ``batch`` (streams of 10-50 rows per second:
+        block trends, speed) rows are collected per entity and sent as one column chunk per
+        ``SCALAR_BATCH_S`` of sample time (one ``rr.log`` per row costs ~0.1 ms; the viewer sees
+        those trends that much later); rare rows are logged at once."""
+        if not batch:
+            self._at(stamp_ns)
+            self.rec.log(path, self._rr.Scalars(np.asarray(values, dtype=np.float64)))
+            return
+        rel = self._rel_ns(stamp_ns)
+        buf = self._rows.get(path)
+        if buf is None:
+            buf = self._rows[path] = ([], [])
+        buf[0].append(rel)
+        buf[1].append(np.asarray(values, dtype=np.float64).reshape(-1))
+        if rel - buf[0][0] >= SCALAR_BATCH_S * 1e9:
+            self._send_rows(path)
+
+    def _send_rows(self, path: str) -> None:
+        times, rows = self._rows.pop(path, ([], []))
+        if not times:
+            return
+        rr = self._rr
+        self.rec.send_columns(path, indexes=[rr.TimeColumn(TIMELINE, duration=np.asarray(times, dtype="timedelta64[ns]"))],
+                              columns=rr.Scalars.columns(scalars=np.vstack(rows)))
+
+    def _samples(self, path: str, times_ns: np.ndarray, x: np.ndarray, fs: float) -> None:
+        """Waveform rows (one per sample, one float32 per channel) of ``path``, collected while
+        they follow each other and sent as one column chunk per ``WAVEFORM_BATCH_S``."""
+        buf = self._waves.get(path)
+        if buf is not None and (buf["next"] != times_ns[0] or buf["x"][0].shape[1] != x.shape[1]):
+            self._send_samples(path)                    # a gap or another layout: send what is there
+            buf = None
+        if buf is None:
+            buf = self._waves[path] = {"t": [], "x": [], "n": 0}
+        buf["t"].append(times_ns)
+        buf["x"].append(x)
+        buf["n"] += x.shape[0]
+        buf["next"] = int(times_ns[-1]) + int(round(1e9 / fs))
+        if buf["n"] >= WAVEFORM_BATCH_S * fs:
+            self._send_samples(path)
+
+    def _send_samples(self, path: str) -> None:
+        buf = self._waves.pop(path, None)
+        if not buf or not buf["n"]:
+            return
+        import pyarrow as pa  # noqa: PLC0415  (comes with rerun-sdk)
+
+        rr = self._rr
+        t = np.concatenate(buf["t"]) if len(buf["t"]) > 1 else buf["t"][0]
+        x = np.concatenate(buf["x"]) if len(buf["x"]) > 1 else buf["x"][0]
+        # float32, the message's own precision, in a component of our own (Rerun's Scalars are
+        # float64 by definition; the time-series view plots any numeric component and applies
+        # the entity's SeriesLines): 8 instead of 16 bytes per row for two channels, a third
+        # less CPU in the file encoder
+        col = rr.ComponentColumn(SAMPLES_COMPONENT, rr.AnyBatchValue(SAMPLES_COMPONENT, pa.array(x.reshape(-1))),
+                                 lengths=np.full(x.shape[0], x.shape[1], dtype=np.int32))
+        self.rec.send_columns(path, indexes=[rr.TimeColumn(TIMELINE, duration=t.view("timedelta64[ns]"))],
+                              columns=[col])
+
+    def flush_rows(self) -> None:
+        """Send every collected waveform sample and scalar row now (done by :meth:`close`)."""
+        with self._lock:
+            for path in list(self._waves):
+                self._send_samples(path)
+            for path in list(self._rows):
+                self._send_rows(path)
+
+    def _bars(self, path: str, values, abscissa, widths, color) -> None:
+        """Log a bar chart at the current time: nothing if it is the one logged last, and
+        abscissa, widths and colour only when they changed (latest-at keeps them; converting
+        each costs ~0.3-0.5 ms)."""
+        rr = self._rr
+        abscissa = np.asarray(abscissa, dtype=np.float64)
+        widths = np.asarray(widths, dtype=np.float32)
+        values = np.asarray(values, dtype=np.float64)
+        old = self._bar_keys.get(path)
+        if old is not None and old[2] == color and np.array_equal(old[0], abscissa) and np.array_equal(old[1], widths):
+            if not np.array_equal(old[3], values):    # the same chart again (steady speed): nothing to log
+                self.rec.log(path, rr.BarChart.from_fields(values=values))
+                self._bar_keys[path] = (abscissa, widths, color, values)
+            return
+        self._bar_keys[path] = (abscissa, widths, color, values)
+        self.rec.log(path, rr.BarChart(values, abscissa=abscissa, widths=widths, color=color))
 
     @staticmethod
-    def _color(channel: str, c: int):
-        return _CHANNEL_COLORS.get(channel, _FALLBACK_COLORS[c % len(_FALLBACK_COLORS)])
+    def _color(channel: str, c: int, light: bool = False):
+        table = _LIGHT_COLORS if light else _CHANNEL_COLORS
+        return table.get(channel, _FALLBACK_COLORS[c % len(_FALLBACK_COLORS)])
 
-    # ---------------------------------------------------------------- messages
+    def _lines_at(self, speed_rad_s: float) -> dict[str, float]:
+        """Fault-frequency lines scaled to ``speed_rad_s`` (they are kinematic: proportional to
+        the shaft speed), from the last fault-frequency message."""
+        if not self._lines or not self._lines_speed > 0:
+            return dict(self._lines)
+        r = speed_rad_s / self._lines_speed
+        return {k: v * r for k, v in self._lines.items()}
+
+    # ---------------------------------------------------------------- waveforms
     def log_waveform(self, msg) -> None:
-        """``VibrationWaveform``: every sample via ``send_columns`` on ``sample_time``, plus the
-        block's RMS and peak per channel and the shaft speed at its first sample."""
+        """``VibrationWaveform``: every sample via ``send_columns`` (one row per sample, one
+        scalar per channel), the block's min/max and RMS (displacement: peak-to-peak), and
+        the shaft speed at its first sample. Acceleration also feeds the condition window."""
         rr = self._rr
         a = msgs.waveform_array(msg)
         n = a.shape[1]
         if n == 0:
             return
-        loc, q, unit = msg.location, msg.quantity, msg.unit
+        loc, q = msg.location, msg.quantity
+        unit, factor = _display(q, msg.unit)
         stamp = msgs.stamp_to_ns(msg.header)
+        names = list(msg.channel_names) or [f"ch{c}" for c in range(a.shape[0])]
+        colors = [self._color(ch, c) for c, ch in enumerate(names)]
+        L = loc.upper()
         with self._lock:
             rel = self._rel_ns(stamp)
-            offs = np.round(np.arange(n, dtype=np.float64) * (1e9 / float(msg.sample_rate))).astype(np.int64)
-            times = (rel + offs).astype("timedelta64[ns]")
-            self._at(stamp)
-            names = list(msg.channel_names) or [f"ch{c}" for c in range(a.shape[0])]
-            for c, ch in enumerate(names):
-                path = f"/{loc}/{q}/{ch}"
-                self._series(path, f"{loc.upper()} {ch} {q} [{unit}]", self._color(ch, c))
-                self.rec.send_columns(path, indexes=[rr.TimeColumn(TIMELINE, duration=times)],
-                                      columns=rr.Scalars.columns(scalars=a[c].astype(np.float64)))
-            # per-block features: one entity per quantity, one series per channel
-            x = a.astype(np.float64)
-            rms = np.sqrt(np.einsum("ij,ij->i", x, x) / n)
-            peak = np.max(np.abs(x), axis=1)
-            colors = [self._color(ch, c) for c, ch in enumerate(names)]
-            for feat, vals in (("rms", rms), ("peak", peak)):
-                path = f"/{loc}/features/{q}_{feat}"
-                self._series(path, [f"{feat.upper() if feat == 'rms' else feat} {ch} {q} [{unit}]" for ch in names],
-                             colors)
-                self.rec.log(path, rr.Scalars(vals))
+            key = (n, float(msg.sample_rate))
+            offs = self._offsets.get(key)
+            if offs is None:
+                offs = self._offsets[key] = np.round(np.arange(n) * (1e9 / key[1])).astype(np.int64)
+            # (n, channels) float32 in the display unit: the message's own precision
+            x = np.ascontiguousarray(a.T) if factor == 1.0 else np.ascontiguousarray(a.T * np.float32(factor))
+            path = f"/{loc}/{q}"
+            self._series(path, [f"{L} {ch} [{unit}]" for ch in names], colors, minmax=True)
+            self._samples(path, rel + offs, x, float(msg.sample_rate))
+            hi = a.max(axis=1).astype(np.float64) * factor
+            lo = a.min(axis=1).astype(np.float64) * factor
+            if q == "displacement":
+                tr = f"/{loc}/trend/{q}"
+                self._series(tr, [f"{ch} peak-to-peak [{unit}]" for ch in names], colors)
+                self._scalars(tr, hi - lo, stamp)
+            else:                       # the whole-run overview: block min/max and RMS
+                ov = f"/{loc}/overview/{q}"
+                self._series(ov, [f"{ch} {m} [{unit}]" for ch in names for m in ("max", "min")],
+                             [self._color(ch, c, light=True) for c, ch in enumerate(names) for _ in range(2)],
+                             widths=[1.0] * 2 * len(names))
+                self._scalars(ov, np.column_stack([hi, lo]).reshape(-1), stamp)
+                self._series(f"{ov}/rms", [f"{ch} RMS [{unit}]" for ch in names], colors, widths=[2.5] * len(names))
+                self._scalars(f"{ov}/rms", np.sqrt(np.einsum("ij,ij->i", a, a, dtype=np.float64) / n) * factor, stamp)
             self.samples_logged += a.size
             if self._speed_stream is None:
                 self._speed_stream = (loc, q)
+            if q == "acceleration" and msg.unit == msgs.SI_UNITS[q]:
+                self._collect(msg, a, names, stamp)
         if self._speed_stream == (loc, q):   # one stream is enough for the speed trace
             self.log_speed(stamp, float(msg.shaft_speed), source="waveform")
 
+    def _collect(self, msg, a: np.ndarray, names: list[str], stamp: int) -> None:
+        """Add a block of acceleration to its bearing's window; at a full window, log the
+        condition results at the time of the window's last sample."""
+        w = self._windows.setdefault(msg.location, _Window())
+        fs = float(msg.sample_rate)
+        first = int(msg.first_sample_index)
+        if w.fs != fs or w.next_index != first or w.names != names:
+            w.reset()                                        # new stream, gap or other layout
+            w.fs, w.names = fs, names
+        w.next_index = first + a.shape[1]
+        w.blocks.append(a)                  # float32 view of the message; the window is float64
+        w.n += a.shape[1]
+        w.speeds.append(float(msg.shaft_speed))
+        need = max(int(round(self.condition_window_s * fs)), 16)
+        if w.n < need:
+            return
+        x = np.concatenate(w.blocks, axis=1)                # float32, SI
+        rest = x[:, need:]
+        x = x[:, :need]
+        speed = float(np.mean(w.speeds))
+        w.blocks = [rest] if rest.shape[1] else []
+        w.n = rest.shape[1]
+        w.speeds = [w.speeds[-1]] if rest.shape[1] else []
+        end = stamp + int(round((a.shape[1] - rest.shape[1] - 1) * 1e9 / fs))
+        self._log_condition(msg.location, x, fs, names, end, speed)
+
+    def _log_condition(self, loc: str, x: np.ndarray, fs: float, names: list[str], stamp: int,
+                       speed_rad_s: float) -> None:
+        rr = self._rr
+        L = loc.upper()
+        colors = [self._color(ch, c) for c, ch in enumerate(names)]
+        ws = condition.window_spectrum(x, fs)
+        iso = condition.iso_velocity_rms(x, fs, ws=ws)
+        kurt = condition.kurtosis(x)
+        crest = condition.crest_factor(x)
+        band = self.envelope_band_hz or condition.default_envelope_band(fs)
+        lines = self._lines_at(speed_rad_s)
+        f_top = self._envelope_range(lines, band)
+        f, env = condition.envelope_spectrum(x, fs, band, f_top, ws=ws)
+        limits = condition.ISO_ZONE_SETS[self.iso_zones]
+        self._at(stamp)
+        p = f"/{loc}/iso_velocity"
+        self._series(p, [f"{L} {ch} [mm/s]" for ch in names], colors, widths=[2.0] * len(names))
+        self._scalars(p, iso, stamp, batch=False)
+        self._series(f"{p}/zones", [f"zone {z} limit {v:g} mm/s" for z, v in zip(("A/B", "B/C", "C/D"), limits)],
+                     _ZONE_COLORS, widths=[1.0] * 3)
+        self._scalars(f"{p}/zones", limits, stamp, batch=False)
+        p = f"/{loc}/trend/impulsiveness"
+        self._series(p, [f"kurtosis {ch}" for ch in names] + [f"crest factor {ch}" for ch in names],
+                     colors + [self._color(ch, c, light=True) for c, ch in enumerate(names)])
+        self._scalars(p, np.concatenate([kurt, crest]), stamp, batch=False)
+        fg, eg, group = _peak_hold(f, env, ENVELOPE_BARS)
+        dfg = fg[1] - fg[0] if fg.size > 1 else 1.0
+        nch = max(len(names), 1)
+        for c, ch in enumerate(names):
+            self._bars(f"/{loc}/envelope/{ch}", eg[c], fg + (c - (nch - 1) / 2) * dfg / nch,
+                       np.full(fg.size, 0.9 * dfg / nch, dtype=np.float32), colors[c])
+        top = float(env.max()) if env.size else 0.0
+        self._log_markers(f"/{loc}/envelope/markers", lines, f_top, top)
+        h = self._health.setdefault(loc, {})
+        h.update(iso=iso, zone=[condition.iso_zone(v, limits) for v in iso], kurt=kurt, crest=crest,
+                 rms=np.sqrt(np.mean(x * x, axis=1, dtype=np.float64)), peak=np.max(np.abs(x), axis=1).astype(np.float64),
+                 names=names,
+                 band=band, window_s=x.shape[1] / fs, env_df=(f[1] - f[0]) if f.size > 1 else 0.0, env_group=group,
+                 finding=health.envelope_finding(f, env, lines, names),
+                 speed_hz=speed_rad_s / (2 * math.pi), lines=lines)
+        text = health.health_text(loc, self._health.get(loc, {}), self._defects, self._lines, self.iso_zones,
+                                  self.condition_window_s)
+        self.rec.log(f"/{loc}/health", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
+
+    def _envelope_range(self, lines: dict[str, float], band: tuple[float, float]) -> float:
+        """Envelope spectrum shown up to 3.5x the highest line a defect excites and past every
+        fundamental, at most half the band width [Hz]; 500 Hz while no lines are known."""
+        cap = (band[1] - band[0]) / 2
+        if not lines or not max(lines.values()) > 0:
+            return min(500.0, cap)
+        excited = [lines[d.line] for d in self._defects if d.line in lines] or [lines.get("BPFO", 0.0)]
+        want = max(3.5 * max(excited), 1.15 * max(lines.values()))
+        return float(min(cap, 50.0 * math.ceil(want / 50.0)))
+
+    # ---------------------------------------------------------------- spectra and markers
     def log_spectrum(self, msg) -> bool:
-        """``VibrationSpectrum``: one bar chart per channel (amplitude vs frequency in Hz) and a
-        marker bar chart at the BPFO orders k = 1..max order present. At most
-        ``max_spectrum_rate_hz`` per location and quantity (sample time); returns whether logged."""
+        """``VibrationSpectrum``: order spectrum bars per channel (lines k >= 1, amplitude in
+        display units vs frequency in Hz; the static part k = 0 goes to the health panel) and
+        the fault-frequency markers. At most ``max_spectrum_rate_hz`` per location and quantity
+        (sample time); returns whether logged."""
         rr = self._rr
         f, k, amp, _ph = msgs.spectrum_arrays(msg)
         if f.size == 0:
             return False
-        loc, q, unit = msg.location, msg.quantity, msg.unit
+        loc, q = msg.location, msg.quantity
+        unit, factor = _display(q, msg.unit)
         stamp = msgs.stamp_to_ns(msg.header)
         last = self._last_spectrum.get((loc, q))
         if (last is not None and self.max_spectrum_rate_hz > 0
                 and 0 <= stamp - last < 1e9 / self.max_spectrum_rate_hz):
             return False
         self._last_spectrum[(loc, q)] = stamp
-        nz = k > 0
-        bpfo = float(np.median(f[nz] / k[nz])) if np.any(nz) else (self._bpfo_hz or 0.0)
-        width = 0.35 * bpfo if bpfo > 0 else None
         names = list(msg.channel_names) or [f"ch{c}" for c in range(amp.shape[0])]
+        nz = k > 0
+        bpfo = float(np.median(f[nz] / k[nz])) if np.any(nz) else 0.0
+        lines = self._lines_at(float(msg.shaft_speed)) or ({"BPFO": bpfo} if bpfo > 0 else {})
+        static = amp[:, ~nz].sum(axis=1) * factor if np.any(~nz) else np.zeros(amp.shape[0])
+        fl, al = f[nz], amp[:, nz] * factor
+        if al.size:
+            big = np.nonzero(al.max(axis=0) >= LINE_DISPLAY_FLOOR * al.max())[0]
+            keep = slice(0, int(big[-1]) + 1) if big.size else slice(0, 0)
+            fl, al = fl[keep], al[:, keep]
+        width = 0.35 * bpfo if bpfo > 0 else None
+        nch = max(len(names), 1)
         with self._lock:
-            self._at(msgs.stamp_to_ns(msg.header))
+            self._at(stamp)
+            w = width or 1.0
             for c, ch in enumerate(names):
-                kw = {"abscissa": f, "color": self._color(ch, c)}
-                if width:
-                    # side by side: channel c shifted by a fraction of the bar width
-                    kw["abscissa"] = f + (c - (len(names) - 1) / 2) * width / max(len(names), 1)
-                    kw["widths"] = np.full(f.size, width / max(len(names), 1), dtype=np.float32)
-                self.rec.log(f"/{loc}/spectrum/{q}/{ch}", rr.BarChart(amp[c], **kw))
-            if bpfo > 0:
-                kmax = int(round(float(k.max())))
-                orders = np.arange(1, kmax + 1, dtype=np.float64)
-                top = float(amp[:, nz].max()) if np.any(nz) else float(amp.max())
-                self.rec.log(f"/{loc}/spectrum/{q}/bpfo_orders",
-                             rr.BarChart(np.full(orders.size, top), abscissa=orders * bpfo,
-                                         widths=np.full(orders.size, 0.04 * bpfo, dtype=np.float32),
-                                         color=_MARKER_COLOR))
-                self.rec.log(f"/{loc}/spectrum/{q}/info", rr.TextDocument(
-                    f"{loc.upper()} {q} spectrum [{unit}]: BPFO {bpfo:.3f} Hz, lines at orders "
-                    f"{int(k.min())}..{kmax} (grey bars: k x BPFO), shaft "
-                    f"{msg.shaft_speed / (2 * math.pi):.3f} Hz"))
+                # side by side: channel c shifted by a fraction of the bar width
+                self._bars(f"/{loc}/spectrum/{q}/{ch}", al[c], fl + (c - (nch - 1) / 2) * w / nch,
+                           np.full(fl.size, w / nch, dtype=np.float32), self._color(ch, c))
+            f_top = float(fl[-1]) + (width or 0.0) if fl.size else 0.0
+            self._log_markers(f"/{loc}/spectrum/{q}/markers", lines, f_top, float(al.max()) if al.size else 0.0)
+            h = self._health.setdefault(loc, {})
+            h.setdefault("spectra", {})[q] = {
+                "unit": unit, "static": static, "names": names, "bpfo": bpfo,
+                "orders": (int(k[nz].min()), int(k[nz].max())) if np.any(nz) else (0, 0),
+                "shown_to_hz": float(fl[-1]) if fl.size else 0.0,
+                "shaft_hz": float(msg.shaft_speed) / (2 * math.pi)}
         return True
 
+    def _log_markers(self, prefix: str, lines: dict[str, float], f_max: float, top: float) -> None:
+        """One bar-chart entity per fault-frequency line under ``prefix``: bars at the marked
+        harmonics up to ``f_max`` [Hz], below the zero line (``MARKER_DEPTH`` x ``top`` deep, so
+        they never cover the spectrum's lines)."""
+        rr = self._rr
+        plan = fault_lines.marker_plan(lines, self._defects, f_max) if f_max > 0 and top > 0 else []
+        by_line: dict[str, list[float]] = {}
+        for m in plan:
+            by_line.setdefault(m.line, []).append(m.frequency_hz)
+        width = np.float32(max(MARKER_WIDTH * f_max, 1e-3))
+        for name in fault_lines.LINES:
+            path = f"{prefix}/{name}"
+            freqs = tuple(by_line.get(name, ()))
+            height = -MARKER_DEPTH * top
+            old = self._markers.get(path)
+            if old is not None and len(old[0]) == len(freqs) and (
+                    not freqs or (np.all(np.abs(np.subtract(old[0], freqs)) <= _MARKER_TOLERANCE * np.asarray(freqs))
+                                  and 0.85 <= height / old[1] <= 1.18)):
+                continue
+            if old is None and not freqs:
+                continue
+            self._markers[path] = (freqs, height if freqs else -1.0)
+            self._bars(path, np.full(len(freqs), height), np.asarray(freqs, dtype=np.float64),
+                       np.full(len(freqs), width, dtype=np.float32), fault_lines.LINE_COLORS[name])
+
+    # ---------------------------------------------------------------- speed, faults, health
     def log_speed(self, stamp_ns: int, speed_rad_s: float, *, source: str = "speed") -> None:
         """Shaft speed (rad/s, REP 103) as ``/speed/shaft_hz`` [Hz]. Waveforms also carry the
         speed at their first sample; those (of one stream) go to ``/speed/shaft_hz_waveform``."""
         path = "/speed/shaft_hz" if source == "speed" else f"/speed/shaft_hz_{source}"
-        label = "shaft speed [Hz]" if source == "speed" else f"shaft speed ({source}) [Hz]"
+        label = "shaft speed [Hz]" if source == "speed" else f"shaft speed used by the {source}s [Hz]"
         with self._lock:
-            self._at(stamp_ns)
-            self._scalar(path, label, speed_rad_s / (2 * math.pi), (0, 0, 0) if source == "speed" else None)
+            self._series(path, [label], [_SPEED_COLOR if source == "speed" else _SPEED_WAVEFORM_COLOR],
+                         widths=[2.0 if source == "speed" else 1.0])
+            self._scalars(path, [speed_rad_s / (2 * math.pi)], stamp_ns)
 
     def log_fault_frequencies(self, msg) -> None:
-        """``BearingFaultFrequencies``: FTF, BPFO, BPFI, BSF as scalars [Hz]."""
+        """``BearingFaultFrequencies``: the lines (1x, FTF, BPFO, BPFI, BSF, 2xBSF [Hz]) in the
+        marker colours, and the run's ground-truth defects for markers and health panels."""
+        lines = fault_lines.line_frequencies(msg)
         with self._lock:
-            self._at(msgs.stamp_to_ns(msg.header))
-            for name in ("ftf", "bpfo", "bpfi", "bsf"):
-                self._scalar(f"/fault_frequencies/{name}_hz", f"{name.upper()} [Hz]", getattr(msg, name))
-            self._bpfo_hz = float(msg.bpfo)
+            self._series("/fault_frequencies", [f"{name} [Hz]" for name in fault_lines.LINES],
+                         [fault_lines.LINE_COLORS[name] for name in fault_lines.LINES])
+            self._scalars("/fault_frequencies", [lines[name] for name in fault_lines.LINES],
+                          msgs.stamp_to_ns(msg.header), batch=False)
+            self._lines, self._lines_speed = lines, float(msg.shaft_speed)
+            self._defects = fault_lines.defects_from_message(msg)
 
     def log_features(self, location: str, stamp_ns: int, features: Mapping[str, float]) -> None:
-        """Per-chunk scalars, e.g. ``{"iso_velocity_rms_mm_s": 1.2, "kurtosis": 3.4}``; put the
-        unit in the key (``_mm_s``, ``_m_s2``), it becomes the series name."""
+        """Extra per-chunk scalars, e.g. ``{"oil_temperature_C": 61.0}``, under
+        ``/<location>/features/<name>``; put the unit in the key, it becomes the series name."""
         with self._lock:
-            self._at(stamp_ns)
             for name, value in features.items():
-                self._scalar(f"/{location}/features/{name}", f"{location.upper()} {name}", value)
+                path = f"/{location}/features/{name}"
+                self._series(path, [f"{location.upper()} {name}"], [_FALLBACK_COLORS[0]])
+                self._scalars(path, [float(value)], stamp_ns, batch=False)
 
     def log_message(self, topic: str, type_name, msg, stamp_ns: int | None = None) -> bool:
         """Dispatch by type: waveform, spectrum, fault frequencies; ``std_msgs/Float64`` on a
@@ -294,14 +613,18 @@ class RerunLogger:
         return True
 
     def close(self) -> None:
-        """Flush and disconnect (writes the ``.rrd`` footer). Idempotent."""
+        """Flush and disconnect (writes the ``.rrd`` footer); then, for a file with ``optimize``,
+        compact its chunks (:func:`optimize_rrd`). Idempotent."""
         if self.closed:
             return
         self.closed = True
         try:
+            self.flush_rows()
             self.rec.flush()
         finally:
             self.rec.disconnect()
+        if self.save_path is not None and self.optimize:
+            self.optimize_error = optimize_rrd(self.save_path)
 
 
 class RerunSink:
@@ -374,12 +697,13 @@ class RerunSink:
                 self.log_error(f"Rerun logging stopped: {type(exc).__name__}: {exc}")
 
     def flush(self) -> None:
-        """Wait until everything queued so far is logged."""
+        """Wait until everything queued so far is logged, and send what the logger collects."""
         if self._thread is not None:
             import time as _time  # noqa: PLC0415
 
             while not self._queue.empty():
                 _time.sleep(0.005)
+        self.logger.flush_rows()
 
     def close(self) -> None:
         """Log what is queued, then close the logger (footer of the .rrd). Idempotent."""

@@ -23,6 +23,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from bkabem_ros import mcap_io, msgs, rerun_io  # noqa: E402
+from bkabem_ros.rerun_viewer import listening_addresses as _listening  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 T0 = 1_700_000_000_000_000_000
@@ -46,7 +47,7 @@ def _waveform(i, loc, q):
 
 def _spectrum(i, loc, q="acceleration"):
     k = np.arange(0, 10, dtype=float)
-    amp = np.stack([1.0 / (1 + k), 0.5 / (1 + k)])
+    amp = np.stack([1.0 / (1 + k), 0.5 / (1 + k)]) * (1 + 0.01 * i)     # a changing speed: new lines
     return msgs.spectrum_message(k * BPFO, k, amp, np.zeros_like(amp), shaft_speed=2 * math.pi * 25.0,
                                  machine_id="m1", location=loc, quantity=q,
                                  channel_names=["vertical", "horizontal"], stamp=_stamp(i))
@@ -109,49 +110,87 @@ def _column(batches, name):
     return vals
 
 
+def _static(ents, path, column):
+    """Values of a static component column (e.g. ``SeriesLines:names``) of ``path``."""
+    return [v for rb in ents[path]["batches"] if column in rb.schema.names for v in rb.column(column).to_pylist()]
+
+
+def _bars(ents, path):
+    """[(abscissa, values)] of the bar charts logged at ``path``, in log order (chunks are in
+    time order for these single-writer entities)."""
+    out, absc = [], None
+    for rb in ents[path]["batches"]:
+        if "BarChart:values" not in rb.schema.names:
+            continue
+        ab = rb.column("BarChart:abscissa").to_pylist() if "BarChart:abscissa" in rb.schema.names else None
+        for i, v in enumerate(rb.column("BarChart:values").to_pylist()):
+            if ab is not None and ab[i] is not None:      # latest-at: logged only when it changes
+                absc = np.array(ab[i][0]["buffer"])
+            out.append((absc, np.array(v[0]["buffer"])))
+    return out
+
+
 def _check_entities(ents: dict[str, dict]) -> None:
     for loc in ("de", "nde"):
         for q in ("acceleration", "displacement"):
-            for ch in ("vertical", "horizontal"):
-                e = ents[f"/{loc}/{q}/{ch}"]
-                assert e["rows"] == BLOCKS * N, (loc, q, ch)       # every sample, none twice
-                assert e["static"] == 1                            # SeriesLines with the unit
-            assert ents[f"/{loc}/features/{q}_rms"]["rows"] == BLOCKS
-            assert ents[f"/{loc}/features/{q}_peak"]["rows"] == BLOCKS
+            e = ents[f"/{loc}/{q}"]
+            assert e["rows"] == BLOCKS * N, (loc, q)        # every sample, none twice
+            assert e["static"] == 1                         # SeriesLines with the units
+            # peaks keep their height when zoomed out: min/max aggregation
+            from rerun.components import AggregationPolicy
+            assert _static(ents, f"/{loc}/{q}", "SeriesLines:aggregation_policy") == [[AggregationPolicy.MinMax.value]]
+            for rb in e["batches"]:
+                if rerun_io.SAMPLES_COMPONENT in rb.schema.names:   # one row per sample, one float32 per channel
+                    assert str(rb.schema.field(rerun_io.SAMPLES_COMPONENT).type) == "list<item: float>"
+                    assert {len(v) for v in rb.column(rerun_io.SAMPLES_COMPONENT).to_pylist()} == {2}
+        assert ents[f"/{loc}/overview/acceleration"]["rows"] == BLOCKS
+        assert ents[f"/{loc}/overview/acceleration/rms"]["rows"] == BLOCKS
+        assert ents[f"/{loc}/trend/displacement"]["rows"] == BLOCKS
         for ch in ("vertical", "horizontal"):
             assert ents[f"/{loc}/spectrum/acceleration/{ch}"]["rows"] == 2
-        assert ents[f"/{loc}/spectrum/acceleration/bpfo_orders"]["rows"] == 2
+        assert f"/{loc}/acceleration/vertical" not in ents          # no entity per channel
     assert ents["/speed/shaft_hz"]["rows"] == BLOCKS
-    for f in ("ftf", "bpfo", "bpfi", "bsf"):
-        assert ents[f"/fault_frequencies/{f}_hz"]["rows"] == 2
+    assert ents["/fault_frequencies"]["rows"] == 2
     # the waveform's time axis: stamp + i / fs, relative to the first stamp, in ns
     t = np.concatenate([np.asarray(rb.column("sample_time").cast("int64").to_numpy())
-                        for rb in ents["/de/acceleration/vertical"]["batches"] if "sample_time" in rb.schema.names])
+                        for rb in ents["/de/acceleration"]["batches"] if "sample_time" in rb.schema.names])
     want = np.concatenate([(_stamp(i) - T0) + np.round(np.arange(N) * 1e9 / FS).astype(np.int64)
                            for i in range(BLOCKS)])
     np.testing.assert_array_equal(np.sort(t), want)
-    names = _column(ents["/de/acceleration/vertical"]["batches"], "SeriesLines:names")
-    assert names == [["DE vertical acceleration [m/s^2]"]]
-    assert _column(ents["/speed/shaft_hz"]["batches"], "SeriesLines:names") == [["shaft speed [Hz]"]]
-    assert _column(ents["/nde/features/displacement_rms"]["batches"], "SeriesLines:names") == [
-        ["RMS vertical displacement [m]", "RMS horizontal displacement [m]"]]
-    rms = np.array(_column(ents["/de/features/acceleration_rms"]["batches"], "Scalars:scalars"))
+    assert _static(ents, "/de/acceleration", "SeriesLines:names") == [["DE vertical [m/s²]", "DE horizontal [m/s²]"]]
+    assert _static(ents, "/nde/displacement", "SeriesLines:names") == [["NDE vertical [µm]", "NDE horizontal [µm]"]]
+    assert _static(ents, "/speed/shaft_hz", "SeriesLines:names") == [["shaft speed [Hz]"]]
+    # displacement in µm (the recording is SI: 1e-6 m amplitude -> 1 µm); acceleration as is
+    x = np.concatenate([np.array(_column([rb], rerun_io.SAMPLES_COMPONENT)) for rb in ents["/de/displacement"]["batches"]
+                        if rerun_io.SAMPLES_COMPONENT in rb.schema.names])
+    np.testing.assert_allclose(np.abs(x).max(axis=0), [1.0, 0.5], rtol=1e-3)
+    rms = np.array(_column(ents["/de/overview/acceleration/rms"]["batches"], "Scalars:scalars"))
     assert rms.shape == (BLOCKS, 2)
     np.testing.assert_allclose(rms[:, 0], 1 / math.sqrt(2), rtol=0.02)       # unit sine
     np.testing.assert_allclose(rms[:, 1], 0.5 / math.sqrt(2), rtol=0.02)
+    mm = np.array(_column(ents["/de/overview/acceleration"]["batches"], "Scalars:scalars"))
+    np.testing.assert_allclose(mm[:, 0], 1.0, rtol=1e-3)                      # vertical max
+    np.testing.assert_allclose(mm[:, 1], -1.0, rtol=1e-3)                     # vertical min
+    pp = np.array(_column(ents["/nde/trend/displacement"]["batches"], "Scalars:scalars"))
+    np.testing.assert_allclose(pp, [[1.0, 0.5]] * BLOCKS, rtol=1e-3)          # 0.5 µm sine: 1 µm p-p
     speed = [v[0] for v in _column(ents["/speed/shaft_hz"]["batches"], "Scalars:scalars")]
     np.testing.assert_allclose(speed, 25.0)
-    # spectrum bars: abscissa in Hz around k * BPFO; markers exactly at k * BPFO
-    k = np.arange(10.0)
+    # order spectrum bars: lines k >= 1 only (the static part is not drawn), around k * BPFO
+    k = np.arange(1.0, 10.0)
     for ch, factor in (("vertical", 1.0), ("horizontal", 0.5)):
-        bars = ents[f"/de/spectrum/acceleration/{ch}"]["batches"]
-        absc = np.array(_column(bars, "BarChart:abscissa")[0][0]["buffer"])
-        vals = np.array(_column(bars, "BarChart:values")[0][0]["buffer"])
+        absc, vals = _bars(ents, f"/de/spectrum/acceleration/{ch}")[0]
         np.testing.assert_allclose(vals, factor / (1 + k))
-        # the two channels' bars sit side by side around k * BPFO (within a bar width)
         assert np.all(np.abs(absc - k * BPFO) < 0.35 * BPFO)
-    marks = _column(ents["/de/spectrum/acceleration/bpfo_orders"]["batches"], "BarChart:abscissa")
-    np.testing.assert_allclose(marks[0][0]["buffer"], np.arange(1, 10) * BPFO)
+    # markers: BPFO (the outer-race defect's line) at 1-3 x BPFO, not on every line; the other
+    # lines at their fundamentals; below the zero line
+    absc, vals = _bars(ents, "/de/spectrum/acceleration/markers/BPFO")[-1]     # after the fault message
+    np.testing.assert_allclose(absc, [BPFO, 2 * BPFO, 3 * BPFO])
+    assert np.all(vals < 0)
+    for name, f0 in (("BPFI", 135.6), ("BSF", 58.9), ("2xBSF", 117.8), ("FTF", 9.9), ("1x", 25.0)):
+        absc, vals = _bars(ents, f"/de/spectrum/acceleration/markers/{name}")[-1]
+        np.testing.assert_allclose(absc, [f0])
+    assert _column(ents["/fault_frequencies"]["batches"], "Scalars:scalars")[0] == pytest.approx(
+        [25.0, 9.9, BPFO, 135.6, 58.9, 117.8])
 
 
 def test_logger_file_verifies_and_holds_every_sample(tmp_path):
@@ -173,8 +212,10 @@ def test_logger_file_verifies_and_holds_every_sample(tmp_path):
 
 
 def test_blueprint_in_file_has_de_and_nde_side_by_side(tmp_path):
-    from rerun.blueprint.components import ContainerKind
+    from rerun.blueprint.components import ContainerKind, PlayState
     from rerun.chunk import RrdReader
+
+    from bkabem_ros.rerun_blueprint import view_names
 
     path = tmp_path / "bp.rrd"
     logger = rerun_io.RerunLogger("bkabem-test", recording_id="t2", save_path=path)
@@ -183,26 +224,39 @@ def test_blueprint_in_file_has_de_and_nde_side_by_side(tmp_path):
     reader = RrdReader(str(path))
     bps = reader.blueprints()
     assert len(bps) == 1
-    containers, text = {}, []
+    containers, views, cols_by_path = {}, {}, {}
     for ch in reader.stream(store=bps[0]).collect().stream():
         rb = ch.to_record_batch()
-        cols = dict(zip(rb.schema.names, rb.columns))
-        text += [str(c) for n, c in cols.items() if n not in ("log_time",)]
+        cols = {n: rb.column(n).to_pylist()[-1] for n in rb.schema.names if n != "log_time"}
+        cols_by_path.setdefault(ch.entity_path, {}).update(cols)
+    for p, cols in cols_by_path.items():
         if "ContainerBlueprint:container_kind" in cols:
-            d = {n: cols[n].to_pylist()[-1] for n in cols
-                 if n.startswith("ContainerBlueprint:") and n in cols}
-            containers[ch.entity_path.lstrip("/")] = d
-    text = " ".join(text)
-    for origin in ("/de/acceleration", "/nde/acceleration", "/de/spectrum/acceleration",
-                   "/nde/spectrum/acceleration", "/de/features", "/nde/displacement"):
-        assert origin in text, origin
-    assert "shaft speed and BPFO [Hz]" in text
-    named = {d["ContainerBlueprint:display_name"][0]: path for path, d in containers.items()
+            containers[p.lstrip("/")] = cols
+        if "ViewBlueprint:display_name" in cols:
+            views[cols["ViewBlueprint:display_name"][0]] = (p, cols)
+    # every view of the layout, named with its unit
+    assert set(views) == set(view_names())
+    assert "DE displacement [µm]" in views and "NDE envelope spectrum [m/s²] vs frequency [Hz]" in views
+    named = {d["ContainerBlueprint:display_name"][0]: p for p, d in containers.items()
              if d.get("ContainerBlueprint:display_name")}
     assert {"DE", "NDE"} <= set(named)
     side_by_side = [d for d in containers.values()
                     if d["ContainerBlueprint:container_kind"][0] == ContainerKind.Horizontal.value]
     assert any(d["ContainerBlueprint:contents"] == [named["DE"], named["NDE"]] for d in side_by_side)
+    # opens following the latest data (not at t = 0, playing)
+    assert cols_by_path["/time_panel"]["TimePanelBlueprint:play_state"] == [PlayState.Following.value]
+    # waveforms: the last second before the cursor; trends: the whole run (no range set)
+    ranges = {p.split("/")[2]: c["VisibleTimeRanges:ranges"][0]["range"] for p, c in cols_by_path.items()
+              if "VisibleTimeRanges:ranges" in c}
+    wave_ids = {views[n][0].split("/")[2] for n in views if n.endswith("acceleration [m/s²]")
+                or n.endswith("displacement [µm]")}
+    assert set(ranges) == wave_ids and len(wave_ids) == 4
+    assert all(r == {"start": -1_000_000_000, "end": 0} for r in ranges.values())
+    # bar charts have no legend (it would show entity paths); the marker key is in the health panel
+    legends = {p.split("/")[2]: c.get("PlotLegend:visible") for p, c in cols_by_path.items() if "PlotLegend" in p}
+    for n, (p, _c) in views.items():
+        if "spectrum" in n:
+            assert legends[p.split("/")[2]] == [False], n
 
 
 def test_mcap_to_rrd_without_ros(tmp_path):
@@ -247,20 +301,6 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _listening(port: int) -> list[str]:
-    """Local addresses listening on ``port`` (from /proc/net/tcp{,6})."""
-    out = []
-    for name in ("/proc/net/tcp", "/proc/net/tcp6"):
-        try:
-            lines = Path(name).read_text().splitlines()[1:]
-        except OSError:
-            continue
-        for line in lines:
-            parts = line.split()
-            addr, p = parts[1].split(":")
-            if int(p, 16) == port and parts[3] == "0A":       # 0A = LISTEN
-                out.append(addr)
-    return out
 
 
 def test_stream_to_viewer_bound_to_localhost(tmp_path):
@@ -296,8 +336,20 @@ def test_stream_to_viewer_bound_to_localhost(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ents = _rows(recv)
-    assert ents["/de/acceleration/vertical"]["rows"] == BLOCKS * N
-    assert ents["/nde/displacement/horizontal"]["rows"] == BLOCKS * N
+    assert ents["/de/acceleration"]["rows"] == BLOCKS * N
+    assert ents["/nde/displacement"]["rows"] == BLOCKS * N
+
+
+def test_unchanged_spectrum_is_not_logged_again(tmp_path):
+    """At a steady speed the node sends the same spectrum again: latest-at already shows it."""
+    path = tmp_path / "same.rrd"
+    logger = rerun_io.RerunLogger("bkabem-test", save_path=path)
+    m = _spectrum(0, "de")
+    for i in range(4):
+        m.header.stamp.sec += 1
+        assert logger.log_spectrum(m)
+    logger.close()
+    assert _rows(path)["/de/spectrum/acceleration/vertical"]["rows"] == 1
 
 
 def test_spectrum_rate_limit(tmp_path):
@@ -311,8 +363,7 @@ def test_spectrum_rate_limit(tmp_path):
     ents = _rows(path)
     assert ents["/de/spectrum/acceleration/vertical"]["rows"] == 4
     assert ents["/nde/spectrum/acceleration/vertical"]["rows"] == 1
-    bars = _column(ents["/de/spectrum/acceleration/bpfo_orders"]["batches"], "BarChart:abscissa")
-    assert bars
+    assert len(_bars(ents, "/de/spectrum/acceleration/markers/BPFO")) == 1     # markers only when they move
 
 
 def test_default_url_is_localhost():
@@ -349,3 +400,45 @@ def test_speed_units(tmp_path, speed_scale, want_hz):
     sink.close()
     vals = _column(_rows(path)["/speed/shaft_hz"]["batches"], "Scalars:scalars")
     np.testing.assert_allclose([v[0] for v in vals], [want_hz])
+
+
+def test_each_plot_has_one_unit_and_the_health_panel_says_what_is_not_drawn(tmp_path):
+    """No view mixes m/s², µm and mm/s (they were on one axis); the static displacement, left out
+    of the spectrum, and the spectrum's BPFO and orders are stated in the health panel."""
+    import re
+
+    from bkabem_ros.rerun_blueprint import _views
+
+    path = tmp_path / "units.rrd"
+    logger = rerun_io.RerunLogger("bkabem-test", save_path=path)
+    for topic, ty, m, stamp in _stream():
+        logger.log_message(topic, ty, m, stamp)
+    k = np.arange(0, 10, dtype=float)
+    amp = np.stack([np.r_[42e-6, 1e-6 / (1 + k[1:])], np.r_[3e-6, 0.5e-6 / (1 + k[1:])]])
+    logger.log_spectrum(msgs.spectrum_message(
+        k * BPFO, k, amp, np.zeros_like(amp), shaft_speed=2 * math.pi * 25.0, machine_id="m1", location="de",
+        quantity="displacement", channel_names=["vertical", "horizontal"], stamp=_stamp(BLOCKS)))
+    # one more condition window so that the health text includes the displacement spectrum
+    for i in range(BLOCKS, BLOCKS + 11):
+        for loc in ("de", "nde"):
+            logger.log_waveform(_waveform(i, loc, "acceleration"))
+    logger.close()
+    ents = _rows(path)
+    for loc in ("de", "nde"):
+        for _group, name, kind, origin in _views(loc, ("acceleration", "displacement")):
+            if kind not in ("wave", "trend"):
+                continue
+            units = set()
+            for e in ents:
+                if e == origin or e.startswith(origin + "/"):
+                    for names in _static(ents, e, "SeriesLines:names"):
+                        units |= {u for n in names for u in re.findall(r"\[([^\]]+)\]", n)}
+            want = set(re.findall(r"\[([^\]]+)\]", name)) - {"-"}
+            assert units == want, (name, units)
+    absc, vals = _bars(ents, "/de/spectrum/displacement/vertical")[-1]
+    assert absc.min() > 0.5 * BPFO                                  # no bar at 0 Hz
+    np.testing.assert_allclose(vals, 1.0 / (1 + k[1:]))             # µm
+    text = _column(ents["/de/health"]["batches"], "TextDocument:text")[-1][0]
+    assert "static part (order 0, not drawn): vertical 42 µm, horizontal 3 µm" in text
+    assert f"BPFO {BPFO:.2f} Hz, orders 1-9" in text
+    assert "markers (below the zero line of the spectra): 1x 25.0 Hz grey" in text

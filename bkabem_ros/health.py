@@ -1,0 +1,120 @@
+"""The text of the health panels: what a bearing's numbers say, next to the run's ground truth.
+
+Pure functions of the numbers :class:`bkabem_ros.rerun_io.RerunLogger` collects per bearing (no
+Rerun here): :func:`envelope_finding` reads an envelope spectrum the way a monitoring pipeline does
+(the fault line whose harmonics stand out over the spectrum's median floor), :func:`health_text`
+writes the panel, verdicts first.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import condition, fault_lines
+
+__all__ = ["envelope_finding", "health_text"]
+
+
+def envelope_finding(f, env, lines: dict[str, float], names: list[str]) -> str:
+    """The fault line whose harmonics 1-3 stand out most over the envelope spectrum's median
+    floor (what a monitoring pipeline reads first)."""
+    if env.size == 0 or f.size < 8:
+        return "no envelope spectrum yet"
+    df = f[1] - f[0]
+    best = None
+    for name in ("BPFO", "BPFI", "2xBSF", "BSF", "FTF"):
+        f0 = lines.get(name, 0.0)
+        if not f0 > 2 * df:
+            continue
+        for c in range(env.shape[0]):
+            floor = float(np.median(env[c, 1:])) or 1e-30
+            db = []
+            for h in (1, 2, 3):
+                if h * f0 > f[-1]:
+                    break
+                tol = max(1.5 * df, 0.01 * h * f0)
+                m = np.abs(f - h * f0) <= tol
+                db.append(20 * math.log10(max(float(env[c, m].max()), 1e-30) / floor))
+            if db and (best is None or db[0] > best[0][0]):
+                best = (db, name, names[c], f0)
+    if best is None:
+        return "no fault line in the envelope range yet"
+    db, name, ch, f0 = best
+    verdict = "stands out" if db[0] >= 10 else "does not stand out"
+    hs = "/".join(f"{v:.0f}" for v in db)
+    return (f"{name} ({f0:.1f} Hz) {verdict}: harmonics 1-{len(db)} at {hs} dB over the median floor "
+            f"({ch})")
+
+
+def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], iso_zones: str,
+                window_s: float) -> str:
+    """Markdown of one bearing's health panel: verdicts first (ISO zone, ground truth,
+    envelope finding), then the numbers they rest on and the marker key.
+
+    Parameters
+    ----------
+    loc : str
+        "de" or "nde".
+    h : dict
+        What the logger collected for the bearing: the last condition window (``iso`` [mm/s],
+        ``zone``, ``rms``/``peak`` [m/s^2], ``crest``, ``kurt``, ``band`` [Hz], ``finding``, ...)
+        and ``spectra`` (per quantity: BPFO [Hz], orders, static part in display units).
+    defects : list of fault_lines.Defect
+        The run's ground truth.
+    run_lines : dict
+        Fault-frequency lines [Hz] of the last message (used when ``h`` has none).
+    iso_zones : str
+        Key of :data:`bkabem_ros.condition.ISO_ZONE_SETS`.
+    window_s : float
+        The condition window [s] (for "no full window yet").
+    """
+    L = loc.upper()
+    names = h.get("names", [])
+    limits = condition.ISO_ZONE_SETS[iso_zones]
+    out = []
+    if "iso" in h:
+        worst = max(h["zone"]) if h["zone"] else "?"
+        out.append(f"**{L} bearing: ISO zone {worst}**, {condition.ZONE_NAMES.get(worst, '')} "
+                   f"({iso_zones}: A/B {limits[0]:g}, B/C {limits[1]:g}, C/D {limits[2]:g} mm/s)")
+    else:
+        out.append(f"**{L} bearing**: no full {window_s:g} s of acceleration yet")
+    here = [d for d in defects if d.bearing == loc]
+    if here:
+        truth = "; ".join(fault_lines.describe_defect(d) for d in here)
+    elif defects:
+        truth = "no defect in this bearing (" + "; ".join(fault_lines.describe_defect(d) for d in defects) + ")"
+    else:
+        truth = "no fault-frequency message yet"
+    out += ["", f"**Ground truth**: {truth}"]
+    if "iso" in h:
+        b = h["band"]
+        out += ["", f"**Envelope** ({b[0] / 1e3:g}-{b[1] / 1e3:g} kHz band): {h['finding']}", ""]
+        per = ", ".join(f"{ch} {v:.2f} mm/s ({z})" for ch, v, z in zip(names, h["iso"], h["zone"]))
+        out.append(f"- velocity RMS 10-1000 Hz, last {h['window_s']:g} s: {per}")
+
+        def fmt(v):
+            return " / ".join(f"{x:.3g}" for x in v)
+
+        out.append(f"- acceleration {' / '.join(names)}: RMS {fmt(h['rms'])} m/s², peak {fmt(h['peak'])} m/s², "
+                   f"crest factor {fmt(h['crest'])}, kurtosis {fmt(h['kurt'])}")
+        out.append(f"- envelope spectrum: {h['env_df']:g} Hz bins"
+                   + (f", each bar the largest of {h['env_group']} bins" if h["env_group"] > 1 else ""))
+    for q, sp in h.get("spectra", {}).items():
+        line = (f"- model {q} spectrum at {sp['shaft_hz']:.2f} Hz shaft: BPFO {sp['bpfo']:.2f} Hz, orders "
+                f"{sp['orders'][0]}-{sp['orders'][1]}, drawn to {sp['shown_to_hz'] / 1e3:.2f} kHz")
+        static = np.asarray(sp["static"], dtype=np.float64)
+        if np.any(static):
+            big = float(np.abs(static).max())
+            line += "; static part (order 0, not drawn): " + ", ".join(
+                f"{ch} {(v if abs(v) > 1e-6 * big else 0.0):.3g} {sp['unit']}"      # round-off shown as 0
+                for ch, v in zip(sp["names"], static))
+        out.append(line)
+    lines = h.get("lines") or run_lines
+    if lines:
+        excited = {d.line for d in defects}
+        key = ", ".join(f"{name} {lines[name]:.1f} Hz {fault_lines.LINE_COLOR_NAMES[name]}"
+                        + (" (x1-3)" if name in excited else "") for name in fault_lines.LINES if name in lines)
+        out.append(f"- markers (below the zero line of the spectra): {key}")
+    return "\n".join(out)

@@ -1,0 +1,371 @@
+"""Drive the real Rerun viewer headless: open a ``.rrd``, set the time, list the views and their
+errors, take screenshots of the whole window and of each view (rerun-sdk 0.41).
+
+    python -m bkabem_ros.rerun_viewer recordings/demo.rrd [--out out/viewer] [--at 12 --at 29.5]
+    python -m bkabem_ros.rerun_viewer --docs docs/img     # = make screenshots: demo, then docs/img/rerun_*.png
+
+The viewer is the ``rerun`` binary of the wheel started as ``rerun --headless --bind 127.0.0.1``
+(no window, no GPU: it renders with Mesa's software Vulkan driver, lavapipe, which
+``tools/setup_viewer.sh`` installs); :class:`rerun.experimental.ViewerClient` talks to it over
+gRPC on 127.0.0.1. Nothing listens beyond the loopback address.
+
+:func:`view_statistics` reads a view's screenshot as pixels: the fraction of pixels that differ
+from the view's background and how many colours they use. An empty plot (axes, grid and a
+title only) stays near 3 %; a plotted waveform or spectrum is well above (see the tests).
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .rerun_io import TIMELINE, rerun_binary
+
+__all__ = ["HeadlessViewer", "ViewStats", "listening_addresses", "main", "view_statistics"]
+
+#: Window size of the headless viewer (logical points) for the screenshots.
+WINDOW_SIZE = (1920, 1080)
+
+
+def slug(name: str) -> str:
+    """File-name form of a view name: ``DE envelope spectrum [m/s²] ...`` -> ``de_envelope_spectrum``."""
+    base = name.split(" [")[0].split(":")[0].lower()
+    return "".join(ch if ch.isalnum() else "_" for ch in base).strip("_").replace("__", "_")
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def listening_addresses(port: int) -> list[str]:
+    """Local addresses listening on TCP ``port``, as /proc/net/tcp{,6} writes them (127.0.0.1 is
+    ``0100007F``): the tests check that a viewer listens on the loopback address only."""
+    out = []
+    for name in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            lines = Path(name).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            parts = line.split()
+            addr, p = parts[1].split(":")
+            if int(p, 16) == port and parts[3] == "0A":       # 0A = LISTEN
+                out.append(addr)
+    return out
+
+
+def lavapipe_available() -> bool:
+    """Whether a Vulkan driver is installed (the viewer's GL fallback cannot render headless)."""
+    dirs = ("/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d")
+    return any(Path(d).is_dir() and any(Path(d).glob("*.json")) for d in dirs)
+
+
+@dataclass
+class ViewStats:
+    """Pixel statistics of one view's screenshot: ``ink`` = fraction of pixels differing from the
+    background (the most common colour) by more than 24 grey levels; ``colour_ink`` = fraction of
+    pixels in colour (max - min of R, G, B > 60: data series, bars and markers; the grid, axes
+    and text are grey); ``colours`` = distinct colours among the inked pixels (4 bits per
+    channel)."""
+
+    name: str
+    ink: float
+    colour_ink: float
+    colours: int
+    width: int
+    height: int
+
+
+def _pixels(png: bytes) -> np.ndarray:
+    from PIL import Image  # noqa: PLC0415  (pillow comes with rerun-sdk)
+
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+
+
+def view_statistics(png: bytes, name: str = "") -> ViewStats:
+    """:class:`ViewStats` of a PNG screenshot."""
+    img = _pixels(png).astype(np.int16)
+    h, w, _ = img.shape
+    flat = img.reshape(-1, 3)
+    q = (flat >> 4).astype(np.int32)
+    codes = (q[:, 0] << 8) | (q[:, 1] << 4) | q[:, 2]
+    bg_code = np.bincount(codes).argmax()
+    bg = np.array([(bg_code >> 8) & 15, (bg_code >> 4) & 15, bg_code & 15]) * 16 + 8
+    ink = np.abs(flat - bg).max(axis=1) > 24
+    chroma = (flat.max(axis=1) - flat.min(axis=1)) > 60
+    return ViewStats(name, float(ink.mean()), float(chroma.mean()), int(np.unique(codes[ink]).size), w, h)
+
+
+@dataclass
+class HeadlessViewer:
+    """A headless ``rerun`` viewer process on 127.0.0.1 and its :class:`ViewerClient`.
+
+    Use as a context manager; :meth:`close` stops the process (it is started in its own process
+    group, which is killed if it does not quit)."""
+
+    window_size: tuple[int, int] = WINDOW_SIZE
+    port: int = 0
+    startup_timeout_s: float = 30.0
+    proc: subprocess.Popen | None = field(default=None, init=False)
+    client: object = field(default=None, init=False)
+    log_path: Path | None = field(default=None, init=False)
+    started: float = field(default=0.0, init=False)
+
+    def __enter__(self) -> HeadlessViewer:
+        self.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def start(self) -> None:
+        from rerun.experimental import ViewerClient  # noqa: PLC0415
+
+        self.started = time.monotonic()
+        if not lavapipe_available():
+            raise RuntimeError("no Vulkan driver for the headless viewer: install Mesa's lavapipe "
+                               "(Debian: apt-get install mesa-vulkan-drivers; tools/setup_viewer.sh)")
+        self.port = self.port or _free_port()
+        fd, log = tempfile.mkstemp(prefix="bkabem_rerun_viewer_", suffix=".log")
+        self.log_path = Path(log)
+        env = dict(os.environ, RUST_LOG=os.environ.get("RUST_LOG", "warn"))
+        self.proc = subprocess.Popen(
+            [rerun_binary(), "--headless", "--bind", "127.0.0.1", "--port", str(self.port),
+             "--window-size", f"{self.window_size[0]}x{self.window_size[1]}", "--hide-welcome-screen",
+             "--threads", "1"],
+            stdout=fd, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True, env=env)
+        os.close(fd)
+        t_end = time.monotonic() + self.startup_timeout_s
+        url = f"rerun+http://127.0.0.1:{self.port}/proxy"
+        while True:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"headless viewer exited with {self.proc.returncode}: {self.log_tail()}")
+            try:
+                client = ViewerClient(url)
+                client.get_state()
+                self.client = client
+                return
+            except Exception:  # noqa: BLE001 - not listening yet
+                if time.monotonic() > t_end:
+                    self.close()
+                    raise RuntimeError(f"headless viewer not answering on {url}: {self.log_tail()}") from None
+                time.sleep(0.1)
+
+    def log_tail(self, n: int = 2000) -> str:
+        try:
+            return self.log_path.read_text(errors="replace")[-n:] if self.log_path else ""
+        except OSError:
+            return ""
+
+    def open(self, rrd, timeout_s: float = 30.0):
+        """Open a recording and wait until it is loaded; returns the viewer state."""
+        self.client.open(str(Path(rrd).resolve()))
+        t_end = time.monotonic() + timeout_s
+        while True:
+            st = self.client.get_state()
+            if not st.loading and st.recordings and st.recordings[0].timelines:
+                return st
+            if time.monotonic() > t_end:
+                raise TimeoutError(f"{rrd}: still loading after {timeout_s} s")
+            time.sleep(0.1)
+
+    def set_time(self, seconds: float | None = None, play_state: str = "paused") -> None:
+        """Time cursor on ``sample_time`` at ``seconds``, paused (None: leave what the blueprint set)."""
+        if seconds is not None:
+            self.client.set_time(TIMELINE, duration=float(seconds), play_state=play_state)
+
+    def screenshot(self, view_id=None, settle: int = 2, max_shots: int = 8) -> bytes:
+        """PNG of the window (or of one view). After a load or a time change the viewer needs a
+        few frames to ingest chunks and fit its axes: shots are repeated until ``settle``
+        consecutive ones agree (at most ``max_shots``), and the last is returned."""
+        last, same, png = None, 0, b""
+        for _ in range(max(max_shots, 1)):
+            png = self.client.take_screenshot(view_id)
+            pix = _pixels(png)
+            same = same + 1 if last is not None and pix.shape == last.shape and np.mean(pix != last) < 1e-3 else 0
+            if same + 1 >= settle:
+                break
+            last = pix
+        return png
+
+    def views(self):
+        return self.client.get_state().views
+
+    def show_tab(self, index: int) -> None:
+        """Make tab ``index`` (or the last one, for shorter groups) active in every tab group of
+        the current recording's blueprint (views in hidden tabs cannot be screenshot)."""
+        bp = self.client.get_blueprint().blueprint
+        for value in bp.values():
+            c = value.get("ContainerBlueprint")
+            if c and c.get("container_kind") == "Tabs" and c.get("contents"):
+                c["active_tab"] = c["contents"][min(index, len(c["contents"]) - 1)]
+        self.client.set_blueprint(bp, of="recording")
+
+    def maximize(self, view_id=None) -> None:
+        """Show one view over the whole window (None: the layout again)."""
+        bp = self.client.get_blueprint().blueprint
+        vp = bp.setdefault("/viewport", {}).setdefault("ViewportBlueprint", {})
+        if view_id is None:
+            vp.pop("maximized", None)
+        else:
+            vp["maximized"] = str(view_id)
+        self.client.set_blueprint(bp, of="recording")
+
+    def hidden_views(self) -> set[str]:
+        """Ids of the views in tabs that are not the active one."""
+        hidden = set()
+        for value in self.client.get_blueprint().blueprint.values():
+            c = value.get("ContainerBlueprint")
+            if c and c.get("container_kind") == "Tabs":
+                active = c.get("active_tab") or (c.get("contents") or [None])[0]
+                hidden |= {p.rsplit("/", 1)[-1] for p in c.get("contents", []) if p != active}
+        return hidden
+
+    def tab_count(self) -> int:
+        """Largest number of tabs in one tab group of the current blueprint (1 without tabs)."""
+        bp = self.client.get_blueprint().blueprint
+        return max([len(v["ContainerBlueprint"].get("contents", [])) for v in bp.values()
+                    if v.get("ContainerBlueprint", {}).get("container_kind") == "Tabs"] or [1])
+
+    def shoot_every_view(self, settle: int = 2):
+        """{view name: (View, PNG)} of every view of the blueprint, tab by tab (after a tab
+        switch the first view is shot until two shots agree, the others until ``settle`` agree);
+        the first tabs are active again afterwards."""
+        out = {}
+        n = self.tab_count()
+        for i in range(n):
+            if n > 1:
+                self.show_tab(i)
+                self.client.take_screenshot()               # one frame: the viewer applies the new blueprint
+            hidden = self.hidden_views()
+            todo = [v for v in self.views() if v.name not in out and str(v.view_id) not in hidden]
+            for k, view in enumerate(todo):
+                # the first shot after a tab switch waits until the newly shown views have loaded
+                out[view.name] = (view, self.screenshot(view.view_id, settle=max(settle, 2) if k == 0 else settle))
+        if n > 1:
+            self.show_tab(0)
+        return out
+
+    def errors(self) -> list[str]:
+        """WARN/ERROR lines of the viewer's log other than the software-rasteriser notice."""
+        return [f"{e.level} {e.target}: {e.message}" for e in self.client.get_logs()
+                if e.level in ("WARN", "ERROR") and "oftware rasterizer" not in e.message
+                and "Failed to load examples" not in e.message]
+
+    def close(self) -> None:
+        if self.proc is None:
+            return
+        try:
+            try:
+                self.proc.terminate()
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.proc.pid, 9)
+                self.proc.wait()
+        finally:
+            self.proc = None
+            self.client = None
+            if self.log_path is not None:
+                try:
+                    self.log_path.unlink()
+                except OSError:
+                    pass
+
+
+#: The screenshots of docs/recording.md and the README: (file, time cursor [s] or None for the
+#: blueprint's default (the latest data), tab index, what it shows).
+DOC_SHOTS = (
+    ("rerun_default.png", None, 0, "as the demo recording opens: the end of the run (50 Hz hold)"),
+    ("rerun_runup.png", 12.0, 1, "t = 12 s of the run-up (30 Hz), second tabs: displacement, order spectra, "
+                                 "block min/max and RMS"),
+    ("rerun_trends.png", None, 2, "third tabs: order spectra of the displacement, peak-to-peak trends"),
+)
+
+
+def _save_png(png: bytes, path: Path) -> None:
+    """Write a screenshot as an optimised RGB PNG (no palette: a 256-colour one merged the rare
+    marker colours, e.g. FTF violet into grey)."""
+    from PIL import Image  # noqa: PLC0415
+
+    Image.open(io.BytesIO(png)).convert("RGB").save(path, optimize=True)
+
+
+def make_doc_screenshots(out_dir, rrd=None) -> list[Path]:
+    """Screenshots of the demo recording for the docs (:data:`DOC_SHOTS`). Without ``rrd`` the
+    demo's ROS part runs first (``out/screenshots/demo.rrd``, the same run as ``make demo``)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if rrd is None:
+        from .demo import run_demo  # noqa: PLC0415
+
+        r = run_demo("out/screenshots", record=False)
+        if r.errors:
+            raise RuntimeError(f"demo failed: {r.errors}")
+        rrd = r.rrd
+    written = []
+    with HeadlessViewer() as v:
+        v.open(rrd)
+        time.sleep(max(0.0, 8.0 - (time.monotonic() - v.started)))   # the start-up toasts fade
+        for name, at, tab, _what in DOC_SHOTS:
+            v.show_tab(tab)
+            if at is not None:
+                v.set_time(at)
+            else:
+                v.client.set_time(TIMELINE, play_state="following")
+            png = v.screenshot(settle=2)
+            _save_png(png, out / name)
+            written.append(out / name)
+            print(f"wrote {out / name}")
+        bad = v.errors()
+        if bad:
+            raise RuntimeError("viewer reported: " + "; ".join(bad))
+    return written
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m bkabem_ros.rerun_viewer", description=__doc__.split("\n\n")[0])
+    p.add_argument("rrd", nargs="?", default=None, help="recording (with --docs: default, run the demo first)")
+    p.add_argument("--out", default="out/viewer", help="folder for the screenshots (default out/viewer)")
+    p.add_argument("--at", type=float, action="append", default=None, help="time cursor [s] (repeatable)")
+    p.add_argument("--docs", metavar="DIR", default=None,
+                   help="make the documentation screenshots in DIR (docs/img) from the demo")
+    args = p.parse_args(argv)
+    if args.docs:
+        make_doc_screenshots(args.docs, args.rrd)
+        return 0
+    if args.rrd is None:
+        p.error("RRD: a recording is needed (or --docs)")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    with HeadlessViewer() as v:
+        v.open(args.rrd)
+        for t in args.at or [None]:
+            v.set_time(t)
+            png = v.screenshot()
+            name = out / f"viewer_{'default' if t is None else f'{t:g}s'}.png"
+            name.write_bytes(png)
+            print(f"wrote {name}")
+            for name, (view, vpng) in v.shoot_every_view().items():
+                s = view_statistics(vpng, name)
+                (out / f"view_{slug(name)}.png").write_bytes(vpng)
+                print(f"  {name:60s} ink {s.ink * 100:5.1f} %  in colour {s.colour_ink * 100:5.2f} %  "
+                      f"reports {[r.summary for r in view.reports]}")
+        for e in v.errors():
+            print("viewer:", e)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

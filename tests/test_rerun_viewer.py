@@ -1,0 +1,128 @@
+"""The Rerun view tested in the real viewer: the wheel's ``rerun --headless --bind 127.0.0.1``
+(software Vulkan, no GPU) driven by ``rerun.experimental.ViewerClient``.
+
+The recording is the committed ``recordings/example_runup.mcap`` (an old recording: made before
+this layout existed) converted as ``bkabem replay FILE --rerun-save`` does. Checked: every view
+of the blueprint exists and reports no error, the viewer logs no warning, the recording opens at
+its latest data, and every view's screenshot shows data (pixels in colour for plots, text for
+the health panels), while the envelope spectra at the first instant of the run, before the first
+full window, are empty: the statistic can tell.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+
+os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="bkabem_ros_log_"))
+
+from pathlib import Path  # noqa: E402
+
+import pytest  # noqa: E402
+
+from bkabem_ros import replay, rerun_io  # noqa: E402
+from bkabem_ros.rerun_blueprint import view_names  # noqa: E402
+from bkabem_ros.rerun_viewer import (  # noqa: E402
+    HeadlessViewer,
+    lavapipe_available,
+    listening_addresses,
+    view_statistics,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "recordings" / "example_runup.mcap"
+
+if not lavapipe_available():     # the project installs it (tools/setup_viewer.sh); say so plainly
+    pytest.fail("no Vulkan driver for the headless Rerun viewer: run tools/setup_viewer.sh "
+                "(Debian: apt-get install mesa-vulkan-drivers)", pytrace=False)
+
+
+@pytest.fixture(scope="module")
+def example_rrd(tmp_path_factory):
+    out = tmp_path_factory.mktemp("viewer") / "example.rrd"
+    logger = rerun_io.RerunLogger("bkabem", recording_id="example", save_path=out)
+    stats = replay.to_rerun(EXAMPLE, logger)
+    logger.close()
+    assert stats.logged > 1000
+    return out
+
+
+def test_every_view_exists_without_error_and_shows_data(example_rrd):
+    with HeadlessViewer(window_size=(1024, 640)) as v:       # small: each frame is software-rendered
+        assert listening_addresses(v.port) == ["0100007F"]   # 127.0.0.1 only
+        st = v.open(example_rrd)
+        # opens on the latest data (following), not at t = 0
+        rec = st.recordings[0]
+        (tl,) = [t for t in rec.timelines if t.name == "sample_time"]
+        shots = v.shoot_every_view(settle=1)
+        st = v.client.get_state()
+        assert st.recordings[0].current_time == tl.end
+        assert sorted(shots) == sorted(view_names())
+        for name, (view, png) in shots.items():
+            assert view.reports == [], (name, view.reports)
+            s = view_statistics(png, name)
+            if name.endswith("health"):
+                assert s.ink > 0.01, s                  # text
+            else:
+                assert s.colour_ink > 0.002, s          # series / bars / markers in colour
+        assert v.errors() == []
+        # the first instant: no condition window yet -> the envelope spectra (latest-at) are empty
+        v.set_time(tl.start / 1e9)
+        v.screenshot(settle=2)
+        env = [w for w in v.views() if "envelope" in w.name]
+        assert len(env) == 2
+        for w in env:
+            s = view_statistics(v.screenshot(w.view_id, settle=2), w.name)
+            assert s.colour_ink < 0.0005, s
+
+
+def _spiky_recording(path: Path) -> float:
+    """DE acceleration: a slow 0.1 m/s^2 sine (5 Hz) plus single-sample impacts of 1 m/s^2 every
+    50 ms, 25.6 kHz, 2 s, through the logger as the node's messages. Returns the share of the
+    data's range that the sine spans (what an honest plot shows)."""
+    import numpy as np
+
+    from bkabem_ros import msgs
+
+    fs, n, t0 = 25_600.0, 2560, 1_700_000_000_000_000_000
+    t = np.arange(int(2 * fs)) / fs
+    x = 0.1 * np.sin(2 * np.pi * 5 * t)
+    x[::1280] += 1.0
+    logger = rerun_io.RerunLogger("bkabem", recording_id="spikes", save_path=path)
+    for i in range(t.size // n):
+        blk = x[i * n:(i + 1) * n]
+        logger.log_waveform(msgs.waveform_message(
+            np.stack([blk, np.zeros_like(blk)]), sample_rate=fs, first_sample_index=i * n, shaft_speed=0.0,
+            machine_id="m", location="de", quantity="acceleration", channel_names=["vertical", "horizontal"],
+            stamp=t0 + int(round(i * n / fs * 1e9))))
+    logger.close()
+    return 0.2 / (x.max() - x.min())
+
+
+def test_waveform_keeps_impact_peaks_at_full_height(tmp_path):
+    """Zoomed out (1 s = 25 600 samples on ~1200 pixels) the plot must still reach the impacts.
+    The y axis fits what is drawn, so the share of the plot's height that the slow sine spans
+    tells: 0.2 / 1.2 of the data's range when the impacts are drawn at full height (min/max),
+    most of the height when an averaging plot shrinks them to 1/20."""
+    import numpy as np
+
+    from bkabem_ros.rerun_viewer import _pixels
+
+    path = tmp_path / "spikes.rrd"
+    want = _spiky_recording(path)
+    with HeadlessViewer(window_size=(1280, 800)) as v:
+        v.open(path)
+        (view,) = [w for w in v.views() if w.name == "DE acceleration [m/s²]"]
+        v.maximize(view.view_id)                            # the blueprint's 1-s window, on ~1200 pixels
+        img = _pixels(v.screenshot(view.view_id, settle=2)).astype(int)
+        assert v.errors() == []
+    blue = (np.abs(img - np.array([31, 119, 180])).max(axis=2) < 40)
+    blue[:60, :260] = False                                 # the legend's dot
+    rows = np.arange(img.shape[0])[:, None].astype(float)
+    has = blue.sum(axis=0) > 0
+    assert has.sum() > 0.5 * img.shape[1]                   # the trace spans the view
+    centre = (np.where(blue, rows, 0).sum(axis=0)[has] / blue.sum(axis=0)[has])
+    top = np.where(blue, rows, np.inf).min(axis=0)[has].min()
+    bottom = np.where(blue, rows, -np.inf).max(axis=0)[has].max()
+    share = (np.percentile(centre, 95) - np.percentile(centre, 5)) / (bottom - top)
+    assert share < 1.3 * want, (share, want)
