@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
+from . import plausibility
 from .bearing import Bearing, BearingGeometry, Dent
 from .excitation import FourDofParameters
 
@@ -372,7 +373,13 @@ class Case:
         p = Path(s)
         if not p.is_file():
             raise CaseError("case", f"file not found: {p}")
-        return cls.from_toml(p.read_text(), source=str(p))
+        try:
+            text = p.read_bytes().decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise CaseError("toml", f"not a UTF-8 text file (byte {exc.start}: {exc.reason})", str(p)) from None
+        except OSError as exc:
+            raise CaseError("case", f"cannot read {p}: {exc.strerror}") from None
+        return cls.from_toml(text, source=str(p))
 
     @classmethod
     def from_toml(cls, text: str, source: str = "") -> "Case":
@@ -380,6 +387,8 @@ class Case:
             raw = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise CaseError("toml", f"not valid TOML: {exc}", source) from None
+        except RecursionError:
+            raise CaseError("toml", "nested too deeply (arrays or tables inside each other)", source) from None
         return cls.from_dict(raw, source)
 
     @classmethod
@@ -387,7 +396,10 @@ class Case:
         raw = copy.deepcopy(raw)
         if isinstance(raw.get("case"), dict) and raw["case"].get("schema_version") == 1:
             raw = migrate_v1(raw)
-        validate_case_dict(raw, source)
+        validate_case_dict({k: v for k, v in raw.items() if k != plausibility.SECTION}, source)
+        bad = plausibility.problem(raw)           # physical bounds (unit slips) and computing limits
+        if bad is not None:
+            raise CaseError(*bad, source)
         return cls(name=raw["case"]["name"], source=source, raw=raw)
 
     # -- identity --

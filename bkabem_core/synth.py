@@ -746,6 +746,9 @@ class Synthesizer:
             raise SynthError("spectrum", f"must be 'auto', 'modal' or 'exact' (got {spectrum!r})")
         self.knot_s = _finite("knot_s", knot_s, 0.0, strict=True)
         self.max_speed_step_hz = _finite("max_speed_step_hz", max_speed_step_hz, 0.0, strict=True)
+        #: Most knots one speed step (one streamed chunk) may add; a real-time caller (the ROS node) lowers it so a
+        #: jump of any size costs a bounded time (coarser amplitude interpolation through the jump, exact phase).
+        self.max_knots_per_step = 100000
         self.min_speed_hz = _finite("min_speed_hz", min_speed_hz, 0.0, strict=True)
         self.slip = _finite("slip", slip, 0.0)
         if self.slip > MAX_SLIP:
@@ -1056,10 +1059,14 @@ class Synthesizer:
     def _n_sub(self, fa: float, fb: float) -> int:
         n = math.ceil(abs(fb - fa) / self.max_speed_step_hz - 1e-12)
         if self.band_limit == "taper":
-            hi, lo = max(fa, fb), min(fa, fb)
-            if self.highest_order * self.bpfo_per_hz * hi > 0.8 * self.sample_rate_hz / 2 and hi > 1.02 * lo:
-                n = max(n, math.ceil(math.log(hi / max(lo, 1e-9)) / math.log(1.02)))
-        return max(1, min(n, 100000))
+            # knots at most 2 % apart in speed where an order is near the Nyquist taper; clipped to the speeds
+            # where some order is (0.8 .. 0.95 of Nyquist): below, log(hi / lo) of a change from standstill asked
+            # for ~1250 knots (0.5 s of solves in one chunk: the stall at speed jumps to or from 0, issue 14)
+            hi = min(max(fa, fb), 0.95 / float(self._order_ratio_per_hz.min()))
+            lo = max(min(fa, fb), 0.8 / self._top_ratio_per_hz)
+            if hi > 1.02 * lo:
+                n = max(n, math.ceil(math.log(hi / lo) / math.log(1.02)))
+        return max(1, min(n, self.max_knots_per_step))
 
     def _append(self, x: int, f: float) -> None:
         """Add knot(s) up to sample x with speed f [Hz] (speed linear in time from the last knot). Subdivision

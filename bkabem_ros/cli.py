@@ -14,7 +14,7 @@ import importlib.util
 from pathlib import Path
 
 
-from .cli_base import UsageError, finite_float, pos_int
+from .cli_base import UsageError, finite_float, output_path, pos_int
 
 
 def fail(command: str, message: str):
@@ -55,17 +55,42 @@ def _overrides(args) -> dict:
 
 def _ros_args(args) -> list[str]:
     out = []
+    from .ros_env import params_file_problem
+
     for f in args.params_file:
         if not Path(f).is_file():
             fail("node", f"--params-file: file not found: {f}")
+        why = params_file_problem(f)
+        if why:
+            fail("node", f"--params-file: {f}: {why}")
         out += ["--params-file", f]
     return out + list(args.ros_args or [])
 
 
+def check_parameter_ranges(overrides: dict, option_of=lambda name: "--" + name.replace("_", "-")) -> None:
+    """The node's parameter ranges (node.PARAMETERS) for the shorthand options, before rclpy starts: bad input is
+    one line, not a log of the node's start-up followed by rclpy's refusal."""
+    from .node import PARAMETER_SPECS
+
+    for name, value in overrides.items():
+        spec = PARAMETER_SPECS.get(name)
+        if spec is None or spec.range is None or isinstance(value, (bool, str)):
+            continue
+        lo, hi = spec.range
+        if not lo <= value <= hi:
+            unit = f" {spec.unit}" if spec.unit else ""
+            raise UsageError(f"{option_of(name)}: {value:g}{unit} is outside the parameter's range "
+                             f"{lo:g} .. {hi:g}{unit}")
+
+
 def cmd_node(args) -> int:
     from .node import run
+    from .ros_env import check_names
 
+    check_names([("--name", "node name", args.name), ("--namespace", "namespace", args.namespace)])
+    check_parameter_ranges(_overrides(args))
     on_node = None
+    attached = []
     if getattr(args, "record", None) or getattr(args, "rerun_save", None) or getattr(args, "rerun_connect", None):
         from .record import attach_sinks
 
@@ -74,16 +99,26 @@ def cmd_node(args) -> int:
             from .rerun_io import DEFAULT_CONNECT_URL
 
             connect = DEFAULT_CONNECT_URL
-        if args.record and not Path(args.record).resolve().parent.is_dir():
-            fail("node", f"--record: directory {Path(args.record).parent} does not exist")
-        if args.rerun_save and not Path(args.rerun_save).resolve().parent.is_dir():
-            fail("node", f"--rerun-save: directory {Path(args.rerun_save).parent} does not exist")
 
         def attach(node):
-            return attach_sinks(node, record=args.record, rerun_save=args.rerun_save, rerun_connect=connect)
+            sinks = attach_sinks(node, record=args.record, rerun_save=args.rerun_save, rerun_connect=connect)
+            attached.append(sinks)
+            if args.record and sinks.mcap is None:
+                raise UsageError(f"--record: {args.record}: the recording could not start (see the log line above)")
+            if (args.rerun_save or connect) and sinks.rerun is None:
+                raise UsageError("--rerun-save/--rerun-connect: the Rerun output could not start (see the log "
+                                 "line above)")
+            return sinks
         on_node = attach
 
-    return run(_ros_args(args), _overrides(args), node_name=args.name, namespace=args.namespace, on_node=on_node)
+    rc = run(_ros_args(args), _overrides(args), node_name=args.name, namespace=args.namespace, on_node=on_node)
+    for sinks in attached:          # a recording that failed while the node ran (disk full ...) is a failure
+        for option, sink in (("--record", getattr(sinks, "mcap", None)),
+                             ("--rerun-save/--rerun-connect", getattr(sinks, "rerun", None))):
+            err = getattr(sink, "error", None)
+            if err is not None:
+                raise UsageError(f"{option}: {err} (the node streamed on; the recording stopped there)")
+    return rc
 
 
 def add_ros_commands(sub, add_case) -> None:
@@ -93,14 +128,15 @@ def add_ros_commands(sub, add_case) -> None:
     add_case(n)
     _shorthand(n)
     if importlib.util.find_spec("bkabem_ros.record") is not None:     # sinks of issue 6 (MCAP, Rerun)
-        n.add_argument("--record", default=None, metavar="FILE.mcap",
+        n.add_argument("--record", default=None, metavar="FILE.mcap", type=output_path("--record", (".mcap",)),
                        help="record everything the node receives and publishes into a ROS 2 MCAP file")
-        n.add_argument("--rerun-save", default=None, metavar="FILE.rrd", help="log the streams to a Rerun file")
+        n.add_argument("--rerun-save", default=None, metavar="FILE.rrd", type=output_path("--rerun-save", (".rrd",)),
+                       help="log the streams to a Rerun file")
         n.add_argument("--rerun-connect", nargs="?", const="default", default=None, metavar="URL",
                        help="stream to a running Rerun viewer (default URL of bkabem_ros.rerun_io)")
     n.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
                    help="everything after this goes to ROS (-p name:=value, --params-file F, -r __ns:=/m1)")
-    n.set_defaults(func=cmd_node)
+    n.set_defaults(func=cmd_node, ros_network=True)
 
     from . import echo, fleet, speed
 

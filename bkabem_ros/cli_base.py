@@ -31,8 +31,9 @@ EXIT_SIGTERM = 128 + signal.SIGTERM
 #: Library exceptions that mean "bad input" (``module``, ``class``): matched by name when the module has been
 #: imported, so that this module does not import them (or numpy) itself.
 INPUT_ERRORS = (("bkabem_core.case", "CaseError"), ("bkabem_core.synth", "SynthError"),
-                ("bkabem_core.plausibility", "PlausibilityError"), ("bkabem_ros.mcap_io", "RecorderError"),
-                ("bkabem_ros.mcap_io", "DamagedRecording"))
+("bkabem_ros.mcap_io", "RecorderError"),
+                ("bkabem_ros.mcap_check", "DamagedRecording"), ("bkabem_ros.ros_env", "SecurityUnavailable"),
+                ("bkabem_ros.ros_env", "RosArgumentsError"))
 
 DEBUG_HELP = "on an unexpected error show the traceback (default: one line)"
 
@@ -108,12 +109,13 @@ class OutputPath(str):
     argument: str = ""
 
 
-def output_path(name: str, suffixes: tuple[str, ...] = ()):
+def output_path(name: str, suffixes: tuple[str, ...] = (), make_parents: bool = False):
     """argparse type for a file the command will write: the suffix (when ``suffixes``), an existing writable
-    folder and not a folder itself are checked before any work is done."""
+    folder and not a folder itself are checked before any work is done (:func:`check_output`). When the command
+    fails, a file it created there is removed again (no half-written output that looks like a result)."""
 
     def conv(text: str) -> OutputPath:
-        check_output(name, text, suffixes)
+        check_output(name, text, suffixes, make_parents)
         p = OutputPath(text)
         p.argument = name
         return p
@@ -121,8 +123,10 @@ def output_path(name: str, suffixes: tuple[str, ...] = ()):
     return conv
 
 
-def check_output(name: str, path, suffixes: tuple[str, ...] = ()) -> None:
-    """Raise :class:`argparse.ArgumentTypeError` when ``path`` cannot be a new output file."""
+def check_output(name: str, path, suffixes: tuple[str, ...] = (), make_parents: bool = False) -> None:
+    """Raise :class:`argparse.ArgumentTypeError` when ``path`` cannot be a new output file: wrong suffix, a folder,
+    a missing folder (created when ``make_parents``), a folder this process cannot create files in (tried: root
+    ignores permission bits, a read-only mount or /sys does not)."""
     text = str(path)
     if not text:
         raise argparse.ArgumentTypeError(f"{name}: empty path")
@@ -132,28 +136,71 @@ def check_output(name: str, path, suffixes: tuple[str, ...] = ()) -> None:
         raise argparse.ArgumentTypeError(f"{name}: {text} is a directory")
     parent = os.path.dirname(os.path.abspath(text))
     if not os.path.isdir(parent):
-        raise argparse.ArgumentTypeError(f"{name}: directory {os.path.dirname(text) or '.'} does not exist")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise argparse.ArgumentTypeError(f"{name}: directory {os.path.dirname(text) or '.'} is not writable")
-    if os.path.exists(text) and not os.access(text, os.W_OK):
-        raise argparse.ArgumentTypeError(f"{name}: {text} is not writable")
+        if not make_parents:
+            raise argparse.ArgumentTypeError(f"{name}: directory {os.path.dirname(text) or '.'} does not exist")
+        try:
+            os.makedirs(parent, exist_ok=True)
+        except OSError as exc:
+            raise argparse.ArgumentTypeError(f"{name}: cannot create directory {parent}: {exc.strerror}") from None
+    if os.path.exists(text):
+        if not os.access(text, os.W_OK):
+            raise argparse.ArgumentTypeError(f"{name}: {text} is not writable")
+    else:
+        why = _cannot_create_in(parent)
+        if why:
+            raise argparse.ArgumentTypeError(f"{name}: cannot create files in {parent}: {why}")
+
+
+def _cannot_create_in(folder: str) -> str | None:
+    """Why no file can be created in ``folder`` (by trying), or None."""
+    import tempfile
+
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".bkabem-probe-", dir=folder)
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    os.close(fd)
+    try:
+        os.unlink(probe)
+    except OSError:
+        pass
+    return None
 
 
 def check_output_dir(name: str, path) -> None:
     """Raise :class:`UsageError` when ``path`` is not a folder this process can create files in (created when
     missing, like ``mkdir -p``)."""
     text = str(path)
+    if os.path.exists(text) and not os.path.isdir(text):
+        raise UsageError(f"{name}: {text} is not a directory")
     try:
         os.makedirs(text, exist_ok=True)
     except OSError as exc:
         raise UsageError(f"{name}: {text}: {exc.strerror}") from None
-    if not os.access(text, os.W_OK | os.X_OK):
-        raise UsageError(f"{name}: directory {text} is not writable")
+    why = _cannot_create_in(text)
+    if why:
+        raise UsageError(f"{name}: cannot create files in {text}: {why}")
+
+
+class writing:
+    """``with writing("--png", path): plot(...)``: an OSError while writing (a full disk: the writer's file object
+    has no name in the error) becomes one line naming the option and the path."""
+
+    def __init__(self, option: str, path):
+        self.option, self.path = option, path
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, et, exc, tb):
+        if isinstance(exc, OSError) and not isinstance(exc, BrokenPipeError):
+            raise UsageError(f"{self.option}: {self.path}: {exc.strerror or exc}") from None
+        return False
 
 
 # --------------------------------------------------------------------------- the contract
 def _input_error_types() -> tuple[type, ...]:
-    out = [UsageError]
+    out = [UsageError, argparse.ArgumentTypeError]
     for mod, cls in INPUT_ERRORS:
         m = sys.modules.get(mod)
         t = getattr(m, cls, None) if m is not None else None
@@ -197,12 +244,26 @@ def run_command(args, command: str | None = None) -> int:
     """Run ``args.func(args)`` under the error contract and return the exit code (see the module docstring)."""
     command = command or getattr(args, "command", "") or ""
     prog = f"bkabem {command}".strip()
-    debug = bool(getattr(args, "debug", False)) or os.environ.get("BKABEM_DEBUG", "") not in ("", "0")
     try:
         old_term = signal.signal(signal.SIGTERM, _on_sigterm)
     except ValueError:          # not the main thread (a test calling main() from a thread): leave it
         old_term = None
+    new_outputs = [p for p in _output_paths(args) if not os.path.lexists(p)]
+    rc = EXIT_FAILURE
     try:
+        rc = _run(args, prog)
+        return rc
+    finally:
+        if old_term is not None:
+            signal.signal(signal.SIGTERM, old_term)
+        if rc not in (0, None):
+            _remove_partial(new_outputs)
+
+
+def _run(args, prog: str) -> int:
+    debug = bool(getattr(args, "debug", False)) or os.environ.get("BKABEM_DEBUG", "") not in ("", "0")
+    try:
+        _ros_environment(args, prog)
         rc = int(args.func(args) or 0)
         sys.stdout.flush()        # a full or closed stdout is an error of this command, not of the interpreter
         return rc
@@ -231,12 +292,45 @@ def run_command(args, command: str | None = None) -> int:
             sys.stderr.write(f"{prog}: error: unexpected {type(exc).__name__}: {_one_line(str(exc))} "
                              f"(a bug: re-run with --debug for the traceback)\n")
         return EXIT_FAILURE
-    finally:
-        if old_term is not None:
-            signal.signal(signal.SIGTERM, old_term)
 
 
-def _one_line(text: str, limit: int = 400) -> str:
+def _ros_environment(args, prog: str) -> None:
+    """For a command that joins the ROS graph (``set_defaults(ros_network=True)`` or a predicate of the args):
+    loopback discovery unless the user chose, no DDS security (:func:`bkabem_ros.ros_env.apply_defaults`); the
+    command announces the range right before ``rclpy.init``."""
+    net = getattr(args, "ros_network", False)
+    if callable(net):
+        net = net(args)
+    if not net:
+        return
+    from .ros_env import apply_defaults
+
+    quiet = bool(getattr(args, "quiet", False))
+    apply_defaults(say=None if quiet else (lambda line: sys.stderr.write(f"{prog}: {line}\n")))
+
+
+def _output_paths(args) -> list[str]:
+    out = []
+    for value in vars(args).values():
+        for v in (value if isinstance(value, (list, tuple)) else [value]):
+            if isinstance(v, OutputPath):
+                out.append(str(v))
+    return out
+
+
+def _remove_partial(paths: list[str]) -> None:
+    """Remove regular files a failed command created at its output paths (never links, devices or folders)."""
+    import stat
+
+    for p in paths:
+        try:
+            if stat.S_ISREG(os.lstat(p).st_mode):
+                os.unlink(p)
+        except OSError:
+            pass
+
+
+def _one_line(text: str, limit: int = 600) -> str:
     s = " ".join(str(text).split())
     return s if len(s) <= limit else s[:limit - 3] + "..."
 

@@ -7,16 +7,19 @@ of :mod:`bkabem_ros.cli_base` (one line naming the argument or case key, exit co
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
-import math
 import sys
 import time
 
 import numpy as np
 
-from .cli_base import UsageError, finite_float, output_path, pos_int
+from .cli_base import UsageError, check_output_dir, finite_float, output_path, pos_int, writing
+
+#: validate: below 1 Hz one BPFO period of the TDSM reference takes minutes of computing; the TDSM output grows
+#: with the simulated time (~10 s of computing and ~100 MB per simulated second).
+VALIDATE_MIN_SPEED_HZ = 1.0
+VALIDATE_MAX_DURATION_S = 20.0
 
 # --------------------------------------------------------------------------- helpers
 def _load_case(path):
@@ -29,6 +32,18 @@ def _model(case, solver="modal"):
     from bkabem_core.harmonic import BkaBem
 
     return BkaBem(case, solver=solver)
+
+
+def _numbers(obj):
+    """Every float in a JSON-like object."""
+    if isinstance(obj, float):
+        yield obj
+    elif isinstance(obj, dict):
+        for v in obj.values():
+            yield from _numbers(v)
+    elif isinstance(obj, (list, tuple)):
+        for v in obj:
+            yield from _numbers(v)
 
 
 def _print_json(obj) -> None:
@@ -94,10 +109,13 @@ def cmd_excitation(args) -> int:
     names = BEARINGS if args.all_bearings else machine.excited_bearings()
     exs = {n: machine.excitation(n, method=args.method) for n in names}
     ex = exs.get(case.faulty_bearing, next(iter(exs.values())))
+    for n, e in exs.items():
+        _check_finite(f"excitation of the {n} bearing", list(_numbers(e.to_dict())))
     if args.png:
         from bkabem_core.plots import plot_excitation
 
-        plot_excitation(ex, args.png)
+        with writing("--png", args.png):
+            plot_excitation(ex, args.png)
     if args.json:
         out = ex.to_dict()          # the faulty bearing's at the top level (CLI contract), every bearing below
         out["bearings"] = {n: e.to_dict() for n, e in exs.items()}
@@ -111,12 +129,15 @@ def cmd_excitation(args) -> int:
 
 def cmd_spectrum(args) -> int:
     case = _load_case(args.case)
+    _check_speeds(case, [args.speed_hz], "--speed-hz")
     model = _model(case)
     sp = model.spectrum(args.speed_hz)
+    _check_finite(f"spectrum at {args.speed_hz:g} Hz", sp.displacement, sp.acceleration, sp.dc_m)
     if args.png:
         from bkabem_core.plots import plot_spectrum
 
-        plot_spectrum(sp, args.png)
+        with writing("--png", args.png):
+            plot_spectrum(sp, args.png)
     if args.json:
         _print_json(sp.to_dict())
     else:
@@ -126,61 +147,152 @@ def cmd_spectrum(args) -> int:
     return 0
 
 
-def cmd_sweep(args) -> int:
-    if args.to_hz < args.from_hz:
-        raise UsageError(f"--to-hz ({args.to_hz:g}) must be >= --from-hz ({args.from_hz:g})")
-    case = _load_case(args.case)
-    model = _model(case)
-    speeds = np.linspace(args.from_hz, args.to_hz, args.steps)
-    t0 = time.perf_counter()
-    sw = model.sweep(speeds, progress=not (args.json or args.csv) and sys.stderr.isatty())
-    elapsed = time.perf_counter() - t0
-    if args.png:
-        from bkabem_core.plots import plot_sweep
+#: Sweep sizes: streamed outputs (--csv, --jsonl, the table) hold one batch of speeds at a time; --json (one
+#: document) and --png (one figure) hold the whole sweep: ~6.4 kB of complex responses per speed.
+SWEEP_MAX_STEPS = 1_000_000
+SWEEP_MAX_STEPS_IN_MEMORY = 20_000
+SWEEP_BATCH = 256
 
-        plot_sweep(sw, args.png)
+
+def _check_speeds(case, speeds_hz, argument: str) -> None:
+    """Shaft speeds must lie in the case's operating range (0 .. operating.max_speed_hz)."""
+    top = float(np.max(speeds_hz))
+    if top > case.max_speed_hz:
+        raise UsageError(f"{argument}: {top:g} Hz is above the case's operating.max_speed_hz ({case.max_speed_hz:g} Hz; "
+                         f"raise it in the case file if the machine runs faster)")
+
+
+def _check_finite(what: str, *arrays) -> None:
+    """The last check before anything is written: no NaN or inf leaves the command."""
+    for a in arrays:
+        a = np.asarray(a)
+        if a.size and not np.all(np.isfinite(a)):
+            raise UsageError(f"{what}: the result is not finite (NaN or inf); a case value or argument is outside "
+                             f"what the model can represent (check the units of the case)")
+
+
+def _sweep_batches(model, speeds, progress: bool):
+    """Yield (first index, Sweep of a batch of speeds)."""
+    starts = range(0, speeds.size, SWEEP_BATCH)
+    if progress:
+        from tqdm import tqdm
+
+        starts = tqdm(starts, desc="sweep", unit="batch", file=sys.stderr)
+    for i0 in starts:
+        sw = model.sweep(speeds[i0:i0 + SWEEP_BATCH])
+        _check_finite(f"sweep at {speeds[i0]:g}..{speeds[min(i0 + SWEEP_BATCH, speeds.size) - 1]:g} Hz",
+                      sw.displacement, sw.acceleration)
+        yield i0, sw
+
+
+def _sweep_fields(sw, si: int, li: int, di: int) -> dict:
+    disp, acc = sw.displacement[si, :, li, di], sw.acceleration[si, :, li, di]
+    return {"displacement_m": np.abs(disp).tolist(), "acceleration_m_s2": np.abs(acc).tolist(),
+            "phase_rad": np.angle(disp).tolist(),
+            "rms_acceleration_m_s2": float(np.sqrt(0.5 * np.sum(np.abs(acc) ** 2))),
+            "rms_displacement_m": float(np.sqrt(0.5 * np.sum(np.abs(disp) ** 2)))}
+
+
+def _write_sweep_json(out, sw, speeds, elapsed: float) -> None:
+    """The ``--json`` document (architecture.md's fields), written row by row: no Python lists of the whole sweep."""
     from bkabem_core.excitation import DIRECTIONS
     from bkabem_core.harmonic import LOCATIONS
 
     acc, disp = sw.acceleration, sw.displacement
-    if args.json:
-        out = {"speeds_hz": speeds.tolist(), "orders": [int(k) for k in sw.orders], "bpfo_per_hz": sw.bpfo_per_hz,
-               "wall_time_s": elapsed}
-        rms_a, rms_d = sw.rms("acceleration"), sw.rms("displacement")
-        for li, loc in enumerate(LOCATIONS):
-            out[loc] = {}
-            for di, d in enumerate(DIRECTIONS):
-                out[loc][d] = {
-                    "displacement_m": np.abs(disp[:, :, li, di]).tolist(),
-                    "acceleration_m_s2": np.abs(acc[:, :, li, di]).tolist(),
-                    "phase_rad": np.angle(disp[:, :, li, di]).tolist(),
-                    "rms_acceleration_m_s2": rms_a[:, li, di].tolist(),
-                    "rms_displacement_m": rms_d[:, li, di].tolist(),
-                }
-        _print_json(out)
-    elif args.csv:
+    rms_a, rms_d = sw.rms("acceleration"), sw.rms("displacement")
+    w = out.write
+    w('{\n "speeds_hz": ' + json.dumps(speeds.tolist()) + ',\n "orders": ' + json.dumps([int(k) for k in sw.orders])
+      + f',\n "bpfo_per_hz": {json.dumps(float(sw.bpfo_per_hz))},\n "wall_time_s": {json.dumps(elapsed)}')
+    for li, loc in enumerate(LOCATIONS):
+        w(f',\n "{loc}": {{')
+        for di, d in enumerate(DIRECTIONS):
+            w(("," if di else "") + f'\n  "{d}": {{')
+            for ai, (name, arr) in enumerate((("displacement_m", np.abs(disp[:, :, li, di])),
+                                              ("acceleration_m_s2", np.abs(acc[:, :, li, di])),
+                                              ("phase_rad", np.angle(disp[:, :, li, di])))):
+                w(("," if ai else "") + f'\n   "{name}": [')
+                for si in range(arr.shape[0]):
+                    w(("," if si else "") + "\n    " + json.dumps(arr[si].tolist()))
+                w("]")
+            w(',\n   "rms_acceleration_m_s2": ' + json.dumps(rms_a[:, li, di].tolist()))
+            w(',\n   "rms_displacement_m": ' + json.dumps(rms_d[:, li, di].tolist()) + "}")
+        w("}")
+    w("\n}\n")
+
+
+def cmd_sweep(args) -> int:
+    if args.to_hz < args.from_hz:
+        raise UsageError(f"--to-hz ({args.to_hz:g}) must be >= --from-hz ({args.from_hz:g})")
+    if (args.json or args.png) and args.steps > SWEEP_MAX_STEPS_IN_MEMORY:
+        raise UsageError(f"--steps: {args.steps} speeds is more than {SWEEP_MAX_STEPS_IN_MEMORY} for "
+                         f"{'--json' if args.json else '--png'} (one document/figure in memory); --csv and --jsonl "
+                         f"stream up to {SWEEP_MAX_STEPS}")
+    case = _load_case(args.case)
+    speeds = np.linspace(args.from_hz, args.to_hz, args.steps)
+    _check_speeds(case, speeds, "--to-hz")
+    model = _model(case)
+    from bkabem_core.excitation import DIRECTIONS
+    from bkabem_core.harmonic import LOCATIONS, Sweep
+
+    progress = not (args.json or args.csv or args.jsonl) and sys.stderr.isatty()
+    t0 = time.perf_counter()
+    if args.json or args.png:                       # whole sweep (bounded by SWEEP_MAX_STEPS_IN_MEMORY)
+        parts = [sw for _, sw in _sweep_batches(model, speeds, progress)]
+        sw_all = Sweep(speeds_hz=speeds, orders=parts[0].orders, bpfo_per_hz=parts[0].bpfo_per_hz,
+                       displacement=np.concatenate([p.displacement for p in parts]))
+        elapsed = time.perf_counter() - t0
+        if args.png:
+            from bkabem_core.plots import plot_sweep
+
+            with writing("--png", args.png):
+                plot_sweep(sw_all, args.png)
+        if args.json:
+            _write_sweep_json(sys.stdout, sw_all, speeds, elapsed)
+            return 0
+        batches = [(0, sw_all)]
+    else:
+        batches = _sweep_batches(model, speeds, progress)
+    if args.csv:
         w = csv.writer(sys.stdout)
         w.writerow(["speed_hz", "order", "frequency_hz", "location", "direction", "displacement_m",
                     "acceleration_m_s2", "phase_rad"])
-        f = sw.frequency_hz
-        for si, s in enumerate(speeds):
-            for ki, k in enumerate(sw.orders):
+        for i0, sw in batches:
+            acc, disp, f = sw.acceleration, sw.displacement, sw.frequency_hz
+            for si, s in enumerate(sw.speeds_hz):
+                for ki, k in enumerate(sw.orders):
+                    for li, loc in enumerate(LOCATIONS):
+                        for di, d in enumerate(DIRECTIONS):
+                            x = disp[si, ki, li, di]
+                            w.writerow([f"{s:.6g}", int(k), f"{f[si, ki]:.6g}", loc, d, f"{abs(x):.6e}",
+                                        f"{abs(acc[si, ki, li, di]):.6e}", f"{np.angle(x):.6f}"])
+        return 0
+    if args.jsonl:
+        for i0, sw in batches:
+            f = sw.frequency_hz
+            for si, s in enumerate(sw.speeds_hz):
+                row = {"speed_hz": float(s), "orders": [int(k) for k in sw.orders],
+                       "frequency_hz": f[si].tolist()}
                 for li, loc in enumerate(LOCATIONS):
-                    for di, d in enumerate(DIRECTIONS):
-                        x = disp[si, ki, li, di]
-                        w.writerow([f"{s:.6g}", int(k), f"{f[si, ki]:.6g}", loc, d, f"{abs(x):.6e}",
-                                    f"{abs(acc[si, ki, li, di]):.6e}", f"{np.angle(x):.6f}"])
-    else:
+                    row[loc] = {d: _sweep_fields(sw, si, li, di) for di, d in enumerate(DIRECTIONS)}
+                sys.stdout.write(json.dumps(row) + "\n")
+        return 0
+    step = max(1, args.steps // 15)
+    lines = []
+    n_orders = 0
+    for i0, sw in batches:
         rms = sw.rms("acceleration")
-        print(f"sweep {args.from_hz:g}..{args.to_hz:g} Hz, {args.steps} speeds x {sw.orders.size} orders "
-              f"in {elapsed * 1e3:.1f} ms")
-        print(f"  {'speed [Hz]':>10}" + "".join(f" {loc + ' v/h RMS [m/s2]':>27}" for loc in LOCATIONS))
-        step = max(1, args.steps // 15)
-        for si in range(0, args.steps, step):
-            print(f"  {speeds[si]:10.3f}" + "".join(f" {rms[si, li, 0]:13.4e}/{rms[si, li, 1]:.4e}"
-                                                    for li in range(len(LOCATIONS))))
-        if args.png:
-            print(f"wrote {args.png}")
+        n_orders = sw.orders.size
+        for si in range(sw.speeds_hz.size):
+            if (i0 + si) % step == 0:
+                lines.append(f"  {sw.speeds_hz[si]:10.3f}" + "".join(f" {rms[si, li, 0]:13.4e}/{rms[si, li, 1]:.4e}"
+                                                                     for li in range(len(LOCATIONS))))
+    elapsed = time.perf_counter() - t0
+    print(f"sweep {args.from_hz:g}..{args.to_hz:g} Hz, {args.steps} speeds x {n_orders} orders "
+          f"in {elapsed * 1e3:.1f} ms")
+    print(f"  {'speed [Hz]':>10}" + "".join(f" {loc + ' v/h RMS [m/s2]':>27}" for loc in LOCATIONS))
+    print("\n".join(lines))
+    if args.png:
+        print(f"wrote {args.png}")
     return 0
 
 
@@ -192,6 +304,7 @@ def cmd_validate(args) -> int:
     case = _load_case(args.case)
     kwargs = {}
     if args.speed_hz is not None:
+        _check_speeds(case, [args.speed_hz], "--speed-hz")
         kwargs["speed_hz"] = args.speed_hz
     if args.duration is not None:
         kwargs["duration_s"] = args.duration
@@ -200,8 +313,11 @@ def cmd_validate(args) -> int:
     if args.max_step_us is not None:
         kwargs["max_step_s"] = args.max_step_us * 1e-6
     result = validation.validate(case, progress=not args.json and sys.stderr.isatty(), **kwargs)
+    d = result.to_dict()
+    _check_finite("validate", [v for v in _numbers(d)])
     if args.png:
-        validation.plot_validation(result, args.png)
+        with writing("--png", args.png):
+            validation.plot_validation(result, args.png)
     if args.json:
         _print_json(result.to_dict())
     else:
@@ -219,8 +335,12 @@ def cmd_demo(args) -> int:
     from pathlib import Path
 
     case = _load_case(args.case)
+    _check_speeds(case, args.speeds, "--speeds")
+    if not args.no_ros:
+        _check_speeds(case, [args.top_hz], "--top-hz")
+        check_output_dir("--recordings", args.recordings)
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    check_output_dir("--out", out)
     t0 = time.perf_counter()
     model = _model(case)
     prep = time.perf_counter() - t0
@@ -259,7 +379,9 @@ def cmd_demo(args) -> int:
           f"recording to {args.recordings}/demo.mcap and demo.rrd", flush=True)
     r = run_demo(args.recordings, ramp_s=args.ramp, hold_s=args.hold, top_hz=args.top_hz,
                  sample_rate=args.sample_rate, case=args.case, rerun=not args.no_rerun)
-    return 1 if r.errors else 0
+    if r.errors:                        # a recording failed (full disk ...): the summary above lists them all
+        raise UsageError(f"--recordings: {r.errors[0]}")
+    return 0
 
 
 # --------------------------------------------------------------------------- parser
@@ -274,7 +396,7 @@ def add_parsers(sub) -> None:
     e = sub.add_parser("excitation", help="bearing excitation: DC, amplitudes and phases per BPFO order")
     add_case(e)
     e.add_argument("--json", action="store_true", help="machine-readable output")
-    e.add_argument("--png", help="write a figure of the waveform and orders")
+    e.add_argument("--png", type=output_path("--png", (".png",)), help="write a figure of the waveform and orders")
     e.add_argument("--method", choices=("quasi_static", "four_dof"), default=None,
                    help="excitation model (default: the case's [excitation] method)")
     e.add_argument("--all-bearings", action="store_true",
@@ -286,32 +408,37 @@ def add_parsers(sub) -> None:
     s.add_argument("--speed-hz", required=True, type=finite_float("--speed-hz", 0.0),
                    help="shaft speed [Hz]")
     s.add_argument("--json", action="store_true")
-    s.add_argument("--png")
+    s.add_argument("--png", type=output_path("--png", (".png",)))
     s.set_defaults(func=cmd_spectrum)
 
     w = sub.add_parser("sweep", help="BKA-BEM spectra over a range of shaft speeds")
     add_case(w)
     w.add_argument("--from-hz", required=True, type=finite_float("--from-hz", 0.0), help="first speed [Hz]")
     w.add_argument("--to-hz", required=True, type=finite_float("--to-hz", 0.0), help="last speed [Hz]")
-    w.add_argument("--steps", required=True, type=pos_int("--steps", 1), help="number of speeds")
-    w.add_argument("--png", help="order map and RMS vs speed")
+    w.add_argument("--steps", required=True, type=pos_int("--steps", 1, SWEEP_MAX_STEPS),
+                   help=f"number of speeds (at most {SWEEP_MAX_STEPS}; {SWEEP_MAX_STEPS_IN_MEMORY} with --json or --png)")
+    w.add_argument("--png", type=output_path("--png", (".png",)), help="order map and RMS vs speed")
     g = w.add_mutually_exclusive_group()
-    g.add_argument("--json", action="store_true")
-    g.add_argument("--csv", action="store_true", help="tidy CSV: one row per speed, order, location, direction")
+    g.add_argument("--json", action="store_true", help="one JSON document (architecture.md's fields)")
+    g.add_argument("--csv", action="store_true", help="tidy CSV: one row per speed, order, location, direction "
+                                                      "(streamed as computed)")
+    g.add_argument("--jsonl", action="store_true", help="JSON lines: one object per speed (streamed as computed)")
     w.set_defaults(func=cmd_sweep)
 
     v = sub.add_parser("validate", help="time-domain reference (TDSM) against BKA-BEM at one speed")
     add_case(v)
-    v.add_argument("--speed-hz", type=finite_float("--speed-hz", 0.0, strict=True), default=None)
-    v.add_argument("--duration", type=finite_float("--duration", 0.0, strict=True), default=None,
-                   help="simulated time after the transient [s]")
+    v.add_argument("--speed-hz", type=finite_float("--speed-hz", VALIDATE_MIN_SPEED_HZ), default=None,
+                   help=f"shaft speed [Hz], {VALIDATE_MIN_SPEED_HZ:g} .. the case's operating.max_speed_hz")
+    v.add_argument("--duration", type=finite_float("--duration", 0.0, strict=True, maximum=VALIDATE_MAX_DURATION_S),
+                   default=None, help=f"simulated time after the transient [s] (at most {VALIDATE_MAX_DURATION_S:g}: "
+                                      f"the TDSM takes ~10 s of computing per simulated s)")
     v.add_argument("--improvement", default=None, choices=("hill", "paper", "four_dof", "hbm", "none"),
                    help="also evaluate this variant of BKA-BEM (default hill: the improved method; "
                         "docs/validation.md)")
     v.add_argument("--max-step-us", type=finite_float("--max-step-us", 0.0, strict=True), default=None,
                    help="largest TDSM step [us] (default: the TDSM's rule)")
     v.add_argument("--json", action="store_true")
-    v.add_argument("--png")
+    v.add_argument("--png", type=output_path("--png", (".png",)))
     v.set_defaults(func=cmd_validate)
 
     d = sub.add_parser("demo", help="the main job: core tables and figures, then the ROS 2 node run-up recorded "
@@ -325,4 +452,4 @@ def add_parsers(sub) -> None:
 
     add_run_up_arguments(d)
     d.add_argument("--no-ros", action="store_true", help="core part only (no ROS 2 node run)")
-    d.set_defaults(func=cmd_demo)
+    d.set_defaults(func=cmd_demo, ros_network=lambda a: not a.no_ros)

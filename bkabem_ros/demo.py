@@ -130,7 +130,9 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
     noise_acceleration : float
         Node parameter ``noise.acceleration`` (m/s^2 RMS sensor noise).
     """
-    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    from .ros_env import apply_defaults
+
+    apply_defaults()              # this host only, unless the user chose a discovery range or peers
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
@@ -147,7 +149,9 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
     duration = ramp_s + hold_s
     t_wall0 = time.perf_counter()
     ctx = rclpy.Context()
-    rclpy.init(context=ctx, args=["bkabem-demo"])
+    from .ros_env import init  # noqa: PLC0415
+
+    init(["bkabem-demo"], context=ctx)   # + the discovery range in force, once
     node = speed_node = attached = None
     result = DemoResult(mcap, rrd, 0.0)
     try:
@@ -251,8 +255,8 @@ def add_run_up_arguments(p) -> None:
     p.add_argument("--hold", type=finite_float("--hold", 0.0), default=10.0, help="hold time [s] (default 10)")
     p.add_argument("--top-hz", type=finite_float("--top-hz", 0.0, strict=True), default=50.0,
                    help="final shaft speed [Hz] (default 50)")
-    p.add_argument("--sample-rate", type=finite_float("--sample-rate", 0.0, strict=True), default=25600.0,
-                   help="samples per second and channel (default 25600)")
+    p.add_argument("--sample-rate", type=finite_float("--sample-rate", 1000.0, maximum=204800.0), default=25600.0,
+                   help="samples per second and channel, 1000 .. 204800 (the node's range; default 25600)")
     p.add_argument("--no-rerun", action="store_true", help="no .rrd")
 
 
@@ -271,17 +275,28 @@ def add_parser(sub, add_case=None):
     p.add_argument("--example", action="store_true",
                    help="write the small example recording recordings/example_runup.mcap instead")
     p.add_argument("--quiet", action="store_true")
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, ros_network=True)
     return p
 
 
 def main(args) -> int:
+    from bkabem_core.case import Case
+
+    from .cli_base import UsageError, check_output_dir
+
+    top = Case.load(args.case).max_speed_hz
+    if args.top_hz > top:
+        raise UsageError(f"--top-hz: {args.top_hz:g} Hz is above the case's operating.max_speed_hz ({top:g} Hz): the "
+                         f"node would reject every speed of the run-up")
+    check_output_dir("--out", args.out)
     if args.example:
         make_example(Path(args.out), quiet=args.quiet)
         return 0
     r = run_demo(args.out, ramp_s=args.ramp, hold_s=args.hold, top_hz=args.top_hz, sample_rate=args.sample_rate,
                  case=args.case, rerun=not args.no_rerun, rerun_connect=args.rerun_connect, quiet=args.quiet)
-    return 1 if r.errors else 0
+    if r.errors:
+        raise UsageError(f"--out: {r.errors[0]}")
+    return 0
 
 
 EXAMPLE = {"ramp_s": 8.0, "hold_s": 2.0, "top_hz": 50.0, "sample_rate": 5120.0}

@@ -119,7 +119,7 @@ def add_parser(sub, add_case=None):
     p.add_argument("--json", action="store_true", help="one JSON object per line")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
                    help="everything after this goes to ROS")
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, ros_network=True)
     return p
 
 
@@ -133,7 +133,11 @@ def main(args) -> int:
     from .cli import fail
 
     topics = list(args.topics) or list(DEFAULT_TOPICS)
-    rclpy.init(args=["bkabem-echo", "--ros-args", *(args.ros_args or [])])
+    from .ros_env import check_names, init  # noqa: PLC0415
+
+    check_names([("--namespace", "namespace", args.namespace)] + [("TOPIC", "topic", t) for t in topics])
+
+    init(["bkabem-echo", "--ros-args", *(args.ros_args or [])])   # + the discovery range in force, once
     node = None
     state = {"n": 0}
     try:

@@ -26,6 +26,12 @@ import sys
 import time
 
 
+#: A host runs tens of machines in real time (BENCHMARKS.md); beyond these the plan itself becomes the problem
+#: (the workers' argument lists, thousands of DDS participants).
+MAX_MACHINES = 1000
+MAX_PROCESSES = 64
+
+
 def machine_names(n: int, prefix: str = "machine_") -> list[str]:
     width = max(2, len(str(n - 1)))
     return [f"{prefix}{i:0{width}d}" for i in range(n)]
@@ -56,7 +62,9 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
 
     from .node import VibrationNode, _exit_log, _quiet_gc
 
-    rclpy.init(args=["bkabem-fleet", "--ros-args", *ros_args])
+    from .ros_env import init  # noqa: PLC0415
+
+    init(["bkabem-fleet", "--ros-args", *ros_args])   # + the discovery range in force, once
     nodes = []
     try:
         try:
@@ -108,8 +116,9 @@ def add_parser(sub, add_case):
 
     p = sub.add_parser("fleet", help="start N namespaced bkabem nodes (a fleet of machines)",
                        description=__doc__.split("\n\n")[0])
-    p.add_argument("--machines", type=pos_int("--machines", 1), required=True, help="number of machines")
-    p.add_argument("--processes", type=pos_int("--processes", 1), default=None,
+    p.add_argument("--machines", type=pos_int("--machines", 1, MAX_MACHINES), required=True,
+                   help=f"number of machines (at most {MAX_MACHINES})")
+    p.add_argument("--processes", type=pos_int("--processes", 1, MAX_PROCESSES), default=None,
                    help="processes to spread the machines over (default: 1 up to 4 machines, else CPU count)")
     p.add_argument("--case", action="append", default=[], metavar="CASE",
                    help="case (embedded name or TOML); repeat to cycle several cases over the machines")
@@ -126,12 +135,16 @@ def add_parser(sub, add_case):
                    help="stop after this long and print per-machine publish statistics")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None)
     p.add_argument("--worker", default=None, help=argparse.SUPPRESS)   # internal: JSON list of machines
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, ros_network=True)
     return p
 
 
 def main(args) -> int:
     from .cli import fail
+
+    import math
+
+    from .ros_env import check_names
 
     depths = None
     if args.defect_depths:
@@ -139,12 +152,25 @@ def main(args) -> int:
             depths = [float(v) for v in args.defect_depths.split(",")]
         except ValueError:
             fail("fleet", f"--defect-depths: {args.defect_depths!r} is not a comma list of numbers")
+        bad = [d for d in depths if not (math.isfinite(d) and 0.0 <= d <= 1e-3)]
+        if bad:
+            fail("fleet", f"--defect-depths: {bad[0]!r} m is not a dent depth in [0, 0.001] m")
+    check_names([("--prefix", "namespace", "/" + machine_names(1, args.prefix)[0])])
+    from .cli import check_parameter_ranges
+
+    check_parameter_ranges({k: v for k, v in {"sample_rate": args.sample_rate,
+                                              "chunk_duration": args.chunk_duration}.items() if v is not None})
     common = {k: v for k, v in {"sample_rate": args.sample_rate, "chunk_duration": args.chunk_duration,
                                 "qos": args.qos}.items() if v is not None}
     ros_args = []
+    from .ros_env import params_file_problem
+
     for f in args.params_file:
         if not os.path.isfile(f):
             fail("fleet", f"--params-file: file not found: {f}")
+        why = params_file_problem(f)
+        if why:
+            fail("fleet", f"--params-file: {f}: {why}")
         ros_args += ["--params-file", f]
     ros_args += list(args.ros_args or [])
     report = _print_stats if args.seconds is not None else None
@@ -158,6 +184,9 @@ def main(args) -> int:
     if n_proc == 1:
         return run_in_process(machines, common, ros_args, args.seconds, report)
 
+    from .ros_env import announce
+
+    announce()                      # here, not in every worker (they inherit the marker)
     groups = [machines[i::n_proc] for i in range(n_proc)]
     base = [sys.executable, "-m", "bkabem_ros", "fleet", "--machines", str(args.machines)]
     for flag, val in (("--sample-rate", args.sample_rate), ("--chunk-duration", args.chunk_duration),

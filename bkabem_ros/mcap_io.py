@@ -554,6 +554,8 @@ class McapSink:
     def __call__(self, topic: str, msg_type_name, msg, stamp_ns: int | None = None) -> None:
         rec = self.recorder
         if rec is None or self.error is not None or rec.closed:
+            if rec is not None and rec.error is not None and self.error is None:
+                self._report(rec.error)      # the background flush failed (disk full): say so, once
             return
         if not isinstance(msg, (bytes, bytearray, memoryview)):
             from rclpy.serialization import serialize_message  # noqa: PLC0415
@@ -580,6 +582,8 @@ class McapSink:
                 self.recorder.close()
             except RecorderError as exc:
                 self._report(exc)
+            if self.recorder.error is not None and self.error is None:
+                self._report(self.recorder.error)
 
     @property
     def paths(self) -> list[Path]:
@@ -701,13 +705,22 @@ def _open_reader(fh):
 
 
 def iter_raw(path, topics: Iterable[str] | None = None, *,
-             start_time_ns: int | None = None) -> Iterator[RawMessage]:
+             start_time_ns: int | None = None, integrity=None) -> Iterator[RawMessage]:
     """Yield the stored messages of an MCAP file in log-time order (bytes, not decoded).
 
     Works for files written by :class:`McapRecorder`, by rosbag2 / rosbags (``mcap`` storage)
-    and for truncated files (read sequentially as far as they are intact).
+    and for truncated files (read sequentially as far as they are intact). With ``integrity``
+    (:func:`bkabem_ros.mcap_check.verify` of a damaged file) only the messages of intact chunks
+    are yielded, also those after a damaged chunk.
     """
     wanted = set(topics) if topics is not None else None
+    if integrity is not None and not integrity.ok:
+        from .mcap_check import iter_intact  # noqa: PLC0415
+
+        for schema, channel, m in iter_intact(integrity, wanted, start_time_ns):
+            yield RawMessage(channel.topic, schema.name if schema else "", m.log_time,
+                             m.publish_time, m.data, m.sequence, dict(channel.metadata))
+        return
     with open(path, "rb") as fh:
         reader = _open_reader(fh)
         try:
@@ -844,10 +857,12 @@ class Channels(NamedTuple):
     end_ns: int | None
 
 
-def scan(path, topics: Iterable[str] | None = None) -> Channels:
+def scan(path, topics: Iterable[str] | None = None, *, integrity=None) -> Channels:
     """Channels and time range of an MCAP file, from its summary when it has one (cheap), else
-    by reading it through (cut files)."""
+    by reading it through (cut files; with ``integrity`` of a damaged file: its intact chunks)."""
     wanted = set(topics) if topics is not None else None
+    if integrity is not None and not integrity.ok:
+        return _scan_messages(path, wanted, integrity)
     try:
         with open(path, "rb") as fh:
             s = _open_reader(fh).get_summary()
@@ -866,8 +881,12 @@ def scan(path, topics: Iterable[str] | None = None) -> Channels:
             st = s.statistics
             return Channels(out, st.message_start_time if st.message_count else None,
                             st.message_end_time if st.message_count else None)
+    return _scan_messages(path, wanted, None)
+
+
+def _scan_messages(path, wanted, integrity) -> Channels:
     out, start, end = {}, None, None
-    for r in iter_raw(path, wanted):
+    for r in iter_raw(path, wanted, integrity=integrity):
         out.setdefault(r.topic, (r.type_name, r.metadata))
         start = r.log_time if start is None else min(start, r.log_time)
         end = r.log_time if end is None else max(end, r.log_time)
@@ -897,11 +916,12 @@ def file_metadata(path) -> dict[str, dict[str, str]]:
     return out
 
 
-def summary(path) -> dict[str, Any]:
-    """Topics (type, message count), message count, start/end log time (ns) of an MCAP file."""
+def summary(path, *, integrity=None) -> dict[str, Any]:
+    """Topics (type, message count), message count, start/end log time (ns) of an MCAP file
+    (with ``integrity`` of a damaged file: of its intact chunks)."""
     topics: dict[str, dict[str, Any]] = {}
     start, end, n = None, None, 0
-    for r in iter_raw(path):
+    for r in iter_raw(path, integrity=integrity):
         t = topics.setdefault(r.topic, {"type": r.type_name, "count": 0})
         t["count"] += 1
         n += 1

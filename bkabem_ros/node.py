@@ -328,6 +328,12 @@ class VibrationNode(_node_base()):
             Float64, "speed", self._on_speed, speed_qos,
             event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
         self._speed_topic = self._speed_sub.topic_name
+        # a publisher of another type on `speed` never matches (DDS drops it silently): look at the graph
+        from rclpy.clock import Clock, ClockType
+
+        self._wrong_speed_publishers: set[tuple[str, str]] = set()
+        self._graph_timer = self.create_timer(2.0, self._check_speed_publishers,
+                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
 
         # -- state
         self._speed_rad_s = 0.0            # last good speed (rad/s)
@@ -474,8 +480,7 @@ class VibrationNode(_node_base()):
         if synth.chunk_samples != self.samples_per_chunk:
             raise RuntimeError(f"synth chunk of {synth.chunk_samples} samples, node expects {self.samples_per_chunk}")
         self._synth = synth
-        self._base_speed_step = float(synth.max_speed_step_hz)
-        self._last_end_speed_hz = 0.0
+        synth.max_knots_per_step = max(4, int(0.4 * (self.samples_per_chunk / self.sample_rate) / self.KNOT_COST_S))
         self._apply_noise()
         return synth
 
@@ -494,23 +499,13 @@ class VibrationNode(_node_base()):
 
     def _next_chunk(self, end_speed_hz: float):
         """``synth.next_chunk`` with a bounded cost. The synthesiser places amplitude knots at most
-        ``max_speed_step_hz`` (0.5 Hz) apart; a jump of tens of Hz within one chunk would need dozens of knots
-        (~1-2 ms each) and could make the next publication late. For such jumps the step is widened so that
-        the knots of one chunk take at most ~40 % of a chunk period; phase and speed stay exact, only the
-        amplitude interpolation through the (already non-stationary) transient is coarser."""
-        synth = self._synth
-        base = self._base_speed_step
-        df = abs(end_speed_hz - self._last_end_speed_hz)
-        max_knots = max(4, int(0.4 * (self.samples_per_chunk / self.sample_rate) / self.KNOT_COST_S))
-        widened = df / base > max_knots
-        if widened:
-            synth.max_speed_step_hz = df / max_knots
-        try:
-            chunk = synth.next_chunk(end_speed_hz)
-        finally:
-            synth.max_speed_step_hz = base
-        self._last_end_speed_hz = end_speed_hz
-        return chunk
+        ``max_speed_step_hz`` (0.5 Hz) apart, and 2 % apart in speed where orders cross the Nyquist taper; a jump
+        of tens of Hz within one chunk would need dozens of knots (~0.5-2 ms each) and could make the next
+        publication late. ``synth.max_knots_per_step`` (set in :meth:`_make_source`) caps the knots of one chunk
+        so that they take at most ~40 % of a chunk period, whatever the jump (to or from 0 included); phase and
+        speed stay exact, only the amplitude interpolation through the (already non-stationary) transient is
+        coarser."""
+        return self._synth.next_chunk(end_speed_hz)
 
     def _line_spectrum(self, speed_hz: float):
         """Complex channel amplitudes (orders, channels) and static part (channels,) of the synthesiser at a speed:
@@ -555,6 +550,29 @@ class VibrationNode(_node_base()):
             self._emit(self._speed_topic, SPEED_TYPE, msg, self.get_clock().now().nanoseconds)
         if not self._started and why is None and self._wait_for_speed:
             self._try_start()
+
+    def _check_speed_publishers(self) -> None:
+        """Warn once per publisher that offers the speed topic with a type other than std_msgs/msg/Float64."""
+        try:
+            infos = self.get_publishers_info_by_topic(self._speed_topic)
+        except Exception:  # noqa: BLE001 - graph queries fail during shutdown
+            return
+        for info in infos:
+            if info.topic_type == SPEED_TYPE:
+                continue
+            who = f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+            key = (who, info.topic_type)
+            if key not in self._wrong_speed_publishers:
+                self._wrong_speed_publishers.add(key)
+                self.get_logger().warning(
+                    f"{self._speed_topic}: publisher {who} offers type {info.topic_type}, not {SPEED_TYPE}; "
+                    f"its messages never reach this node (publish std_msgs/msg/Float64 in {self._speed_unit_name()})")
+
+    def _speed_unit_name(self) -> str:
+        for name, factor in SPEED_UNITS.items():
+            if factor == self._speed_factor:
+                return name
+        return "rad/s"
 
     @property
     def speed_rad_s(self) -> float:
@@ -770,6 +788,7 @@ class VibrationNode(_node_base()):
             "speed_rejected": self._speed_rejected,
             "reanchors": self._reanchors,
             "sink_errors": self._sink_errors,
+            "speed_publishers_wrong_type": len(self._wrong_speed_publishers),
             "lateness_ms_p50": _percentile(late, 50) / 1e6,
             "lateness_ms_p99": _percentile(late, 99) / 1e6,
             "lateness_ms_max": (max(late) / 1e6) if late else float("nan"),
@@ -778,8 +797,9 @@ class VibrationNode(_node_base()):
         }
 
     def destroy_node(self):
-        if self._depth_job is not None:
-            self._depth_job.cancel()
+        job = getattr(self, "_depth_job", None)      # not set when __init__ failed (a bad parameter)
+        if job is not None:
+            job.cancel()
         return super().destroy_node()
 
 
@@ -822,7 +842,9 @@ def run(ros_args=None, overrides: dict | None = None, *, node_name: str = "bkabe
 
     from bkabem_core.case import CaseError
 
-    rclpy.init(args=["bkabem-node", "--ros-args", *(ros_args or [])])
+    from .ros_env import init  # noqa: PLC0415
+
+    init(["bkabem-node", "--ros-args", *(ros_args or [])])   # + the discovery range in force, once
     node = None
     cleanup = None
     try:

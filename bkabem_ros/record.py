@@ -164,7 +164,9 @@ def record(out, *, topics: Iterable[str] | None = None, namespace: str = "",
                                               "namespace": namespace or "/"})
     own_context = not rclpy.ok()
     if own_context:
-        rclpy.init(args=["bkabem-record", "--ros-args", *(ros_args or [])])
+        from .ros_env import init  # noqa: PLC0415
+
+        init(["bkabem-record", "--ros-args", *(ros_args or [])])   # + the discovery range in force, once
     node = rclpy.create_node("bkabem_record")
     tr = TopicRecorder(node, recorder, topics, namespace,
                        log_error=lambda text: node.get_logger().error(text))
@@ -299,5 +301,9 @@ class AttachedSinks:
                 self.node.remove_sink(s)
             except ValueError:
                 pass
-            s.close()
+            try:
+                s.close()
+            except Exception as exc:  # noqa: BLE001 - a full disk at the footer: report it, close the rest
+                if getattr(s, "error", None) is None:
+                    s.error = exc
         self.sinks.clear()

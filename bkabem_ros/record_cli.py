@@ -9,9 +9,12 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 __all__ = ["add_parser", "main"]
+
+DEFAULT_OUT = "recordings/record.mcap"
 
 
 def _size(text: str) -> int:
@@ -33,11 +36,12 @@ def _size(text: str) -> int:
 
 def add_parser(sub, add_case=None):
     """Register ``bkabem record`` on an argparse subparsers object."""
-    from .cli_base import finite_float
+    from .cli_base import finite_float, output_path
 
     p = sub.add_parser("record", help="record the node's topics into a ROS 2 MCAP file (or --recover one)",
                        description=__doc__)
-    p.add_argument("--out", default="recordings/record.mcap", help="output MCAP file (default recordings/record.mcap)")
+    p.add_argument("--out", default=None, type=output_path("--out", (".mcap",), make_parents=True),
+                   help=f"output MCAP file (default {DEFAULT_OUT})")
     p.add_argument("--topics", nargs="+", default=None, metavar="TOPIC",
                    help="topics to record (relative names follow --namespace); default: speed and every "
                         "bkabem_msgs topic")
@@ -58,33 +62,49 @@ def add_parser(sub, add_case=None):
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
                    help="everything after this goes to ROS")
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, ros_network=lambda a: a.recover is None)
     return p
 
 
 def main(args) -> int:
-    from .cli_base import UsageError
+    from .cli_base import UsageError, output_path
 
     from . import mcap_io
 
     say = (lambda text: None) if args.quiet else (lambda text: print(text, flush=True))
     if args.recover:
+        import argparse as _argparse
+
+        from .cli_base import check_output
+
         src, dst = args.recover
+        if not os.path.isfile(src):
+            raise UsageError(f"--recover SRC: {src}: no such file")
+        try:
+            check_output("--recover DST", dst)
+        except _argparse.ArgumentTypeError as exc:
+            raise UsageError(str(exc)) from None
         try:
             res = mcap_io.recover(src, dst)
-        except FileNotFoundError:
-            raise UsageError(f"--recover: {src}: no such file") from None
+        except FileNotFoundError as exc:
+            which = "SRC" if exc.filename == src else "DST"
+            raise UsageError(f"--recover {which}: {exc.filename}: no such file or directory") from None
         except ValueError as exc:
             raise UsageError(f"--recover: {exc}") from None
         except OSError as exc:
-            raise UsageError(f"--recover: {exc.filename or dst}: {exc.strerror}") from None
+            which = "SRC" if exc.filename == src else "DST"
+            raise UsageError(f"--recover {which}: {exc.filename or dst}: {exc.strerror}") from None
         state = f"was cut ({res.error})" if res.truncated else "was complete"
         say(f"{src} {state}; wrote {dst}: {res.messages} messages on {res.channels} channels, "
             f"last log time {res.last_log_time_ns} ns")
         return 0
 
     from .record import record
+    from .ros_env import check_names
 
+    if args.out is None:
+        args.out = output_path("--out", (".mcap",), make_parents=True)(DEFAULT_OUT)
+    check_names([("--namespace", "namespace", args.namespace)] + [("--topics", "topic", t) for t in args.topics or []])
     try:
         stats = record(args.out, topics=args.topics, namespace=args.namespace,
                        duration_s=args.duration, chunk_size_bytes=args.chunk_size,
@@ -98,8 +118,7 @@ def main(args) -> int:
     for topic, n in sorted(stats.counts.items()):
         say(f"  {topic:40s} {n}")
     if stats.error:
-        sys.stderr.write(f"bkabem record: error: {stats.error}\n")
-        return 1
+        raise UsageError(f"--out: {stats.error}")
     return 0
 
 

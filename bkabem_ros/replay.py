@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import mcap_io, msgs
+from . import mcap_check, mcap_io, msgs
 
 #: After --wait-subscribers sees every publisher matched: time for the readers to match back [s].
 DISCOVERY_SETTLE_S = 0.25
@@ -42,6 +42,7 @@ class ReplayStats:
     wall_s: float = 0.0
     first_log_time_ns: int = 0
     last_log_time_ns: int = 0
+    damage: str | None = None      # what was skipped in a damaged file (allow_damaged), None when intact
 
     @property
     def messages(self) -> int:
@@ -107,7 +108,7 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
            rerun_logger=None, node=None, namespace: str = "",
            wait_for_subscribers_s: float = 0.0, stop: threading.Event | None = None,
            progress: Callable[[str], None] | None = None, ros_args: list[str] | None = None,
-           linger_s: float = 0.3) -> ReplayStats:
+           linger_s: float = 0.3, allow_damaged: bool = False, integrity=None) -> ReplayStats:
     """Replay ``path`` on ROS 2 (``publish``) and/or into a :class:`~bkabem_ros.rerun_io.RerunLogger`.
 
     Parameters
@@ -140,6 +141,11 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
     linger_s : float
         After the last message, wait for reliable subscribers to acknowledge (at most 1 s) and at
         least this long, so the end of the file is delivered before the publishers are destroyed.
+    allow_damaged : bool
+        Replay the intact chunks of a damaged file (bad CRC, cut) instead of raising
+        :class:`~bkabem_ros.mcap_check.DamagedRecording`; what was skipped is in ``stats.damage``.
+    integrity : mcap_check.Integrity, optional
+        The file's :func:`~bkabem_ros.mcap_check.verify` result, when the caller already has it.
     """
     if not rate > 0:
         raise ValueError(f"rate: {rate} must be > 0")
@@ -148,9 +154,13 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")
+    integrity = integrity if integrity is not None else mcap_check.verify(path)
+    if not integrity.ok and not allow_damaged:
+        raise mcap_check.DamagedRecording(f"{path}: {integrity.summary_line()}")
     remap = dict(remap or {})
     ns = namespace.rstrip("/")
     stats = ReplayStats()
+    stats.damage = None if integrity.ok else integrity.summary_line()
     stop = stop or threading.Event()
     wanted = [t for t in topics] if topics is not None else None
 
@@ -173,7 +183,9 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
 
         if node is None:
             if not rclpy.ok():
-                rclpy.init(args=["bkabem-replay", "--ros-args", *(ros_args or [])])
+                from .ros_env import init  # noqa: PLC0415
+
+                init(["bkabem-replay", "--ros-args", *(ros_args or [])])   # + the discovery range in force, once
                 own_context = True
             node = rclpy.create_node("bkabem_replay")
             own_node = True
@@ -192,7 +204,7 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
         return f"{ns}{t}" if ns else t
 
     # publishers for every channel up front (so subscribers can match before the first message)
-    info = mcap_io.scan(path, wanted)
+    info = mcap_io.scan(path, wanted, integrity=integrity)
     channels, first, last = info.topics, info.start_ns, info.end_ns
     if first is None:
         if publish and own_node:
@@ -233,7 +245,7 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
     try:
         while not stop.is_set():
             loop_wall0 = time.monotonic()
-            for r in mcap_io.iter_raw(path, wanted, start_time_ns=start_ns):
+            for r in mcap_io.iter_raw(path, wanted, start_time_ns=start_ns, integrity=integrity):
                 if stop.is_set():
                     break
                 if publish:
@@ -300,10 +312,13 @@ def to_rerun(path, logger, *, topics: Iterable[str] | None = None, start_offset_
                   start_offset_s=start_offset_s)
 
 
-def describe(path) -> str:
-    """A few lines about a recording: duration, topics with type and count."""
-    s = mcap_io.summary(path)
+def describe(path, integrity=None) -> str:
+    """A few lines about a recording: duration, topics with type and count, and its integrity (with the damaged
+    places when it is damaged)."""
+    integrity = integrity if integrity is not None else mcap_check.verify(path)
+    s = mcap_io.summary(path, integrity=integrity)
     lines = [f"{s['path']}: {s['messages']} messages, {s['duration_s']:.2f} s"]
     for topic, t in sorted(s["topics"].items()):
         lines.append(f"  {topic:40s} {msgs.type_name(t['type']) if t['type'] else '?':40s} {t['count']}")
+    lines += integrity.lines()
     return "\n".join(lines)

@@ -194,8 +194,8 @@ def add_parser(sub, add_case=None):
     p.add_argument("--unit", default="hz", help="unit of the profile values: hz (default), rpm, rad/s")
     p.add_argument("--publish-unit", default="rad/s",
                    help="unit written on the topic; must match the node's speed_unit (default rad/s, REP 103)")
-    p.add_argument("--rate", type=finite_float("--rate", 0.0, strict=True), default=50.0,
-                   help="messages per second (default 50)")
+    p.add_argument("--rate", type=finite_float("--rate", 1e-3, maximum=1e5), default=50.0,
+                   help="messages per second, 0.001 .. 100000 (default 50)")
     p.add_argument("--seconds", type=finite_float("--seconds", 0.0, strict=True), default=None,
                    help="stop after this long (default: a finite profile's end + --hold; constant: forever)")
     p.add_argument("--hold", type=finite_float("--hold", 0.0), default=1.0,
@@ -208,12 +208,14 @@ def add_parser(sub, add_case=None):
     p.add_argument("--quiet", action="store_true", help="no progress lines on stdout")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
                    help="everything after this goes to ROS (e.g. -r __ns:=/m1)")
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, ros_network=True)
     return p
 
 
 def main(args) -> int:
     from .cli import fail
+
+    from .ros_env import check_names
 
     try:
         unit = normalize_unit(args.unit)
@@ -221,6 +223,7 @@ def main(args) -> int:
         profile = parse_profile(args.profile, unit)
     except ValueError as exc:
         fail("speed", str(exc))
+    check_names([("--namespace", "namespace", args.namespace), ("--topic", "topic", args.topic)])
     duration = args.seconds
     if duration is None and profile.finite:
         duration = profile.end_s + args.hold
@@ -230,7 +233,9 @@ def main(args) -> int:
     from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
     from std_msgs.msg import Float64
 
-    rclpy.init(args=["bkabem-speed", "--ros-args", *(args.ros_args or [])])
+    from .ros_env import init  # noqa: PLC0415
+
+    init(["bkabem-speed", "--ros-args", *(args.ros_args or [])])   # + the discovery range in force, once
     node = None
     try:
         node = rclpy.create_node("bkabem_speed", namespace=args.namespace or None)

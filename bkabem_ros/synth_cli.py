@@ -33,8 +33,13 @@ import numpy as np
 
 from bkabem_core.synth import SynthError, Synthesizer, parse_profile
 
-from .cli_base import UsageError
+from .cli_base import UsageError, output_path, writing
 _UNIT_SUFFIX = {"m/s^2": "m_s2", "m": "m", "mm/s": "mm_s"}
+#: Bounds of the options (beyond them the samples overflow float32 or the output does not fit a disk):
+MAX_SECONDS = 1e5                   # ~28 h of signal
+MAX_CHUNK_S = 10.0
+SNR_DB_RANGE = (-40.0, 200.0)
+MAX_NOISE_DENSITY = {"acceleration": 1e3, "displacement": 1e-2, "velocity": 1e5}   # per sqrt(Hz), in each unit
 FEATURE_NAMES = ("mean", "rms", "peak", "peak_to_peak", "crest_factor", "kurtosis")
 
 
@@ -49,8 +54,10 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
                    help="duration [s] (default: the profile's last breakpoint; required for constant profiles)")
     p.add_argument("--rate", default="25600", help="sample rate [Hz] (default 25600)")
     p.add_argument("--chunk", default="0.1", help="chunk length [s] (default 0.1)")
-    p.add_argument("--out", required=True, help="output file, .npz or .csv")
-    p.add_argument("--png", default=None, help="figure: waveform excerpt and spectrum with BPFO-order markers")
+    p.add_argument("--out", required=True, type=output_path("--out", (".npz", ".csv"), make_parents=True),
+                   help="output file, .npz or .csv")
+    p.add_argument("--png", default=None, type=output_path("--png", (".png",), make_parents=True),
+                   help="figure: waveform excerpt and spectrum with BPFO-order markers")
     p.add_argument("--seed", default="0", help="seed of slip and noise (default 0)")
     p.add_argument("--slip", default="0", help="random slip: std of the ball-pass interval / its mean (e.g. 0.01)")
     p.add_argument("--noise-acc", default=None, help="accelerometer noise density [m/s^2/sqrt(Hz)] (e.g. 1e-3)")
@@ -68,7 +75,7 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
-def _num(name: str, text, kind=float, minimum=None, strict=False, allow_none=False):
+def _num(name: str, text, kind=float, minimum=None, strict=False, allow_none=False, maximum=None):
     if text is None:
         if allow_none:
             return None
@@ -81,13 +88,15 @@ def _num(name: str, text, kind=float, minimum=None, strict=False, allow_none=Fal
         raise SynthError(name, f"must be finite (got {text!r})")
     if minimum is not None and (v <= minimum if strict else v < minimum):
         raise SynthError(name, f"must be {'>' if strict else '>='} {minimum:g} (got {text})")
+    if maximum is not None and v > maximum:
+        raise SynthError(name, f"must be <= {maximum:g} (got {text})")
     return v
 
 
 def _settings(args) -> dict:
     """Validated settings from the Namespace (raises SynthError naming the option)."""
     profile = parse_profile(args.profile)
-    seconds = _num("--seconds", args.seconds, float, 0.0, strict=True, allow_none=True)
+    seconds = _num("--seconds", args.seconds, float, 0.0, strict=True, allow_none=True, maximum=MAX_SECONDS)
     if seconds is None:
         if profile.duration_s <= 0:
             raise SynthError("--seconds", "is required for a constant profile")
@@ -99,22 +108,29 @@ def _settings(args) -> dict:
         raise SynthError("--png", f"must end in .png (got {args.png!r})")
     dens = {}
     for opt, q in (("noise_acc", "acceleration"), ("noise_disp", "displacement"), ("noise_vel", "velocity")):
-        v = _num("--" + opt.replace("_", "-"), getattr(args, opt, None), float, 0.0, allow_none=True)
+        v = _num("--" + opt.replace("_", "-"), getattr(args, opt, None), float, 0.0, allow_none=True,
+                 maximum=MAX_NOISE_DENSITY[q])
         if v is not None:
             dens[q] = v
-    snr = _num("--snr-db", getattr(args, "snr_db", None), float, allow_none=True)
+    snr = _num("--snr-db", getattr(args, "snr_db", None), float, SNR_DB_RANGE[0], allow_none=True,
+               maximum=SNR_DB_RANGE[1])
     if dens and snr is not None:
         raise SynthError("--snr-db", "give noise densities or --snr-db, not both")
     return {
         "profile": profile, "seconds": seconds, "out": out,
         "rate": _num("--rate", args.rate, float, 0.0, strict=True),
-        "chunk": _num("--chunk", args.chunk, float, 0.0, strict=True),
+        "chunk": _num("--chunk", args.chunk, float, 0.0, strict=True, maximum=MAX_CHUNK_S),
         "seed": _num("--seed", args.seed, int, 0),
         "slip": _num("--slip", args.slip, float, 0.0),
         "noise_density": dens or None, "snr_db": snr,
         "max_order": _num("--max-order", args.max_order, int, 1, allow_none=True),
         "quantities": [q.strip() for q in str(args.quantities).split(",") if q.strip()],
     }
+
+
+def _noise_options(args) -> list[str]:
+    return [f"--{o.replace('_', '-')}" for o in ("noise_acc", "noise_disp", "noise_vel", "snr_db")
+            if getattr(args, o, None) is not None]
 
 
 def _rename(err: SynthError) -> SynthError:
@@ -166,6 +182,16 @@ class _NpzWriter:
             np.lib.format.write_array(fh, np.array(json.dumps(metadata)), allow_pickle=False)
         self.zf.close()
 
+    def abort(self) -> None:
+        """After a failure: close without writing more (the command line removes the file)."""
+        fp = self.zf.fp
+        self.zf.fp = None                      # ZipFile.close/__del__ would flush again into the failed file
+        try:
+            if fp is not None:
+                fp.close()
+        except OSError:
+            pass
+
 
 class _CsvWriter:
     def __init__(self, path: Path, synth: Synthesizer, profile, metadata: dict):
@@ -183,6 +209,12 @@ class _CsvWriter:
 
     def close(self) -> None:
         self.fh.close()
+
+    def abort(self) -> None:
+        try:
+            self.fh.close()
+        except OSError:
+            pass
 
 
 def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_hz: float, title: str) -> None:
@@ -234,6 +266,10 @@ def synth_main(args) -> int:
     except SynthError as exc:
         raise UsageError(str(_rename(exc))) from None
     case = Case.load(getattr(args, "case", None))
+    top = st["profile"].max_speed_hz(st["seconds"])
+    if top > case.max_speed_hz:
+        raise UsageError(f"--profile: {top:g} Hz is above the case's operating.max_speed_hz ({case.max_speed_hz:g} Hz; "
+                         f"raise it in the case file if the machine runs faster)")
     t_start = time.perf_counter()
     model = BkaBem(case)
     t_model = time.perf_counter() - t_start
@@ -254,55 +290,67 @@ def synth_main(args) -> int:
             "units": dict(zip(synth.channel_names, synth.units)),
             "sample_time": "sample i is at i / sample_rate_hz seconds; cage angle 0 at t = 0"}
     csv_mode = out.suffix.lower() == ".csv"
-    writer = _CsvWriter(out, synth, st["profile"], meta) if csv_mode else \
-        _NpzWriter(out, len(synth.channel_names), n_total, synth.dtype)
-    feats = {k: [] for k in FEATURE_NAMES}
-    iso, first, speed = [], [], []
-    keep = int(min(n_total, fs * 1.0))                       # excerpt for the figure: the last second
-    ring: list[np.ndarray] = []
-    ring_n = 0
-    bar = None
-    if not args.no_progress and sys.stderr.isatty():
-        from tqdm import tqdm
-        bar = tqdm(total=n_total, unit="sample", unit_scale=True, desc="synth", file=sys.stderr)
-    t0 = time.perf_counter()
+    with writing("--out", out):
+        writer = _CsvWriter(out, synth, st["profile"], meta) if csv_mode else \
+            _NpzWriter(out, len(synth.channel_names), n_total, synth.dtype)
     try:
-        for ch in chunks:
-            writer.write(ch)
-            first.append(ch.first_sample_index)
-            speed.append(ch.shaft_speed_hz)
-            for k in FEATURE_NAMES:
-                feats[k].append(ch.features[k])
-            iso.append([[v["vertical"], v["horizontal"], v["overall"]]
-                        for v in ch.features["iso10816_velocity_rms_mm_s"].values()])
-            if args.png:
-                ring.append(np.array(ch.samples))
-                ring_n += ch.n_samples
-                while ring and ring_n - ring[0].shape[1] >= keep:
-                    ring_n -= ring.pop(0).shape[1]
+        feats = {k: [] for k in FEATURE_NAMES}
+        iso, first, speed = [], [], []
+        keep = int(min(n_total, fs * 1.0))                       # excerpt for the figure: the last second
+        ring: list[np.ndarray] = []
+        ring_n = 0
+        bar = None
+        if not args.no_progress and sys.stderr.isatty():
+            from tqdm import tqdm
+            bar = tqdm(total=n_total, unit="sample", unit_scale=True, desc="synth", file=sys.stderr)
+        t0 = time.perf_counter()
+        try:
+            for ch in chunks:
+                if not np.all(np.isfinite(ch.samples)):        # the last check before anything is written
+                    raise UsageError(f"samples {ch.first_sample_index}..: not finite (NaN or inf) - an option "
+                                     f"({', '.join(_noise_options(args)) or 'the case'}) is outside what float32 "
+                                     f"samples can hold")
+                with writing("--out", out):
+                    writer.write(ch)
+                first.append(ch.first_sample_index)
+                speed.append(ch.shaft_speed_hz)
+                for k in FEATURE_NAMES:
+                    feats[k].append(ch.features[k])
+                iso.append([[v["vertical"], v["horizontal"], v["overall"]]
+                            for v in ch.features["iso10816_velocity_rms_mm_s"].values()])
+                if args.png:
+                    ring.append(np.array(ch.samples))
+                    ring_n += ch.n_samples
+                    while ring and ring_n - ring[0].shape[1] >= keep:
+                        ring_n -= ring.pop(0).shape[1]
+                if bar is not None:
+                    bar.update(ch.n_samples)
+        except SynthError as exc:
+            raise UsageError(str(_rename(exc))) from None
+        finally:
             if bar is not None:
-                bar.update(ch.n_samples)
-    except SynthError as exc:
-        raise UsageError(str(_rename(exc))) from None
-    finally:
-        if bar is not None:
-            bar.close()
-    t_synth = time.perf_counter() - t0
-    meta["timing_s"] = {"model": t_model, "synthesis": t_synth, "real_time_factor": st["seconds"] / t_synth}
-    meta["synthesizer"]["spectrum"] = synth.spectrum_method
-    if csv_mode:
-        writer.close()
-    else:
-        profile = st["profile"]
+                bar.close()
+        t_synth = time.perf_counter() - t0
+        meta["timing_s"] = {"model": t_model, "synthesis": t_synth, "real_time_factor": st["seconds"] / t_synth}
+        meta["synthesizer"]["spectrum"] = synth.spectrum_method
+        if csv_mode:
+            with writing("--out", out):
+                writer.close()
+        else:
+            profile = st["profile"]
 
-        def speeds():
-            for i in range(0, n_total, 1 << 16):
-                yield profile.speed_hz((i + np.arange(min(1 << 16, n_total - i))) / fs)
+            def speeds():
+                for i in range(0, n_total, 1 << 16):
+                    yield profile.speed_hz((i + np.arange(min(1 << 16, n_total - i))) / fs)
 
-        arrays = {"chunk_first_sample": np.array(first, dtype=np.int64), "chunk_speed_hz": np.array(speed),
-                  "iso10816_velocity_rms_mm_s": np.array(iso)}
-        arrays.update({f"features_{k}": np.array(v) for k, v in feats.items()})
-        writer.finish(arrays, speeds, meta)
+            arrays = {"chunk_first_sample": np.array(first, dtype=np.int64), "chunk_speed_hz": np.array(speed),
+                      "iso10816_velocity_rms_mm_s": np.array(iso)}
+            arrays.update({f"features_{k}": np.array(v) for k, v in feats.items()})
+            with writing("--out", out):
+                writer.finish(arrays, speeds, meta)
+    except BaseException:
+        writer.abort()            # close quietly: no half-written file, no error at garbage collection
+        raise
     if args.png:
         excerpt = np.concatenate(ring, axis=1)[:, -keep:] if ring else np.zeros((len(synth.channel_names), 1))
         prof = st["profile"]
@@ -313,8 +361,9 @@ def synth_main(args) -> int:
                 break
         excerpt = excerpt[:, -n_ex:]
         mean_speed = float(prof.speed_hz((n_total - n_ex / 2) / fs))
-        _plot(Path(args.png), excerpt, fs, synth, mean_speed,
-              f"{case.name} ({synth._gt_base['case_hash']}): {st['profile'].spec}, {fs:g} Hz, seed {synth.seed}")
+        with writing("--png", args.png):
+            _plot(Path(args.png), excerpt, fs, synth, mean_speed,
+                  f"{case.name} ({synth._gt_base['case_hash']}): {st['profile'].spec}, {fs:g} Hz, seed {synth.seed}")
     print(f"wrote {out}: {len(synth.channel_names)} channels x {n_total} samples at {fs:g} Hz "
           f"({st['seconds']:g} s in {t_synth:.2f} s, {st['seconds'] / t_synth:.0f}x real time)"
           + (f", figure {args.png}" if args.png else ""))

@@ -1,0 +1,168 @@
+"""The ROS 2 environment of every bkabem ROS command: closed to the network unless the user opens it.
+
+:func:`apply_defaults` runs before ``rclpy.init`` (the command line calls it for ``node``, ``fleet``,
+``speed``, ``echo``, ``record``, ``replay`` when it publishes, and ``demo``):
+
+- **Discovery.** Unless the user set one of :data:`DISCOVERY_VARIABLES` (``ROS_AUTOMATIC_DISCOVERY_RANGE``,
+  ``ROS_STATIC_PEERS``, ``ROS_DISCOVERY_SERVER``) to a non-empty value, ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is set
+  to ``LOCALHOST``: Fast DDS then discovers and talks on this host only (no multicast on other interfaces,
+  nothing off the machine), and nobody on the plant network can publish on ``speed``. Whatever the user set
+  is kept unchanged (multi-host set-ups are built on exactly these variables). ``ROS_LOCALHOST_ONLY`` is
+  deprecated and ignored by Kilted's rmw; it does not count as a choice. :func:`announce`, called by each
+  command right before ``rclpy.init`` (not before its arguments are checked: bad input stays one line), says
+  on stderr which range is in force, once per process tree (child processes inherit the marker).
+- **Security.** ``ROS_SECURITY_ENABLE=true`` is refused with a clear message: the Fast DDS 3.2 of the ROS 2
+  Kilted PyPI wheels is built without its DDS Security plugins (no ``builtin.PKI-DH`` authentication,
+  ``builtin.Access-Permissions`` access control or ``builtin.AES-GCM-GMAC`` cryptography in ``libfastdds.so``;
+  rmw_fastrtps then fails to create any node: "This Fast DDS version doesn't have the security libraries.
+  Please compile Fast DDS using the -DSECURITY=ON CMake option"; with the Permissive strategy and no keystore
+  rcl would instead run without security, silently). docs/ros_node.md has the details.
+
+stdlib only: importing this costs nothing.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import MutableMapping
+
+DISCOVERY_VARIABLES = ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS", "ROS_DISCOVERY_SERVER")
+DEFAULT_RANGE = "LOCALHOST"
+_NOTED = "_BKABEM_DISCOVERY_NOTED"
+_DEFAULTED = "_BKABEM_DISCOVERY_DEFAULTED"
+
+SECURITY_MESSAGE = (
+    "ROS_SECURITY_ENABLE=true: the Fast DDS of these ROS 2 wheels is built without the security plugins "
+    "(no PKI-DH authentication, access control or AES-GCM-GMAC encryption), so no secure node can be created; "
+    "unset it (bkabem keeps discovery on this host by default) or use a ROS 2 install with Fast DDS built "
+    "with -DSECURITY=ON (docs/ros_node.md)")
+
+
+class SecurityUnavailable(ValueError):
+    """``ROS_SECURITY_ENABLE=true`` was asked for and cannot be honoured."""
+
+
+class RosArgumentsError(ValueError):
+    """rcl refused the ROS arguments (``--ros-args``, ``--params-file``) or a name (namespace, node, topic)."""
+
+
+def init(args: list[str], context=None) -> None:
+    """:func:`announce`, then ``rclpy.init(args=args, context=context)``; rcl's refusal of the arguments (a garbage
+    ``--params-file``, a bad remap) becomes one :class:`RosArgumentsError` line instead of a traceback."""
+    import rclpy
+
+    announce()
+    try:
+        rclpy.init(args=args, context=context)
+    except Exception as exc:  # noqa: BLE001 - rclpy's RCLError lives in its private extension module
+        if type(exc).__name__ != "RCLError":
+            raise
+        text = str(exc).split(", at /")[0].replace("failed to initialize rcl: ", "")
+        raise RosArgumentsError(f"--ros-args / --params-file: {text}") from None
+
+
+def params_file_problem(path: str) -> str | None:
+    """Why ``path`` is not a ROS 2 parameter file (YAML: ``<node or /**>: {ros__parameters: {...}}``), or None.
+    Checked before rcl reads it, so that a garbage file gives one line (rcl also logs its own error line)."""
+    import yaml
+
+    try:
+        with open(path, "rb") as fh:
+            data = yaml.safe_load(fh)
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    except (yaml.YAMLError, UnicodeDecodeError, ValueError) as exc:
+        return "not valid YAML (" + " ".join(str(exc).split())[:160] + ")"
+
+    def has_parameters(node, depth=0) -> bool:
+        if not isinstance(node, dict) or depth > 8:
+            return False
+        if isinstance(node.get("ros__parameters"), dict):
+            return True
+        return any(has_parameters(v, depth + 1) for v in node.values())
+
+    if not has_parameters(data):
+        return "no '<node name or /**>: ros__parameters: {...}' table in it"
+    return None
+
+
+def name_problem(kind: str, value: str) -> str | None:
+    """Why ``value`` is not a valid ROS ``kind`` ("namespace", "node name", "topic"), or None (rcl's own rules)."""
+    from rclpy.validate_namespace import validate_namespace
+    from rclpy.validate_node_name import validate_node_name
+    from rclpy.validate_topic_name import validate_topic_name
+
+    check = {"namespace": validate_namespace, "node name": validate_node_name, "topic": validate_topic_name}[kind]
+    try:
+        check(value if kind != "namespace" or value.startswith("/") else "/" + value)
+    except Exception as exc:  # noqa: BLE001 - rclpy's Invalid*Exception
+        return str(exc).splitlines()[0].split(": ", 1)[-1].rstrip(":")
+    return None
+
+
+def check_names(pairs) -> None:
+    """``[(option, kind, value), ...]`` -> :class:`RosArgumentsError` naming the first invalid one."""
+    for option, kind, value in pairs:
+        if value is None or (kind == "namespace" and value in ("", "/")):
+            continue
+        why = name_problem(kind, value)
+        if why:
+            raise RosArgumentsError(f"{option}: {value!r} is not a valid ROS {kind}: {why}")
+
+
+def _set(environ: MutableMapping[str, str], name: str) -> str | None:
+    v = environ.get(name, "").strip()
+    return v or None
+
+
+def discovery_in_force(environ: MutableMapping[str, str] | None = None) -> str:
+    """One line: the discovery range and peers this process will use, and where they come from."""
+    env = os.environ if environ is None else environ
+    parts = []
+    rng = _set(env, "ROS_AUTOMATIC_DISCOVERY_RANGE")
+    if rng is not None:
+        parts.append(f"range {rng}")
+    peers = _set(env, "ROS_STATIC_PEERS")
+    if peers is not None:
+        parts.append(f"static peers {peers}")
+    server = _set(env, "ROS_DISCOVERY_SERVER")
+    if server is not None:
+        parts.append(f"discovery server {server}")
+    return ", ".join(parts) if parts else "Fast DDS defaults (every interface)"
+
+
+_pending: dict = {}
+
+
+def announce() -> None:
+    """Write the line of :func:`apply_defaults` (if it was given ``say``), once per process tree."""
+    say, line = _pending.pop("say", None), _pending.pop("line", None)
+    env = os.environ
+    if say is not None and line and not env.get(_NOTED):
+        say(line)
+    env[_NOTED] = "1"
+
+
+def apply_defaults(environ: MutableMapping[str, str] | None = None, *, say=None) -> str:
+    """Set loopback-only discovery unless the user chose, refuse DDS security (see the module docstring).
+
+    Returns the line that describes what is in force; :func:`announce` later passes it to ``say`` (once per
+    process tree). Raises :class:`SecurityUnavailable` for ``ROS_SECURITY_ENABLE=true``.
+    """
+    env = os.environ if environ is None else environ
+    if env.get("ROS_SECURITY_ENABLE", "").strip().lower() == "true":
+        raise SecurityUnavailable(SECURITY_MESSAGE)
+    ours = env.get(_DEFAULTED) == "1" and env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == DEFAULT_RANGE
+    chosen = [name for name in DISCOVERY_VARIABLES if _set(env, name) is not None
+              and not (ours and name == "ROS_AUTOMATIC_DISCOVERY_RANGE")]
+    if chosen:
+        line = f"ROS discovery: {discovery_in_force(env)} (set in the environment)"
+    else:
+        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = DEFAULT_RANGE
+        env[_DEFAULTED] = "1"           # set by bkabem, not by the user (a second call, a child process)
+        line = ("ROS discovery: LOCALHOST, this host only (bkabem's default; to reach other hosts set "
+                "ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET, ROS_STATIC_PEERS or ROS_DISCOVERY_SERVER: docs/ros_node.md)")
+    _pending["line"] = line
+    if say is not None:                 # a library call (run_demo) keeps the command line's writer
+        _pending["say"] = say
+    return line
