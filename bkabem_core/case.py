@@ -569,9 +569,12 @@ class Case:
 
     def with_overrides(self, overrides: dict) -> "Case":
         """A new validated case with ``{"section.key": value}`` overrides (e.g. ``{"defects.0.depth_m": 20e-6}``:
-        an integer picks an entry of an array of tables)."""
+        an integer picks an entry of an array of tables; ``dent.<key>``, the single defect of schema 2, is the first
+        defect)."""
         raw = copy.deepcopy(self.raw)
         for dotted, value in overrides.items():
+            if dotted.startswith("dent.") and raw["defects"]:       # schema 2's single [dent]: the first defect
+                dotted = "defects.0." + dotted[5:]
             *path, last = dotted.split(".")
             node = raw
             for p in path:

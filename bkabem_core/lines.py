@@ -137,7 +137,7 @@ class LineSet:
     def sorted(self) -> "LineSet":
         """Lines by increasing frequency at 1 Hz shaft speed (ties: by coefficients)."""
         f = self.frequency_hz(1.0)
-        order = np.lexsort(tuple(self.coefficients.T[::-1]) + (f,))
+        order = np.lexsort((self.speed_power,) + tuple(self.coefficients.T[::-1]) + (f,))
         return self.subset(order)
 
     def select(self, relative_threshold: float, max_multiplier: float = 0.0, reference: float | None = None):
@@ -169,8 +169,9 @@ class LineSet:
 
 
 def union(sets) -> LineSet:
-    """One set over the same inputs holding every line of ``sets`` (amplitudes of equal lines added; the first
-    set's rates; speed powers must agree on shared lines)."""
+    """One set over the same inputs holding every line of ``sets`` (amplitudes of equal lines with equal speed
+    power added; the same line with another speed power stays a separate entry, e.g. the 1x of an inner-race
+    defect's load zone and the unbalance; the first set's rates)."""
     sets = [s for s in sets if s is not None]
     first = sets[0]
     pos: dict = {}
@@ -184,15 +185,13 @@ def union(sets) -> LineSet:
         if np.any(s.coefficients[:, 3] != 0):
             line_hz = s.line_hz
         for c, a, p in zip(s.keys(), s.amplitude, s.speed_power):
-            i = pos.get(c)
+            i = pos.get((c, int(p)))
             if i is None:
-                pos[c] = len(coef)
+                pos[(c, int(p))] = len(coef)
                 coef.append(c)
                 amp.append(a.copy())
                 power.append(int(p))
             else:
-                if power[i] != int(p):
-                    raise ValueError(f"union: line {c} with speed powers {power[i]} and {int(p)}")
                 amp[i] = amp[i] + a
     out = LineSet(np.array(coef, np.int64).reshape(-1, N_PHASES), np.array(amp).reshape(len(coef), -1),
                   first.inputs, first.rates_per_hz, line_hz, np.array(power, np.int64), dc)

@@ -99,8 +99,8 @@ def test_overrides_are_validated_too():
 def _v2_text() -> str:
     """The embedded case as schema version 2 wrote it: one [dent], no [baseline]."""
     text = _text()
-    start, end = text.index("[[defects]]"), text.index("[excitation]")
-    dent = "\n".join(line.split("#")[0].rstrip() for line in text[start:end].splitlines()
+    start, mid, end = text.index("[[defects]]"), text.index("[baseline]"), text.index("[excitation]")
+    dent = "\n".join(line.split("#")[0].rstrip() for line in text[start:mid].splitlines()
                      if line.strip() and not line.lstrip().startswith("#") and not line.startswith("["))
     body = text[:start] + "[dent]\n" + "\n".join(x for x in dent.splitlines() if x.strip()) + "\n\n" + text[end:]
     return body.replace("schema_version = 3", "schema_version = 2")
