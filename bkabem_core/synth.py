@@ -54,6 +54,7 @@ import numpy as np
 
 from . import synth_kernel
 from .harmonic import DIRECTIONS, LOCATIONS, TWO_PI, BkaBem, SpeedCells
+from .synth_lines import LineFamilies
 
 BEARINGS = ("de", "nde")
 #: quantity -> (unit, power of (i omega) applied to the displacement amplitude, scale to the unit)
@@ -632,8 +633,9 @@ class _Amplitudes:
     taper: np.ndarray | None    # (K,) Nyquist taper (None: 1)
     y_emphasised: np.ndarray    # (K, C) complex channel amplitudes x spline pre-emphasis (weights applied)
     emphasis: np.ndarray        # (K,) the pre-emphasis 1 / sinc(k/N)^4
-    table: np.ndarray           # (N + 3, C) cubic B-spline coefficients of one ball pass (see Synthesizer._bind_model)
+    table: np.ndarray | None    # (N + 3, C) cubic B-spline coefficients of one ball pass (see Synthesizer._bind_model)
     v_iso: np.ndarray | None = None     # (K, 8) housing velocity [mm/s], Re | Im, made when first needed
+    ftables: list | None = None         # any other line set: per family its table(s) (synth_lines.LineFamilies)
     _y: np.ndarray | None = None
     _rms: np.ndarray | None = None
 
@@ -777,6 +779,10 @@ class Synthesizer:
 
     # ------------------------------------------------------------------ model
     def _bind_model(self, model: BkaBem) -> None:
+        if not model.is_order_set:
+            self._bind_lines(model)
+            return
+        self._general = False
         orders = np.asarray(model.orders, dtype=int)
         max_order = self._max_order_arg
         if max_order is not None:
@@ -836,6 +842,64 @@ class Synthesizer:
             (1j * kk[:, None]) ** power[None, :] * scale[None, :] * self._emphasis[:, None], dtype=complex)
         self._gt_base = self._ground_truth_base()
 
+    def _bind_lines(self, model: BkaBem) -> None:
+        """Any line set (:mod:`bkabem_core.synth_lines`): families of lines, one table (pair) each per knot; the
+        spectrum at a knot from the model's exact response (its fixed-frequency and speed-scaled lines included)."""
+        self._general = True
+        lines = model.lines
+        nu, mu = lines.multipliers, lines.fixed_hz
+        keep = np.ones(len(lines), bool)
+        if self._max_order_arg is not None:
+            mo = self._max_order_arg
+            if isinstance(mo, bool) or not isinstance(mo, (int, np.integer)) or mo < 1:
+                raise SynthError("max_order", f"must be an integer >= 1 (got {mo!r})")
+            keep = (nu <= mo * model.bpfo_per_hz) | ~lines.speed_locked
+        self._model = model
+        self.case = model.case
+        self._keep = keep
+        self._keep_some = not bool(np.all(keep))
+        self.orders = np.asarray(model.orders, dtype=int)[keep]
+        self.coefficients = lines.coefficients[keep]
+        self._nu, self._mu = nu[keep], mu[keep]
+        self.bpfo_per_hz = float(model.bpfo_per_hz)
+        self.n_balls = int(model.case.bearing_geometry().n_balls)
+        self.fault_multipliers = model.fault_multipliers
+        self._k_max = max(1, int(math.ceil(float(self._nu.max()) / self.bpfo_per_hz)))
+        self._families = LineFamilies(self.coefficients, lines.rates_per_hz, lines.line_hz, self.n_balls,
+                                      self.bpfo_per_hz, self._table_size_arg)
+        self.table_size = max(f.table_size for f in self._families.families)
+        comb, index, power, scale, iso = _combination(self.channels)
+        self._comb, self._cindex, self._power, self._scale, self._iso_rows = comb, index, power, scale, iso
+        self._exact = ExactSpectrum(model, comb)
+        self._modal = None
+        self._modal_failed = None
+        self._use_modal = False
+        self._cells = None                   # the speed cells of the speed-locked lines (made on first use)
+        dc8 = np.asarray(model.dc_m).reshape(-1)
+        self._dc = (comb @ dc8)[index] * (power == 0)
+        self._dc_off = np.ascontiguousarray(self._dc, dtype=np.float64)
+        self._chan_power = power.astype(float)
+        self._chan_scale = scale.astype(float)
+        self._scratch: dict = {}
+        self._gt_base = self._ground_truth_base()
+
+    def _top_hz(self, f: float) -> float:
+        """Highest line frequency [Hz] at shaft speed f [Hz]."""
+        if self._general:
+            return float(np.max(self._nu * f + self._mu))
+        return self.highest_order * self.bpfo_per_hz * f
+
+    @property
+    def multipliers(self) -> np.ndarray:
+        """Speed-proportional part of each synthesised line's frequency [Hz per shaft Hz]."""
+        return self._nu.copy() if self._general else self.orders * self.bpfo_per_hz
+
+    def frequency_hz(self, speed_hz: float) -> np.ndarray:
+        """Frequencies of the synthesised lines [Hz] at a shaft speed [Hz]."""
+        if self._general:
+            return self._nu * float(speed_hz) + self._mu
+        return self.orders * self.bpfo_per_hz * float(speed_hz)
+
     @property
     def model(self) -> BkaBem:
         return self._model
@@ -880,7 +944,12 @@ class Synthesizer:
         return self._k_max
 
     def max_speed_for_rate_hz(self) -> float:
-        """Highest shaft speed at which every kept order is below Nyquist [Hz]."""
+        """Highest shaft speed at which every kept line is below Nyquist [Hz]."""
+        if self._general:
+            nyq = self.sample_rate_hz / 2
+            with np.errstate(divide="ignore"):
+                lim = np.where(self._nu > 0, (nyq - self._mu) / np.maximum(self._nu, 1e-300), np.inf)
+            return float(max(lim.min(), 0.0))
         return self.sample_rate_hz / 2 / (self.highest_order * self.bpfo_per_hz)
 
     # ------------------------------------------------------------------ state
@@ -903,6 +972,13 @@ class Synthesizer:
         s = min(max((f - lo) / lo, 0.0), 1.0)
         fade = s * s * (3.0 - 2.0 * s)
         taper = None
+        if self._general:
+            if self.band_limit == "taper" and fade > 0:
+                r = (self._nu * f + self._mu) / (self.sample_rate_hz / 2)
+                if r.max() > 0.85:
+                    taper = np.where(r <= 0.85, 1.0, np.where(r >= 0.95, 0.0,
+                                                              0.5 * (1 + np.cos(np.pi * (r - 0.85) / 0.1))))
+            return fade, taper
         if self.band_limit == "taper" and fade > 0 and self._top_ratio_per_hz * f > 0.85:
             r = self._order_ratio_per_hz * f
             taper = np.where(r <= 0.85, 1.0, np.where(r >= 0.95, 0.0, 0.5 * (1 + np.cos(np.pi * (r - 0.85) / 0.1))))
@@ -910,11 +986,15 @@ class Synthesizer:
 
     def _check_band(self, f: float, argument: str) -> None:
         if self.band_limit == "error" and f > self.min_speed_hz:
-            top = self.highest_order * self.bpfo_per_hz * f
+            top = self._top_hz(f)
             if top >= self.sample_rate_hz / 2:
                 raise SynthError(argument, self._band_message(f))
 
     def _band_message(self, f: float) -> str:
+        if self._general:
+            top = self._top_hz(f)
+            return (f"sample rate {self.sample_rate_hz:g} Hz is below twice the highest kept line: {top:.1f} Hz at "
+                    f"{f:g} Hz shaft speed (needs a rate > {2 * top:.1f} Hz, or band_limit='taper')")
         k = self.highest_order
         top = k * self.bpfo_per_hz * f
         fit = int(self.sample_rate_hz / 2 / (self.bpfo_per_hz * f)) if f > 0 else k
@@ -927,6 +1007,9 @@ class Synthesizer:
     # ------------------------------------------------------------------ spectrum at a knot
     @property
     def spectrum_method(self) -> str:
+        if getattr(self, "_general", False):
+            return self._general_method if self._modal_failed is None else \
+                f"exact (speed cells failed their check: {self._modal_failed})"
         if self._use_modal and self._modal is not None:
             return "modal"
         if self._modal_failed:
@@ -951,7 +1034,9 @@ class Synthesizer:
         ``"auto"`` (modal when streaming), the modal form's eigen-decompositions (~1.5 s on the embedded case) and
         its speed cells up to the case's ``operating.max_speed_hz`` (or the rate's limit if lower; ~4 ms per 0.5 Hz,
         ~0.6 s and 10 MB for 75 Hz). Once per model: synthesisers of one model share them. Cells above are made
-        when first used."""
+        when first used. Any other line set than BPFO orders takes the exact response per knot: nothing to make."""
+        if self._general:
+            return
         if self._spectrum_kind == "auto":
             self._use_modal = True
         spectrum = self._provider()
@@ -967,7 +1052,7 @@ class Synthesizer:
     def _choose_spectrum(self, profile: "SpeedProfile | None", seconds: float) -> None:
         """``spectrum="auto"``: modal when streaming (an unknown number of speeds: the set-up pays off after a few
         thousand chunks, and is done once per model); for a profile, the cheaper of the two for its knots."""
-        if self._spectrum_kind != "auto":
+        if self._spectrum_kind != "auto" or self._general:
             return
         if profile is None:
             self._use_modal = True
@@ -997,6 +1082,12 @@ class Synthesizer:
         if hit is not None:
             self._table_cache.move_to_end(key)
             return hit
+        if self._general:
+            hit = self._line_amplitudes(key)
+            self._table_cache[key] = hit
+            if len(self._table_cache) > 8:
+                self._table_cache.popitem(last=False)
+            return hit
         modal = self._modal
         if self._use_modal and modal is not None:
             x = modal.cells(key)                                            # (K, U) displacement combinations
@@ -1017,6 +1108,106 @@ class Synthesizer:
         if len(self._table_cache) > 8:
             self._table_cache.popitem(last=False)
         return hit
+
+    def _line_spectrum_at(self, f: float) -> np.ndarray:
+        """Displacement combinations (K, U) [m] of every line at speed f [Hz]: the speed-locked lines from the
+        model's speed cells (as the order path's modal spectrum, checked against the exact response once; the
+        exact response per knot if the check fails or ``spectrum="exact"``), the others by their dense solve."""
+        m = self._model
+        if self._spectrum_kind != "exact" and self._cells is None and self._modal_failed is None:
+            cells = m.order_modal_form(self._comb).speed_cells()
+            self._cells = cells
+            err = self._line_check(25.0)
+            if err >= 1e-5:
+                self._cells, self._modal_failed = None, f"error {err:.1e}"
+        if self._cells is None:
+            return np.ascontiguousarray(self._exact(f))
+        li, fi = m._locked_idx, m._fixed_idx
+        x = np.empty((len(m.lines), self._comb.shape[0]), complex)
+        x[li] = self._cells(f)
+        if fi.size:
+            x[fi] = m._fixed_lines(f) @ self._comb.T
+        if np.any(m._speed_power != 0.0):
+            x *= (f ** m._speed_power)[:, None]
+        return x
+
+    def _line_check(self, f: float) -> float:
+        """Largest error of the speed cells relative to the largest amplitude per combination, vs the exact one."""
+        exact = self._exact(f)
+        cells, self._cells = self._cells, None
+        self._cells = cells
+        m = self._model
+        mine = np.array(exact, copy=True)
+        mine[m._locked_idx] = cells(f) * (f ** m._speed_power[m._locked_idx])[:, None]
+        return float(np.max(np.abs(mine - exact).max(axis=0) / np.maximum(np.abs(exact).max(axis=0), 1e-300)))
+
+    @property
+    def _general_method(self) -> str:
+        return "modal" if self._cells is not None else "exact"
+
+    def _line_amplitudes(self, f: float) -> "_Amplitudes":
+        """Channel amplitudes and the families' tables at speed f [Hz] (any line set)."""
+        x = self._line_spectrum_at(f)
+        if self._keep_some:
+            x = x[self._keep]
+        fade, taper = self._order_weights(f)
+        w = TWO_PI * (self._nu * f + self._mu)                               # (K,) [rad/s]
+        fac = (1j * w[:, None]) ** self._chan_power[None, :] * (self._chan_scale * fade)[None, :]
+        if taper is not None:
+            fac = fac * taper[:, None]
+        y = x[:, self._cindex] * fac
+        tables = self._families.tables(y, self.dtype)
+        return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=np.ones(y.shape[0]),
+                           table=None, ftables=tables)
+
+    def _segment_lines(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray) -> None:
+        """Samples [lo, hi) between knots a and b of any line set: every family's table(s) through the sample loop
+        at the family's own phase (exact fixed point, as :meth:`_segment`), carriers applied in numpy."""
+        m = hi - lo
+        length = b.x - a.x
+        fs = self.sample_rate_hz
+        j = lo - a.x
+        ua = a.u_int + a.u_frac
+        w = None
+        xi = np.arange(j, j + m, dtype=np.float64)
+        if self._slip_walk is not None:
+            c1u = self.bpfo_per_hz / fs * a.f
+            c2u = 0.5 * self.bpfo_per_hz / fs * (b.f - a.f) / length
+            w = self._slip_walk.warp(a.u_int, (c2u * xi + c1u) * xi + a.u_frac)       # slip [ball passes]
+        out[...] = self._dc
+        scratch = self._scratch.get(m)
+        if scratch is None:
+            scratch = self._scratch[m] = (np.empty((m, out.shape[1]), self.dtype),
+                                          np.empty((m, out.shape[1]), self.dtype))
+        same = b.amp is a.amp
+        for fi, fam in enumerate(self._families.families):
+            t0 = LineFamilies.turns(fam.rate_p, fam.fixed_p, ua, a.x, self.bpfo_per_hz, fs)
+            c1 = (fam.rate_p * a.f + fam.fixed_p) / fs
+            c2 = 0.5 * fam.rate_p * (b.f - a.f) / (fs * length)
+            d0 = round((c1 + c2) * _PASS)
+            dd = round(2.0 * c2 * _PASS)
+            phase0 = round(t0 * _PASS) + j * d0 + dd * (j * (j - 1) // 2)
+            dphase0 = d0 + j * dd
+            warp = None
+            if w is not None and fam.kappa_p != 0.0:
+                wp = fam.kappa_p * w
+                warp = np.rint((wp - np.rint(wp)) * _PASS).astype(np.int64)
+            ta, tb = a.amp.ftables[fi], (None if same else b.amp.ftables[fi])
+            for ti in range(len(ta)):
+                self._segment_fn(phase0, dphase0, dd, warp, ta[ti], None if tb is None else tb[ti], float(j),
+                                 65536.0 / length, scratch[ti], None, self._dc_off)
+            if not fam.carrier:
+                out += scratch[0]
+                continue
+            q0 = LineFamilies.turns(fam.rate_q, fam.fixed_q, ua, a.x, self.bpfo_per_hz, fs)
+            cq1 = (fam.rate_q * a.f + fam.fixed_q) / fs
+            cq2 = 0.5 * fam.rate_q * (b.f - a.f) / (fs * length)
+            ph = (cq2 * xi + cq1) * xi + q0
+            if w is not None and fam.kappa_q != 0.0:
+                ph = ph + fam.kappa_q * w
+            ang = TWO_PI * (ph - np.floor(ph))
+            out += np.cos(ang).astype(self.dtype)[:, None] * scratch[0]
+            out -= np.sin(ang).astype(self.dtype)[:, None] * scratch[1]
 
     def _free_table(self) -> np.ndarray:
         """A knot table buffer, (N + 3, C) and 64-byte aligned (synth_kernel.empty_aligned), recycled: a buffer of
@@ -1039,7 +1230,7 @@ class Synthesizer:
         and ``dc`` (C,), the static part."""
         f = _finite("speed_hz", speed_hz, 0.0)
         y = self._amplitudes(f).y
-        return {"orders": self.orders.copy(), "frequency_hz": self.orders * self.bpfo_per_hz * f,
+        return {"orders": self.orders.copy(), "frequency_hz": self.frequency_hz(f),
                 "amplitude": y.copy(), "dc": self._dc.copy(), "channel_names": self.channel_names,
                 "units": self.units}
 
@@ -1057,7 +1248,7 @@ class Synthesizer:
         n = math.ceil(abs(fb - fa) / self.max_speed_step_hz - 1e-12)
         if self.band_limit == "taper":
             hi, lo = max(fa, fb), min(fa, fb)
-            if self.highest_order * self.bpfo_per_hz * hi > 0.8 * self.sample_rate_hz / 2 and hi > 1.02 * lo:
+            if self._top_hz(hi) > 0.8 * self.sample_rate_hz / 2 and hi > 1.02 * lo:
                 n = max(n, math.ceil(math.log(hi / max(lo, 1e-9)) / math.log(1.02)))
         return max(1, min(n, 100000))
 
@@ -1123,8 +1314,7 @@ class Synthesizer:
         if n_total < 1:
             raise SynthError("seconds", f"{secs:g} s is less than one sample at {fs:g} Hz")
         f_max = profile.max_speed_hz(secs)
-        if self.band_limit == "error" and f_max > self.min_speed_hz \
-                and self.highest_order * self.bpfo_per_hz * f_max >= fs / 2:
+        if self.band_limit == "error" and f_max > self.min_speed_hz and self._top_hz(f_max) >= fs / 2:
             raise SynthError("sample_rate_hz", self._band_message(f_max))
         self._choose_spectrum(profile, secs)
         return self._render_profile(profile, n_total, progress)
@@ -1181,16 +1371,24 @@ class Synthesizer:
         acc = None
         if self.compute_features:
             acc = synth_kernel.new_acc(len(self.channels))
-        fused = acc if not self._noise_on else None    # with noise, the moments are taken after it is added
+        after = self._noise_on or self._general         # moments taken after the noise / the families' sum
+        fused = acc if not after else None
+        seg = self._segment_lines if self._general else None
         if len(ks) == 2 and ks[1].x >= n0 + n:         # one segment (streaming: every chunk)
-            self._segment(ks[0], ks[1], n0, n0 + n, out, fused)
+            if seg is not None:
+                seg(ks[0], ks[1], n0, n0 + n, out)
+            else:
+                self._segment(ks[0], ks[1], n0, n0 + n, out, fused)
         else:
             for a, b, lo, hi in self._segments(n0, n):
-                self._segment(a, b, lo, hi, out[lo - n0:hi - n0], fused)
+                if seg is not None:
+                    seg(a, b, lo, hi, out[lo - n0:hi - n0])
+                else:
+                    self._segment(a, b, lo, hi, out[lo - n0:hi - n0], fused)
         if self._noise_on:
             self._add_noise(n0, n, out)
-            if acc is not None:
-                self._accumulate(out, self._dc_off, acc)
+        if after and acc is not None:
+            self._accumulate(out, self._dc_off, acc)
         return self._make_chunk(n0, n, out, acc)
 
     def _segment(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc) -> None:
@@ -1297,6 +1495,8 @@ class Synthesizer:
         """ISO 10816 velocity RMS [mm/s] in 10-1000 Hz per housing and direction, from the order amplitudes
         (linear in time between knots, as the samples) at ``pos``; noise and slip smearing excluded."""
         f, _, _, a, b, s = self._state_at(pos)
+        if self._general:
+            return self._iso_velocity_lines(f, a, b, s)
         per_order = self.bpfo_per_hz * f                           # Hz per order; orders sorted: the band is a slice
         lo = hi = 0
         if per_order > 0:
@@ -1306,6 +1506,23 @@ class Synthesizer:
         if va.shape != vb.shape:                                    # a model swap changed the orders: the new one
             va = vb
         r = synth_kernel.band_rms(va, vb, lo, hi, s)                # of va + s (vb - va), (K, 8) [mm/s] Re | Im
+        return {"de": {"vertical": r[0], "horizontal": r[1], "overall": max(r[0], r[1])},
+                "nde": {"vertical": r[2], "horizontal": r[3], "overall": max(r[2], r[3])}}
+
+    def _iso_velocity_lines(self, f: float, a, b, s: float) -> dict:
+        """:meth:`_iso_velocity` for any line set: housing velocity of the lines in 10-1000 Hz at speed f."""
+        freq = self._nu * f + self._mu
+        band = (freq >= ISO_BAND_HZ[0]) & (freq <= ISO_BAND_HZ[1])
+
+        def vel(amp):
+            w = TWO_PI * (self._nu * amp.f + self._mu)
+            return amp.x[:, self._iso_rows] * (1j * w * 1e3 * amp.weights)[:, None]
+
+        va, vb = vel(a.amp), vel(b.amp)
+        if va.shape != vb.shape:
+            va = vb
+        v = (va + s * (vb - va))[band]
+        r = np.sqrt(0.5 * np.sum(np.abs(v) ** 2, axis=0)).tolist() if v.size else [0.0] * 4
         return {"de": {"vertical": r[0], "horizontal": r[1], "overall": max(r[0], r[1])},
                 "nde": {"vertical": r[2], "horizontal": r[3], "overall": max(r[2], r[3])}}
 
@@ -1320,6 +1537,9 @@ class Synthesizer:
             "sample_rate_hz": self.sample_rate_hz,
             "orders": [int(k) for k in self.orders],
         })
+        if self._general:
+            gt["line_coefficients"] = self.coefficients.tolist()
+            gt["line_multipliers"] = self._nu.tolist()
         return gt
 
     def info(self) -> dict:

@@ -56,7 +56,7 @@ def test_user_case_by_path(tmp_path):
     (lambda: _sub(r'^race = "outer"', 'race = "ball"'), "defects[0].ball", "missing"),
     (lambda: _sub(r'^race = "outer"', 'race = "outer"\nball = 3'), "defects[0].ball", "only for race = 'ball'"),
     (lambda: _sub(r'^race = "outer"', 'race = "ball"\nball = 15'), "defects[0].ball", "ball number 1..14"),
-    (lambda: _sub(r"^unbalance_grade_mm_s = 2.5", "unbalance_grade_mm_s = -1.0"),
+    (lambda: _sub(r"^unbalance_grade_mm_s = 0.0", "unbalance_grade_mm_s = -1.0"),
      "baseline.unbalance_grade_mm_s", ">= 0"),
     (lambda: _sub(r"^misalignment_node = 1", "misalignment_node = 15"), "baseline.misalignment_node",
      "shaft node"),
