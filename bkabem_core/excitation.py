@@ -660,6 +660,9 @@ def compute_excitation(bearing: Bearing, params: FourDofParameters, axial_load_n
     Excitation
     """
     t_start = time.perf_counter()
+    if any(p.kind != "outer" for p in bearing.defect_set.profiles):
+        raise ValueError("the 4-DOF excitation models outer-race dents only (excitation.method = 'quasi_static' "
+                         "takes every kind)")
     model = FourDofModel(bearing, params, axial_load_n)
     t, rel, n_steps = model.integrate()
     all_orders, amp, pha, dc, off, keep = _orders_from_record(rel, params.record_cage_periods * model.z,
@@ -688,4 +691,6 @@ def compute_excitation(bearing: Bearing, params: FourDofParameters, axial_load_n
         radial_load_n=params.rotor_mass_kg * params.gravity_m_s2,
         axial_load_n=float(axial_load_n),
         state=model.state,
+        n_balls=model.z,
+        rates_per_hz=rates_per_hz(bearing.fault_multipliers()),
     )

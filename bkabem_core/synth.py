@@ -900,6 +900,24 @@ class Synthesizer:
             return self._nu * float(speed_hz) + self._mu
         return self.orders * self.bpfo_per_hz * float(speed_hz)
 
+    def line_orders(self) -> np.ndarray:
+        """Each synthesised line's frequency in BPFO orders [-] (the integer orders of an order set as floats)."""
+        if self._general:
+            return self._nu / self.bpfo_per_hz
+        return np.asarray(self.orders, dtype=float)
+
+    def line_phases_rad(self, chunk: "Chunk") -> np.ndarray:
+        """Phase of every line at the first sample of ``chunk`` [rad], before slip: ``c . Phi`` (an order set:
+        ``k z theta_cage``), so that ``line_spectrum`` amplitudes times ``exp(i phase)`` are the lines at t0."""
+        cage = float(chunk.cage_angle_rad)
+        if not self._general:
+            return np.asarray(self.orders, dtype=float) * self.n_balls * cage
+        fm = self.fault_multipliers
+        c = self.coefficients.astype(float)
+        line_hz = self._model.lines.line_hz
+        return (c[:, 0] * float(chunk.shaft_angle_rad) + c[:, 1] * cage + c[:, 2] * (fm.bsf / fm.ftf) * cage
+                + c[:, 3] * TWO_PI * line_hz * float(chunk.t0_s))
+
     @property
     def model(self) -> BkaBem:
         return self._model

@@ -309,3 +309,24 @@ def test_slip_moves_cage_lines_only(models):
     assert slipped[b1] == pytest.approx(clean[b1], rel=0.01)
     bi = int(round(m.fault_multipliers.bpfi * 3 * speed * 2.0))
     assert slipped[bi - 1:bi + 2].max() < 0.7 * clean[bi - 1:bi + 2].max()
+
+
+# --------------------------------------------------------------------------- TDSM per kind
+@pytest.mark.parametrize("kind", ["inner", "ball"])
+def test_tdsm_agrees_with_plain_bkabem_for_every_kind(kind):
+    """The time-domain model with the defect moving with the shaft (inner race) or the ball's spin (ball), its
+    record fitted by least squares at the BKA-BEM line frequencies: the five largest lines of every location and
+    direction within 3 dB of plain BKA-BEM at 30 Hz (displacement and acceleration), and the lines explain the
+    record (small residual at the housings).
+
+    Measured (docs/validation.md, kinds block): inner race <= 0.3 dB; ball <= 2.4 dB in displacement, and in
+    acceleration <= 2.4 dB at the housings but 3.1 dB at the NDE rotor node (a 2.2 kHz line, stable with twice the
+    record: the plain method's mean bearing stiffness, the same 1-3 dB class as the outer race at high speed
+    before the improved method), so acceleration is held to 3 dB at the housings, where accelerometers sit."""
+    from bkabem_core.validation import validate_lines
+
+    r = validate_lines(Case.load(f"motor_6010_{kind}"), 30.0, duration_s=0.3, settle_s=0.5)
+    assert r.max_error_db().max() < 3.0, r.to_dict()["max_abs_error_db_largest"]
+    assert r.max_error_db("acceleration")[[1, 3]].max() < 3.0
+    assert r.max_error_db("acceleration").max() < 3.5
+    assert r.residual_fraction.max() < 0.05, r.residual_fraction
