@@ -54,6 +54,7 @@ import numpy as np
 
 from . import synth_kernel
 from .harmonic import DIRECTIONS, LOCATIONS, TWO_PI, BkaBem, SpeedCells
+from .sensors import Accelerometer, AntiAliasFilter, chain_gains
 from .synth_lines import LineFamilies
 
 BEARINGS = ("de", "nde")
@@ -717,6 +718,10 @@ class Synthesizer:
         Compute per-chunk features (default True).
     table_size : int or None
         Spline coefficients per ball pass (power of 2, default max(256, 8 x highest order): 512 for 50 orders).
+    accelerometer : Accelerometer or None
+        The mounted sensor's resonance on the housing channels (:mod:`bkabem_core.sensors`; None: ideal).
+    anti_alias : AntiAliasFilter or None
+        The acquisition's low-pass on every channel (None: none; ``AntiAliasFilter.for_rate(fs)`` the usual one).
     """
 
     def __init__(self, model: BkaBem, sample_rate_hz: float = 25600.0, chunk_s: float = 0.1, *,
@@ -724,7 +729,8 @@ class Synthesizer:
                  slip: float = 0.0, seed: int | None = 0, max_order: int | None = None, band_limit: str = "error",
                  spectrum: str = "auto", knot_s: float = 0.1, max_speed_step_hz: float = 0.5,
                  min_speed_hz: float = 0.05, initial_speed_hz: float | None = None, dtype=np.float32,
-                 features: bool = True, table_size: int | None = None):
+                 features: bool = True, table_size: int | None = None, accelerometer: Accelerometer | None = None,
+                 anti_alias: AntiAliasFilter | None = None):
         if not isinstance(model, BkaBem):
             raise SynthError("model", f"must be a BkaBem (got {type(model).__name__})")
         fs = _finite("sample_rate_hz", sample_rate_hz, 0.0, strict=True)
@@ -770,6 +776,11 @@ class Synthesizer:
         if initial_speed_hz is not None:
             initial_speed_hz = _finite("initial_speed_hz", initial_speed_hz, 0.0)
         self.initial_speed_hz = initial_speed_hz
+        for name, v, kind in (("accelerometer", accelerometer, Accelerometer), ("anti_alias", anti_alias,
+                                                                                 AntiAliasFilter)):
+            if v is not None and not isinstance(v, kind):
+                raise SynthError(name, f"must be a {kind.__name__} or None (got {type(v).__name__})")
+        self.accelerometer, self.anti_alias = accelerometer, anti_alias
         self._spectrum_kind = spectrum
         self._max_order_arg = max_order
         self._table_size_arg = table_size
@@ -812,6 +823,8 @@ class Synthesizer:
         self.table_size = int(n)
         comb, index, power, scale, iso = _combination(self.channels)
         self._comb, self._cindex, self._power, self._scale, self._iso_rows = comb, index, power, scale, iso
+        self._housing_cols = np.flatnonzero((comb != 0).sum(axis=1) == 1)
+        self._chain = self.accelerometer is not None or self.anti_alias is not None
         self._orders_list = [int(k) for k in orders[keep]]                 # for bisect (the ISO band)
         self._iso_factor = 1j * orders[keep].astype(float)[:, None]       # v = i k w1 x [m/s per m]
         self._exact = ExactSpectrum(model, comb)
@@ -870,6 +883,8 @@ class Synthesizer:
         self.table_size = max(f.table_size for f in self._families.families)
         comb, index, power, scale, iso = _combination(self.channels)
         self._comb, self._cindex, self._power, self._scale, self._iso_rows = comb, index, power, scale, iso
+        self._housing_cols = np.flatnonzero((comb != 0).sum(axis=1) == 1)
+        self._chain = self.accelerometer is not None or self.anti_alias is not None
         self._exact = ExactSpectrum(model, comb)
         self._modal = None
         self._modal_failed = None
@@ -1113,6 +1128,9 @@ class Synthesizer:
             x = np.ascontiguousarray(self._provider()(key))
         if self._keep_some:
             x = x[self._keep]
+        if self._chain:
+            x = x * chain_gains(self.orders * self.bpfo_per_hz * key, self._housing_cols, self.accelerometer,
+                                self.anti_alias, x.shape[1])
         fade, taper = self._order_weights(key)
         scale = self._scale_buf                                             # (2 pi BPFO f)^p * fade per channel
         np.power(TWO_PI * self.bpfo_per_hz * key, self._chan_power, out=scale)
@@ -1168,6 +1186,9 @@ class Synthesizer:
         x = self._line_spectrum_at(f)
         if self._keep_some:
             x = x[self._keep]
+        if self._chain:
+            x = x * chain_gains(self._nu * f + self._mu, self._housing_cols, self.accelerometer, self.anti_alias,
+                                x.shape[1])
         fade, taper = self._order_weights(f)
         w = TWO_PI * (self._nu * f + self._mu)                               # (K,) [rad/s]
         fac = (1j * w[:, None]) ** self._chan_power[None, :] * (self._chan_scale * fade)[None, :]
@@ -1554,6 +1575,8 @@ class Synthesizer:
             "snr_db": self.snr_db,
             "sample_rate_hz": self.sample_rate_hz,
             "orders": [int(k) for k in self.orders],
+            "accelerometer": None if self.accelerometer is None else self.accelerometer.to_dict(),
+            "anti_alias": None if self.anti_alias is None else self.anti_alias.to_dict(),
         })
         if self._general:
             gt["line_coefficients"] = self.coefficients.tolist()
