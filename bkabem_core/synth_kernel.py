@@ -61,6 +61,8 @@ import math
 
 import numpy as np
 
+from .synth_features import _moment_features
+
 #: Phase units of one ball pass.
 PASS_UNITS = 1 << 62
 FRAC_BITS = 24                 # bits of the fraction of a table step the spline weights are computed from
@@ -303,9 +305,7 @@ def features_from_acc(acc: np.ndarray, n: int, off) -> dict:
 
 
 def features_from_acc_reference(acc: np.ndarray, n: int, off) -> dict:
-    """:func:`features_from_acc` in numpy (``synth._moment_features``)."""
-    from .synth import _moment_features      # here, not at the top: synth imports this module
-
+    """:func:`features_from_acc` in numpy (``synth_features._moment_features``)."""
     s = acc[:, :4] / float(n)
     return _moment_features(s[:, 0], s[:, 1], s[:, 2], s[:, 3], acc[:, 4].copy(), acc[:, 5].copy(),
                             np.asarray(off, dtype=np.float64))

@@ -31,11 +31,15 @@ Units: phases in turns, frequencies in Hz, amplitudes in the channels' units.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import synth_kernel
+from .harmonic import DIRECTIONS, LOCATIONS, TWO_PI, BkaBem
+from .sensors import chain_gains
+from .synth_profile import SynthError
 
 PASS = float(synth_kernel.PASS_UNITS)
 
@@ -205,3 +209,345 @@ class LineFamilies:
         """Fractional turns of a family phase at ``u_passes`` ball passes (BPFO phase) and sample ``x_samples``."""
         t = (fam_rate / bpfo_per_hz) * u_passes + fam_fixed * (x_samples / sample_rate_hz)
         return t - math.floor(t)
+
+
+BEARINGS = ("de", "nde")
+#: quantity -> (unit, power of (i omega) applied to the displacement amplitude, scale to the unit)
+QUANTITIES = {
+    "acceleration": ("m/s^2", 2, 1.0),
+    "displacement": ("m", 0, 1.0),
+    "velocity": ("mm/s", 1, 1.0e3),
+}
+DEFAULT_QUANTITIES = ("acceleration", "displacement")
+
+
+# =========================================================================== channels
+@dataclass(frozen=True)
+class Channel:
+    name: str
+    bearing: str
+    direction: str
+    quantity: str
+    unit: str
+
+
+def make_channels(quantities=DEFAULT_QUANTITIES) -> list[Channel]:
+    """Channels in a fixed order: bearing (de, nde) > quantity (as given) > direction (vertical, horizontal)."""
+    if isinstance(quantities, str):
+        quantities = [q.strip() for q in quantities.split(",") if q.strip()]
+    quantities = list(quantities)
+    if not quantities:
+        raise SynthError("quantities", "at least one of acceleration, displacement, velocity")
+    for q in quantities:
+        if q not in QUANTITIES:
+            raise SynthError("quantities", f"unknown quantity {q!r} (use acceleration, displacement, velocity)")
+    if len(set(quantities)) != len(quantities):
+        raise SynthError("quantities", "listed twice")
+    return [Channel(f"{b}_{d}_{q}", b, d, q, QUANTITIES[q][0])
+            for b in BEARINGS for q in quantities for d in DIRECTIONS]
+
+
+def _combination(channels: list[Channel]):
+    """The distinct displacement combinations the channels need, as rows (U, 8) over the 8 output displacements
+    (LOCATIONS x DIRECTIONS): housing displacement (acceleration, velocity) and rotor minus housing (displacement).
+    Returns the rows, per channel the row index, power p of (i omega) and unit scale, and the rows of the housing
+    displacements (DE/NDE x vertical/horizontal) that the ISO 10816 velocity needs."""
+    def col(loc, d):
+        return LOCATIONS.index(loc) * len(DIRECTIONS) + DIRECTIONS.index(d)
+
+    keys: list[tuple] = []
+    rows = []
+
+    def row_of(b, d, relative):
+        key = (b, d, relative)
+        if key not in keys:
+            r = np.zeros(len(LOCATIONS) * len(DIRECTIONS))
+            r[col(f"{b}_housing", d)] = -1.0 if relative else 1.0
+            if relative:
+                r[col(f"{b}_rotor", d)] = 1.0
+            keys.append(key)
+            rows.append(r)
+        return keys.index(key)
+
+    index, power, scale = [], [], []
+    for c in channels:
+        index.append(row_of(c.bearing, c.direction, c.quantity == "displacement"))
+        power.append(QUANTITIES[c.quantity][1])
+        scale.append(QUANTITIES[c.quantity][2])
+    iso = [row_of(b, d, False) for b in BEARINGS for d in DIRECTIONS]
+    return np.array(rows), np.array(index), np.array(power), np.array(scale), np.array(iso)
+
+
+# =========================================================================== spectrum at a speed
+class ModalSpectrum:
+    """Displacement combinations from the model's exact order-wise pole-residue form, in cells of shaft speed.
+
+    A thin view of :class:`~bkabem_core.harmonic.OrderModalForm` and its :class:`~bkabem_core.harmonic.SpeedCells`
+    (kept on the model, so synthesisers of one model share them): per 0.5 Hz cell a Chebyshev interpolant of the
+    far poles and the near poles exactly, with a rigorous bound (2e-6 of the output's largest order). Costs one
+    eigen-decomposition per order once, and ~4 ms per cell when first used (:meth:`build` makes them ahead).
+    """
+
+    def __init__(self, model: BkaBem, combination: np.ndarray):
+        self.model = model
+        self._comb = combination
+        self.form = model.order_modal_form(combination)
+        self.cells = self.form.speed_cells()
+
+    def __call__(self, speed_hz: float) -> np.ndarray:
+        """Displacement combinations (K, U) complex [m] at shaft speed ``speed_hz`` [Hz]."""
+        return self.cells(speed_hz)
+
+    def build(self, f_lo_hz: float, f_hi_hz: float) -> None:
+        """Make the speed cells of ``[f_lo_hz, f_hi_hz]`` [Hz] now."""
+        self.cells.build(f_lo_hz, f_hi_hz)
+
+    def check(self, speed_hz: float) -> float:
+        """Largest error relative to the largest amplitude, against the exact solver, per combination."""
+        exact = self.model.response([speed_hz])[0].reshape(self.form.orders.size, -1) @ self._comb.T
+        mine = self(speed_hz)
+        return float(np.max(np.abs(mine - exact).max(axis=0) / np.maximum(np.abs(exact).max(axis=0), 1e-300)))
+
+
+class ExactSpectrum:
+    """Displacement combinations from :meth:`BkaBem.response` at each requested speed (LRU cache)."""
+
+    def __init__(self, model: BkaBem, combination: np.ndarray, cache: int = 256):
+        self.model = model
+        self._comb = combination
+        self._cache: OrderedDict[float, np.ndarray] = OrderedDict()
+        self._size = cache
+
+    def __call__(self, speed_hz: float) -> np.ndarray:
+        key = float(speed_hz)
+        x = self._cache.get(key)
+        if x is None:
+            k = self.model.orders.size
+            x = self.model.response([key])[0].reshape(k, -1) @ self._comb.T
+            self._cache[key] = x
+            if len(self._cache) > self._size:
+                self._cache.popitem(last=False)
+        else:
+            self._cache.move_to_end(key)
+        return x
+
+
+# =========================================================================== knots
+@dataclass(slots=True)
+class _Amplitudes:
+    """What a knot needs at its speed (shared by knots of the same speed)."""
+    f: float                    # shaft speed [Hz]
+    x: np.ndarray               # (K, U) complex displacement combinations [m]
+    fade: float                 # low-speed fade of every order
+    taper: np.ndarray | None    # (K,) Nyquist taper (None: 1)
+    y_emphasised: np.ndarray    # (K, C) complex channel amplitudes x spline pre-emphasis (weights applied)
+    emphasis: np.ndarray        # (K,) the pre-emphasis 1 / sinc(k/N)^4
+    table: np.ndarray | None    # (N + 3, C) cubic B-spline coefficients of one ball pass (see Synthesizer._bind_model)
+    v_iso: np.ndarray | None = None     # (K, 8) housing velocity [mm/s], Re | Im, made when first needed
+    ftables: list | None = None         # any other line set: per family its table(s) (synth_lines.LineFamilies)
+    _y: np.ndarray | None = None
+    _rms: np.ndarray | None = None
+
+    @property
+    def weights(self) -> np.ndarray:
+        """(K,) order weights (fade x taper)."""
+        return self.fade * (np.ones(self.x.shape[0]) if self.taper is None else self.taper)
+
+    @property
+    def y(self) -> np.ndarray:
+        """(K, C) complex channel amplitudes (weights applied, no pre-emphasis)."""
+        if self._y is None:
+            self._y = self.y_emphasised / self.emphasis[:, None]
+        return self._y
+
+    @property
+    def rms(self) -> np.ndarray:
+        """(C,) RMS of the dynamic part (channel units)."""
+        if self._rms is None:
+            self._rms = np.sqrt(0.5 * np.sum(np.abs(self.y) ** 2, axis=0))
+        return self._rms
+
+
+@dataclass(slots=True)
+class _Knot:
+    x: int              # position [samples] (time * sample rate); knots sit on samples
+    f: float            # shaft speed [Hz]
+    u_int: int          # ball passes since t = 0: integer part ...
+    u_frac: float       # ... and fraction in [0, 1)
+    amp: "_Amplitudes"  # channel amplitudes and spline table at f
+
+
+
+
+# =========================================================================== any line set in the synthesiser
+#: ISO 10816 evaluation band for velocity RMS [Hz]
+ISO_BAND_HZ = (10.0, 1000.0)
+
+
+class LineSetPath:
+    """The :class:`~bkabem_core.synth.Synthesizer`'s methods for any line set that is not BPFO orders only
+    (families of :class:`LineFamilies`; module docstring). A mixin: it reads the synthesiser's state."""
+
+    def _bind_lines(self, model: BkaBem) -> None:
+        """Any line set (:mod:`bkabem_core.synth_lines`): families of lines, one table (pair) each per knot; the
+        spectrum at a knot from the model's exact response (its fixed-frequency and speed-scaled lines included)."""
+        self._general = True
+        lines = model.lines
+        nu, mu = lines.multipliers, lines.fixed_hz
+        keep = np.ones(len(lines), bool)
+        if self._max_order_arg is not None:
+            mo = self._max_order_arg
+            if isinstance(mo, bool) or not isinstance(mo, (int, np.integer)) or mo < 1:
+                raise SynthError("max_order", f"must be an integer >= 1 (got {mo!r})")
+            keep = (nu <= mo * model.bpfo_per_hz) | ~lines.speed_locked
+        self._model = model
+        self.case = model.case
+        self._keep = keep
+        self._keep_some = not bool(np.all(keep))
+        self.orders = np.asarray(model.orders, dtype=int)[keep]
+        self.coefficients = lines.coefficients[keep]
+        self._nu, self._mu = nu[keep], mu[keep]
+        self.bpfo_per_hz = float(model.bpfo_per_hz)
+        self.n_balls = int(model.case.bearing_geometry().n_balls)
+        self.fault_multipliers = model.fault_multipliers
+        self._k_max = max(1, int(math.ceil(float(self._nu.max()) / self.bpfo_per_hz)))
+        self._families = LineFamilies(self.coefficients, lines.rates_per_hz, lines.line_hz, self.n_balls,
+                                      self.bpfo_per_hz, self._table_size_arg)
+        self.table_size = max(f.table_size for f in self._families.families)
+        comb, index, power, scale, iso = _combination(self.channels)
+        self._comb, self._cindex, self._power, self._scale, self._iso_rows = comb, index, power, scale, iso
+        self._housing_cols = np.flatnonzero((comb != 0).sum(axis=1) == 1)
+        self._chain = self.accelerometer is not None or self.anti_alias is not None
+        self._exact = ExactSpectrum(model, comb)
+        self._modal = None
+        self._modal_failed = None
+        self._use_modal = False
+        self._cells = None                   # the speed cells of the speed-locked lines (made on first use)
+        dc8 = np.asarray(model.dc_m).reshape(-1)
+        self._dc = (comb @ dc8)[index] * (power == 0)
+        self._dc_off = np.ascontiguousarray(self._dc, dtype=np.float64)
+        self._chan_power = power.astype(float)
+        self._chan_scale = scale.astype(float)
+        self._scratch: dict = {}
+        self._gt_base = self._ground_truth_base()
+
+    def _line_spectrum_at(self, f: float) -> np.ndarray:
+        """Displacement combinations (K, U) [m] of every line at speed f [Hz]: the speed-locked lines from the
+        model's speed cells (as the order path's modal spectrum, checked against the exact response once; the
+        exact response per knot if the check fails or ``spectrum="exact"``), the others by their dense solve."""
+        m = self._model
+        if self._spectrum_kind != "exact" and self._cells is None and self._modal_failed is None:
+            cells = m.order_modal_form(self._comb).speed_cells()
+            self._cells = cells
+            err = self._line_check(25.0)
+            if err >= 1e-5:
+                self._cells, self._modal_failed = None, f"error {err:.1e}"
+        if self._cells is None:
+            return np.ascontiguousarray(self._exact(f))
+        li, fi = m._locked_idx, m._fixed_idx
+        x = np.empty((len(m.lines), self._comb.shape[0]), complex)
+        x[li] = self._cells(f)
+        if fi.size:
+            x[fi] = m._fixed_lines(f) @ self._comb.T
+        if np.any(m._speed_power != 0.0):
+            x *= (f ** m._speed_power)[:, None]
+        return x
+
+    def _line_check(self, f: float) -> float:
+        """Largest error of the speed cells relative to the largest amplitude per combination, vs the exact one."""
+        exact = self._exact(f)
+        cells, self._cells = self._cells, None
+        self._cells = cells
+        m = self._model
+        mine = np.array(exact, copy=True)
+        mine[m._locked_idx] = cells(f) * (f ** m._speed_power[m._locked_idx])[:, None]
+        return float(np.max(np.abs(mine - exact).max(axis=0) / np.maximum(np.abs(exact).max(axis=0), 1e-300)))
+
+    @property
+    def _general_method(self) -> str:
+        return "modal" if self._cells is not None else "exact"
+
+    def _line_amplitudes(self, f: float) -> "_Amplitudes":
+        """Channel amplitudes and the families' tables at speed f [Hz] (any line set)."""
+        x = self._line_spectrum_at(f)
+        if self._keep_some:
+            x = x[self._keep]
+        if self._chain:
+            x = x * chain_gains(self._nu * f + self._mu, self._housing_cols, self.accelerometer, self.anti_alias,
+                                x.shape[1])
+        fade, taper = self._order_weights(f)
+        w = TWO_PI * (self._nu * f + self._mu)                               # (K,) [rad/s]
+        fac = (1j * w[:, None]) ** self._chan_power[None, :] * (self._chan_scale * fade)[None, :]
+        if taper is not None:
+            fac = fac * taper[:, None]
+        y = x[:, self._cindex] * fac
+        tables = self._families.tables(y, self.dtype)
+        return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=np.ones(y.shape[0]),
+                           table=None, ftables=tables)
+
+    def _segment_lines(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray) -> None:
+        """Samples [lo, hi) between knots a and b of any line set: every family's table(s) through the sample loop
+        at the family's own phase (exact fixed point, as :meth:`_segment`), carriers applied in numpy."""
+        m = hi - lo
+        length = b.x - a.x
+        fs = self.sample_rate_hz
+        j = lo - a.x
+        ua = a.u_int + a.u_frac
+        w = None
+        xi = np.arange(j, j + m, dtype=np.float64)
+        if self._slip_walk is not None:
+            c1u = self.bpfo_per_hz / fs * a.f
+            c2u = 0.5 * self.bpfo_per_hz / fs * (b.f - a.f) / length
+            w = self._slip_walk.warp(a.u_int, (c2u * xi + c1u) * xi + a.u_frac)       # slip [ball passes]
+        out[...] = self._dc
+        scratch = self._scratch.get(m)
+        if scratch is None:
+            scratch = self._scratch[m] = (np.empty((m, out.shape[1]), self.dtype),
+                                          np.empty((m, out.shape[1]), self.dtype))
+        same = b.amp is a.amp
+        for fi, fam in enumerate(self._families.families):
+            t0 = LineFamilies.turns(fam.rate_p, fam.fixed_p, ua, a.x, self.bpfo_per_hz, fs)
+            c1 = (fam.rate_p * a.f + fam.fixed_p) / fs
+            c2 = 0.5 * fam.rate_p * (b.f - a.f) / (fs * length)
+            d0 = round((c1 + c2) * PASS)
+            dd = round(2.0 * c2 * PASS)
+            phase0 = round(t0 * PASS) + j * d0 + dd * (j * (j - 1) // 2)
+            dphase0 = d0 + j * dd
+            warp = None
+            if w is not None and fam.kappa_p != 0.0:
+                wp = fam.kappa_p * w
+                warp = np.rint((wp - np.rint(wp)) * PASS).astype(np.int64)
+            ta, tb = a.amp.ftables[fi], (None if same else b.amp.ftables[fi])
+            for ti in range(len(ta)):
+                self._segment_fn(phase0, dphase0, dd, warp, ta[ti], None if tb is None else tb[ti], float(j),
+                                 65536.0 / length, scratch[ti], None, self._dc_off)
+            if not fam.carrier:
+                out += scratch[0]
+                continue
+            q0 = LineFamilies.turns(fam.rate_q, fam.fixed_q, ua, a.x, self.bpfo_per_hz, fs)
+            cq1 = (fam.rate_q * a.f + fam.fixed_q) / fs
+            cq2 = 0.5 * fam.rate_q * (b.f - a.f) / (fs * length)
+            ph = (cq2 * xi + cq1) * xi + q0
+            if w is not None and fam.kappa_q != 0.0:
+                ph = ph + fam.kappa_q * w
+            ang = TWO_PI * (ph - np.floor(ph))
+            out += np.cos(ang).astype(self.dtype)[:, None] * scratch[0]
+            out -= np.sin(ang).astype(self.dtype)[:, None] * scratch[1]
+
+    def _iso_velocity_lines(self, f: float, a, b, s: float) -> dict:
+        """:meth:`_iso_velocity` for any line set: housing velocity of the lines in 10-1000 Hz at speed f."""
+        freq = self._nu * f + self._mu
+        band = (freq >= ISO_BAND_HZ[0]) & (freq <= ISO_BAND_HZ[1])
+
+        def vel(amp):
+            w = TWO_PI * (self._nu * amp.f + self._mu)
+            return amp.x[:, self._iso_rows] * (1j * w * 1e3 * amp.weights)[:, None]
+
+        va, vb = vel(a.amp), vel(b.amp)
+        if va.shape != vb.shape:
+            va = vb
+        v = (va + s * (vb - va))[band]
+        r = np.sqrt(0.5 * np.sum(np.abs(v) ** 2, axis=0)).tolist() if v.size else [0.0] * 4
+        return {"de": {"vertical": r[0], "horizontal": r[1], "overall": max(r[0], r[1])},
+                "nde": {"vertical": r[2], "horizontal": r[3], "overall": max(r[2], r[3])}}
+
