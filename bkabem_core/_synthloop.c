@@ -676,6 +676,28 @@ CLONES int synth_accumulate_##SUF(int64_t n, int64_t C, const T *x, const double
 SYNTH_KERNELS(float, f32)
 SYNTH_KERNELS(double, f64)
 
+/* Carrier mix of a line family with a carrier (synth_lines.py): out[i][c] += cs[i][0] re[i][c] - cs[i][1] im[i][c],
+ * i < m, c < C, row-major blocks; cs holds (cos, sin) of the carrier phase per sample. Two multiplies and two
+ * adds per element, in this order (the numpy reference synth_kernel.carrier_mix_reference does the same). */
+#define CARRIER_MIX(T, SUF)                                                                                         \
+int synth_carrier_mix_##SUF(int64_t m, int64_t C, const T *cs, const T *re, const T *im, T *out)                    \
+{                                                                                                                   \
+    if (m < 0 || C < 1) return -1;                                                                                  \
+    for (int64_t i = 0; i < m; ++i) {                                                                               \
+        const T c = cs[2 * i], s = cs[2 * i + 1];                                                                   \
+        const T *a = re + i * C, *b = im + i * C;                                                                   \
+        T *o = out + i * C;                                                                                         \
+        for (int64_t k = 0; k < C; ++k) {                                                                           \
+            const T x = c * a[k];                                                                                   \
+            const T y = s * b[k];                                                                                   \
+            o[k] = o[k] + (x - y);                                                                                  \
+        }                                                                                                           \
+    }                                                                                                               \
+    return 0;                                                                                                       \
+}
+CARRIER_MIX(float, f32)
+CARRIER_MIX(double, f64)
+
 /* Chunk features from the accumulators of n samples per channel (acc C x 6 as above, about off[c]): out 6 x C
  * rows mean, rms, peak, peak_to_peak, crest_factor, kurtosis (synth._moment_features in numpy, the reference):
  * raw moments s_p = sum / n; m2 = max(s2 - s1^2, 0); m4 = max(s4 - 4 s1 s3 + 6 s1^2 s2 - 3 s1^4, 0);

@@ -156,6 +156,11 @@ def _load():
         acc.argtypes = [i64, i64, ptr, ptr, ptr]
         acc.restype = ctypes.c_int
         fns[dt] = acc
+        mix = getattr(lib, f"synth_carrier_mix_{suf}", None)
+        if mix is not None:
+            mix.argtypes = [i64, i64, ptr, ptr, ptr, ptr]
+            mix.restype = ctypes.c_int
+            fns[("carrier_mix", dt)] = mix
         nrm = getattr(lib, f"synth_normals_{suf}")
         nrm.argtypes = [ctypes.c_uint64, i64, ptr]
         nrm.restype = ctypes.c_int
@@ -288,6 +293,30 @@ def normals(key: int, n: int, dtype=np.float32) -> np.ndarray:
     if _FNS[("normals", dt)](int(key) & _MASK64, out.size, _ptr(out, "out")):
         raise ValueError(f"synth_normals rejected n={n}")
     return out
+
+
+def carrier_mix(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:
+    """``out += cs[:, :1] re - cs[:, 1:] im`` for (m, C) blocks and the carrier's (cos, sin) ``cs`` (m, 2), all of
+    out's dtype and C-contiguous: in C when the kernel is built (bit for bit :func:`carrier_mix_reference`)."""
+    fn = _FNS.get(("carrier_mix", out.dtype)) if _FNS is not None else None
+    if fn is None:
+        carrier_mix_reference(cs, re, im, out)
+        return
+    m, c = out.shape
+    for a, name in ((cs, "cs"), (re, "re"), (im, "im")):
+        if a.dtype != out.dtype or a.shape[0] != m:
+            raise ValueError(f"{name} must be ({m}, ...) {out.dtype}")
+    if re.shape != out.shape or im.shape != out.shape or cs.shape != (m, 2):
+        raise ValueError("carrier_mix: shapes (m, 2), (m, C), (m, C), (m, C)")
+    if fn(m, c, _ptr(cs, "cs"), _ptr(re, "re"), _ptr(im, "im"), _ptr(out, "out")):
+        raise ValueError(f"synth_carrier_mix rejected m={m}, C={c}")
+
+
+def carrier_mix_reference(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:
+    """:func:`carrier_mix` in numpy (the same operations in the same order and precision)."""
+    x = cs[:, :1] * re
+    y = cs[:, 1:] * im
+    out += x - y
 
 
 FEATURE_NAMES = ("mean", "rms", "peak", "peak_to_peak", "crest_factor", "kurtosis")

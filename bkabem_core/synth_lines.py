@@ -165,42 +165,30 @@ class LineFamilies:
             fam.kappa_q = (q[1] + q[2] * spin_per_cage) / z
             self.families.append(fam)
         self.bpfo_per_hz = float(bpfo_per_hz)
-        # the families' emphasis (cubic B-spline droop) per line, for the amplitudes handed to the tables
-        self.emphasis = [1.0 / np.sinc(f.harmonics / f.table_size) ** 4 for f in self.families]
+        # per family: each line's FFT slot (k mod N) and its B-spline pre-emphasis 1 / sinc(k / N)^4 (the cubic
+        # B-spline's droop, so every line comes out exact); the padded rows (r - 1) mod N of each table size
+        self._slots = [np.mod(f.k, f.table_size) for f in self.families]
+        self._line_emphasis = [1.0 / np.sinc(f.k / f.table_size) ** 4 for f in self.families]
+        self._pad = {f.table_size: (np.arange(f.table_size + 3) - 1) % f.table_size for f in self.families}
 
     def __len__(self) -> int:
         return len(self.families)
 
     def tables(self, y: np.ndarray, dtype) -> list:
         """Per family its padded spline table(s) (N + 3, C) for channel amplitudes ``y`` (L, C) complex: one for a
-        real family, (Re G, Im G) for a carrier family; no DC (added once by the caller)."""
+        real family, (Re G, Im G) for a carrier family; no DC (added once by the caller).
+
+        ``G(phi) = sum_k E_|k| Y_k exp(i k 2 pi phi)`` with the B-spline pre-emphasis ``E`` is one inverse FFT of
+        the family's amplitudes placed at their harmonics (k mod N); a real family's table is its real part."""
         out = []
-        for fam, emph in zip(self.families, self.emphasis):
+        for fam, slot, emph in zip(self.families, self._slots, self._line_emphasis):
             yl = y[fam.lines]
-            yl = np.where(fam.sign[:, None] > 0, yl, np.conj(yl))                    # amplitudes of k p + q
-            cos, sin = fam.basis.full()
-            h = fam.harmonics
-            if not fam.carrier:
-                a = np.zeros((h.size, y.shape[1]), complex)
-                np.add.at(a, np.searchsorted(h, fam.k), yl)
-                a *= emph[:, None]
-                out.append(((cos @ a.real - sin @ a.imag).astype(dtype),))
-                continue
-            pos = np.zeros((h.size, y.shape[1]), complex)
-            neg = np.zeros_like(pos)
-            dc = np.zeros(y.shape[1], complex)
-            for kk, v in zip(fam.k, yl):
-                if kk > 0:
-                    pos[np.searchsorted(h, kk)] += v
-                elif kk < 0:
-                    neg[np.searchsorted(h, -kk)] += v
-                else:
-                    dc += v
-            re_a = (pos + np.conj(neg)) * emph[:, None]
-            im_a = -1j * (pos - np.conj(neg)) * emph[:, None]
-            re_t = dc.real[None, :] + cos @ re_a.real - sin @ re_a.imag
-            im_t = dc.imag[None, :] + cos @ im_a.real - sin @ im_a.imag
-            out.append((re_t.astype(dtype), im_t.astype(dtype)))
+            yl = np.where(fam.sign[:, None] > 0, yl, np.conj(yl)) * emph[:, None]
+            spec = np.zeros((fam.table_size, y.shape[1]), complex)
+            np.add.at(spec, slot, yl)
+            g = np.fft.ifft(spec, axis=0)[self._pad[fam.table_size]]
+            g *= fam.table_size
+            out.append((g.real.astype(dtype),) if not fam.carrier else (g.real.astype(dtype), g.imag.astype(dtype)))
         return out
 
     @staticmethod
@@ -414,6 +402,10 @@ class LineSetPath:
         self._families = LineFamilies(self.coefficients, lines.rates_per_hz, lines.line_hz, self.n_balls,
                                       self.bpfo_per_hz, self._table_size_arg)
         self.table_size = max(f.table_size for f in self._families.families)
+        # (cos, sin) of a carrier's phase: one line each, a 64-point spline table (pre-emphasised: exact line)
+        n = 64
+        g = np.exp(2j * np.pi * ((np.arange(n + 3) - 1) % n) / n) / np.sinc(1.0 / n) ** 4
+        self._carrier_table = np.ascontiguousarray(np.stack([g.real, g.imag], axis=1), dtype=self.dtype)
         comb, index, power, scale, iso = _combination(self.channels)
         self._comb, self._cindex, self._power, self._scale, self._iso_rows = comb, index, power, scale, iso
         self._housing_cols = np.flatnonzero((comb != 0).sum(axis=1) == 1)
@@ -485,54 +477,63 @@ class LineSetPath:
         return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=np.ones(y.shape[0]),
                            table=None, ftables=tables)
 
+    @staticmethod
+    def _phase_args(rate: float, fixed: float, ua: float, a: "_Knot", b: "_Knot", j: int, fs: float, bpfo: float):
+        """(phase0, dphase0, ddphase) of the sample loop for a phase of ``rate`` turns per shaft turn plus ``fixed``
+        turns per second, at sample j after knot a (speed linear from a to b): as the ball-pass phase of
+        Synthesizer._segment, exact integers per (knot, sample)."""
+        length = b.x - a.x
+        t0 = LineFamilies.turns(rate, fixed, ua, a.x, bpfo, fs)
+        c1 = (rate * a.f + fixed) / fs
+        c2 = 0.5 * rate * (b.f - a.f) / (fs * length)
+        d0 = round((c1 + c2) * PASS)
+        dd = round(2.0 * c2 * PASS)
+        return round(t0 * PASS) + j * d0 + dd * (j * (j - 1) // 2), d0 + j * dd, dd
+
     def _segment_lines(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray) -> None:
         """Samples [lo, hi) between knots a and b of any line set: every family's table(s) through the sample loop
-        at the family's own phase (exact fixed point, as :meth:`_segment`), carriers applied in numpy."""
+        at the family's own phase (exact fixed point, as :meth:`_segment`); a carrier's cosine and sine through the
+        same loop from a two-column table, mixed in C (:func:`synth_kernel.carrier_mix`)."""
         m = hi - lo
         length = b.x - a.x
-        fs = self.sample_rate_hz
+        fs, bpfo = self.sample_rate_hz, self.bpfo_per_hz
         j = lo - a.x
         ua = a.u_int + a.u_frac
         w = None
-        xi = np.arange(j, j + m, dtype=np.float64)
         if self._slip_walk is not None:
-            c1u = self.bpfo_per_hz / fs * a.f
-            c2u = 0.5 * self.bpfo_per_hz / fs * (b.f - a.f) / length
+            xi = np.arange(j, j + m, dtype=np.float64)
+            c1u = bpfo / fs * a.f
+            c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
             w = self._slip_walk.warp(a.u_int, (c2u * xi + c1u) * xi + a.u_frac)       # slip [ball passes]
         out[...] = self._dc
         scratch = self._scratch.get(m)
         if scratch is None:
-            scratch = self._scratch[m] = (np.empty((m, out.shape[1]), self.dtype),
-                                          np.empty((m, out.shape[1]), self.dtype))
+            c = out.shape[1]
+            scratch = self._scratch[m] = (np.empty((m, c), self.dtype), np.empty((m, c), self.dtype),
+                                          np.empty((m, 2), self.dtype))
         same = b.amp is a.amp
+        blend = 65536.0 / length
         for fi, fam in enumerate(self._families.families):
-            t0 = LineFamilies.turns(fam.rate_p, fam.fixed_p, ua, a.x, self.bpfo_per_hz, fs)
-            c1 = (fam.rate_p * a.f + fam.fixed_p) / fs
-            c2 = 0.5 * fam.rate_p * (b.f - a.f) / (fs * length)
-            d0 = round((c1 + c2) * PASS)
-            dd = round(2.0 * c2 * PASS)
-            phase0 = round(t0 * PASS) + j * d0 + dd * (j * (j - 1) // 2)
-            dphase0 = d0 + j * dd
+            phase0, dphase0, dd = self._phase_args(fam.rate_p, fam.fixed_p, ua, a, b, j, fs, bpfo)
             warp = None
             if w is not None and fam.kappa_p != 0.0:
                 wp = fam.kappa_p * w
                 warp = np.rint((wp - np.rint(wp)) * PASS).astype(np.int64)
             ta, tb = a.amp.ftables[fi], (None if same else b.amp.ftables[fi])
             for ti in range(len(ta)):
-                self._segment_fn(phase0, dphase0, dd, warp, ta[ti], None if tb is None else tb[ti], float(j),
-                                 65536.0 / length, scratch[ti], None, self._dc_off)
+                self._segment_fn(phase0, dphase0, dd, warp, ta[ti], None if tb is None else tb[ti], float(j), blend,
+                                 scratch[ti], None, self._dc_off)
             if not fam.carrier:
                 out += scratch[0]
                 continue
-            q0 = LineFamilies.turns(fam.rate_q, fam.fixed_q, ua, a.x, self.bpfo_per_hz, fs)
-            cq1 = (fam.rate_q * a.f + fam.fixed_q) / fs
-            cq2 = 0.5 * fam.rate_q * (b.f - a.f) / (fs * length)
-            ph = (cq2 * xi + cq1) * xi + q0
+            q0, dq0, ddq = self._phase_args(fam.rate_q, fam.fixed_q, ua, a, b, j, fs, bpfo)
+            warp = None
             if w is not None and fam.kappa_q != 0.0:
-                ph = ph + fam.kappa_q * w
-            ang = TWO_PI * (ph - np.floor(ph))
-            out += np.cos(ang).astype(self.dtype)[:, None] * scratch[0]
-            out -= np.sin(ang).astype(self.dtype)[:, None] * scratch[1]
+                wq = fam.kappa_q * w
+                warp = np.rint((wq - np.rint(wq)) * PASS).astype(np.int64)
+            self._segment_fn(q0, dq0, ddq, warp, self._carrier_table, None, float(j), blend, scratch[2], None,
+                             self._dc_off[:2])
+            synth_kernel.carrier_mix(scratch[2], scratch[0], scratch[1], out)
 
     def _iso_velocity_lines(self, f: float, a, b, s: float) -> dict:
         """:meth:`_iso_velocity` for any line set: housing velocity of the lines in 10-1000 Hz at speed f."""

@@ -547,3 +547,19 @@ def test_features_from_acc_rejects_bad_arrays():
         sk.features_from_acc(acc[:, :5].copy(), 10, np.zeros(8))
     with pytest.raises(ValueError, match="n >= 1"):
         sk.features_from_acc(acc, 0, np.zeros(8))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_carrier_mix_c_equals_numpy(dtype):
+    """The carrier mix of line families with a carrier (synth_lines): C bit for bit its numpy reference."""
+    rng = np.random.default_rng(7)
+    m, c = 1031, 8
+    cs = rng.standard_normal((m, 2)).astype(dtype)
+    re, im = (rng.standard_normal((m, c)).astype(dtype) for _ in range(2))
+    out = rng.standard_normal((m, c)).astype(dtype)
+    ref = out.copy()
+    sk.carrier_mix(cs, re, im, out)
+    sk.carrier_mix_reference(cs, re, im, ref)
+    assert np.array_equal(out, ref)
+    with pytest.raises(ValueError):
+        sk.carrier_mix(cs[:10], re, im, out)
