@@ -660,20 +660,19 @@ class Synthesizer(LineSetPath):
         acc = None
         if self.compute_features:
             acc = synth_kernel.new_acc(len(self.channels))
-        after = self._noise_on or self._general         # moments taken after the noise / the families' sum
+        segments = list(self._segments(n0, n)) if not (len(ks) == 2 and ks[1].x >= n0 + n) else \
+            [(ks[0], ks[1], n0, n0 + n)]
+        mixed = any(a.amp.families is not b.amp.families for a, b, _, _ in segments)
+        after = self._noise_on or self._general or mixed  # moments taken after the noise / the families' sum
         fused = acc if not after else None
-        seg = self._segment_lines if self._general else None
-        if len(ks) == 2 and ks[1].x >= n0 + n:         # one segment (streaming: every chunk)
-            if seg is not None:
-                seg(ks[0], ks[1], n0, n0 + n, out)
+        for a, b, lo, hi in segments:
+            dest = out[lo - n0:hi - n0]
+            if a.amp.families is not b.amp.families:
+                self._segment_swap(a, b, lo, hi, dest)              # a model swap across line-set layouts
+            elif a.amp.families is not None:
+                self._segment_lines(a, b, lo, hi, dest)
             else:
-                self._segment(ks[0], ks[1], n0, n0 + n, out, fused)
-        else:
-            for a, b, lo, hi in self._segments(n0, n):
-                if seg is not None:
-                    seg(a, b, lo, hi, out[lo - n0:hi - n0])
-                else:
-                    self._segment(a, b, lo, hi, out[lo - n0:hi - n0], fused)
+                self._segment(a, b, lo, hi, dest, fused)
         if self._noise_on:
             self._add_noise(n0, n, out)
         if after and acc is not None:
@@ -786,6 +785,8 @@ class Synthesizer(LineSetPath):
         f, _, _, a, b, s = self._state_at(pos)
         if self._general:
             return self._iso_velocity_lines(f, a, b, s)
+        if a.amp.families is not None:                              # just swapped from another line set
+            a = b
         per_order = self.bpfo_per_hz * f                           # Hz per order; orders sorted: the band is a slice
         lo = hi = 0
         if per_order > 0:

@@ -333,6 +333,8 @@ class _Amplitudes:
     table: np.ndarray | None    # (N + 3, C) cubic B-spline coefficients of one ball pass (see Synthesizer._bind_model)
     v_iso: np.ndarray | None = None     # (K, 8) housing velocity [mm/s], Re | Im, made when first needed
     ftables: list | None = None         # any other line set: per family its table(s) (synth_lines.LineFamilies)
+    families: object | None = None      # ... and the LineFamilies they belong to (None: an order set)
+    dc: np.ndarray | None = None        # ... and the static part per channel (an order set has it in its table)
     _y: np.ndarray | None = None
     _rms: np.ndarray | None = None
 
@@ -475,7 +477,7 @@ class LineSetPath:
         y = x[:, self._cindex] * fac
         tables = self._families.tables(y, self.dtype)
         return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=np.ones(y.shape[0]),
-                           table=None, ftables=tables)
+                           table=None, ftables=tables, families=self._families, dc=self._dc.copy())
 
     @staticmethod
     def _phase_args(rate: float, fixed: float, ua: float, a: "_Knot", b: "_Knot", j: int, fs: float, bpfo: float):
@@ -505,7 +507,7 @@ class LineSetPath:
             c1u = bpfo / fs * a.f
             c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
             w = self._slip_walk.warp(a.u_int, (c2u * xi + c1u) * xi + a.u_frac)       # slip [ball passes]
-        out[...] = self._dc
+        out[...] = a.amp.dc
         scratch = self._scratch.get(m)
         if scratch is None:
             c = out.shape[1]
@@ -513,7 +515,7 @@ class LineSetPath:
                                           np.empty((m, 2), self.dtype))
         same = b.amp is a.amp
         blend = 65536.0 / length
-        for fi, fam in enumerate(self._families.families):
+        for fi, fam in enumerate(a.amp.families.families):
             phase0, dphase0, dd = self._phase_args(fam.rate_p, fam.fixed_p, ua, a, b, j, fs, bpfo)
             warp = None
             if w is not None and fam.kappa_p != 0.0:
@@ -535,10 +537,31 @@ class LineSetPath:
                              self._dc_off[:2])
             synth_kernel.carrier_mix(scratch[2], scratch[0], scratch[1], out)
 
+    def _segment_swap(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray) -> None:
+        """A segment across a model swap between line sets of different families (``set_model``): each knot's
+        lines rendered on their own at the common phases, blended linearly in time as the tables of one model are
+        (the 2^-16 steps of the sample loop): phase continuous, the amplitudes move from one model to the other
+        over the segment."""
+        other = np.empty_like(out)
+        for side, dest in ((a, out), (b, other)):
+            ka = _Knot(x=a.x, f=a.f, u_int=a.u_int, u_frac=a.u_frac, amp=side.amp)
+            kb = _Knot(x=b.x, f=b.f, u_int=b.u_int, u_frac=b.u_frac, amp=side.amp)
+            if side.amp.families is None:
+                self._segment(ka, kb, lo, hi, dest, None)
+            else:
+                self._segment_lines(ka, kb, lo, hi, dest)
+        xi = np.arange(lo - a.x, hi - a.x, dtype=np.float64) * (65536.0 / (b.x - a.x))
+        w = (np.clip(np.floor(xi), 0.0, 65536.0) / 65536.0).astype(out.dtype)
+        other -= out
+        other *= w[:, None]
+        out += other
+
     def _iso_velocity_lines(self, f: float, a, b, s: float) -> dict:
         """:meth:`_iso_velocity` for any line set: housing velocity of the lines in 10-1000 Hz at speed f."""
         freq = self._nu * f + self._mu
         band = (freq >= ISO_BAND_HZ[0]) & (freq <= ISO_BAND_HZ[1])
+        if a.amp.families is not b.amp.families:                   # just swapped from another model
+            a = b
 
         def vel(amp):
             w = TWO_PI * (self._nu * amp.f + self._mu)

@@ -330,3 +330,31 @@ def test_tdsm_agrees_with_plain_bkabem_for_every_kind(kind):
     assert r.max_error_db("acceleration")[[1, 3]].max() < 3.0
     assert r.max_error_db("acceleration").max() < 3.5
     assert r.residual_fraction.max() < 0.05, r.residual_fraction
+
+
+def test_set_model_swaps_between_any_line_sets(models):
+    """healthy -> outer race -> inner race, each swap at a chunk border: phase continuous (no jump beyond the
+    signal's own sample-to-sample change), and each steady part is its own model's line spectrum."""
+    fs = FS
+    s = Synthesizer(models["healthy"], sample_rate_hz=fs, chunk_s=0.25, quantities=("acceleration",),
+                    features=True)
+    parts = [s.next_chunk(25.0) for _ in range(2)]
+    s.set_model(models["outer"])
+    parts += [s.next_chunk(25.0) for _ in range(3)]
+    s.set_model(models["inner"])
+    parts += [s.next_chunk(25.0) for _ in range(3)]
+    x = np.concatenate([c.channel("de_vertical_acceleration") for c in parts]).astype(float)
+    assert np.all(np.isfinite(x))
+    step = np.abs(np.diff(x))
+    n = parts[0].n_samples
+    for border in (2 * n, 5 * n):                                  # the swaps: no step beyond the usual ones
+        assert step[border - 1] <= 1.5 * step[border - 200:border + 200].max() + 1e-12
+    assert [c.first_sample_index for c in parts] == [i * n for i in range(8)]
+    tail = x[-2 * n:]                                              # the last 0.5 s: the inner-race machine alone
+    ls = s.line_spectrum(25.0)
+    a = np.abs(ls["amplitude"][:, 0])
+    j = int(np.argmax(a))
+    win = signal.windows.flattop(tail.size)
+    spec = 2 * np.abs(np.fft.rfft(tail * win)) / win.sum()
+    b = int(round(ls["frequency_hz"][j] * tail.size / fs))
+    assert spec[b - 2:b + 3].max() == pytest.approx(a[j], rel=0.02)
