@@ -29,27 +29,20 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+for _p in (ROOT, ROOT / "bench"):
+    if str(_p) not in sys.path:
+        sys.path.insert(0, str(_p))
 
 import numpy as np  # noqa: E402
 
 from bkabem_core.case import Case  # noqa: E402
 from bkabem_core.harmonic import BkaBem  # noqa: E402
 from bkabem_core.synth import Synthesizer  # noqa: E402
+from bench_synth import speeds_random_walk  # noqa: E402  (the same speed stream as the synthesis benchmark)
 
 FS = 51200.0
 CASES = ("electric_motor_6010", "motor_6010_healthy", "motor_6010_outer", "motor_6010_inner", "motor_6010_ball")
 NOISE = {"acceleration": 1e-3, "displacement": 1e-10}
-
-
-def speeds_random_walk(n: int, seed: int = 0) -> list[float]:
-    rng = np.random.default_rng(seed)
-    v, out = 25.0, []
-    for _ in range(n):
-        v = float(np.clip(v + rng.normal(0.0, 0.3), 20.0, 30.0))
-        out.append(v)
-    return out
 
 
 def bench_case(name: str, repeat: int, seconds: float) -> dict:
