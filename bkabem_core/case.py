@@ -399,6 +399,9 @@ def _check_cross(raw: dict, source: str) -> None:
                             f"({housing_nodes[name]}, got {e['housing_node']})", source)
     if raw["bearings"]["de"]["rotor_node"] == raw["bearings"]["nde"]["rotor_node"]:
         raise CaseError("bearings.nde.rotor_node", "DE and NDE bearings must sit on different shaft nodes", source)
+    if raw["excitation"]["method"] == "four_dof" and any(d["race"] != "outer" for d in raw["defects"]):
+        raise CaseError("excitation.method", "'four_dof' models outer-race dents only; inner-race and ball defects "
+                        "need 'quasi_static'", source)
     if raw["baseline"]["misalignment_node"] not in shaft_nodes:
         raise CaseError("baseline.misalignment_node", f"must be a shaft node 1..{n_nodes} "
                         f"(got {raw['baseline']['misalignment_node']})", source)

@@ -787,8 +787,10 @@ class Tdsm:
             z0 = self.to_modal(initial_state) if self.diagonal else np.array(initial_state, dtype=float)
         st = _State(z0)
         du0 = self.Bz.dot(st.z).real
-        f0, _ = self.forces.evaluate(self._u_static + du0, 0,
-                                     None if self.forces.periodic else self.forces.ar0_rows(0, 1)[0])
+        if self.forces.periodic:
+            f0, _ = self.forces.evaluate(self._u_static + du0, 0)
+        else:
+            f0, _ = self.forces.evaluate(self._u_static + du0, 0, self.forces.ar0_rows(0, 1)[0])
         st.f_dev = f0 - self._f_static + self._kb.dot(du0)
         st.f_old = st.f_dev.copy()
         bar = None
@@ -922,7 +924,7 @@ class Tdsm:
                     # small at these steps, so J^-1 ~ I - H (K_t - K_b) unless `exact`; the converged u is the same.
                     ar_now = None if rows is None else rows[k - k0]
                     for it in range(1, max_newton + 1):
-                        f, kt = evaluate(u, j, ar_now)
+                        f, kt = evaluate(u, j) if ar_now is None else evaluate(u, j, ar_now)
                         f -= f_s
                         du_s = u - u_s
                         f += kb.dot(du_s)
