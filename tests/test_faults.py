@@ -358,3 +358,43 @@ def test_set_model_swaps_between_any_line_sets(models):
     spec = 2 * np.abs(np.fft.rfft(tail * win)) / win.sum()
     b = int(round(ls["frequency_hz"][j] * tail.size / fs))
     assert spec[b - 2:b + 3].max() == pytest.approx(a[j], rel=0.02)
+
+
+def test_misalignment_and_electrical_lines():
+    """2x misalignment at the coupling node and the 2 x line frequency magnetic pull on the core: their lines,
+    the electrical one at 100 Hz whatever the speed (solved per speed: no fixed pencil), both against a dense
+    solve of the full FE with the forces written here."""
+    case = Case.load("motor_6010_healthy").with_overrides({"baseline.misalignment_force_n": 40.0,
+                                                           "baseline.electrical_force_n": 25.0})
+    m = BkaBem(case)
+    keys = m.lines.keys()
+    i2, ie = keys.index((2, 0, 0, 0)), keys.index((0, 0, 0, 2))
+    rot = m.rotor
+    core = [d for d in case.raw["rotor"]["disks"] if d["name"].startswith("core")]
+    mass = sum(d["mass_kg"] for d in core)
+    nodes = [m.machine.sites[b].rotor_node for b in ("de", "nde")] + [m.machine.sites[b].housing_node
+                                                                      for b in ("de", "nde")]
+    order = [nodes[0], nodes[2], nodes[1], nodes[3]]                  # de rotor, de housing, nde rotor, nde housing
+    for f_hz in (17.0, 31.0):
+        sp = m.spectrum(f_hz)
+        assert sp.frequency_hz[i2] == pytest.approx(2 * f_hz) and sp.frequency_hz[ie] == pytest.approx(100.0)
+        for i, w, force in ((i2, 2 * math.pi * 2 * f_hz, None), (ie, 2 * math.pi * 100.0, None)):
+            fvec = np.zeros(rot.ndof, complex)
+            if i == i2:
+                fvec[rot.dof_index(1, "x")] = 40.0
+                fvec[rot.dof_index(1, "y")] = -40j
+            else:
+                for d in core:
+                    fvec[rot.dof_index(d["node"], "y")] += 25.0 * d["mass_kg"] / mass
+            big = 2 * math.pi * f_hz
+            x = np.linalg.solve(rot.K - w * w * rot.M + 1j * w * (rot.C + big * rot.G), fvec)
+            ref = np.array([[x[rot.dof_index(n, "y")], x[rot.dof_index(n, "x")]] for n in order])
+            assert np.max(np.abs(sp.displacement[i] - ref)) < 1e-4 * np.abs(ref).max()
+    s = Synthesizer(m, sample_rate_hz=12800.0, chunk_s=0.5, quantities=("acceleration",), features=False)
+    ls = [s.line_spectrum(f) for f in (17.0, 31.0)]
+    assert all(np.isclose(x["frequency_hz"][ie], 100.0) for x in ls)
+    x = np.concatenate([s.next_chunk(31.0).channel("de_vertical_acceleration") for _ in range(4)]).astype(float)
+    win = signal.windows.flattop(x.size)
+    spec = 2 * np.abs(np.fft.rfft(x * win)) / win.sum()
+    b = int(round(100.0 * x.size / 12800.0))
+    assert spec[b - 2:b + 3].max() == pytest.approx(abs(ls[1]["amplitude"][ie, 0]), rel=0.02)
