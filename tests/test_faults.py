@@ -398,3 +398,35 @@ def test_misalignment_and_electrical_lines():
     spec = 2 * np.abs(np.fft.rfft(x * win)) / win.sum()
     b = int(round(100.0 * x.size / 12800.0))
     assert spec[b - 2:b + 3].max() == pytest.approx(abs(ls[1]["amplitude"][ie, 0]), rel=0.02)
+
+
+def test_like_reuses_the_machine_for_a_growing_defect(models):
+    """A deeper inner-race dent (a scenario's growth step) built ``like=`` the existing model: the FE, basis and
+    the decompositions of the lines both share are reused (new lines, if any, decomposed), and the spectrum is the one
+    of a model built from scratch."""
+    base = models["inner"]
+    case = base.case.with_overrides({"defects.0.depth_m": 80e-6})
+    import time
+    t0 = time.perf_counter()
+    grown = BkaBem(case, like=base)
+    t_like = time.perf_counter() - t0
+    fresh = BkaBem(case)
+    assert grown._basis is base._basis
+    assert grown.lines.keys() == fresh.lines.keys()
+    x, y = grown.response([23.0])[0], fresh.response([23.0])[0]
+    assert np.max(np.abs(x - y)) <= 1e-10 * np.abs(y).max()
+    shared = len(set(np.round(grown.multipliers, 12)) & set(np.round(base.multipliers, 12)))
+    assert shared > 0.5 * len(grown.lines)
+    assert t_like < fresh.preparation_time_s["total"]
+
+
+def test_line_modes_extended_reuses_and_adds():
+    from bkabem_core.modal import LineModes
+
+    basis = BkaBem(Case.load()).basis
+    lm = LineModes(basis, np.array([1.0, 2.5, 7.0]))
+    ext = lm.extended(np.array([7.0, 0.43, 1.0]))
+    ref = LineModes(basis, np.array([7.0, 0.43, 1.0]))
+    assert np.array_equal(ext.poles[0], lm.poles[2]) and np.array_equal(ext.poles[2], lm.poles[0])
+    for f in (5.0, 40.0):
+        assert np.allclose(ext.receptance(f), ref.receptance(f), rtol=1e-9, atol=1e-18)
