@@ -196,6 +196,7 @@ class Excitation:
             "housing_resonance_hz": _json_float(self.housing_resonance_hz),
             "wall_time_s": self.wall_time_s,
             "integrator_steps": self.n_steps,
+            "lines": None if self.lines is None else self.lines.to_dict(),
         }
 
     def with_selection(self, relative_amplitude_threshold: float, max_order: int = 0) -> "Excitation":
