@@ -676,6 +676,32 @@ CLONES int synth_accumulate_##SUF(int64_t n, int64_t C, const T *x, const double
 SYNTH_KERNELS(float, f32)
 SYNTH_KERNELS(double, f64)
 
+/* Random-slip warp of one segment (synth_random._SlipWalk.warp_fixed): for sample i < m at xi = j0 + i, the ball
+ * passes u = (c2 xi + c1) xi + u_frac since the knot, the walk W at u by the C1 cubic Hermite spline of its values
+ * w[k] at passes jw0 + k (Catmull-Rom slopes (w[k+1] - w[k-1]) / 2), and out[i] = rint((kappa W - rint(kappa W))
+ * 2^62), the phase offset in the loop's fixed point. The same operations in the same order as the numpy reference;
+ * returns -1 if a sample falls outside w. */
+int synth_slip_warp(int64_t m, double j0, double c1, double c2, double u_frac, const double *w, int64_t nw,
+                    int64_t jw0, double kappa, int64_t *out)
+{
+    if (m < 0 || nw < 4) return -1;
+    for (int64_t i = 0; i < m; ++i) {
+        const double xi = j0 + (double)i;
+        const double u = (c2 * xi + c1) * xi + u_frac;
+        const double fl = floor(u);
+        const int64_t k = (int64_t)fl - jw0;
+        if (k < 1 || k + 2 >= nw) return -1;
+        const double t = u - fl, t2 = t * t, t3 = t2 * t;
+        const double w0 = w[k], w1 = w[k + 1];
+        const double m0 = 0.5 * (w[k + 1] - w[k - 1]), m1 = 0.5 * (w[k + 2] - w[k]);
+        const double ww = (2 * t3 - 3 * t2 + 1) * w0 + (t3 - 2 * t2 + t) * m0 + (3 * t2 - 2 * t3) * w1
+                          + (t3 - t2) * m1;
+        const double wp = kappa * ww;
+        out[i] = (int64_t)rint((wp - rint(wp)) * 0x1.0p62);
+    }
+    return 0;
+}
+
 /* Carrier mix of a line family with a carrier (synth_lines.py): out[i][c] += cs[i][0] re[i][c] - cs[i][1] im[i][c],
  * i < m, c < C, row-major blocks; cs holds (cos, sin) of the carrier phase per sample. Two multiplies and two
  * adds per element, in this order (the numpy reference synth_kernel.carrier_mix_reference does the same). */

@@ -696,11 +696,8 @@ class Synthesizer(LineSetPath):
         phase0 = u0 + j * d0 + dd * (j * (j - 1) // 2)
         dphase0 = d0 + j * dd
         warp = None
-        if self._slip_walk is not None:
-            xi = np.arange(j, j + m, dtype=np.float64)
-            u = (c2 * xi + c1) * xi + a.u_frac                           # passes since a.u_int (float: slip only)
-            w = self._slip_walk.warp(a.u_int, u)
-            warp = np.rint((w - np.rint(w)) * _PASS).astype(np.int64)   # whole passes drop out of the phase
+        if self._slip_walk is not None:              # the walk at the samples' passes, as fixed-point offsets (C)
+            warp = self._slip_walk.warp_fixed(a.u_int, j, m, c1, c2, a.u_frac)[0]
         tb = b.amp.table if b.amp is not a.amp else None
         self._segment_fn(phase0, dphase0, dd, warp, a.amp.table, tb, float(j), 65536.0 / length, out,
                          acc, self._dc_off)

@@ -165,6 +165,12 @@ def _load():
         nrm.argtypes = [ctypes.c_uint64, i64, ptr]
         nrm.restype = ctypes.c_int
         fns[("normals", dt)] = nrm
+    sw = getattr(lib, "synth_slip_warp", None)
+    if sw is not None:
+        dbl = ctypes.c_double
+        sw.argtypes = [i64, dbl, dbl, dbl, dbl, ptr, i64, i64, dbl, ptr]
+        sw.restype = ctypes.c_int
+        fns["slip_warp"] = sw
     lib.synth_fast_path.argtypes = []
     lib.synth_fast_path.restype = ctypes.c_int
     fns["fast_path"] = bool(lib.synth_fast_path())
@@ -293,6 +299,37 @@ def normals(key: int, n: int, dtype=np.float32) -> np.ndarray:
     if _FNS[("normals", dt)](int(key) & _MASK64, out.size, _ptr(out, "out")):
         raise ValueError(f"synth_normals rejected n={n}")
     return out
+
+
+def slip_warp(m: int, j0: int, c1: float, c2: float, u_frac: float, w: np.ndarray, jw0: int, kappa: float):
+    """(m,) int64 phase offsets of random slip for one segment (see ``synth_slip_warp`` in _synthloop.c): in C when
+    built, else :func:`slip_warp_reference`; the two agree bit for bit."""
+    fn = _FNS.get("slip_warp") if _FNS is not None else None
+    if fn is None:
+        return slip_warp_reference(m, j0, c1, c2, u_frac, w, jw0, kappa)
+    w = np.ascontiguousarray(w, dtype=np.float64)
+    out = np.empty(int(m), dtype=np.int64)
+    if fn(int(m), float(j0), float(c1), float(c2), float(u_frac), w.ctypes.data, w.size, int(jw0), float(kappa),
+          out.ctypes.data):
+        raise ValueError("synth_slip_warp: a sample falls outside the walk's values")
+    return out
+
+
+def slip_warp_reference(m: int, j0: int, c1: float, c2: float, u_frac: float, w: np.ndarray, jw0: int,
+                        kappa: float) -> np.ndarray:
+    """:func:`slip_warp` in numpy (the operations of the C function in its order)."""
+    xi = np.arange(j0, j0 + m, dtype=np.float64)
+    u = (c2 * xi + c1) * xi + u_frac
+    fl = np.floor(u)
+    k = fl.astype(np.int64) - jw0
+    t = u - fl
+    t2 = t * t
+    t3 = t2 * t
+    w0, w1 = w[k], w[k + 1]
+    m0, m1 = 0.5 * (w[k + 1] - w[k - 1]), 0.5 * (w[k + 2] - w[k])
+    ww = (2 * t3 - 3 * t2 + 1) * w0 + (t3 - 2 * t2 + t) * m0 + (3 * t2 - 2 * t3) * w1 + (t3 - t2) * m1
+    wp = kappa * ww
+    return np.rint((wp - np.rint(wp)) * float(PASS_UNITS)).astype(np.int64)
 
 
 def carrier_mix(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:

@@ -501,12 +501,19 @@ class LineSetPath:
         fs, bpfo = self.sample_rate_hz, self.bpfo_per_hz
         j = lo - a.x
         ua = a.u_int + a.u_frac
-        w = None
-        if self._slip_walk is not None:
-            xi = np.arange(j, j + m, dtype=np.float64)
-            c1u = bpfo / fs * a.f
-            c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
-            w = self._slip_walk.warp(a.u_int, (c2u * xi + c1u) * xi + a.u_frac)       # slip [ball passes]
+        warps: dict = {}
+        walk = self._slip_walk
+        c1u = bpfo / fs * a.f
+        c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
+
+        def warp_of(kappa: float):
+            """Fixed-point slip offsets of a phase that moves kappa turns per ball pass of slip (None: no slip)."""
+            if walk is None or kappa == 0.0:
+                return None
+            if kappa not in warps:
+                warps[kappa] = walk.warp_fixed(a.u_int, j, m, c1u, c2u, a.u_frac, (kappa,))[0]
+            return warps[kappa]
+
         out[...] = a.amp.dc
         scratch = self._scratch.get(m)
         if scratch is None:
@@ -517,10 +524,7 @@ class LineSetPath:
         blend = 65536.0 / length
         for fi, fam in enumerate(a.amp.families.families):
             phase0, dphase0, dd = self._phase_args(fam.rate_p, fam.fixed_p, ua, a, b, j, fs, bpfo)
-            warp = None
-            if w is not None and fam.kappa_p != 0.0:
-                wp = fam.kappa_p * w
-                warp = np.rint((wp - np.rint(wp)) * PASS).astype(np.int64)
+            warp = warp_of(fam.kappa_p)
             ta, tb = a.amp.ftables[fi], (None if same else b.amp.ftables[fi])
             for ti in range(len(ta)):
                 self._segment_fn(phase0, dphase0, dd, warp, ta[ti], None if tb is None else tb[ti], float(j), blend,
@@ -529,11 +533,7 @@ class LineSetPath:
                 out += scratch[0]
                 continue
             q0, dq0, ddq = self._phase_args(fam.rate_q, fam.fixed_q, ua, a, b, j, fs, bpfo)
-            warp = None
-            if w is not None and fam.kappa_q != 0.0:
-                wq = fam.kappa_q * w
-                warp = np.rint((wq - np.rint(wq)) * PASS).astype(np.int64)
-            self._segment_fn(q0, dq0, ddq, warp, self._carrier_table, None, float(j), blend, scratch[2], None,
+            self._segment_fn(q0, dq0, ddq, warp_of(fam.kappa_q), self._carrier_table, None, float(j), blend, scratch[2], None,
                              self._dc_off[:2])
             synth_kernel.carrier_mix(scratch[2], scratch[0], scratch[1], out)
 

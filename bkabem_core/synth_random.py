@@ -6,6 +6,7 @@ the sensor noise, both generated in seeded blocks. Units: ball passes, standard 
 
 from __future__ import annotations
 
+import math
 from collections import OrderedDict
 
 import numpy as np
@@ -82,6 +83,20 @@ class _SlipWalk:
         w0, w1 = w[idx], w[idx + 1]
         m0, m1 = m[idx], m[idx + 1]
         return (2 * t3 - 3 * t2 + 1) * w0 + (t3 - 2 * t2 + t) * m0 + (3 * t2 - 2 * t3) * w1 + (t3 - t2) * m1
+
+
+    def warp_fixed(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float,
+                   kappas=(1.0,)) -> list:
+        """Per ``kappa`` the (m,) int64 phase offsets of a segment's samples j0..j0+m-1 (ball passes since the knot
+        ``u = (c2 xi + c1) xi + u_frac``, speed >= 0 so u is monotonic), ``rint(frac(kappa W(u)) 2^62)``: the
+        Hermite warp of :meth:`warp` and the fixed-point conversion in one C pass
+        (:func:`synth_kernel.slip_warp`)."""
+        u_lo = u_frac + (c2 * j0 + c1) * j0
+        xe = float(j0 + m - 1)
+        u_hi = (c2 * xe + c1) * xe + u_frac
+        j_lo, j_hi = int(math.floor(min(u_lo, u_hi))), int(math.floor(max(u_lo, u_hi)))
+        w = self.values(u_int + j_lo - 1, u_int + j_hi + 2)
+        return [synth_kernel.slip_warp(m, j0, c1, c2, u_frac, w, j_lo - 1, k) for k in kappas]
 
 
 class _NoiseBlocks:
