@@ -420,8 +420,12 @@ class Synthesizer(LineSetPath):
         ``"auto"`` (modal when streaming), the modal form's eigen-decompositions (~1.5 s on the embedded case) and
         its speed cells up to the case's ``operating.max_speed_hz`` (or the rate's limit if lower; ~4 ms per 0.5 Hz,
         ~0.6 s and 10 MB for 75 Hz). Once per model: synthesisers of one model share them. Cells above are made
-        when first used. Any other line set than BPFO orders takes the exact response per knot: nothing to make."""
+        when first used. Any other line set than BPFO orders: the speed cells of its speed-locked lines over the same
+        range (checked against the exact response first; ~10x the order set's cost for 350-670 lines)."""
         if self._general:
+            self._line_spectrum_at(1.0)                          # makes the cells (or falls back to exact)
+            if self._cells is not None:
+                self._cells.build(0.0, min(self.case.max_speed_hz, self.max_speed_for_rate_hz()))
             return
         if self._spectrum_kind == "auto":
             self._use_modal = True

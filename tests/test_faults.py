@@ -430,3 +430,13 @@ def test_line_modes_extended_reuses_and_adds():
     assert np.array_equal(ext.poles[0], lm.poles[2]) and np.array_equal(ext.poles[2], lm.poles[0])
     for f in (5.0, 40.0):
         assert np.allclose(ext.receptance(f), ref.receptance(f), rtol=1e-9, atol=1e-18)
+
+
+def test_prepare_makes_the_speed_cells_of_any_line_set(models):
+    s = Synthesizer(models["healthy"], sample_rate_hz=FS)
+    s.prepare()
+    assert s.spectrum_method == "modal"
+    assert len(s._cells) == len(range(int(models["healthy"].case.max_speed_hz // 0.5) + 1))
+    a = s.line_spectrum(25.0)["amplitude"]
+    exact = Synthesizer(models["healthy"], sample_rate_hz=FS, spectrum="exact").line_spectrum(25.0)["amplitude"]
+    assert np.max(np.abs(a - exact)) <= 1e-5 * np.abs(exact).max()
