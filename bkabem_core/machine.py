@@ -149,10 +149,15 @@ class Machine:
 
     @staticmethod
     def fe_key(case: Case) -> str:
-        """What the FE model depends on (everything but the defect and the excitation settings), as a string."""
+        """What the FE model depends on (everything but the defect and the excitation settings), as a string.
+
+        Two excitation keys do shape the FE: the gravity (the bearings' static loads, where they are linearised)
+        and the highest kept order (the frequency the mesh is converged up to)."""
         import json
 
         raw = {k: v for k, v in case.raw.items() if k not in ("case", "defects", "baseline", "excitation")}
+        ex = case.raw["excitation"]
+        raw["excitation"] = {k: ex[k] for k in ("gravity_m_s2", "max_order")}
         return json.dumps(raw, sort_keys=True)
 
     @property

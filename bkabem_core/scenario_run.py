@@ -1,0 +1,313 @@
+"""Running a scenario: scenario time of every sample, the state in effect at every chunk, its model, the ground truth.
+
+A stream (the ROS node, or :class:`ScenarioRun` offline) is cut into chunks; a scenario changes the machine only at
+chunk borders, where :meth:`Synthesizer.set_model` switches phase-continuously (the amplitudes move from the old to
+the new model over the next chunk). :class:`ScenarioDriver` decides, before each chunk, which state is in effect and
+hands over its model; it takes the models from a provider:
+
+* :class:`InlineModels` (a :class:`~bkabem_core.scenario_models.ModelPool`): made when needed, blocking. Every state
+  applies exactly at the first chunk border at or after its start: what :class:`ScenarioRun` and data sets use.
+* :class:`BackgroundModels` (a helper process): prepared ahead, never waited for. A state whose model is not back
+  when it falls due is applied as soon as it is; meanwhile the stream goes on with the state it has, and the ground
+  truth says so (it always describes the model in the signal). When preparations take longer than the states last
+  (a strong time compression), states are skipped: the driver asks for the state that will be due when the model
+  could be ready, not for the next one.
+
+:class:`ScenarioClock` maps stream samples to scenario time: ``t = start + time_scale x (stream time)``; a change of
+the scale at a sample keeps the scenario time continuous there. Everything is a function of the sample index (not
+of the wall clock), so a run is reproducible by its seed.
+
+No ROS here. Units: s (scenario and stream time), Hz, samples.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Iterator
+
+from .harmonic import BkaBem
+from .scenario import Scenario, ScenarioState
+from .scenario_models import ModelHelper, ModelPool
+
+#: Time scales a clock accepts (scenario seconds per stream second).
+TIME_SCALE_RANGE = (1e-3, 1e7)
+#: Ready models a background provider holds ahead of the state in effect.
+MAX_READY_AHEAD = 2
+
+
+class ScenarioClock:
+    """Scenario time [s] of stream sample ``i``: ``t_a + time_scale * (i - i_a) / sample_rate_hz``.
+
+    Parameters
+    ----------
+    sample_rate_hz : float
+    time_scale : float
+        Scenario seconds per stream second (3600: an hour per second).
+    start_s : float
+        Scenario time at sample 0 [s].
+    """
+
+    def __init__(self, sample_rate_hz: float, time_scale: float = 1.0, start_s: float = 0.0):
+        self.sample_rate_hz = float(sample_rate_hz)
+        self.time_scale = check_time_scale(time_scale)
+        self._anchor_index = 0
+        self._anchor_s = float(start_s)
+
+    def time_s(self, index) -> float:
+        """Scenario time [s] at stream sample ``index``."""
+        return self._anchor_s + self.time_scale * (index - self._anchor_index) / self.sample_rate_hz
+
+    def rescale(self, time_scale: float, at_index: int) -> None:
+        """A new time scale from sample ``at_index`` on (scenario time continuous there)."""
+        t = self.time_s(at_index)
+        self.time_scale = check_time_scale(time_scale)
+        self._anchor_index, self._anchor_s = int(at_index), t
+
+
+def check_time_scale(time_scale) -> float:
+    v = float(time_scale)
+    lo, hi = TIME_SCALE_RANGE
+    if not (math.isfinite(v) and lo <= v <= hi):
+        raise ValueError(f"time_scale: must be in [{lo:g}, {hi:g}] scenario seconds per second (got {time_scale!r})")
+    return v
+
+
+# --------------------------------------------------------------------------- providers
+class InlineModels:
+    """Models made when asked for, blocking (a :class:`ModelPool`)."""
+
+    def __init__(self, pool: ModelPool | None = None):
+        self.pool = pool if pool is not None else ModelPool()
+        self.idle = True
+        self.estimate_s = 0.0
+
+    def get(self, state: ScenarioState) -> BkaBem:
+        return self.pool.get(state.case)
+
+    def prefetch(self, state: ScenarioState) -> None:
+        pass
+
+    def has(self, state: ScenarioState) -> bool:
+        return state.case.case_hash in self.pool
+
+    def failed(self, state: ScenarioState) -> str | None:
+        return None
+
+    def release(self, state: ScenarioState) -> None:
+        pass
+
+
+class BackgroundModels:
+    """Models prepared ahead in a helper process (:class:`bkabem_core.scenario_models.ModelHelper`, shared by
+    default), never waited for. ``estimate_s`` is a running estimate of one preparation [s]."""
+
+    def __init__(self, helper: ModelHelper | None = None):
+        self.helper = helper if helper is not None else ModelHelper.shared()
+        self.estimate_s = 3.0
+        self._mine: set[str] = set()
+
+    @property
+    def idle(self) -> bool:
+        return not any(self.helper.pending(h) for h in self._mine)
+
+    def get(self, state: ScenarioState) -> BkaBem | None:
+        key = state.case.case_hash
+        model = self.helper.take(key)
+        if model is None and not self.helper.pending(key) and self.helper.failed(key) is None:
+            self.prefetch(state)
+        elif model is not None and key in self.helper.times_s:
+            self.estimate_s = 0.5 * self.estimate_s + 0.5 * self.helper.times_s[key]
+        return model
+
+    def prefetch(self, state: ScenarioState) -> None:
+        self._mine.add(state.case.case_hash)
+        self.helper.request(state.case)
+
+    def has(self, state: ScenarioState) -> bool:
+        return self.helper.ready(state.case.case_hash)
+
+    def failed(self, state: ScenarioState) -> str | None:
+        return self.helper.failed(state.case.case_hash)
+
+    def release(self, state: ScenarioState) -> None:
+        self.helper.drop(state.case.case_hash)
+        self._mine.discard(state.case.case_hash)
+
+
+# --------------------------------------------------------------------------- the driver
+class ScenarioDriver:
+    """The state in effect at every chunk border of a stream, and its model (module docstring).
+
+    Parameters
+    ----------
+    scenario : Scenario
+    clock : ScenarioClock
+    models : InlineModels or BackgroundModels
+    chunk_samples : int
+        Samples per chunk (for the look-ahead).
+
+    Attributes
+    ----------
+    applied : ScenarioState
+        The state whose model is in the signal.
+    events : list of str
+        What happened (a state applied, a state late or skipped), for the caller to log; the caller empties it.
+    """
+
+    def __init__(self, scenario: Scenario, clock: ScenarioClock, models, chunk_samples: int):
+        self.scenario = scenario
+        self.clock = clock
+        self.models = models
+        self.chunk_samples = int(chunk_samples)
+        self.applied: ScenarioState = scenario.state_at(clock.time_s(0))
+        self.events: list[str] = []
+        self._late: set[int] = set()
+        self._failed: set[int] = set()
+        self.applied_at: dict[int, int] = {self.applied.index: 0}     # state index -> first sample index
+
+    @property
+    def initial_state(self) -> ScenarioState:
+        return self.applied
+
+    def before_chunk(self, index: int) -> BkaBem | None:
+        """Called before the chunk that starts at stream sample ``index``: the model to switch to there (the state
+        due then, or the newest state before it that is ready), or None to keep the current one."""
+        states = self.scenario.states
+        t = self.clock.time_s(index)
+        due = self.scenario.state_index_at(t)
+        switched = None
+        if due != self.applied.index:
+            order = [due] + (list(range(due - 1, self.applied.index, -1)) if due > self.applied.index else [])
+            for j in order:
+                if j in self._failed:
+                    continue
+                model = self.models.get(states[j])
+                if model is not None:
+                    switched = (states[j], model)
+                    break
+                err = self.models.failed(states[j])
+                if err is not None:
+                    self._failed.add(j)
+                    self.events.append(f"scenario state {j} ({states[j].label}) could not be prepared: {err}; "
+                                       f"it is skipped")
+            if switched is not None:
+                state, model = switched
+                old = self.applied
+                self.applied = state
+                self.applied_at[state.index] = int(index)
+                late = t - state.start_s
+                self.events.append(
+                    f"scenario state {state.index} ({state.label}) in effect from scenario time {t:.6g} s "
+                    f"({t / 3600:.4g} h)" + (f", {late:.3g} s after its start (its model came late)"
+                                             if state.index != due or late > self._chunk_scenario_s() else ""))
+                if old.index != state.index:
+                    self.models.release(old)
+                for k in range(min(old.index, state.index) + 1, max(old.index, state.index)):
+                    self.models.release(states[k])               # skipped states: their models are not needed
+            elif due not in self._late and due not in self._failed:
+                self._late.add(due)
+                self.events.append(f"scenario state {due} ({states[due].label}) is due at scenario time "
+                                   f"{states[due].start_s:.6g} s but its model is not ready yet: the stream goes on "
+                                   f"with state {self.applied.index} ({self.applied.label}); the ground truth says so")
+        self._prefetch(index)
+        return None if switched is None else switched[1]
+
+    def _chunk_scenario_s(self) -> float:
+        return self.clock.time_scale * self.chunk_samples / self.clock.sample_rate_hz
+
+    def _prefetch(self, index: int) -> None:
+        """Ask for the next model while the provider is idle: the state due when that model could be ready."""
+        m = self.models
+        if not m.idle:
+            return
+        states = self.scenario.states
+        lead = 1.5 * m.estimate_s * self.clock.sample_rate_hz + 2 * self.chunk_samples
+        k = max(self.scenario.state_index_at(self.clock.time_s(index + lead)), self.applied.index + 1)
+        ahead = sum(1 for j in range(self.applied.index + 1, len(states)) if m.has(states[j]))
+        if ahead >= MAX_READY_AHEAD:
+            return
+        while k < len(states) and (m.has(states[k]) or k in self._failed or m.failed(states[k]) is not None):
+            k += 1
+        if k < len(states):
+            m.prefetch(states[k])
+
+    def end_speed_hz(self, index: int, n: int) -> float | None:
+        """The scenario's shaft speed [Hz] at the end of the chunk of ``n`` samples from ``index`` (None: the
+        scenario has no speed profile)."""
+        if not self.scenario.has_speed:
+            return None
+        return float(self.scenario.speed_hz(self.clock.time_s(index + n)))
+
+    def ground_truth(self, index: int, speed_hz: float | None = None) -> dict:
+        """Ground truth of the chunk starting at sample ``index`` (the state in effect, scenario time there)."""
+        return self.scenario.ground_truth(self.applied, self.clock.time_s(index), speed_hz, self.clock.time_scale)
+
+
+# --------------------------------------------------------------------------- offline
+class ScenarioRun:
+    """A scenario rendered offline, chunk by chunk, with the ground truth of every chunk (exact state timing).
+
+    Parameters
+    ----------
+    scenario : Scenario
+    time_scale : float
+        Scenario seconds per second of signal.
+    start_s : float
+        Scenario time at the first sample [s].
+    sample_rate_hz, chunk_s : float
+        As for :class:`~bkabem_core.synth.Synthesizer`.
+    speed : SpeedProfile or None
+        Shaft speed over *signal* time for a scenario without ``[speed]`` (ignored when it has one).
+    pool : ModelPool or None
+        Models to reuse (e.g. of an earlier run of the same machine).
+    **synth_options
+        Further :class:`~bkabem_core.synth.Synthesizer` keywords (slip, seed, noise_density, band_limit, ...).
+
+    Examples
+    --------
+    >>> run = ScenarioRun(Scenario.load("de_outer_run_to_failure"), time_scale=3600, sample_rate_hz=25600)
+    >>> for chunk, truth in run.chunks(run.seconds_to_end()):
+    ...     x = chunk.samples; truth["state_label"], truth["defects"]
+    """
+
+    def __init__(self, scenario: Scenario, time_scale: float = 1.0, start_s: float = 0.0,
+                 sample_rate_hz: float = 25600.0, chunk_s: float = 0.1, speed=None, pool: ModelPool | None = None,
+                 **synth_options):
+        from .synth import SynthError, Synthesizer
+
+        self.scenario = scenario
+        self.clock = ScenarioClock(sample_rate_hz, time_scale, start_s)
+        if not scenario.has_speed and speed is None:
+            raise SynthError("speed", f"scenario {scenario.name!r} has no [speed] profile: give a speed profile")
+        self.speed = None if scenario.has_speed else speed
+        self.models = InlineModels(pool)
+        n = max(1, int(round(chunk_s * sample_rate_hz)))
+        self.driver = ScenarioDriver(scenario, self.clock, self.models, n)
+        model = self.models.get(self.driver.applied)
+        synth_options.setdefault("initial_speed_hz", self._speed_at(0))
+        self.synth = Synthesizer(model, sample_rate_hz=sample_rate_hz, chunk_s=chunk_s, **synth_options)
+
+    def _speed_at(self, index: int) -> float:
+        if self.speed is None:
+            return float(self.scenario.speed_hz(self.clock.time_s(index)))
+        return float(self.speed.speed_hz(index / self.clock.sample_rate_hz))
+
+    def seconds_to_end(self) -> float:
+        """Signal time [s] from the first sample to the end of the scenario."""
+        return max(self.scenario.duration_s - self.clock.time_s(0), 0.0) / self.clock.time_scale
+
+    def chunks(self, seconds: float) -> Iterator[tuple]:
+        """``(Chunk, ground truth dict)`` for ``seconds`` of signal."""
+        synth = self.synth
+        fs = synth.sample_rate_hz
+        n_total = int(round(float(seconds) * fs))
+        n = synth.chunk_samples
+        index = 0
+        while index < n_total:
+            m = min(n, n_total - index)
+            model = self.driver.before_chunk(index)
+            if model is not None:
+                synth.set_model(model)
+            chunk = synth.next_chunk(self._speed_at(index + m), n_samples=m)
+            yield chunk, self.driver.ground_truth(index, chunk.shaft_speed_hz)
+            index += m
