@@ -295,6 +295,13 @@ class OrderModalForm:
                        np.ascontiguousarray(x0.real), np.ascontiguousarray(x0.imag)]
             self._c_ptrs = [arr.ctypes.data for arr in self._c]
 
+    def __setstate__(self, state: dict) -> None:
+        """Unpickled or copied (a model made in another process): the kernel's pointers are those of the new arrays,
+        never the old process's addresses (a call through them crashed)."""
+        self.__dict__.update(state)
+        if self._c is not None:
+            self._c_ptrs = [arr.ctypes.data for arr in self._c]
+
     @property
     def n_lines(self) -> int:
         return int(self.multipliers.size)
@@ -417,6 +424,18 @@ class SpeedCells:
         self._to_coef = cm                                                          # values at nodes -> c_d
         self._cells: dict[int, tuple] = {}
         self._shape = form.direct.shape
+        self._kernel = _CELL_KERNEL if _CELL_KERNEL is not None and self._shape[1] <= 8 else None
+
+    def __getstate__(self) -> dict:
+        """Pickled or copied without its cells (their headers hold this process's addresses) and kernel handle
+        (a ctypes function): both are made again where it is unpickled."""
+        state = dict(self.__dict__)
+        state["_cells"] = {}
+        state["_kernel"] = None
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
         self._kernel = _CELL_KERNEL if _CELL_KERNEL is not None and self._shape[1] <= 8 else None
 
     def __len__(self) -> int:

@@ -120,8 +120,9 @@ def _time_points(key: str, table: dict, source: str, duration_s: float | None) -
             raise ScenarioError(f"{key}.{name}[{i}]", f"times must be strictly increasing ({values[i - 1]:g} then "
                                 f"{values[i]:g})", source)
     if duration_s is not None and t[-1] > duration_s * (1 + 1e-12):
-        raise ScenarioError(f"{key}.{name}[{len(t) - 1}]", f"{values[-1]:g} is after the end of the scenario "
-                            f"(scenario.duration: {duration_s:g} s)", source)
+        unit = "h" if scale != 1.0 else "s"
+        raise ScenarioError(f"{key}.{name}[{len(t) - 1}]", f"{values[-1]:g} {unit} is after the end of the scenario "
+                            f"({duration_s / scale:g} {unit}, scenario.duration_s/_h)", source)
     return name, t
 
 
@@ -544,7 +545,10 @@ class Scenario:
 
     @property
     def scenario_hash(self) -> str:
-        """SHA-256 (16 hex digits) of the parsed timeline and the machine's case hash: the scenario's identity."""
+        """SHA-256 (16 hex digits) of the parsed timeline and the machine's case hash: the scenario's identity ("" for
+        :meth:`of_case`)."""
+        if not self.name:
+            return ""
         blob = json.dumps({"scenario": self.raw, "case": self.case.case_hash}, sort_keys=True,
                           separators=(",", ":"), default=str).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
@@ -571,12 +575,27 @@ class Scenario:
         """Summary for metadata: name, description, source, hash, case, duration, the states."""
         return {"name": self.name, "description": self.description, "source": self.source,
                 "scenario_hash": self.scenario_hash, "case": self.case.name, "case_source": self.case.source,
-                "duration_s": self.duration_s, "size_step": self.size_step, "labels": dict(self.labels),
+                "duration_s": self.duration_s if math.isfinite(self.duration_s) else None, "size_step": self.size_step, "labels": dict(self.labels),
                 "speed": None if self.speed_points is None else {"time_s": list(self.speed_points[0]),
                                                                   "speed_hz": list(self.speed_points[1])},
                 "states": [s.to_dict() for s in self.states]}
 
     # -- loading --
+    @classmethod
+    def of_case(cls, case: Case) -> "Scenario":
+        """A machine that does not change: one state (the case with its own defects), no speed or load profile,
+        no name (its ground truth has ``scenario`` ""), open-ended."""
+        self = cls.__new__(cls)
+        self.raw, self.source, self.name = {}, case.source, ""
+        self.description = f"the case {case.name} alone"
+        self.duration_s, self.size_step = math.inf, DEFAULT_SIZE_STEP
+        self.case, self.labels, self.speed_points, self.load_points, self.tracks = case, {}, None, None, ()
+        defects = tuple(dict(d, name=f"defects[{i}]") for i, d in enumerate(case.raw["defects"]))
+        self.states = [ScenarioState(index=0, start_s=0.0, end_s=math.inf, defects=defects, load_factor=1.0,
+                                     label=_label(defects, 1.0), case=case)]
+        self._starts = [0.0]
+        return self
+
     @classmethod
     def from_dict(cls, raw: dict, source: str = "", base_dir: Path | None = None) -> "Scenario":
         return cls(raw, source, base_dir)
@@ -637,18 +656,6 @@ def add_frequencies(gt: dict, speed_hz: float | None) -> dict:
         if speed_hz is not None:
             d["fault_frequency_hz"] = d["fault_multiplier"] * float(speed_hz)
             d["strike_frequency_hz"] = d["strike_multiplier"] * float(speed_hz)
-    return gt
-
-
-def case_ground_truth(case: Case, speed_hz: float | None = None) -> dict:
-    """The ground truth of a plain case (no scenario) in the scenario's layout: one state, scenario time 0."""
-    gt = case.ground_truth()
-    for i, d in enumerate(gt["defects"]):
-        d["name"] = f"defects[{i}]"
-    add_frequencies(gt, speed_hz)
-    gt.update({"scenario": "", "scenario_hash": "", "labels": {}, "state_index": 0,
-               "state_label": _label([{**d, "ball": d.get("ball", 0)} for d in gt["defects"]], 1.0),
-               "state_start_s": 0.0, "scenario_time_s": 0.0, "load_factor": 1.0, "time_scale": None})
     return gt
 
 

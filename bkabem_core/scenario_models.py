@@ -100,16 +100,19 @@ def _recv(fh):
     return pickle.loads(data)
 
 
+def _lower_priority() -> None:
+    try:
+        os.nice(10)
+    except OSError:
+        pass
+
+
 def worker_main() -> int:
     """The helper process: read ``(tag, case raw, source)`` requests from stdin, answer ``(tag, ok, payload,
     seconds)`` on stdout, payload the pickled model or the error's one line. Ends when stdin closes."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)         # the parent decides when this ends (stdin closes)
-    try:
-        os.nice(10)
-    except OSError:
-        pass
     pool = ModelPool()
     inp, out = sys.stdin.buffer, sys.stdout.buffer
     while True:
@@ -140,9 +143,10 @@ class ModelHelper:
     _shared_lock = threading.Lock()
 
     def __init__(self):
-        self._lock = threading.Lock()
+        self._lock = threading.Condition()
         self._proc: subprocess.Popen | None = None
         self._reader: threading.Thread | None = None
+        self._outbox: list = []                                   # requests the sender thread writes to the helper
         self._pending: OrderedDict[str, float] = OrderedDict()   # case hash -> time requested
         self._bytes: dict[str, bytes] = {}
         self._models: dict[str, BkaBem] = {}
@@ -162,11 +166,32 @@ class ModelHelper:
     def _start(self) -> None:
         env = dict(os.environ)
         env.setdefault("OPENBLAS_NUM_THREADS", "1")
+        # niced before anything runs: its start-up (interpreter, numpy, scipy: ~1-3 s of CPU) must not take a core
+        # from a real-time stream either
         self._proc = subprocess.Popen([sys.executable, "-m", "bkabem_core.scenario_models"], stdin=subprocess.PIPE,
-                                      stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env)
+                                      stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env,
+                                      preexec_fn=_lower_priority)
         self._reader = threading.Thread(target=self._read, args=(self._proc,), daemon=True,
                                         name="bkabem-model-helper")
         self._reader.start()
+        threading.Thread(target=self._write, args=(self._proc,), daemon=True, name="bkabem-model-requests").start()
+
+    def _write(self, proc: subprocess.Popen) -> None:
+        """Send the queued requests (a write blocks while the helper is busy: never in the caller's thread)."""
+        while True:
+            with self._lock:
+                while not self._outbox and self._proc is proc:
+                    self._lock.wait(1.0)
+                if self._proc is not proc:
+                    return
+                key, raw, source = self._outbox.pop(0)
+            try:
+                _send(proc.stdin, (key, raw, source))
+            except (BrokenPipeError, OSError, ValueError):
+                with self._lock:
+                    self._pending.pop(key, None)
+                    self._errors[key] = "the model helper process ended"
+                return
 
     def _read(self, proc: subprocess.Popen) -> None:
         while True:
@@ -201,11 +226,8 @@ class ModelHelper:
             if self._proc is None or self._proc.poll() is not None:
                 self._start()
             self._pending[key] = time.monotonic()
-            try:
-                _send(self._proc.stdin, (key, case.raw, case.source))
-            except (BrokenPipeError, OSError):
-                self._pending.pop(key, None)
-                self._errors[key] = "the model helper process ended"
+            self._outbox.append((key, case.raw, case.source))
+            self._lock.notify_all()
 
     # -- results --
     def pending(self, case_hash: str) -> bool:
@@ -248,6 +270,8 @@ class ModelHelper:
         with self._lock:
             self.closed = True
             proc, self._proc = self._proc, None
+            self._outbox.clear()
+            self._lock.notify_all()
         if proc is not None:
             try:
                 proc.stdin.close()

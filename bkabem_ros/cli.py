@@ -41,12 +41,19 @@ def _shorthand(p) -> None:
                    help="parameter spectrum_rate [Hz]")
     p.add_argument("--wait-for-speed", action="store_true", default=None, help="parameter wait_for_speed=true")
     p.add_argument("--sim-time", action="store_true", help="parameter use_sim_time=true (follow /clock)")
+    p.add_argument("--scenario", default=None, metavar="NAME_OR_FILE",
+                   help="parameter scenario: embedded scenario or scenario TOML (docs/scenarios.md)")
+    p.add_argument("--time-scale", type=finite_float("--time-scale", 0.0, strict=True), default=None,
+                   help="parameter scenario_time_scale: scenario seconds per second (e.g. 3600)")
+    p.add_argument("--labels", default=None, metavar="K=V[,K=V...]", help="parameter labels of the machine")
 
 
 def _overrides(args) -> dict:
     m = {"case": args.case, "machine_id": args.machine_id, "sample_rate": args.sample_rate,
          "chunk_duration": args.chunk_duration, "seed": args.seed, "qos": args.qos,
-         "speed_unit": args.speed_unit, "spectrum_rate": args.spectrum_rate, "wait_for_speed": args.wait_for_speed}
+         "speed_unit": args.speed_unit, "spectrum_rate": args.spectrum_rate, "wait_for_speed": args.wait_for_speed,
+         "scenario": getattr(args, "scenario", None), "scenario_time_scale": getattr(args, "time_scale", None),
+         "labels": getattr(args, "labels", None)}
     out = {k: v for k, v in m.items() if v is not None}
     if getattr(args, "sim_time", False):
         out["use_sim_time"] = True
@@ -83,12 +90,26 @@ def check_parameter_ranges(overrides: dict, option_of=lambda name: "--" + name.r
                              f"{lo:g} .. {hi:g}{unit}")
 
 
+def check_scenario(option: str, ref: str | None) -> None:
+    """A scenario option: loaded (validated) before rclpy starts, so that a bad file is one line and exit 2."""
+    if ref is None:
+        return
+    from bkabem_core.scenario import Scenario, ScenarioError
+
+    try:
+        Scenario.load(ref)
+    except ScenarioError as exc:
+        raise UsageError(f"{option}: {exc.reason}" if exc.key == "scenario" and not exc.source
+                         else f"{option}: {exc}") from None
+
+
 def cmd_node(args) -> int:
     from .node import run
     from .ros_env import check_names
 
     check_names([("--name", "node name", args.name), ("--namespace", "namespace", args.namespace)])
     check_parameter_ranges(_overrides(args))
+    check_scenario("--scenario", getattr(args, "scenario", None))
     on_node = None
     attached = []
     if getattr(args, "record", None) or getattr(args, "rerun_save", None) or getattr(args, "rerun_connect", None):

@@ -36,6 +36,8 @@ __all__ = [
     "SI_UNITS",
     "SpectrumArrays",
     "fault_frequencies_message",
+    "ground_truth_dict",
+    "ground_truth_message",
     "message_definition_text",
     "spectrum_arrays",
     "spectrum_message",
@@ -53,8 +55,8 @@ LOCATIONS = ("de", "nde")
 QUANTITIES = ("acceleration", "velocity", "displacement")
 #: SI unit string used when ``unit`` is not given, per quantity.
 SI_UNITS = {"acceleration": "m/s^2", "velocity": "m/s", "displacement": "m"}
-#: Allowed ``defect_race`` values.
-RACES = ("outer",)
+#: Allowed ``defect_race`` / ``Defect.kind`` values.
+RACES = ("outer", "inner", "ball")
 
 _PRIMITIVES = frozenset({
     "bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16",
@@ -164,6 +166,7 @@ def waveform_message(
     channel_names: Sequence[str] | None = None,
     stamp: Any = None,
     frame_id: str = "",
+    ground_truth=None,
 ):
     """Build a ``bkabem_msgs/VibrationWaveform`` from a block of samples.
 
@@ -193,6 +196,8 @@ def waveform_message(
         Time of the first sample: int ns, ``builtin_interfaces/Time`` or ``rclpy.time.Time``.
     frame_id : str
         Sensor frame.
+    ground_truth : bkabem_msgs.msg.GroundTruth, optional
+        The machine's ground truth (:func:`ground_truth_message`); default: none stated (``available`` false).
 
     Returns
     -------
@@ -215,6 +220,8 @@ def waveform_message(
     m.shaft_speed = _finite("shaft_speed", shaft_speed)
     m.samples_per_channel = int(n)
     m.data = _f32(a)
+    if ground_truth is not None:
+        m.ground_truth = ground_truth
     return m
 
 
@@ -232,6 +239,7 @@ def spectrum_message(
     channel_names: Sequence[str] | None = None,
     stamp: Any = None,
     frame_id: str = "",
+    ground_truth=None,
 ):
     """Build a ``bkabem_msgs/VibrationSpectrum`` (lines at BPFO orders).
 
@@ -250,7 +258,7 @@ def spectrum_message(
         Phases (rad), cosine convention.
     shaft_speed : float
         Shaft speed the spectrum belongs to (rad/s).
-    machine_id, location, quantity, unit, channel_names, stamp, frame_id
+    machine_id, location, quantity, unit, channel_names, stamp, frame_id, ground_truth
         As in :func:`waveform_message`.
 
     Returns
@@ -280,6 +288,8 @@ def spectrum_message(
     m.bpfo_order = _f64(k)
     m.amplitude = _f64(amp)
     m.phase = _f64(ph)
+    if ground_truth is not None:
+        m.ground_truth = ground_truth
     return m
 
 
@@ -299,6 +309,7 @@ def fault_frequencies_message(
     defect_race: str = "outer",
     stamp: Any = None,
     frame_id: str = "",
+    ground_truth=None,
 ):
     """Build a ``bkabem_msgs/BearingFaultFrequencies``.
 
@@ -320,12 +331,15 @@ def fault_frequencies_message(
         Dent depth (m), >= 0.
     defect_angle : float
         Angular position of the dent centre from +x (horizontal) towards +y (up) (rad).
-    defect_race : {"outer"}
-        Which race has the defect.
+    defect_race : {"outer", "inner", "ball"}
+        Which race has the defect (``"ball"``: a rolling element).
     stamp : int or Time, optional
         Time the shaft speed applies to (see :func:`time_msg`).
     frame_id : str
         Frame of the defective bearing.
+    ground_truth : bkabem_msgs.msg.GroundTruth, optional
+        Every defect and the rest of the ground truth (:func:`ground_truth_message`); the ``defect_*`` fields are
+        the first defect only (the 0.1.0 layout).
 
     Returns
     -------
@@ -345,7 +359,89 @@ def fault_frequencies_message(
     m.defect_length = _finite("defect_length", defect_length, nonneg=True)
     m.defect_depth = _finite("defect_depth", defect_depth, nonneg=True)
     m.defect_angle = _finite("defect_angle", defect_angle)
+    if ground_truth is not None:
+        m.ground_truth = ground_truth
     return m
+
+
+def ground_truth_message(gt: dict, labels: dict | None = None):
+    """Build a ``bkabem_msgs/GroundTruth`` from a ground-truth dict of bkabem_core.
+
+    Parameters
+    ----------
+    gt : dict
+        :meth:`bkabem_core.scenario.Scenario.ground_truth` (a plain case: ``Scenario.of_case(case)``):
+        ``defects`` (each with ``name``, ``race``, ``bearing``, ``length_m``, ``depth_m``, ``angle_rad``, ``edge``,
+        ``fault_frequency``, ``fault_multiplier``, ``strike_multiplier``, optional ``ball`` and
+        ``strike_frequency_hz``), ``bearing_designation``, ``healthy``, ``baseline`` (case ``[baseline]`` keys),
+        ``case``, ``case_hash``, ``scenario``, ``scenario_hash``, ``state_index``, ``state_label``,
+        ``state_start_s``, ``scenario_time_s``, ``time_scale``, ``load_factor``, ``labels``.
+    labels : dict, optional
+        More labels (the node's ``labels`` parameter); they win over ``gt["labels"]`` of the same key.
+
+    Returns
+    -------
+    bkabem_msgs.msg.GroundTruth
+        SI throughout: the balance grade in m/s (G 2.5 mm/s -> 0.0025), angles in rad.
+    """
+    M = _msgs()
+    defects = []
+    designation = str(gt.get("bearing_designation", ""))
+    for d in gt.get("defects", []):
+        defects.append(M.Defect(
+            name=str(d.get("name", "")), kind=_choice("defects.race", d["race"], RACES),
+            bearing=_choice("defects.bearing", d["bearing"], LOCATIONS), bearing_designation=designation,
+            ball=int(d.get("ball", 0) or 0), length=_finite("defects.length_m", d["length_m"], nonneg=True),
+            depth=_finite("defects.depth_m", d["depth_m"], nonneg=True),
+            angle=_finite("defects.angle_rad", d["angle_rad"]), edge=str(d.get("edge", "")),
+            fault_frequency=str(d["fault_frequency"]),
+            fault_multiplier=_finite("defects.fault_multiplier", d["fault_multiplier"], nonneg=True),
+            strike_multiplier=_finite("defects.strike_multiplier", d["strike_multiplier"], nonneg=True),
+            strike_frequency=_finite("defects.strike_frequency_hz", d.get("strike_frequency_hz") or 0.0,
+                                     nonneg=True)))
+    base = gt.get("baseline", {})
+    lab = dict(gt.get("labels") or {})
+    lab.update(labels or {})
+    scale = gt.get("time_scale")
+    return M.GroundTruth(
+        available=True, healthy=bool(gt.get("healthy", not defects)), defects=defects,
+        unbalance_grade=_finite("baseline.unbalance_grade_mm_s", base.get("unbalance_grade_mm_s", 0.0)) * 1e-3,
+        unbalance_phase=_finite("baseline.unbalance_phase_deg", base.get("unbalance_phase_deg", 0.0)) * np.pi / 180,
+        misalignment_force=_finite("baseline.misalignment_force_n", base.get("misalignment_force_n", 0.0)),
+        electrical_force=_finite("baseline.electrical_force_n", base.get("electrical_force_n", 0.0)),
+        line_frequency=_finite("baseline.line_frequency_hz", base.get("line_frequency_hz", 0.0)),
+        load_factor=_finite("load_factor", gt.get("load_factor", 1.0)),
+        case_name=str(gt.get("case", "")), case_hash=str(gt.get("case_hash", "")),
+        scenario=str(gt.get("scenario", "") or ""), scenario_hash=str(gt.get("scenario_hash", "") or ""),
+        state_index=int(gt.get("state_index", 0)), state_label=str(gt.get("state_label", "")),
+        state_start_time=_finite("state_start_s", gt.get("state_start_s", 0.0)),
+        scenario_time=_finite("scenario_time_s", gt.get("scenario_time_s", 0.0)),
+        time_scale=_finite("time_scale", 1.0 if scale is None else scale),
+        label_keys=[str(k) for k in lab], label_values=[str(v) for v in lab.values()])
+
+
+def ground_truth_dict(msg) -> dict:
+    """The ``ground_truth`` of a message (or a ``GroundTruth`` itself) as a plain dict, SI units in the key names
+    (``length_m``, ``strike_frequency_hz``, ...); ``{"available": False}`` for a message without one (bkabem_msgs
+    0.1.0). Works on rclpy messages and on the dynamic objects of mcap_ros2 / rosbags."""
+    g = getattr(msg, "ground_truth", msg)
+    if g is None or not hasattr(g, "available") or not bool(g.available):
+        return {"available": False}
+    defects = [{"name": str(d.name), "kind": str(d.kind), "bearing": str(d.bearing),
+                "bearing_designation": str(d.bearing_designation), "ball": int(d.ball),
+                "length_m": float(d.length), "depth_m": float(d.depth), "angle_rad": float(d.angle),
+                "edge": str(d.edge), "fault_frequency": str(d.fault_frequency),
+                "fault_multiplier": float(d.fault_multiplier), "strike_multiplier": float(d.strike_multiplier),
+                "strike_frequency_hz": float(d.strike_frequency)} for d in g.defects]
+    return {"available": True, "healthy": bool(g.healthy), "defects": defects,
+            "baseline": {"unbalance_grade_m_s": float(g.unbalance_grade), "unbalance_phase_rad": float(g.unbalance_phase),
+                         "misalignment_force_n": float(g.misalignment_force),
+                         "electrical_force_n": float(g.electrical_force), "line_frequency_hz": float(g.line_frequency)},
+            "load_factor": float(g.load_factor), "case": str(g.case_name), "case_hash": str(g.case_hash),
+            "scenario": str(g.scenario), "scenario_hash": str(g.scenario_hash), "state_index": int(g.state_index),
+            "state_label": str(g.state_label), "state_start_s": float(g.state_start_time),
+            "scenario_time_s": float(g.scenario_time), "time_scale": float(g.time_scale),
+            "labels": dict(zip((str(k) for k in g.label_keys), (str(v) for v in g.label_values)))}
 
 
 # --------------------------------------------------------------------------- readers

@@ -47,7 +47,6 @@ after construction so a command can attach sinks before the stream starts.
 from __future__ import annotations
 
 import math
-import threading
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -58,101 +57,16 @@ import numpy as np
 from .node_params import LIVE_PARAMETERS, PARAMETER_SPECS, PARAMETERS, ParamSpec  # noqa: F401  (re-exported)
 from .speed import SPEED_UNITS, check_speed, normalize_unit
 
-TWO_PI = 2.0 * math.pi
-BEARINGS = ("de", "nde")
-QUANTITIES = ("acceleration", "displacement")
-CHANNELS = ("vertical", "horizontal")
-WAVEFORM_TYPE = "bkabem_msgs/msg/VibrationWaveform"
-SPECTRUM_TYPE = "bkabem_msgs/msg/VibrationSpectrum"
-FAULT_TYPE = "bkabem_msgs/msg/BearingFaultFrequencies"
+from .node_source import (BEARINGS, CHANNELS, FAULT_TYPE, QUANTITIES, SPECTRUM_TYPE, TWO_PI,  # noqa: F401
+                          WAVEFORM_TYPE, MachineSource, parse_labels, prepare_model)
+
 SPEED_TYPE = "std_msgs/msg/Float64"
 N_WAVEFORMS = len(BEARINGS) * len(QUANTITIES)   # waveform messages per chunk (first in a chunk's items)
 
 Sink = Callable[[str, str, Any, int], None]
 
 
-# --------------------------------------------------------------------------- model cache and helpers
-_MODEL_CACHE: dict[str, Any] = {}
-_MODEL_LOCK = threading.Lock()
-
-
-def prepare_model(case, logger=None):
-    """BKA-BEM model of ``case``, shared by all nodes of this process that use the same case (by hash)."""
-    from bkabem_core.harmonic import BkaBem
-
-    with _MODEL_LOCK:
-        model = _MODEL_CACHE.get(case.case_hash)
-        if model is None:
-            if logger is not None:
-                logger.info(f"preparing the BKA-BEM model of case {case.name} ({case.source}, hash "
-                            f"{case.case_hash}): 4-DOF excitation + FE rotor ...")
-            t0 = time.perf_counter()
-            model = BkaBem(case)
-            if logger is not None:
-                pt = model.preparation_time_s
-                logger.info(f"model prepared in {time.perf_counter() - t0:.2f} s (excitation "
-                            f"{pt.get('excitation', 0.0):.2f} s, {model.orders.size} BPFO orders, solver "
-                            f"{model.solver})")
-            _MODEL_CACHE[case.case_hash] = model
-        elif logger is not None:
-            logger.info(f"reusing the BKA-BEM model of case {case.name} (hash {case.case_hash})")
-        return model
-
-
-_EXCITATION_CODE = (
-    "import json, pickle, sys\n"
-    "from bkabem_core.case import Case\n"
-    "from bkabem_core.machine import Machine\n"
-    "case = Case.from_dict(json.load(sys.stdin))\n"
-    "sys.stdout.buffer.write(pickle.dumps(Machine(case, mesh=None).excitations()))\n"
-)
-
-
-class _ExcitationJob:
-    """The 4-DOF integration of a changed case in a helper process (it holds the GIL for ~2 s: in a thread
-    of the node it would delay the publications). A thread only waits for the process's output."""
-
-    def __init__(self, case):
-        import json
-        import subprocess
-        import sys
-
-        self.case = case
-        self.t_start = time.perf_counter()
-        self._result = None
-        self._error = None
-        self._proc = subprocess.Popen([sys.executable, "-c", _EXCITATION_CODE], stdin=subprocess.PIPE,
-                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-        self._payload = json.dumps(case.raw).encode()
-        self._thread = threading.Thread(target=self._wait, daemon=True, name="bkabem-excitation")
-        self._thread.start()
-
-    def _wait(self) -> None:
-        import pickle
-
-        try:
-            out, err = self._proc.communicate(self._payload)
-            if self._proc.returncode != 0:
-                lines = err.decode(errors="replace").strip().splitlines()
-                self._error = RuntimeError(lines[-1] if lines else f"exit code {self._proc.returncode}")
-            else:
-                self._result = pickle.loads(out)
-        except Exception as exc:  # noqa: BLE001
-            self._error = exc
-
-    def done(self) -> bool:
-        return not self._thread.is_alive()
-
-    def result(self):
-        if self._error is not None:
-            raise self._error
-        return self._result
-
-    def cancel(self) -> None:
-        if self._proc.poll() is None:
-            self._proc.kill()
-
-
+# --------------------------------------------------------------------------- helpers
 def _percentile(values, q) -> float:
     if not values:
         return float("nan")
@@ -196,19 +110,27 @@ class VibrationNode(_node_base()):
         super().__init__(node_name, namespace=namespace, context=context,
                          parameter_overrides=list(parameter_overrides or []))
         from bkabem_core.case import Case
+        from bkabem_core.scenario import Scenario
 
         self._sinks: list[Sink] = []
         self._sink_errors = 0
         self._coerce_numeric_overrides()
-        # -- parameters, declared up front (the case first: two defaults come from it)
+        # -- parameters, declared up front (the machine first: two defaults come from it)
         self._declare("case")
+        self._declare("scenario")
         case_name = self.get_parameter("case").value
-        self._base_case = Case.load(case_name or None)
-        self._declare_all(self._base_case)
+        scenario_ref = self.get_parameter("scenario").value
+        scenario = Scenario.load(scenario_ref) if scenario_ref else None
+        base_case = scenario.case if scenario is not None else Case.load(case_name or None)
+        self._declare_all(base_case)
         p = {s.name: self.get_parameter(s.name).value for s in PARAMETERS}
-        self._case = self._base_case
-        if p["defect_depth"] != self._base_case.defect_depth_m:
-            self._case = self._base_case.with_defect_depth(float(p["defect_depth"]))
+        case = base_case
+        if p["defect_depth"] != base_case.defect_depth_m:
+            if scenario is not None:
+                raise ValueError(f"parameter defect_depth: scenario {scenario.name!r} sets the defects (leave "
+                                 f"defect_depth at its default, or run without a scenario)")
+            case = base_case.with_defect_depth(float(p["defect_depth"]))
+        labels = parse_labels(p["labels"])
         self.machine_id = p["machine_id"] or self.get_namespace().strip("/") or "bkabem"
         self.sample_rate = float(p["sample_rate"])
         self.samples_per_chunk = max(1, int(round(self.sample_rate * float(p["chunk_duration"]))))
@@ -222,9 +144,13 @@ class VibrationNode(_node_base()):
         self._max_speed = float(p["max_speed"])
 
         # -- model and synthesiser (BkaBem preparation ~2 s happens here, before any timer)
-        self.model = prepare_model(self._case, self.get_logger())
-        self._source = self._make_source(self.model)
-        self._bpfo_per_hz = float(self.model.bpfo_per_hz)
+        self._source = MachineSource(
+            base_case if scenario is not None else case, scenario=scenario,
+            time_scale=float(p["scenario_time_scale"]), scenario_start_s=float(p["scenario_start"]),
+            sample_rate_hz=self.sample_rate, samples_per_chunk=self.samples_per_chunk, seed=self._seed,
+            slip=self._slip, machine_id=self.machine_id, frames=self._frame, labels=labels, logger=self.get_logger())
+        self._apply_noise()
+        self._scenario_loaded: dict[str, Scenario] = {}     # parameter callback -> post callback
 
         # -- publishers and the speed subscription
         from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy,
@@ -291,14 +217,16 @@ class VibrationNode(_node_base()):
         self._start_lateness_ns: deque[int] = deque(maxlen=100_000)  # publication started - due
         self._published_chunks = 0
         self._reanchors = 0
-        self._depth_job: _ExcitationJob | None = None
-        self._depth_pending: float | None = None
         self._last_now_ns = 0
 
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._after_set_parameters)
+        what = f"scenario {scenario.name} (x{float(p['scenario_time_scale']):g})" if scenario is not None else \
+            f"case {self._source.case.name}"
+        if scenario is not None and scenario.has_speed:
+            what += "; shaft speed from the scenario's [speed] profile (the speed topic is counted, not used)"
         self.get_logger().info(
-            f"machine {self.machine_id!r}: case {self._case.name}, {self.sample_rate:g} Hz, "
+            f"machine {self.machine_id!r}: {what}, {self.sample_rate:g} Hz, "
             f"{self.samples_per_chunk} samples/chunk ({self.chunk_ns / 1e6:g} ms), QoS {p['qos']} depth {depth}, "
             f"speed in {normalize_unit(p['speed_unit'])} on {self._speed_topic}, max {self._max_speed:g} rad/s")
         if start:
@@ -359,7 +287,7 @@ class VibrationNode(_node_base()):
         derived = {"defect_depth": float(case.defect_depth_m),
                    "max_speed": float(case.max_speed_hz) * TWO_PI}
         for spec in PARAMETERS:
-            if spec.name != "case":
+            if spec.name not in ("case", "scenario"):
                 self._declare(spec.name, derived.get(spec.name))
 
     def _on_set_parameters(self, params):
@@ -388,7 +316,29 @@ class VibrationNode(_node_base()):
                 return SetParametersResult(
                     successful=False, reason=f"max_speed: {prm.value:g} rad/s is below the current speed "
                                              f"{self._speed_rad_s:g} rad/s")
+            if prm.name == "scenario":
+                why = self._check_scenario(str(prm.value))
+                if why is not None:
+                    self.get_logger().warning(f"parameter scenario = {prm.value!r} refused, the node goes on with "
+                                              f"what it runs: {why}")
+                    return SetParametersResult(successful=False, reason=why)
+            if prm.name == "defect_depth" and self._source.scenario is not None:
+                return SetParametersResult(
+                    successful=False, reason=f"defect_depth: scenario {self._source.scenario.name!r} sets the "
+                                             f"defects; set scenario to '' first")
         return SetParametersResult(successful=True)
+
+    def _check_scenario(self, ref: str) -> str | None:
+        """Load the scenario of a parameter change (kept for the post callback); its one-line error, or None."""
+        from bkabem_core.scenario import Scenario, ScenarioError
+
+        if not ref:
+            return None
+        try:
+            self._scenario_loaded[ref] = Scenario.load(ref)
+        except ScenarioError as exc:
+            return f"scenario: {exc}"
+        return None
 
     def _after_set_parameters(self, params) -> None:
         for prm in params:
@@ -403,55 +353,37 @@ class VibrationNode(_node_base()):
                 self._apply_noise()
             elif prm.name == "defect_depth":
                 self._request_depth(float(prm.value))
+            elif prm.name == "scenario":
+                self._source.set_scenario(self._scenario_loaded.pop(prm.value, None) if prm.value else None,
+                                          self._next_index(), float(self._live["scenario_time_scale"]),
+                                          float(self.get_parameter("scenario_start").value))
+                self._scenario_loaded.clear()
+            elif prm.name == "scenario_time_scale":
+                self._source.set_time_scale(float(prm.value), self._next_index())
             elif prm.name == "spectrum_rate":
                 self._next_spectrum_ns = 0 if self._pending is None else self._pending.stamp_ns
             self.get_logger().info(f"parameter {prm.name} = {prm.value!r} (live)")
 
-    # ------------------------------------------------------------------ synthesiser adapter
-    def _make_source(self, model):
-        """The waveform synthesiser (bkabem_core.synth): all physics of the samples lives there."""
-        from bkabem_core.synth import Synthesizer
+    # ------------------------------------------------------------------ the machine (bkabem_ros.node_source)
+    @property
+    def model(self):
+        """The BKA-BEM model in the signal now."""
+        return self._source.model
 
-        # spectrum="exact": the model's own response at each new speed (a pole sum of the reduced model, ~0.1 ms),
-        # no speed cells to build inside the timer when a defect-depth change swaps the model
-        synth = Synthesizer(model, sample_rate_hz=self.sample_rate, chunk_s=self.samples_per_chunk / self.sample_rate,
-                            seed=self._seed, slip=self._slip, band_limit="taper", features=False, spectrum="exact")
-        if synth.chunk_samples != self.samples_per_chunk:
-            raise RuntimeError(f"synth chunk of {synth.chunk_samples} samples, node expects {self.samples_per_chunk}")
-        self._synth = synth
-        synth.max_knots_per_step = max(4, int(0.4 * (self.samples_per_chunk / self.sample_rate) / self.KNOT_COST_S))
-        self._apply_noise()
-        return synth
+    @property
+    def source(self) -> MachineSource:
+        """The machine: model, synthesiser, scenario, message builders."""
+        return self._source
 
     def _apply_noise(self) -> None:
-        """Noise parameters -> the synthesiser (from its next chunk on). RMS over 0..fs/2 -> one-sided density."""
+        """Noise parameters -> the synthesiser (from its next chunk on)."""
         live = self._live
-        if float(live["noise.snr_db"]) > 0.0:
-            self._synth.set_noise(snr_db=float(live["noise.snr_db"]))
-            return
-        root = math.sqrt(self.sample_rate / 2.0)
-        dens = {q: float(live[f"noise.{q}"]) / root for q in QUANTITIES if float(live[f"noise.{q}"]) > 0.0}
-        self._synth.set_noise(noise_density=dens or None)
+        self._source.set_noise(float(live["noise.acceleration"]), float(live["noise.displacement"]),
+                               float(live["noise.snr_db"]))
 
-    #: Seconds of synthesis per amplitude knot assumed when limiting the knots of a fast speed change.
-    KNOT_COST_S = 0.0025
-
-    def _next_chunk(self, end_speed_hz: float):
-        """``synth.next_chunk`` with a bounded cost. The synthesiser places amplitude knots at most
-        ``max_speed_step_hz`` (0.5 Hz) apart, and 2 % apart in speed where orders cross the Nyquist taper; a jump
-        of tens of Hz within one chunk would need dozens of knots (~0.5-2 ms each) and could make the next
-        publication late. ``synth.max_knots_per_step`` (set in :meth:`_make_source`) caps the knots of one chunk
-        so that they take at most ~40 % of a chunk period, whatever the jump (to or from 0 included); phase and
-        speed stay exact, only the amplitude interpolation through the (already non-stationary) transient is
-        coarser."""
-        return self._synth.next_chunk(end_speed_hz)
-
-    def _line_spectrum(self, speed_hz: float):
-        """Complex channel amplitudes (orders, channels) and static part (channels,) of the synthesiser at a speed:
-        exactly the lines its waveform holds (quantity, sensor point, Nyquist taper, low-speed fade), with the
-        phase origin at cage angle 0."""
-        ls = self._synth.line_spectrum(speed_hz)
-        return np.asarray(ls["amplitude"]), np.asarray(ls["dc"])
+    def _next_index(self) -> int:
+        """First sample of the next chunk still to be synthesised (where a change of the machine can begin)."""
+        return 0 if self._pending is None else self._pending.index + self.samples_per_chunk
 
     # ------------------------------------------------------------------ sinks
     def add_sink(self, sink: Sink) -> None:
@@ -557,31 +489,26 @@ class VibrationNode(_node_base()):
         Called when the chunk's first sample is due (one chunk ahead of its publication). The last good speed
         becomes the speed at the *end* of this chunk; the synthesiser ramps linearly to it from the previous
         chunk's end speed (angle and speed continuous), so ``shaft_speed`` (first sample) is that previous speed.
+        A scenario with a speed profile gives that speed instead. A change of the machine (a scenario state, a new
+        scenario, defect_depth) takes effect here, at this chunk's first sample, when its model is ready.
         """
         if t0_ns is not None:
             self._t0_ns = t0_ns
-        self._poll_depth_job()
         n = self.samples_per_chunk
         stamp = self._t0_ns + int(round(index * 1e9 / self.sample_rate))
         due = self._t0_ns + int(round((index + n) * 1e9 / self.sample_rate))
-        chunk = self._next_chunk(self._speed_rad_s / TWO_PI)
+        src = self._source
+        chunk, truth = src.next_chunk(index, self._speed_rad_s / TWO_PI)
         if int(chunk.first_sample_index) != index:
             raise RuntimeError(f"synth produced index {chunk.first_sample_index}, expected {index}")
         speed = float(chunk.shaft_speed_hz) * TWO_PI          # at the first sample
-        from .msgs import waveform_message
-
-        items = []
-        for b in BEARINGS:
-            for q in QUANTITIES:
-                msg = waveform_message(chunk.samples[chunk.rows(b, q)], sample_rate=self.sample_rate,
-                                       first_sample_index=index, shaft_speed=speed, machine_id=self.machine_id,
-                                       location=b, quantity=q, channel_names=CHANNELS, stamp=stamp,
-                                       frame_id=self._frame[b])
-                items.append((self._wave_pub[(b, q)], WAVEFORM_TYPE, msg))
+        items = [(self._wave_pub[key], WAVEFORM_TYPE, msg) for key, msg in src.waveform_messages(chunk, stamp, truth)]
         rate = float(self._live["spectrum_rate"])
-        if (self._last_spectrum_speed is None or speed != self._last_spectrum_speed
+        if (src.changed or self._last_spectrum_speed is None or speed != self._last_spectrum_speed
                 or (rate > 0 and stamp >= self._next_spectrum_ns)):
-            items += self._spectrum_items(chunk, stamp)
+            for bearing, type_name, msg in src.spectrum_messages(chunk, stamp, truth):
+                items.append((self._ff_pub if bearing is None else self._spec_pub[bearing], type_name, msg))
+            self._spectra += 1
             self._last_spectrum_speed = speed
             if rate > 0:
                 self._next_spectrum_ns = stamp + int(1e9 / rate)
@@ -590,41 +517,6 @@ class VibrationNode(_node_base()):
 
         items = [(pub, type_name, msg, serialize_message(msg)) for pub, type_name, msg in items]
         return _Prepared(index=index, stamp_ns=stamp, due_ns=due, speed_rad_s=speed, items=items)
-
-    def _spectrum_items(self, chunk, stamp: int) -> list:
-        """Spectra (per bearing and quantity) and fault frequencies at the chunk's first-sample speed, with the
-        phase origin at the chunk's first sample (order k turned by k z cage_angle there)."""
-        from .msgs import fault_frequencies_message, spectrum_message
-
-        speed_hz = float(chunk.shaft_speed_hz)
-        speed_rad_s = speed_hz * TWO_PI
-        y, dc = self._line_spectrum(speed_hz)                       # (K, C), (C,)
-        orders = self._synth.line_orders()                              # BPFO orders (any line: nu / BPFO)
-        y = y * np.exp(1j * self._synth.line_phases_rad(chunk))[:, None]
-        freq = np.concatenate([[0.0], self._synth.frequency_hz(speed_hz)])
-        k_all = np.concatenate([[0.0], orders])
-        items = []
-        for b in BEARINGS:
-            for q in QUANTITIES:
-                rows = chunk.rows(b, q)
-                yy = y[:, rows].T                                      # (2, K)
-                d = np.asarray(dc[rows], dtype=float)
-                amp = np.concatenate([np.abs(d)[:, None], np.abs(yy)], axis=1)
-                ph = np.concatenate([np.where(d < 0, np.pi, 0.0)[:, None], np.angle(yy)], axis=1)
-                msg = spectrum_message(freq, k_all, amp, ph, shaft_speed=speed_rad_s, machine_id=self.machine_id,
-                                       location=b, quantity=q, channel_names=CHANNELS, stamp=stamp,
-                                       frame_id=self._frame[b])
-                items.append((self._spec_pub[b], SPECTRUM_TYPE, msg))
-        ff = self.model.fault_multipliers.at_speed(speed_hz)
-        dent = self._case.dent()
-        msg = fault_frequencies_message(
-            shaft_speed=speed_rad_s, ftf=ff.ftf, bpfo=ff.bpfo, bpfi=ff.bpfi, bsf=ff.bsf, machine_id=self.machine_id,
-            bearing_designation=self._case.bearing_geometry().designation, defect_bearing=dent.bearing,
-            defect_race=dent.race, defect_length=dent.length_m, defect_depth=dent.depth_m,
-            defect_angle=dent.angle_rad, stamp=stamp, frame_id=self._frame[dent.bearing])
-        items.append((self._ff_pub, FAULT_TYPE, msg))
-        self._spectra += 1
-        return items
 
     # ------------------------------------------------------------------ publication
     def _on_tick(self) -> None:
@@ -678,37 +570,10 @@ class VibrationNode(_node_base()):
 
     # ------------------------------------------------------------------ live defect depth
     def _request_depth(self, depth_m: float) -> None:
-        if self._depth_job is not None and not self._depth_job.done():
-            self._depth_pending = depth_m
-            return
-        self.get_logger().info(f"defect_depth {depth_m:g} m: recomputing the bearing excitations in a helper process")
-        self._depth_job = _ExcitationJob(self._base_case.with_defect_depth(depth_m))
-        self._depth_pending = None
-
-    def _poll_depth_job(self) -> None:
-        job = self._depth_job
-        if job is None or not job.done():
-            return
-        self._depth_job = None
-        try:
-            ex = job.result()
-        except Exception as exc:  # noqa: BLE001
-            self.get_logger().error(f"defect_depth change failed: {exc!r}; keeping the current model")
-        else:
-            from bkabem_core.harmonic import BkaBem
-
-            model = BkaBem(job.case, excitation=ex, like=self.model)
-            self._case = job.case
-            self.model = model
-            self._swap_model(model)
-            self._last_spectrum_speed = None  # a new spectrum with the next chunk
-            self.get_logger().info(f"defect_depth {job.case.dent().depth_m:g} m in effect from the next chunk "
-                                   f"(excitation took {time.perf_counter() - job.t_start:.2f} s)")
-        if self._depth_pending is not None:
-            self._request_depth(self._depth_pending)
-
-    def _swap_model(self, model) -> None:
-        self._synth.set_model(model)      # from the next knot (chunk border) on, phase continuous
+        """The case with its first defect at ``depth_m``, made in the model helper and switched to at a chunk border
+        when ready (the stream goes on meanwhile; a newer request replaces an older one still waiting)."""
+        case = self._source.base_case.with_defect_depth(depth_m)
+        self._source.set_case(case, self._next_index(), f"defect_depth {case.dent().depth_m:g} m")
 
     # ------------------------------------------------------------------ reporting and shutdown
     def stats(self) -> dict:
@@ -732,12 +597,13 @@ class VibrationNode(_node_base()):
             "lateness_ms_max": (max(late) / 1e6) if late else float("nan"),
             "start_lateness_ms_p50": _percentile(start, 50) / 1e6,
             "start_lateness_ms_p99": _percentile(start, 99) / 1e6,
+            **self._source.stats(),
         }
 
     def destroy_node(self):
-        job = getattr(self, "_depth_job", None)      # not set when __init__ failed (a bad parameter)
-        if job is not None:
-            job.cancel()
+        src = getattr(self, "_source", None)        # not set when __init__ failed (a bad parameter)
+        if src is not None:
+            src.close()
         return super().destroy_node()
 
 

@@ -27,7 +27,18 @@ class ParamSpec:
 #: Every parameter of the node, declared in this order (docs/ros_node.md has the same table).
 PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("case", "electric_motor_6010", "",
-              "embedded case name or path of a case TOML file"),
+              "embedded case name or path of a case TOML file (not used while a scenario runs: it names its case)"),
+    ParamSpec("scenario", "", "",
+              "embedded scenario name or path of a scenario TOML file (docs/scenarios.md): the machine over time, "
+              "defects appearing and growing, speed and load; '' = the case alone. A change loads the new scenario "
+              "(a bad one is refused with the reason) and switches to it when its first model is ready", live=True),
+    ParamSpec("scenario_time_scale", 1.0, "",
+              "scenario seconds per second of stream (3600: an hour per second)", live=True, range=(1.0e-3, 1.0e7)),
+    ParamSpec("scenario_start", 0.0, "s",
+              "scenario time at the first sample of the stream (and when a scenario is switched on)",
+              range=(0.0, 1.0e9)),
+    ParamSpec("labels", "", "",
+              "labels of the machine, key=value,key=value: copied into every message's ground truth"),
     ParamSpec("machine_id", "", "",
               "machine (fleet) id written into every message; empty: the node's namespace without the "
               "leading '/', or 'bkabem' in the root namespace"),
@@ -49,8 +60,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               "random ball slip: standard deviation of the ball-pass interval as a fraction of it (real bearings "
               "0.01-0.02; smears the high orders)", range=(0.0, 0.1)),
     ParamSpec("defect_depth", None, "m",
-              "dent depth; default the case's dent.depth_m. A change recomputes the 4-DOF excitation in a "
-              "helper process (~2 s) and switches to it at a chunk boundary", live=True, range=(0.0, 1.0e-3)),
+              "depth of the case's first defect; default the case's. A change makes the model in a helper process "
+              "(0.1-2 s; the stream goes on) and switches to it at a chunk boundary; refused while a scenario runs",
+              live=True, range=(0.0, 1.0e-3)),
     ParamSpec("speed_unit", "rad/s", "",
               "unit of the speed topic: rad/s (REP 103), hz or rpm", live=True, choices=("rad/s", "hz", "rpm")),
     ParamSpec("max_speed", None, "rad/s",

@@ -69,12 +69,13 @@ check() { # everything the project imports from this step; quiet unless it fails
   "$PY" - <<'EOF'
 import rclpy
 from rclpy.serialization import deserialize_message, serialize_message
-from bkabem_msgs.msg import BearingFaultFrequencies, VibrationSpectrum, VibrationWaveform
+from bkabem_msgs.msg import BearingFaultFrequencies, Defect, GroundTruth, VibrationSpectrum, VibrationWaveform
 import mcap, mcap_ros2.reader, rosbags.highlevel
 import importlib.util
 if importlib.util.find_spec("rerun") is None:
     raise ImportError("rerun (rerun-sdk) is not installed")
-for cls in (VibrationWaveform, VibrationSpectrum, BearingFaultFrequencies):
+assert hasattr(VibrationWaveform(), "ground_truth"), "bkabem_msgs is older than msg_defs (0.2.0)"
+for cls in (VibrationWaveform, VibrationSpectrum, BearingFaultFrequencies, GroundTruth, Defect):
     m = cls()
     assert deserialize_message(serialize_message(m), cls) == m, cls
 EOF
@@ -177,4 +178,4 @@ if ! check 2>"$STAMPS/check.log"; then
   fi
 fi
 echo "$BUILD_KEY" >"$BUILD_STAMP"
-say "ok: $PY imports rclpy and bkabem_msgs.msg (VibrationWaveform, VibrationSpectrum, BearingFaultFrequencies)"
+say "ok: $PY imports rclpy and bkabem_msgs.msg (VibrationWaveform, VibrationSpectrum, BearingFaultFrequencies, GroundTruth, Defect)"
