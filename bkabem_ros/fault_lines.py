@@ -9,9 +9,10 @@ BPFO, inner race -> BPFI, ball -> 2xBSF, cage -> FTF) also at harmonics 2 and 3.
 whose every line is a BPFO multiple gets three BPFO markers, not fifty, and a run with several
 defects (in DE, NDE or both) marks each defect's line without any change here.
 
-Today's message carries one defect (``defect_bearing``, ``defect_race``, ``defect_length``,
-``defect_depth``, ``defect_angle``); :func:`defects_from_message` is the one place that reads
-it, so a message with a list of defects plugs in there.
+The messages carry the ground truth (``bkabem_msgs/GroundTruth``, 0.2.0): every defect, the
+baseline, the scenario state. :func:`defects_from_message` and :func:`truth_from_message` are
+the one place that reads it; a message recorded with bkabem_msgs 0.1.0 has only its one
+``defect_*`` fields, read as the single defect.
 """
 
 from __future__ import annotations
@@ -19,8 +20,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["DEFECT_LINE", "LINES", "LINE_COLORS", "Defect", "Marker", "defects_from_message",
-           "describe_defect", "line_frequencies", "marker_plan"]
+__all__ = ["DEFECT_LINE", "LINES", "LINE_COLORS", "Defect", "Marker", "Truth", "defects_from_message",
+           "describe_defect", "describe_truth", "line_frequencies", "marker_plan", "truth_from_message"]
 
 #: Fault-frequency lines in display order.
 LINES = ("1x", "FTF", "BPFO", "BPFI", "BSF", "2xBSF")
@@ -48,7 +49,8 @@ DEFECT_HARMONICS = (1, 2, 3)
 class Defect:
     """One simulated defect: ``kind`` ("outer", "inner", "ball", "cage"), ``bearing`` ("de" or
     "nde"), ``length_m`` along the raceway, ``depth_m``, ``angle_rad`` (position of the dent
-    centre from +x towards +y), ``designation`` of the bearing (e.g. "6010")."""
+    centre from +x towards +y), ``designation`` of the bearing (e.g. "6010"), its ``name`` in
+    the scenario or case, ``ball`` (1..z for a ball defect, else 0)."""
 
     kind: str
     bearing: str
@@ -56,6 +58,8 @@ class Defect:
     depth_m: float = 0.0
     angle_rad: float = 0.0
     designation: str = ""
+    name: str = ""
+    ball: int = 0
 
     @property
     def line(self) -> str:
@@ -86,19 +90,104 @@ def line_frequencies(msg) -> dict[str, float]:
             "BPFI": float(msg.bpfi), "BSF": bsf, "2xBSF": 2.0 * bsf}
 
 
+@dataclass(frozen=True)
+class Truth:
+    """The ground truth a message states (``bkabem_msgs/GroundTruth``): its defects, whether the
+    machine is healthy, the baseline, the case, the scenario state and time, the labels.
+    ``available`` is false for a message without one (bkabem_msgs 0.1.0 waveforms)."""
+
+    available: bool
+    defects: tuple = ()
+    healthy: bool = True
+    unbalance_grade_m_s: float = 0.0
+    misalignment_force_n: float = 0.0
+    electrical_force_n: float = 0.0
+    line_frequency_hz: float = 0.0
+    load_factor: float = 1.0
+    case: str = ""
+    scenario: str = ""
+    state_index: int = 0
+    state_label: str = ""
+    state_start_s: float = 0.0
+    scenario_time_s: float = 0.0
+    time_scale: float = 1.0
+    labels: tuple = ()
+
+
+def _designation(msg) -> str:
+    return str(getattr(msg, "bearing_designation", ""))
+
+
+def truth_from_message(msg) -> Truth:
+    """The ground truth of any bkabem message (waveform, spectrum, fault frequencies): from its
+    ``ground_truth`` (bkabem_msgs 0.2.0), or, for a 0.1.0 fault-frequency message, its one
+    ``defect_*`` defect."""
+    g = getattr(msg, "ground_truth", None)
+    if g is not None and bool(getattr(g, "available", False)):
+        defects = tuple(Defect(kind=str(d.kind), bearing=str(d.bearing), length_m=float(d.length),
+                               depth_m=float(d.depth), angle_rad=float(d.angle),
+                               designation=str(d.bearing_designation) or _designation(msg), name=str(d.name),
+                               ball=int(d.ball)) for d in g.defects)
+        return Truth(True, defects, bool(g.healthy), float(g.unbalance_grade), float(g.misalignment_force),
+                     float(g.electrical_force), float(g.line_frequency), float(g.load_factor), str(g.case_name),
+                     str(g.scenario), int(g.state_index), str(g.state_label), float(g.state_start_time),
+                     float(g.scenario_time), float(g.time_scale),
+                     tuple(zip((str(k) for k in g.label_keys), (str(v) for v in g.label_values))))
+    if hasattr(msg, "defect_bearing"):
+        if not (float(msg.defect_length) or float(msg.defect_depth)):
+            return Truth(True, (), True)
+        kind = str(getattr(msg, "defect_race", "outer") or "outer")
+        d = Defect(kind=kind, bearing=str(msg.defect_bearing), length_m=float(msg.defect_length),
+                   depth_m=float(msg.defect_depth), angle_rad=float(msg.defect_angle), designation=_designation(msg),
+                   name="defects[0]")
+        return Truth(True, (d,), not d.depth_m > 0)
+    return Truth(False)
+
+
 def defects_from_message(msg) -> list[Defect]:
-    """The defects a ``BearingFaultFrequencies`` message states (today's message: one)."""
-    kind = str(getattr(msg, "defect_race", "outer") or "outer")
-    return [Defect(kind=kind, bearing=str(msg.defect_bearing), length_m=float(msg.defect_length),
-                   depth_m=float(msg.defect_depth), angle_rad=float(msg.defect_angle),
-                   designation=str(getattr(msg, "bearing_designation", "")))]
+    """Every defect a message states (:func:`truth_from_message`; [] for a healthy machine)."""
+    return list(truth_from_message(msg).defects)
 
 
 def describe_defect(d: Defect) -> str:
-    """One line for people, e.g. ``outer-race dent, DE bearing 6010, 2.00 mm x 50 um at -90 deg``."""
+    """One line for people, e.g. ``outer-race defect, DE bearing 6010, 2.00 mm x 50 um at -90 deg``
+    (a ball defect: ``ball 3 defect, ...``)."""
     size = f"{d.length_m * 1e3:.2f} mm x {d.depth_m * 1e6:.0f} um" if d.length_m or d.depth_m else "size n/a"
-    return (f"{DEFECT_NAMES.get(d.kind, d.kind)} defect, {d.bearing.upper()} bearing"
-            f"{' ' + d.designation if d.designation else ''}, {size} at {math.degrees(d.angle_rad):.0f} deg")
+    what = f"ball {d.ball}" if d.kind == "ball" and d.ball else DEFECT_NAMES.get(d.kind, d.kind)
+    felt = "" if d.depth_m > 0 else " (depth 0: no ball feels it)"
+    return (f"{what} defect, {d.bearing.upper()} bearing"
+            f"{' ' + d.designation if d.designation else ''}, {size} at {math.degrees(d.angle_rad):.0f} deg{felt}")
+
+
+def _hours(t_s: float) -> str:
+    return f"{t_s / 3600:.2f} h" if abs(t_s) >= 3600 else f"{t_s:.1f} s"
+
+
+def describe_truth(t: Truth) -> list[str]:
+    """The machine-wide ground truth for people: healthy or not, baseline, scenario state, labels
+    (one item per line; the defects are described per bearing by :func:`describe_defect`)."""
+    if not t.available:
+        return ["not stated in these messages (recorded with bkabem_msgs 0.1.0)"]
+    out = ["machine **healthy** (no defect a ball feels)" if t.healthy else
+           f"machine **faulty**: {sum(1 for d in t.defects if d.depth_m > 0)} defect(s)"]
+    base = []
+    if t.unbalance_grade_m_s > 0:
+        base.append(f"unbalance G {t.unbalance_grade_m_s * 1e3:g}")
+    if t.misalignment_force_n > 0:
+        base.append(f"misalignment {t.misalignment_force_n:g} N at 2x")
+    if t.electrical_force_n > 0:
+        base.append(f"magnetic pull {t.electrical_force_n:g} N at {2 * t.line_frequency_hz:g} Hz")
+    if t.load_factor != 1.0:
+        base.append(f"radial load x{t.load_factor:g}")
+    out.append("baseline: " + (", ".join(base) if base else "none"))
+    if t.scenario:
+        out.append(f"scenario {t.scenario}: state {t.state_index} ({t.state_label}) since "
+                   f"{_hours(t.state_start_s)}, now {_hours(t.scenario_time_s)} (x{t.time_scale:g})")
+    elif t.case:
+        out.append(f"case {t.case}")
+    if t.labels:
+        out.append("labels: " + ", ".join(f"{k}={v}" for k, v in t.labels))
+    return out
 
 
 def marker_plan(lines: dict[str, float], defects: list[Defect], f_max: float,
@@ -106,7 +195,7 @@ def marker_plan(lines: dict[str, float], defects: list[Defect], f_max: float,
     """Markers for a spectrum shown up to ``f_max`` [Hz]: every line of ``lines`` at its
     fundamental; the lines excited by ``defects`` also at ``harmonics``. Lines at 0 Hz (speed
     0) and markers above ``f_max`` are left out."""
-    excited = {d.line for d in defects}
+    excited = {d.line for d in defects if d.depth_m > 0}
     out = []
     for name in LINES:
         f = float(lines.get(name, 0.0))

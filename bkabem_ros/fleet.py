@@ -5,6 +5,10 @@ Machine ``i`` (0-based) runs as node ``bkabem`` in namespace ``/<prefix><i:02d>`
 ``cases[i % len(cases)]`` (``--case`` is repeatable). ``--defect-depths`` (comma list, m) gives each
 machine its own dent depth, cycled like the cases, so that a fleet holds healthy and damaged machines.
 
+``--scenario mixed`` (or any fleet scenario file, or a machine scenario for every machine) assigns each machine
+its case or scenario and labels instead (:mod:`bkabem_ros.fleet_plan`, docs/scenarios.md): every message of a
+machine carries its ground truth and labels.
+
 Nodes of one process share one executor and one BKA-BEM model per case (the ~2 s preparation is paid
 once per case and process). ``--processes P`` spreads the machines round-robin over P processes
 (default: 1 for up to 4 machines, else the CPU count). Each machine's speed topic is
@@ -124,6 +128,11 @@ def add_parser(sub, add_case):
                    help="case (embedded name or TOML); repeat to cycle several cases over the machines")
     p.add_argument("--defect-depths", default=None, metavar="M[,M...]",
                    help="dent depths in m, cycled over the machines (e.g. 0,2e-5,5e-5)")
+    p.add_argument("--scenario", default=None, metavar="NAME_OR_FILE",
+                   help="fleet scenario (e.g. mixed: healthy, outer, inner, ball machines with labels) or a machine "
+                        "scenario for every machine (docs/scenarios.md); instead of --case/--defect-depths")
+    p.add_argument("--time-scale", type=finite_float("--time-scale", 0.0, strict=True), default=None,
+                   help="scenario seconds per second for every scenario machine (default: the entries' own)")
     p.add_argument("--seed", type=pos_int("--seed", 0), default=0, help="seed of machine 0 (machine i: seed+i)")
     p.add_argument("--prefix", default="machine_", help="namespace prefix (default machine_)")
     p.add_argument("--sample-rate", type=finite_float("--sample-rate", 0.0, strict=True), default=None)
@@ -156,6 +165,21 @@ def main(args) -> int:
         if bad:
             fail("fleet", f"--defect-depths: {bad[0]!r} m is not a dent depth in [0, 0.001] m")
     check_names([("--prefix", "namespace", "/" + machine_names(1, args.prefix)[0])])
+    if args.scenario is not None and args.worker is None:
+        if args.case or depths:
+            fail("fleet", "--scenario: give --scenario or --case/--defect-depths, not both (the scenario assigns "
+                          "the machines' cases)")
+        from bkabem_core.scenario import ScenarioError
+
+        from . import fleet_plan
+
+        try:
+            fleet_plan.load(args.scenario)
+        except ScenarioError as exc:
+            fail("fleet", f"--scenario: {exc.reason}" if exc.key == "scenario" and not exc.source
+                 else f"--scenario: {exc}")
+    elif args.time_scale is not None and args.worker is None:
+        fail("fleet", "--time-scale: only with --scenario")
     from .cli import check_parameter_ranges
 
     check_parameter_ranges({k: v for k, v in {"sample_rate": args.sample_rate,
@@ -179,6 +203,10 @@ def main(args) -> int:
         return run_in_process(json.loads(args.worker), common, ros_args, args.seconds, report)
 
     machines = plan(args.machines, args.case, args.seed, args.prefix, depths)
+    if args.scenario is not None:                   # per-machine case or scenario, and labels (fleet_plan.py)
+        from . import fleet_plan
+
+        fleet_plan.apply(machines, fleet_plan.load(args.scenario), args.time_scale)
     n_proc = args.processes or (1 if args.machines <= 4 else (os.cpu_count() or 1))
     n_proc = min(n_proc, args.machines)
     if n_proc == 1:

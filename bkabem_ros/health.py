@@ -49,7 +49,7 @@ def envelope_finding(f, env, lines: dict[str, float], names: list[str]) -> str:
 
 
 def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], iso_zones: str,
-                window_s: float) -> str:
+                window_s: float, truth: "fault_lines.Truth | None" = None) -> str:
     """Markdown of one bearing's health panel: verdicts first (ISO zone, ground truth,
     envelope finding), then the numbers they rest on and the marker key.
 
@@ -69,6 +69,9 @@ def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], i
         Key of :data:`bkabem_ros.condition.ISO_ZONE_SETS`.
     window_s : float
         The condition window [s] (for "no full window yet").
+    truth : fault_lines.Truth, optional
+        The rest of the ground truth (healthy, baseline, scenario state, labels) for the lines
+        under the defects.
     """
     L = loc.upper()
     names = h.get("names", [])
@@ -82,12 +85,16 @@ def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], i
         out.append(f"**{L} bearing**: no full {window_s:g} s of acceleration yet")
     here = [d for d in defects if d.bearing == loc]
     if here:
-        truth = "; ".join(fault_lines.describe_defect(d) for d in here)
+        text = "; ".join(fault_lines.describe_defect(d) for d in here)
     elif defects:
-        truth = "no defect in this bearing (" + "; ".join(fault_lines.describe_defect(d) for d in defects) + ")"
+        text = "no defect in this bearing (" + "; ".join(fault_lines.describe_defect(d) for d in defects) + ")"
+    elif truth is not None and truth.available:
+        text = "no defect in this bearing"
     else:
-        truth = "no fault-frequency message yet"
-    out += ["", f"**Ground truth**: {truth}"]
+        text = "no fault-frequency message yet"
+    out += ["", f"**Ground truth**: {text}"]
+    if truth is not None:
+        out += [f"- {line}" for line in fault_lines.describe_truth(truth)]
     if "iso" in h:
         b = h["band"]
         out += ["", f"**Envelope** ({b[0] / 1e3:g}-{b[1] / 1e3:g} kHz band): {h['finding']}", ""]

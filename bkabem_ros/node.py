@@ -46,8 +46,6 @@ after construction so a command can attach sinks before the stream starts.
 
 from __future__ import annotations
 
-import math
-import time
 from collections import deque
 from dataclasses import dataclass
 from typing import Any, Callable

@@ -1,7 +1,9 @@
 """Replay an MCAP recording: republish on ROS 2 with the original timing, and/or convert to Rerun.
 
 :func:`replay` reads the stored CDR bytes (:func:`bkabem_ros.mcap_io.iter_raw`), so nothing is
-deserialized for publishing: ``Publisher.publish(bytes)`` sends them as recorded. The spacing of
+deserialized for publishing: ``Publisher.publish(bytes)`` sends them as recorded (messages recorded with
+older ``bkabem_msgs`` definitions are decoded with those and republished as today's messages:
+:mod:`bkabem_ros.msg_compat`, "Versions" in msg_defs/README.md). The spacing of
 the messages is the spacing of their log times divided by ``rate``; headers keep their original
 stamps. With ``clock`` the playback time (the log time of the recording) is published on
 ``/clock`` (``rosgraph_msgs/Clock``) before every message and at ``clock_hz`` in between, so
@@ -23,7 +25,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import mcap_check, mcap_io, msgs
+from . import mcap_check, mcap_io, msg_compat, msgs
 
 #: After --wait-subscribers sees every publisher matched: time for the readers to match back [s].
 DISCOVERY_SETTLE_S = 0.25
@@ -167,8 +169,9 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
     own_context = False
     pubs: dict[str, object] = {}
     clock_pub = None
-    decode = mcap_io._decoder(path) if rerun_logger is not None else None
-    schema_texts = mcap_io._schema_texts(path) if rerun_logger is not None else {}
+    reader = msg_compat.Reader()            # recordings of older bkabem_msgs definitions: decoded and upgraded
+    decode = reader.decode
+    schema_texts = mcap_io._schema_texts(path)
     speed_scale = 1.0          # speed topic unit -> rad/s, from the node's recording metadata
     if rerun_logger is not None:
         from .speed import SPEED_UNITS, normalize_unit  # noqa: PLC0415
@@ -266,12 +269,13 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
                         publish_clock(r.log_time)
                     pub = pubs.get(r.topic)
                     if pub is not None:
-                        pub.publish(r.data)
+                        # as recorded, unless recorded with older definitions: then upgraded to today's, which the
+                        # subscribers (and the publisher's type) have
+                        pub.publish(reader.to_current_cdr(r.type_name, r.data, schema_texts.get(r.type_name)))
                         t = out_topic(r.topic)
                         stats.published[t] = stats.published.get(t, 0) + 1
                 if rerun_logger is not None:
-                    text = None if mcap_io.message_class(r.type_name) else schema_texts.get(r.type_name)
-                    msg = decode(r.type_name, r.data, text)
+                    msg = decode(r.type_name, r.data, schema_texts.get(r.type_name))
                     # publish_time: the node sink stores the node-clock stamp there (sim time too)
                     if r.type_name.endswith("Float64") and r.topic.rstrip("/").endswith("speed"):
                         rerun_logger.log_speed(r.publish_time, float(msg.data) * speed_scale)

@@ -12,7 +12,8 @@ Layout (:func:`blueprint`), DE left, NDE right, each column:
    model (acceleration, displacement), fault-frequency markers;
 3. trends over the whole run (tabs): ISO velocity RMS with the zone limits, the acceleration per
    block (min/max envelope and RMS: the overview that loads fast, ten points per second),
-   displacement peak-to-peak, kurtosis and crest factor;
+   displacement peak-to-peak, kurtosis and crest factor, the ground truth's defect depths (a
+   scenario's growing defects; empty for a healthy bearing);
 4. the health panel: ISO zone, impulsiveness, what the envelope spectrum shows, the ground truth;
 
 and across the bottom shaft speed and fault frequencies over the whole run, each on its own
@@ -54,6 +55,7 @@ def _views(loc: str, quantities):
     if "displacement" in quantities:
         out.append(("trends", f"{L} displacement peak-to-peak [µm]", "trend", f"/{loc}/trend/displacement"))
     out.append(("trends", f"{L} kurtosis and crest factor [-]", "trend", f"/{loc}/trend/impulsiveness"))
+    out.append(("trends", f"{L} ground truth: defect depth [µm]", "trend", f"/{loc}/trend/ground_truth"))
     out.append(("health", f"{L} health", "text", f"/{loc}/health"))
     return out
 

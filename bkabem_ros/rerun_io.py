@@ -18,6 +18,7 @@ The messages are SI; the viewer shows engineers' units, named in every series an
                                                velocity RMS 10-1000 Hz per channel [mm/s]
 ``/<loc>/iso_velocity/zones``                  the zone limits A/B, B/C, C/D [mm/s]
 ``/<loc>/trend/impulsiveness``                 per window: kurtosis and crest factor [-]
+``/<loc>/trend/ground_truth/<defect>``          per fault-frequency message: the defect's depth [µm]
 ``/<loc>/envelope/<channel>``                  per window: envelope spectrum (``BarChart``, Hz)
 ``/<loc>/spectrum/<quantity>/<channel>``       order spectrum of the model, lines k >= 1
 ``/<loc>/{envelope,spectrum/<q>}/markers/<L>`` fault-frequency markers, one entity per line L
@@ -237,6 +238,7 @@ class RerunLogger:
         self._lines: dict[str, float] = {}
         self._lines_speed = 0.0
         self._defects: list[fault_lines.Defect] = []
+        self._truth: fault_lines.Truth | None = None
         self._health: dict[str, dict] = {}
         self._rows: dict[str, tuple[list[int], list[np.ndarray]]] = {}
         self._waves: dict[str, dict] = {}
@@ -478,7 +480,7 @@ class RerunLogger:
                  finding=health.envelope_finding(f, env, lines, names),
                  speed_hz=speed_rad_s / (2 * math.pi), lines=lines)
         text = health.health_text(loc, self._health.get(loc, {}), self._defects, self._lines, self.iso_zones,
-                                  self.condition_window_s)
+                                  self.condition_window_s, self._truth)
         self.rec.log(f"/{loc}/health", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
 
     def _envelope_range(self, lines: dict[str, float], band: tuple[float, float]) -> float:
@@ -576,15 +578,37 @@ class RerunLogger:
 
     def log_fault_frequencies(self, msg) -> None:
         """``BearingFaultFrequencies``: the lines (1x, FTF, BPFO, BPFI, BSF, 2xBSF [Hz]) in the
-        marker colours, and the run's ground-truth defects for markers and health panels."""
+        marker colours, and the run's ground truth (every defect, the machine's state) for
+        markers, health panels and the ground-truth trend (defect depths over the run)."""
         lines = fault_lines.line_frequencies(msg)
+        truth = fault_lines.truth_from_message(msg)
+        stamp = msgs.stamp_to_ns(msg.header)
         with self._lock:
             self._series("/fault_frequencies", [f"{name} [Hz]" for name in fault_lines.LINES],
                          [fault_lines.LINE_COLORS[name] for name in fault_lines.LINES])
-            self._scalars("/fault_frequencies", [lines[name] for name in fault_lines.LINES],
-                          msgs.stamp_to_ns(msg.header), batch=False)
+            self._scalars("/fault_frequencies", [lines[name] for name in fault_lines.LINES], stamp, batch=False)
             self._lines, self._lines_speed = lines, float(msg.shaft_speed)
-            self._defects = fault_lines.defects_from_message(msg)
+            self._defects = list(truth.defects)
+            self._truth = truth
+            self._log_truth_trend(truth, stamp)
+
+    def _log_truth_trend(self, truth: "fault_lines.Truth", stamp: int) -> None:
+        """``/<loc>/trend/ground_truth/<defect>``: the depth [µm] of every defect of the run (from
+        the fault-frequency messages; a defect that disappears is logged as 0)."""
+        if not truth.available:
+            return
+        seen = self.__dict__.setdefault("_truth_paths", {})           # path -> defect, once seen
+        now = {}
+        for d in truth.defects:
+            slug = "".join(ch if ch.isalnum() else "_" for ch in (d.name or d.kind)).strip("_") or "defect"
+            now[f"/{d.bearing}/trend/ground_truth/{slug}"] = d
+        for path, d in now.items():
+            seen.setdefault(path, d)
+        for path, d in seen.items():
+            cur = now.get(path)
+            self._series(path, [f"{d.name or d.kind} ({fault_lines.DEFECT_NAMES.get(d.kind, d.kind)}) depth [µm]"],
+                         [fault_lines.LINE_COLORS[fault_lines.DEFECT_LINE.get(d.kind, "BPFO")]], widths=[2.0])
+            self._scalars(path, [cur.depth_m * 1e6 if cur is not None else 0.0], stamp)
 
     def log_features(self, location: str, stamp_ns: int, features: Mapping[str, float]) -> None:
         """Extra per-chunk scalars, e.g. ``{"oil_temperature_C": 61.0}``, under

@@ -1,8 +1,16 @@
-"""``bkabem synth``: render sensor waveforms of a case under a speed profile to .npz or .csv (+ a figure).
+"""``bkabem synth``: render sensor waveforms of a case under a speed profile, or of a scenario, to .npz or .csv.
 
     bkabem synth --profile constant:25 --seconds 10 --rate 51200 --out run.npz
     bkabem synth --profile ramp:0:50:10 --rate 51200 --out ramp.csv --png ramp.png
     bkabem synth --profile speeds.csv --out run.npz --slip 0.01 --noise-acc 1e-3 --seed 7
+    bkabem synth --scenario de_outer_run_to_failure --time-scale 3600 --out rtf.npz     # 12 h in 12 s
+
+With ``--scenario`` (docs/scenarios.md) the machine changes over scenario time (``--time-scale`` scenario seconds
+per second of signal, ``--scenario-start`` the scenario time of the first sample): its speed profile (or
+``--profile`` in signal time when it has none), its defects state by state, switched at chunk borders
+(:class:`bkabem_core.scenario_run.ScenarioRun`). ``--seconds`` defaults to the rest of the scenario. The ``.npz``
+then also holds, per chunk, ``chunk_state_index``, ``chunk_scenario_time_s`` and ``chunk_healthy``, and in its
+metadata the scenario with every state's ground truth (``scenario.states``); the ``.csv`` a ``state`` column.
 
 Output
 ------
@@ -47,9 +55,13 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
     """Options of ``bkabem synth`` (``--case`` is added by the main CLI; ``with_case`` for standalone use)."""
     if with_case:
         p.add_argument("--case", default=None, help="embedded case name or TOML file (default: electric_motor_6010)")
-    p.add_argument("--profile", required=True,
+    p.add_argument("--profile", default=None,
                    help="constant:F | ramp:F0:F1:T | steps:F1,F2,...:T | FILE.csv (speeds in Hz, times in s; CSV "
-                        "header time_s,speed_hz|speed_rpm|speed_rad_s)")
+                        "header time_s,speed_hz|speed_rpm|speed_rad_s); required without --scenario")
+    p.add_argument("--scenario", default=None, metavar="NAME_OR_FILE",
+                   help="scenario (embedded name or TOML, docs/scenarios.md) instead of --case: the machine over time")
+    p.add_argument("--time-scale", default=None, help="scenario seconds per second of signal (default 1; e.g. 3600)")
+    p.add_argument("--scenario-start", default=None, help="scenario time of the first sample [s] (default 0)")
     p.add_argument("--seconds", default=None,
                    help="duration [s] (default: the profile's last breakpoint; required for constant profiles)")
     p.add_argument("--rate", default="25600", help="sample rate [Hz] (default 25600)")
@@ -95,9 +107,18 @@ def _num(name: str, text, kind=float, minimum=None, strict=False, allow_none=Fal
 
 def _settings(args) -> dict:
     """Validated settings from the Namespace (raises SynthError naming the option)."""
-    profile = parse_profile(args.profile)
+    scenario = getattr(args, "scenario", None)
+    if scenario is None:
+        for opt in ("time_scale", "scenario_start"):
+            if getattr(args, opt, None) is not None:
+                raise SynthError("--" + opt.replace("_", "-"), "only with --scenario")
+        if args.profile is None:
+            raise SynthError("--profile", "is required (or --scenario)")
+    elif getattr(args, "case", None) is not None:
+        raise SynthError("--case", "give --case or --scenario, not both (the scenario names its case)")
+    profile = parse_profile(args.profile) if args.profile is not None else None
     seconds = _num("--seconds", args.seconds, float, 0.0, strict=True, allow_none=True, maximum=MAX_SECONDS)
-    if seconds is None:
+    if seconds is None and scenario is None:
         if profile.duration_s <= 0:
             raise SynthError("--seconds", "is required for a constant profile")
         seconds = profile.duration_s
@@ -116,8 +137,13 @@ def _settings(args) -> dict:
                maximum=SNR_DB_RANGE[1])
     if dens and snr is not None:
         raise SynthError("--snr-db", "give noise densities or --snr-db, not both")
+    from bkabem_core.scenario_run import TIME_SCALE_RANGE
+
     return {
-        "profile": profile, "seconds": seconds, "out": out,
+        "profile": profile, "seconds": seconds, "out": out, "scenario": scenario,
+        "time_scale": _num("--time-scale", getattr(args, "time_scale", None), float, TIME_SCALE_RANGE[0],
+                           allow_none=True, maximum=TIME_SCALE_RANGE[1]),
+        "scenario_start": _num("--scenario-start", getattr(args, "scenario_start", None), float, 0.0, allow_none=True),
         "rate": _num("--rate", args.rate, float, 0.0, strict=True),
         "chunk": _num("--chunk", args.chunk, float, 0.0, strict=True, maximum=MAX_CHUNK_S),
         "seed": _num("--seed", args.seed, int, 0),
@@ -162,7 +188,7 @@ class _NpzWriter:
         np.lib.format.write_array_header_2_0(self.fh, header)
         self.written = 0
 
-    def write(self, chunk) -> None:
+    def write(self, chunk, state: int | None = None) -> None:
         block = np.ascontiguousarray(chunk.samples.T)                 # (n, C) sample-major
         self.fh.write(block.tobytes())
         self.written += block.shape[0]
@@ -193,19 +219,31 @@ class _NpzWriter:
             pass
 
 
+def _chunk_speed(chunk) -> np.ndarray:
+    """Shaft speed [Hz] per sample of a streamed chunk (linear from its first to its end speed)."""
+    return chunk.shaft_speed_hz + (chunk.shaft_speed_end_hz - chunk.shaft_speed_hz) * (
+        np.arange(chunk.n_samples) / chunk.n_samples)
+
+
 class _CsvWriter:
-    def __init__(self, path: Path, synth: Synthesizer, profile, metadata: dict):
+    def __init__(self, path: Path, synth: Synthesizer, profile, metadata: dict, state_column: bool = False):
         self.fh = open(path, "w", newline="")
         self.profile = profile
         self.fs = synth.sample_rate_hz
+        self.state_column = state_column
         cols = ["time_s", "speed_hz"] + [f"{n}_{_UNIT_SUFFIX[u]}" for n, u in zip(synth.channel_names, synth.units)]
+        if state_column:
+            cols.append("state")
         self.fh.write("# metadata: " + json.dumps(metadata) + "\n")
         self.fh.write(",".join(cols) + "\n")
 
-    def write(self, chunk) -> None:
+    def write(self, chunk, state: int | None = None) -> None:
         t = chunk.time_s
-        block = np.column_stack([t, self.profile.speed_hz(t), chunk.samples.T.astype(np.float64)])
-        np.savetxt(self.fh, block, fmt="%.9g", delimiter=",")
+        speed = self.profile.speed_hz(t) if self.profile is not None else _chunk_speed(chunk)
+        cols = [t, speed, chunk.samples.T.astype(np.float64)]
+        if self.state_column:
+            cols.append(np.full(t.size, float(state)))
+        np.savetxt(self.fh, np.column_stack(cols), fmt="%.9g", delimiter=",")
 
     def close(self) -> None:
         self.fh.close()
@@ -256,6 +294,50 @@ def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_
     plt.close(fig)
 
 
+def _scenario_run(st, args):
+    """(ScenarioRun, its chunk iterator, metadata, title) of ``--scenario`` (raises UsageError)."""
+    from bkabem_core.scenario import Scenario, ScenarioError
+    from bkabem_core.scenario_run import ScenarioRun
+
+    try:
+        scenario = Scenario.load(st["scenario"])
+    except ScenarioError as exc:
+        raise UsageError(f"--scenario: {exc.reason}" if exc.key == "scenario" and not exc.source
+                         else f"--scenario: {exc}") from None
+    if scenario.has_speed and st["profile"] is not None:
+        raise UsageError(f"--profile: scenario {scenario.name!r} has its own [speed] profile")
+    if not scenario.has_speed and st["profile"] is None:
+        raise UsageError(f"--profile: scenario {scenario.name!r} has no [speed] profile: give one")
+    if st["profile"] is not None:
+        top = st["profile"].max_speed_hz(st["seconds"] or 1e9)
+        if top > scenario.case.max_speed_hz:
+            raise UsageError(f"--profile: {top:g} Hz is above the case's operating.max_speed_hz "
+                             f"({scenario.case.max_speed_hz:g} Hz)")
+    scale = st["time_scale"] if st["time_scale"] is not None else 1.0
+    start = st["scenario_start"] or 0.0
+    if start >= scenario.duration_s and st["seconds"] is None:
+        raise UsageError(f"--scenario-start: {start:g} s is at or after the scenario's end ({scenario.duration_s:g} s); "
+                         f"give --seconds to render its last state")
+    try:
+        run = ScenarioRun(scenario, time_scale=scale, start_s=start, sample_rate_hz=st["rate"], chunk_s=st["chunk"],
+                          speed=st["profile"], quantities=st["quantities"], noise_density=st["noise_density"],
+                          snr_db=st["snr_db"], slip=st["slip"], seed=st["seed"], max_order=st["max_order"],
+                          band_limit=args.band_limit, spectrum=args.spectrum,
+                          dtype=np.float64 if args.float64 else np.float32)
+        seconds = st["seconds"] if st["seconds"] is not None else run.seconds_to_end()
+        if seconds > MAX_SECONDS:
+            raise SynthError("--seconds", f"the scenario takes {seconds:g} s of signal at --time-scale {scale:g}, more "
+                                          f"than {MAX_SECONDS:g} s: raise --time-scale or give --seconds")
+    except SynthError as exc:
+        raise UsageError(str(_rename(exc))) from None
+    st["seconds"] = seconds
+    meta = {"scenario": scenario.to_dict(), "time_scale": scale, "scenario_start_s": start,
+            "states_ground_truth": [scenario.ground_truth(state, state.start_s, None, scale)
+                                    for state in scenario.states]}
+    title = f"scenario {scenario.name} ({scenario.scenario_hash}), x{scale:g}"
+    return run, run.chunks(seconds), meta, title
+
+
 def synth_main(args) -> int:
     """The ``bkabem synth`` command for an argparse Namespace; returns the exit code."""
     from bkabem_core.case import Case
@@ -265,37 +347,47 @@ def synth_main(args) -> int:
         st = _settings(args)
     except SynthError as exc:
         raise UsageError(str(_rename(exc))) from None
-    case = Case.load(getattr(args, "case", None))
-    top = st["profile"].max_speed_hz(st["seconds"])
-    if top > case.max_speed_hz:
-        raise UsageError(f"--profile: {top:g} Hz is above the case's operating.max_speed_hz ({case.max_speed_hz:g} Hz; "
-                         f"raise it in the case file if the machine runs faster)")
     t_start = time.perf_counter()
-    model = BkaBem(case)
-    t_model = time.perf_counter() - t_start
-    try:
-        synth = Synthesizer(model, sample_rate_hz=st["rate"], chunk_s=st["chunk"], quantities=st["quantities"],
-                            noise_density=st["noise_density"], snr_db=st["snr_db"], slip=st["slip"],
-                            seed=st["seed"], max_order=st["max_order"], band_limit=args.band_limit,
-                            spectrum=args.spectrum, dtype=np.float64 if args.float64 else np.float32)
-        chunks = synth.render(st["profile"], st["seconds"])
-    except SynthError as exc:
-        raise UsageError(str(_rename(exc))) from None
+    run = None
+    if st["scenario"] is not None:
+        run, chunks, scen_meta, title = _scenario_run(st, args)
+        synth, case = run.synth, run.scenario.case
+        t_model = time.perf_counter() - t_start
+    else:
+        case = Case.load(getattr(args, "case", None))
+        top = st["profile"].max_speed_hz(st["seconds"])
+        if top > case.max_speed_hz:
+            raise UsageError(f"--profile: {top:g} Hz is above the case's operating.max_speed_hz ({case.max_speed_hz:g} "
+                             f"Hz; raise it in the case file if the machine runs faster)")
+        model = BkaBem(case)
+        t_model = time.perf_counter() - t_start
+        try:
+            synth = Synthesizer(model, sample_rate_hz=st["rate"], chunk_s=st["chunk"], quantities=st["quantities"],
+                                noise_density=st["noise_density"], snr_db=st["snr_db"], slip=st["slip"],
+                                seed=st["seed"], max_order=st["max_order"], band_limit=args.band_limit,
+                                spectrum=args.spectrum, dtype=np.float64 if args.float64 else np.float32)
+            chunks = ((ch, None) for ch in synth.render(st["profile"], st["seconds"]))
+        except SynthError as exc:
+            raise UsageError(str(_rename(exc))) from None
+        title = f"{case.name} ({synth._gt_base['case_hash']}): {st['profile'].spec}"
     fs = synth.sample_rate_hz
     n_total = int(round(st["seconds"] * fs))
     out = st["out"]
     out.parent.mkdir(parents=True, exist_ok=True)
-    meta = {"command": "bkabem synth", "profile": st["profile"].to_dict(), "seconds": st["seconds"],
-            "n_samples": n_total, "synthesizer": synth.info(), "ground_truth": dict(synth._gt_base),
-            "units": dict(zip(synth.channel_names, synth.units)),
+    meta = {"command": "bkabem synth", "profile": None if st["profile"] is None else st["profile"].to_dict(),
+            "seconds": st["seconds"], "n_samples": n_total, "synthesizer": synth.info(),
+            "ground_truth": dict(synth._gt_base), "units": dict(zip(synth.channel_names, synth.units)),
             "sample_time": "sample i is at i / sample_rate_hz seconds; cage angle 0 at t = 0"}
+    if run is not None:
+        meta.update(scen_meta)
+        meta["ground_truth"] = meta["states_ground_truth"][run.driver.applied.index]
     csv_mode = out.suffix.lower() == ".csv"
     with writing("--out", out):
-        writer = _CsvWriter(out, synth, st["profile"], meta) if csv_mode else \
-            _NpzWriter(out, len(synth.channel_names), n_total, synth.dtype)
+        writer = _CsvWriter(out, synth, None if run is not None else st["profile"], meta, state_column=run is not None) \
+            if csv_mode else _NpzWriter(out, len(synth.channel_names), n_total, synth.dtype)
     try:
         feats = {k: [] for k in FEATURE_NAMES}
-        iso, first, speed = [], [], []
+        iso, first, speed, speed_end, states, scen_t, healthy = [], [], [], [], [], [], []
         keep = int(min(n_total, fs * 1.0))                       # excerpt for the figure: the last second
         ring: list[np.ndarray] = []
         ring_n = 0
@@ -305,15 +397,20 @@ def synth_main(args) -> int:
             bar = tqdm(total=n_total, unit="sample", unit_scale=True, desc="synth", file=sys.stderr)
         t0 = time.perf_counter()
         try:
-            for ch in chunks:
+            for ch, truth in chunks:
                 if not np.all(np.isfinite(ch.samples)):        # the last check before anything is written
                     raise UsageError(f"samples {ch.first_sample_index}..: not finite (NaN or inf) - an option "
                                      f"({', '.join(_noise_options(args)) or 'the case'}) is outside what float32 "
                                      f"samples can hold")
                 with writing("--out", out):
-                    writer.write(ch)
+                    writer.write(ch, None if truth is None else truth["state_index"])
                 first.append(ch.first_sample_index)
                 speed.append(ch.shaft_speed_hz)
+                speed_end.append(ch.shaft_speed_end_hz)
+                if truth is not None:
+                    states.append(truth["state_index"])
+                    scen_t.append(truth["scenario_time_s"])
+                    healthy.append(truth["healthy"])
                 for k in FEATURE_NAMES:
                     feats[k].append(ch.features[k])
                 iso.append([[v["vertical"], v["horizontal"], v["overall"]]
@@ -333,6 +430,8 @@ def synth_main(args) -> int:
         t_synth = time.perf_counter() - t0
         meta["timing_s"] = {"model": t_model, "synthesis": t_synth, "real_time_factor": st["seconds"] / t_synth}
         meta["synthesizer"]["spectrum"] = synth.spectrum_method
+        if run is not None:
+            meta["timing_s"]["state_models"] = dict(run.models.pool.build_times_s)
         if csv_mode:
             with writing("--out", out):
                 writer.close()
@@ -340,11 +439,19 @@ def synth_main(args) -> int:
             profile = st["profile"]
 
             def speeds():
+                if run is not None:                    # streamed chunks: speed linear within each chunk
+                    for i, f0, f1 in zip(first, speed, speed_end):
+                        m = min(synth.chunk_samples, n_total - i)
+                        yield f0 + (f1 - f0) * (np.arange(m) / m)
+                    return
                 for i in range(0, n_total, 1 << 16):
                     yield profile.speed_hz((i + np.arange(min(1 << 16, n_total - i))) / fs)
 
             arrays = {"chunk_first_sample": np.array(first, dtype=np.int64), "chunk_speed_hz": np.array(speed),
                       "iso10816_velocity_rms_mm_s": np.array(iso)}
+            if run is not None:
+                arrays.update({"chunk_state_index": np.array(states, dtype=np.int64),
+                               "chunk_scenario_time_s": np.array(scen_t), "chunk_healthy": np.array(healthy)})
             arrays.update({f"features_{k}": np.array(v) for k, v in feats.items()})
             with writing("--out", out):
                 writer.finish(arrays, speeds, meta)
@@ -353,26 +460,30 @@ def synth_main(args) -> int:
         raise
     if args.png:
         excerpt = np.concatenate(ring, axis=1)[:, -keep:] if ring else np.zeros((len(synth.channel_names), 1))
-        prof = st["profile"]
-        for length in (1.0, 0.5, 0.25, 0.1, 0.05):              # a window where the speed is nearly steady
-            n_ex = min(excerpt.shape[1], int(length * fs))
-            sp = prof.speed_hz((n_total - np.arange(n_ex)) / fs)
-            if sp.max() - sp.min() <= 0.01 * max(sp.mean(), 1e-9):
-                break
+        n_ex = min(excerpt.shape[1], int(fs))
+        if run is None:
+            prof = st["profile"]
+            for length in (1.0, 0.5, 0.25, 0.1, 0.05):              # a window where the speed is nearly steady
+                n_ex = min(excerpt.shape[1], int(length * fs))
+                sp = prof.speed_hz((n_total - np.arange(n_ex)) / fs)
+                if sp.max() - sp.min() <= 0.01 * max(sp.mean(), 1e-9):
+                    break
+            mean_speed = float(prof.speed_hz((n_total - n_ex / 2) / fs))
+        else:
+            mean_speed = float(speed_end[-1]) if speed_end else 0.0
         excerpt = excerpt[:, -n_ex:]
-        mean_speed = float(prof.speed_hz((n_total - n_ex / 2) / fs))
         with writing("--png", args.png):
-            _plot(Path(args.png), excerpt, fs, synth, mean_speed,
-                  f"{case.name} ({synth._gt_base['case_hash']}): {st['profile'].spec}, {fs:g} Hz, seed {synth.seed}")
+            _plot(Path(args.png), excerpt, fs, synth, mean_speed, f"{title}, {fs:g} Hz, seed {synth.seed}")
     print(f"wrote {out}: {len(synth.channel_names)} channels x {n_total} samples at {fs:g} Hz "
           f"({st['seconds']:g} s in {t_synth:.2f} s, {st['seconds'] / t_synth:.0f}x real time)"
+          + (f", {len(set(states))} scenario states" if run is not None else "")
           + (f", figure {args.png}" if args.png else ""))
     return 0
 
 
 def add_parser(sub):
     """Register ``bkabem synth`` on an argparse subparsers object."""
-    p = sub.add_parser("synth", help="synthesise sensor waveforms under a speed profile")
+    p = sub.add_parser("synth", help="synthesise sensor waveforms under a speed profile, or of a scenario")
     add_synth_arguments(p, with_case=True)
     p.set_defaults(func=synth_main)
     return p
