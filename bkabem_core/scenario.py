@@ -175,10 +175,10 @@ class DefectTrack:
         return _interp(self.time_s, self.length_m, t_s, self.growth), _interp(self.time_s, self.depth_m, t_s,
                                                                              self.growth)
 
-    def boundaries(self, step: float, end_s: float) -> list[float]:
+    def boundaries(self, step: float, end_s: float, limit: int = MAX_STATES) -> list[float]:
         """Times [s] at which this defect makes a new state: its appearance, its points, and every time its length
         or depth has moved by ``step`` of its size at the last one (at least ``step`` x a tenth of its largest
-        size, so that growth from 0 takes finitely many states)."""
+        size, so that growth from 0 takes finitely many states). Stops past ``limit`` boundaries."""
         out = [self.time_s[0]]
         floors = (0.1 * max(self.length_m), 0.1 * max(self.depth_m))
         for i in range(len(self.time_s) - 1):
@@ -196,7 +196,7 @@ class DefectTrack:
                     tc = _time_of(ta, tb, va, vb, target, self.growth)
                     if tc is not None and t < tc < nxt:
                         nxt = tc
-                if nxt >= tb or nxt > end_s or tb - nxt < 0.5 * (nxt - t):
+                if nxt >= tb or nxt > end_s or tb - nxt < 0.5 * (nxt - t) or len(out) > limit:
                     break                       # (a last step of less than half a step: the point ends it)
                 out.append(nxt)
                 t = nxt
