@@ -1,6 +1,8 @@
 """``bkabem echo``: one line per message on bkabem's topics (the ros2 CLI is not available as wheels).
 
-Each line: topic, header stamp (s), first sample index, RMS per channel, shaft speed (rad/s). Without
+Each line: topic, header stamp (s), first sample index, RMS per channel, shaft speed (rad/s), the ground truth
+(``truth="..."``: the machine's state, its scenario and scenario time; ``n/a`` for a message recorded without it,
+bkabem_msgs 0.1.0) and the machine's labels. Without
 topics it follows every bkabem topic of ``--namespace``: the four waveforms, the two spectra, the fault
 frequencies and the speed input. ``--json`` prints one JSON object per line instead.
 
@@ -74,7 +76,24 @@ def summarize(topic: str, type_name: str, msg, receive_ns: int | None = None) ->
         out.update(stamp_ns=receive_ns, index=None, value=float(msg.data))
     else:
         out.update(stamp_ns=None, index=None)
+    if type_name.startswith("bkabem_msgs/"):
+        from .msgs import ground_truth_dict
+
+        out["ground_truth"] = ground_truth_dict(msg)
     return out
+
+
+def _truth_text(gt: dict | None) -> str | None:
+    """``truth=...`` of a line: the state of the machine the message states (n/a: recorded without it)."""
+    if gt is None:
+        return None
+    if not gt.get("available"):
+        return "truth=n/a"
+    text = gt["state_label"] or ("healthy" if gt["healthy"] else "faulty")
+    if gt["scenario"]:
+        text = f"{gt['scenario']}[{gt['state_index']}] {text} @{gt['scenario_time_s']:.6g}s"
+    labels = ",".join(f"{k}={v}" for k, v in gt.get("labels", {}).items())
+    return f"truth=\"{text}\"" + (f" labels={labels}" if labels else "")
 
 
 def format_line(d: dict) -> str:
@@ -94,6 +113,9 @@ def format_line(d: dict) -> str:
                   f"bsf={d['bsf_hz']:.4f} Hz", f"speed={d['speed_rad_s']:.4f} rad/s"]
     elif d["type"] == "Float64":
         parts += ["index=-", f"value={d['value']:.6g}"]
+    truth = _truth_text(d.get("ground_truth"))
+    if truth:
+        parts.append(truth)
     return "  ".join(parts)
 
 

@@ -427,7 +427,7 @@ def ground_truth_dict(msg) -> dict:
     g = getattr(msg, "ground_truth", msg)
     if g is None or not hasattr(g, "available") or not bool(g.available):
         return {"available": False}
-    defects = [{"name": str(d.name), "kind": str(d.kind), "bearing": str(d.bearing),
+    defects = [{"name": str(d.name), "kind": str(d.kind), "race": str(d.kind), "bearing": str(d.bearing),
                 "bearing_designation": str(d.bearing_designation), "ball": int(d.ball),
                 "length_m": float(d.length), "depth_m": float(d.depth), "angle_rad": float(d.angle),
                 "edge": str(d.edge), "fault_frequency": str(d.fault_frequency),
