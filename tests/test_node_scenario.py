@@ -308,3 +308,166 @@ def test_fleet_mixed_scenario_gives_every_machine_its_defects_and_labels():
             (d,) = gt["defects"]
             assert d["kind"] == kind and d["bearing"] == "de" and not gt["healthy"]
             assert d["fault_frequency"] == {"outer": "bpfo", "inner": "bpfi", "ball": "bsf"}[kind]
+
+
+DET_SCENARIO = """
+[scenario]
+name = "det_test"
+schema_version = 1
+case = "motor_6010_healthy"
+duration_s = 1200.0
+size_step = 0.5
+
+[labels]
+purpose = "determinism"
+
+[speed]
+time_s = [0.0, 1200.0]
+speed_hz = [22.0, 28.0]
+
+[[defects]]
+name = "de_outer"
+bearing = "de"
+race = "outer"
+angle_deg = -90.0
+time_s = [600.0, 960.0]
+length_m = [0.5e-3, 2.0e-3]
+depth_m = [10e-6, 40e-6]
+"""
+DET_SCALE = 60.0            # scenario s per stream s: the dent appears 10 s into the stream, grows until 16 s
+DET_CHUNKS = 190
+
+
+def _in_time(sc, gt) -> bool:
+    """The state in the signal is the one the timeline has at the chunk's scenario time (its model came in time)."""
+    return gt["state_index"] == sc.state_index_at(gt["scenario_time_s"])
+
+
+def test_scenario_by_ros_parameters_same_seed_same_stream_recorded_echoed_and_viewed(tmp_path):
+    """``bkabem node --ros-args -p scenario:=FILE -p scenario_time_scale:=60``, three node processes at once: two
+    with seed 7, one with seed 8 (slip and noise on). While every state came in time (the ground truth says which
+    state is in the signal), the two seed-7 streams are the same bits and the seed-8 one differs in every chunk with
+    the same ground truth. Node A's messages are followed by ``bkabem echo --json`` (a subscriber process: every
+    message has its ground truth, the same as received here), recorded to MCAP (read back with rosbags: the ground
+    truth of every message, the same as on DDS) and to a ``.rrd`` (the health panel and the ground-truth trend
+    follow the states)."""
+    from bkabem_msgs.msg import VibrationWaveform
+
+    from bkabem_core.scenario import Scenario
+
+    src = tmp_path / "det.toml"
+    src.write_text(DET_SCENARIO)
+    raw = _toml(DET_SCENARIO)
+    sc = Scenario.from_toml(DET_SCENARIO)
+    assert len(sc.states) >= 4
+    seeds = {"a": 7, "b": 7, "c": 8}
+    ns = {k: unique_namespace(f"det{k}") for k in seeds}
+    topic = {k: f"{ns[k]}/vibration/de/acceleration" for k in seeds}
+    mcap, rrd = tmp_path / "a.mcap", tmp_path / "a.rrd"
+    lis = Listener("det_listener")
+    for k in seeds:
+        lis.subscribe(topic[k], VibrationWaveform, reliable=True, depth=5000)
+    echo = Proc(bkabem_cmd("echo", "--namespace", ns["a"], "--qos", "reliable", "--json"), name="echo")
+    nodes = {}
+    try:
+        for k, seed in seeds.items():
+            extra = ["--record", str(mcap), "--rerun-save", str(rrd)] if k == "a" else []
+            nodes[k] = Proc(bkabem_cmd("node", "--namespace", ns[k], "--sample-rate", str(FS), "--chunk-duration",
+                                       str(CHUNK), "--qos", "reliable", *extra, "--ros-args",
+                                       "-p", f"scenario:={src}", "-p", f"scenario_time_scale:={DET_SCALE}",
+                                       "-p", f"seed:={seed}", "-p", "slip:=0.01",
+                                       "-p", f"noise.acceleration:={NOISE_RMS}", "-p", "qos_depth:=200"),
+                            name=f"node {k}")
+        for k in seeds:
+            nodes[k].wait_for(r"streaming from t0", timeout=120)
+        for k in seeds:
+            lis.wait_for(topic[k], lambda it: len(it) >= DET_CHUNKS, timeout=120)
+        for k in seeds:
+            assert nodes[k].stop(signal.SIGINT, timeout=60) == 0, nodes[k].text[-3000:]
+        time.sleep(0.5)
+    finally:
+        for p in nodes.values():
+            p.kill()
+        echo.stop(signal.SIGINT)
+        lis.close()
+    # (a node may stream for a moment before this subscription has matched it: compare from the first chunk
+    # all three sent here on)
+    got = {k: [m for _, m in lis.get(topic[k])] for k in seeds}
+    for k in seeds:
+        idx = [m.first_sample_index for m in got[k]]
+        assert idx == list(range(idx[0], idx[0] + N * len(idx), N)), f"node {k}: a gap or repeat in the stream"
+        assert idx[0] <= 3 * int(FS), f"node {k}: its first {idx[0] / FS:g} s were not received"
+    first = max(got[k][0].first_sample_index for k in seeds)
+    waves = {k: [m for m in got[k] if m.first_sample_index >= first][:DET_CHUNKS - 30] for k in seeds}
+    assert all(len(w) == DET_CHUNKS - 30 for w in waves.values())
+    truths = {k: [_gt(m) for m in waves[k]] for k in seeds}
+    for k in seeds:
+        for m, gt in zip(waves[k], truths[k]):
+            ts = m.first_sample_index / FS * DET_SCALE
+            assert gt["scenario"] == "det_test" and gt["time_scale"] == DET_SCALE
+            assert gt["labels"] == {"purpose": "determinism"}
+            check_truth(raw, gt, ts, sc.size_step, m.shaft_speed / (2 * math.pi), exact=_in_time(sc, gt))
+    # the seed-7 streams are the same while both had every state in time; that covers state changes
+    n_same = next((i for i in range(len(waves["a"]))
+                   if not (_in_time(sc, truths["a"][i]) and _in_time(sc, truths["b"][i]))), len(waves["a"]))
+    changes = sum(1 for i in range(1, n_same) if truths["a"][i]["state_index"] != truths["a"][i - 1]["state_index"])
+    print(f"same-seed streams compared over {n_same} chunks with {changes} state changes")
+    log = "\n".join(ln for ln in nodes["a"].lines + nodes["b"].lines if "scenario state" in ln or "prepared" in ln)
+    assert changes >= 2, (f"only {changes} state changes before a model came late (chunk {n_same}): the helper "
+                          f"processes were too slow on this machine:\n{log}")
+    for i in range(n_same):
+        a, b, c = (waves[k][i] for k in "abc")
+        assert truths["a"][i] == truths["b"][i]
+        assert np.array_equal(np.asarray(a.data), np.asarray(b.data)), f"seed 7 twice: chunk {i} differs"
+        assert not np.array_equal(np.asarray(a.data), np.asarray(c.data)), f"seeds 7 and 8: chunk {i} the same"
+        if _in_time(sc, truths["c"][i]):
+            assert truths["c"][i] == truths["a"][i]
+    # echo (a subscriber process): every message of node A with its ground truth, the same as received here
+    import json
+
+    lines = [json.loads(ln) for ln in echo.lines if ln.startswith("{")]
+    by_index = {m.first_sample_index: _gt(m) for m in got["a"]}
+    echoed = [d for d in lines if d["topic"] == topic["a"] and d["index"] in by_index]
+    assert len(echoed) >= DET_CHUNKS - 40, echo.text[-2000:]
+    for d in echoed:
+        assert d["ground_truth"] == by_index[d["index"]]
+    kinds = {d["type"] for d in lines}
+    assert {"VibrationWaveform", "VibrationSpectrum", "BearingFaultFrequencies"} <= kinds
+    assert all(d["ground_truth"]["available"] for d in lines if d["type"] != "Float64")
+    # the recording: ros2 profile, rosbags reads the ground truth of every message: the same as on DDS
+    from mcap.reader import make_reader
+    from rosbags.highlevel import AnyReader
+
+    with open(mcap, "rb") as fh:
+        assert make_reader(fh).get_header().profile == "ros2"
+    recorded = {}
+    n_msgs = 0
+    with AnyReader([mcap]) as r:
+        for conn, _t, rawmsg in r.messages():
+            if not conn.msgtype.startswith("bkabem_msgs/"):
+                continue
+            m = r.deserialize(rawmsg, conn.msgtype)
+            gt = _gt(m)
+            n_msgs += 1
+            assert gt["available"] and gt["scenario"] == "det_test", conn.topic
+            if conn.topic == topic["a"]:
+                recorded[int(m.first_sample_index)] = gt
+            if conn.msgtype.endswith("BearingFaultFrequencies"):
+                ts = gt["scenario_time_s"]
+                check_truth(raw, gt, ts, sc.size_step, m.shaft_speed / (2 * math.pi), exact=False)
+    assert n_msgs > 4 * DET_CHUNKS
+    common = sorted(set(recorded) & set(by_index))
+    assert len(common) >= len(by_index) - 2
+    for i in common:
+        assert recorded[i] == by_index[i]
+    # the .rrd of the node: the health panel names the state in the signal, the trend has the defect's depths
+    from test_rerun_io import _column, _rows
+
+    ents = _rows(rrd)
+    texts = [t[0] for t in _column(ents["/de/health"]["batches"], "TextDocument:text")]
+    last = _gt(got["a"][-1])
+    assert any(last["state_label"] in t for t in texts), texts[-1]
+    trend = ents["/de/trend/ground_truth/de_outer"]
+    depths_um = sorted({round(v[0], 6) for v in _column(trend["batches"], "Scalars:scalars")})
+    want = sorted({round(d["depth_m"] * 1e6, 6) for gt in recorded.values() for d in gt["defects"]})
+    assert set(want) - {0.0} <= set(depths_um) and len(want) >= 2, (depths_um, want)

@@ -497,12 +497,14 @@ def test_many_states_are_refused():
     assert info.value.key == "scenario.size_step"
 
 
-@pytest.mark.parametrize("command", ["synth", "node"])
+@pytest.mark.parametrize("command", ["synth", "node", "node -p", "fleet"])
 def test_bad_scenario_file_is_one_line_and_exit_2(tmp_path, command):
     bad = tmp_path / "bad.toml"
     bad.write_text(GROWTH.replace("time_s = [1.0, 2.5, 4.0]", "time_s = [1.0, 2.5, 40.0]"))
     args = {"synth": ["synth", "--scenario", str(bad), "--out", str(tmp_path / "x.npz")],
-            "node": ["node", "--scenario", str(bad)]}[command]
+            "node": ["node", "--scenario", str(bad)],
+            "node -p": ["node", "--ros-args", "-p", f"scenario:={bad}"],
+            "fleet": ["fleet", "--machines", "2", "--scenario", str(bad)]}[command]
     r = subprocess.run([sys.executable, "-m", "bkabem_ros", *args], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2, (r.returncode, r.stderr)
     lines = [ln for ln in r.stderr.splitlines() if ln.strip() and "discovery" not in ln]
