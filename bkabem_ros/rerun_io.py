@@ -19,6 +19,7 @@ The messages are SI; the viewer shows engineers' units, named in every series an
 ``/<loc>/iso_velocity/zones``                  the zone limits A/B, B/C, C/D [mm/s]
 ``/<loc>/trend/impulsiveness``                 per window: kurtosis and crest factor [-]
 ``/<loc>/trend/ground_truth/<defect>``          per fault-frequency message: the defect's depth [µm]
+``/<loc>/trend/ground_truth/no_defect``         0 [µm] while the bearing has had no defect (not an empty plot)
 ``/<loc>/envelope/<channel>``                  per window: envelope spectrum (``BarChart``, Hz)
 ``/<loc>/spectrum/<quantity>/<channel>``       order spectrum of the model, lines k >= 1
 ``/<loc>/{envelope,spectrum/<q>}/markers/<L>`` fault-frequency markers, one entity per line L
@@ -59,6 +60,7 @@ _FALLBACK_COLORS = [(44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75)
 _ZONE_COLORS = [(120, 200, 80), (240, 200, 40), (230, 60, 50)]
 _SPEED_COLOR = (255, 190, 90)          # light amber: visible on the dark theme
 _SPEED_WAVEFORM_COLOR = (120, 180, 255)
+NO_DEFECT_COLOR = _ZONE_COLORS[0]       # the ground-truth trend of a bearing without a defect: zone A's green
 #: Order-spectrum lines below this fraction of the largest, past the last one above, are not drawn.
 LINE_DISPLAY_FLOOR = 0.01
 #: Scalar rows (trends, speed) are sent in column chunks of this much sample time [s].
@@ -239,6 +241,7 @@ class RerunLogger:
         self._lines_speed = 0.0
         self._defects: list[fault_lines.Defect] = []
         self._truth: fault_lines.Truth | None = None
+        self._truth_paths: dict[str, fault_lines.Defect] = {}     # ground-truth trend: path -> defect, once seen
         self._health: dict[str, dict] = {}
         self._rows: dict[str, tuple[list[int], list[np.ndarray]]] = {}
         self._waves: dict[str, dict] = {}
@@ -597,7 +600,7 @@ class RerunLogger:
         the fault-frequency messages; a defect that disappears is logged as 0)."""
         if not truth.available:
             return
-        seen = self.__dict__.setdefault("_truth_paths", {})           # path -> defect, once seen
+        seen = self._truth_paths
         now = {}
         for d in truth.defects:
             slug = "".join(ch if ch.isalnum() else "_" for ch in (d.name or d.kind)).strip("_") or "defect"
@@ -606,9 +609,17 @@ class RerunLogger:
             seen.setdefault(path, d)
         for path, d in seen.items():
             cur = now.get(path)
-            self._series(path, [f"{d.name or d.kind} ({fault_lines.DEFECT_NAMES.get(d.kind, d.kind)}) depth [µm]"],
+            # (square brackets are for units in every series name: the case's "defects[0]" is shown as "defects 0")
+            label = (d.name or d.kind).replace("[", " ").replace("]", "")
+            self._series(path, [f"{label} ({fault_lines.DEFECT_NAMES.get(d.kind, d.kind)}) depth [µm]"],
                          [fault_lines.LINE_COLORS[fault_lines.DEFECT_LINE.get(d.kind, "BPFO")]], widths=[2.0])
             self._scalars(path, [cur.depth_m * 1e6 if cur is not None else 0.0], stamp)
+        for loc in ("de", "nde"):           # a bearing without a defect (yet): a 0 line says so, not an empty plot
+            if any(path.startswith(f"/{loc}/trend/ground_truth/") for path in seen):
+                continue
+            path = f"/{loc}/trend/ground_truth/no_defect"
+            self._series(path, ["no defect in this bearing [µm]"], [NO_DEFECT_COLOR], widths=[2.0])
+            self._scalars(path, [0.0], stamp)
 
     def log_features(self, location: str, stamp_ns: int, features: Mapping[str, float]) -> None:
         """Extra per-chunk scalars, e.g. ``{"oil_temperature_C": 61.0}``, under

@@ -442,3 +442,95 @@ def test_each_plot_has_one_unit_and_the_health_panel_says_what_is_not_drawn(tmp_
     assert "static part (order 0, not drawn): vertical 42 µm, horizontal 3 µm" in text
     assert f"BPFO {BPFO:.2f} Hz, orders 1-9" in text
     assert "markers (below the zero line of the spectra): 1x 25.0 Hz grey" in text
+
+
+TWO_DEFECTS = """
+[scenario]
+name = "view_test"
+schema_version = 1
+case = "motor_6010_healthy"
+duration_s = 10.0
+size_step = 0.5
+
+[labels]
+purpose = "view"
+
+[[defects]]
+name = "de_outer"
+bearing = "de"
+race = "outer"
+angle_deg = -90.0
+time_s = [1.0, 5.0]
+length_m = [0.5e-3, 2.0e-3]
+depth_m = [10e-6, 40e-6]
+
+[[defects]]
+name = "nde_ball"
+bearing = "nde"
+race = "ball"
+ball = 2
+time_s = [3.0]
+length_m = [1.0e-3]
+depth_m = [20e-6]
+"""
+
+
+def test_health_panel_and_ground_truth_trend_follow_the_messages(tmp_path):
+    """Fault-frequency messages of a scenario with two defects (DE outer race growing, a ball of the NDE bearing
+    from 3 s), one per 0.5 s, then the machine healthy again (a new scenario switched on): the ground-truth trend
+    of each bearing has one series per defect with the depth [µm] each message states (0 once it is gone), and
+    each bearing's health panel names its own defects, the scenario state and the labels."""
+    from bkabem_core.scenario import Scenario
+
+    sc = Scenario.from_toml(TWO_DEFECTS, "view_test.toml")
+    path = tmp_path / "truth.rrd"
+    logger = rerun_io.RerunLogger("bkabem-test", save_path=path)
+    speed = 25.0
+    sent = []
+    n_msgs = 20
+    for j in range(n_msgs + 2):
+        t = 0.5 * j
+        state = sc.state_at(t) if j < n_msgs else Scenario.of_case(sc.case).states[0]
+        gt = (sc if j < n_msgs else Scenario.of_case(sc.case)).ground_truth(state, t, speed, 1.0)
+        truth = msgs.ground_truth_message(gt, {"site": "lab"})
+        first = gt["defects"][0] if gt["defects"] else None
+        logger.log_fault_frequencies(msgs.fault_frequencies_message(
+            shaft_speed=2 * math.pi * speed, ftf=9.9, bpfo=BPFO, bpfi=135.6, bsf=58.9, machine_id="m1",
+            bearing_designation="6010", defect_bearing=first["bearing"] if first else "de",
+            defect_race=first["race"] if first else "outer", defect_length=first["length_m"] if first else 0.0,
+            defect_depth=first["depth_m"] if first else 0.0, defect_angle=0.0, stamp=_stamp(5 * j),
+            ground_truth=truth))
+        sent.append({d["name"]: d["depth_m"] * 1e6 for d in gt["defects"]})
+        if j == n_msgs - 1:            # a condition window while the scenario runs: the health panels
+            for i in range(5 * j, 5 * j + 11):
+                for loc in ("de", "nde"):
+                    logger.log_waveform(_waveform(i, loc, "acceleration"))
+    logger.close()
+    _verify(path)
+    ents = _rows(path)
+    for loc, name, kind in (("de", "de_outer", "outer-race"), ("nde", "nde_ball", "ball")):
+        p = f"/{loc}/trend/ground_truth/{name}"
+        vals = [v[0] for v in _column(ents[p]["batches"], "Scalars:scalars")]
+        want = [s[name] for s in sent if name in s] + [0.0, 0.0]
+        np.testing.assert_allclose(vals, want, rtol=1e-12)
+        assert _static(ents, p, "SeriesLines:names") == [[f"{name} ({kind}) depth [µm]"]]
+    assert not any(e.startswith("/de/trend/ground_truth/nde") or e.startswith("/nde/trend/ground_truth/de")
+                   for e in ents)
+    # until a bearing has a defect its trend is a 0 line, named so (not an empty plot)
+    for loc, t_first in (("de", 1.0), ("nde", 3.0)):
+        p = f"/{loc}/trend/ground_truth/no_defect"
+        vals = [v[0] for v in _column(ents[p]["batches"], "Scalars:scalars")]
+        assert vals == [0.0] * round(t_first / 0.5), (loc, vals)
+        assert _static(ents, p, "SeriesLines:names") == [["no defect in this bearing [µm]"]]
+    # growth in steps: the depths of the states, not of the timeline
+    de = [s["de_outer"] for s in sent if "de_outer" in s]
+    assert len(set(de)) >= 3 and de == sorted(de)
+    last_state = sc.state_at(0.5 * (n_msgs - 1))
+    for loc, own, other in (("de", "outer-race defect, DE bearing 6010, 2.00 mm x 40 um at -90 deg", "ball 2"),
+                            ("nde", "ball 2 defect, NDE bearing 6010, 1.00 mm x 20 um", "outer-race")):
+        text = _column(ents[f"/{loc}/health"]["batches"], "TextDocument:text")[-1][0]
+        assert f"**Ground truth**: {own}" in text, text
+        assert other not in text.split("**Ground truth**")[1].split("\n")[0]
+        assert "machine **faulty**: 2 defect(s)" in text
+        assert f"scenario view_test: state {last_state.index} ({last_state.label}) since" in text
+        assert "labels: purpose=view, site=lab" in text

@@ -126,3 +126,55 @@ def test_waveform_keeps_impact_peaks_at_full_height(tmp_path):
     bottom = np.where(blue, rows, -np.inf).max(axis=0)[has].max()
     share = (np.percentile(centre, 95) - np.percentile(centre, 5)) / (bottom - top)
     assert share < 1.3 * want, (share, want)
+
+
+def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path):
+    """A real node runs the embedded run to failure (de_outer_run_to_failure) at x3600 from 1.9 h for ~13 s (12 h
+    of scenario time) and saves its .rrd; in the viewer the DE ground-truth trend climbs in steps (the red
+    outer-race series spans most of the plot's height), the NDE one is the green 'no defect' line at 0, the health
+    panels have their text, and nothing reports an error. Screenshots: ``rtf_trends.png``, ``rtf_de_truth.png``
+    in the test's folder (docs/img/rerun_scenario.png is one of them)."""
+    import signal
+    import time
+
+    import numpy as np
+
+    from ros_helpers import Proc, bkabem_cmd, unique_namespace
+
+    from bkabem_ros.rerun_viewer import _pixels, _save_png
+
+    rrd = tmp_path / "rtf.rrd"
+    node = Proc(bkabem_cmd("node", "--namespace", unique_namespace("rtf"), "--sample-rate", "12800",
+                           "--scenario", "de_outer_run_to_failure", "--time-scale", "3600", "--rerun-save", str(rrd),
+                           "--ros-args", "-p", "scenario_start:=6840.0", "-p", "spectrum_rate:=4.0",
+                           "-p", "noise.acceleration:=0.05", "-p", "slip:=0.01"), name="rtf node")
+    try:
+        node.wait_for(r"streaming from t0", timeout=120)
+        time.sleep(13.0)
+        assert node.stop(signal.SIGINT, timeout=60) == 0, node.text[-3000:]
+    finally:
+        node.kill()
+    with HeadlessViewer(window_size=(1280, 800)) as v:
+        v.open(rrd)
+        v.show_tab(4)                                       # the trends group's last tab: the ground truth
+        v.client.take_screenshot()
+        full = v.screenshot(settle=2)
+        _save_png(full, tmp_path / "rtf_trends.png")
+        views = {w.name: w for w in v.views()}
+        de = views["DE ground truth: defect depth [µm]"]
+        nde = views["NDE ground truth: defect depth [µm]"]
+        assert de.reports == [] and nde.reports == []
+        de_png = v.screenshot(de.view_id, settle=2)
+        _save_png(de_png, tmp_path / "rtf_de_truth.png")
+        img = _pixels(de_png).astype(int)
+        red = (np.abs(img - np.array([255, 70, 70])).max(axis=2) < 50)
+        red[:40, :] = False                                 # the legend
+        rows = np.where(red.any(axis=1))[0]
+        assert rows.size and (rows.max() - rows.min()) > 0.4 * img.shape[0], (rows.min(), rows.max(), img.shape)
+        img = _pixels(v.screenshot(nde.view_id, settle=2)).astype(int)
+        green = (np.abs(img - np.array([120, 200, 80])).max(axis=2) < 50)
+        green[:40, :] = False
+        assert green.sum() > 0.2 * img.shape[1]             # a flat line across the plot
+        for name in ("DE health", "NDE health"):
+            assert view_statistics(v.screenshot(views[name].view_id, settle=2), name).ink > 0.01
+        assert v.errors() == []
