@@ -8,12 +8,15 @@ Inputs (deterministic for a seed):
 - :func:`case_inputs`: mutated copies of the embedded case (every numeric key set to 0, -1, 1e-300, 1e300,
   1e308, nan, inf, a string, ...; keys removed or added; unit slips; binary, non-UTF-8, truncated, deeply
   nested, empty files), run as ``bkabem spectrum --speed-hz 25 --case F --json``;
+- :func:`scenario_inputs`: mutated copies of a scenario file (:data:`SCENARIO_TEXT`: every key of the format, issue
+  12) the same way, plus wrong types, a fleet file, an impossible timeline, too many states, run as
+  ``bkabem synth --scenario F --seconds 0.2 --rate 8000 --out s.npz`` (the npz is checked for finite numbers);
 - :func:`argument_inputs`: bad values for the options of all subcommands (non-finite, negative, huge, tiny,
   garbage, unwritable or full output paths, missing or garbage input files).
 
 Used by ``tests/test_fuzz_cli.py`` (a time-bounded sample) and as a script for the full counts::
 
-    python tests/fuzz_cli.py [--n-case 120] [--n-args 200] [--cli "python -m bkabem_ros"] [--jobs 2]
+    python tests/fuzz_cli.py [--n-case 120] [--n-scenario 80] [--n-args 200] [--cli "python -m bkabem_ros"] [--jobs 2]
 
 Processes run with a 6 GiB address-space limit (a blow-up becomes a MemoryError, not a swapping machine), on
 loopback with a random ``ROS_DOMAIN_ID``, and are killed after ``timeout`` seconds (counted as a hang).
@@ -143,6 +146,113 @@ def case_inputs(n: int, seed: int = 14) -> list[Input]:
     return out[:n] if n >= len(fixed) else out[:n]
 
 
+# --------------------------------------------------------------------------- scenario files
+#: A scenario with every key of the format (docs/scenarios.md); only its first state (healthy) is rendered in 0.2 s.
+SCENARIO_TEXT = """[scenario]
+name = "fuzz"
+description = "every key"
+schema_version = 1
+case = "motor_6010_healthy"
+duration_h = 12.0
+size_step = 0.25
+
+[labels]
+condition = "fuzz"
+
+[speed]
+time_h = [0.0, 6.0, 12.0]
+speed_hz = [24.0, 30.0, 20.0]
+
+[load]
+time_h = [0.0, 3.0]
+load_factor = [1.0, 1.5]
+
+[[defects]]
+name = "de_outer"
+bearing = "de"
+race = "outer"
+angle_deg = -90.0
+edge = "ball"
+edge_fraction = 0.1
+growth = "exponential"
+time_h = [2.0, 6.0, 12.0]
+length_m = [0.2e-3, 0.6e-3, 4.0e-3]
+depth_m = [5.0e-6, 15.0e-6, 100.0e-6]
+
+[[defects]]
+name = "nde_ball"
+bearing = "nde"
+race = "ball"
+ball = 2
+time_h = [8.0]
+length_m = [1.0e-3]
+depth_m = [20.0e-6]
+"""
+_SCENARIO_ARGV = ["synth", "--scenario", "{dir}/scenario.toml", "--seconds", "0.2", "--rate", "8000", "--out",
+                  "{dir}/s.npz"]
+_BAD_SCENARIO_VALUES = BAD_NUMBERS + ['""', '"outer"', "[]", '["a"]', "{}", "-90"]
+
+
+def scenario_inputs(n: int, seed: int = 12) -> list[Input]:
+    """``n`` mutated scenario files (fixed hard cases first, then random mutations of :data:`SCENARIO_TEXT`)."""
+    rng = random.Random(seed)
+    text0 = SCENARIO_TEXT
+    lines0 = text0.splitlines()
+    keyed = [(i, ln.split("=", 1)[0].strip()) for i, ln in enumerate(lines0) if re.match(r"^[a-z_]+ = ", ln)]
+    fixed: list[tuple[str, str | bytes]] = [
+        ("binary", bytes(range(256)) * 4),
+        ("empty", b""),
+        ("truncated", text0[: len(text0) // 2]),
+        ("latin-1", text0.replace('"every key"', '"every k\xe9y"').encode("latin-1")),
+        ("nested", "x = " + "[" * 5000 + "]" * 5000 + "\n" + text0),
+        ("fleet file", '[fleet]\nname = "f"\nschema_version = 1\n[[fleet.machines]]\ncase = "motor_6010_healthy"\n'),
+        ("no scenario table", text0.split("[labels]")[1]),
+        ("too many states", text0.replace("size_step = 0.25", "size_step = 1e-5")),
+        ("defect after the end", text0.replace("time_h = [8.0]", "time_h = [80.0]")),
+        ("times not increasing", text0.replace("time_h = [2.0, 6.0, 12.0]", "time_h = [2.0, 6.0, 5.0]")),
+        ("duplicate defect name", text0.replace('name = "nde_ball"', 'name = "de_outer"')),
+        ("both time keys", text0.replace("time_h = [8.0]", "time_h = [8.0]\ntime_s = [8.0]")),
+        ("unknown key", text0.replace("[load]", "[load]\nramp = true")),
+        ("duplicate key", text0 + '\n[scenario]\nname = "again"\n'),
+        ("case missing", text0.replace('case = "motor_6010_healthy"', 'case = "no_such_case"')),
+        ("case path missing", text0.replace('case = "motor_6010_healthy"', 'case = "missing/case.toml"')),
+        ("a dent at the start", text0.replace("time_h = [2.0, 6.0, 12.0]", "time_h = [0.0, 6.0, 12.0]")),
+        ("speed above the case's", text0.replace("[24.0, 30.0, 20.0]", "[24.0, 3000.0, 20.0]")),
+        ("exponential from 0", text0.replace("depth_m = [5.0e-6,", "depth_m = [0.0,")),
+        ("ball of an outer dent", text0.replace('race = "outer"', 'race = "outer"\nball = 1')),
+    ]
+    out = [Input(f"scenario {label}", list(_SCENARIO_ARGV),
+                 {"scenario.toml": data if isinstance(data, bytes) else data.encode()}, outputs=["{dir}/s.npz"])
+           for label, data in fixed]
+    while len(out) < n:
+        lines = list(lines0)
+        labels = []
+        for _ in range(rng.choice((1, 1, 2))):
+            idx, key = rng.choice(keyed)
+            v0 = lines[idx].split("=", 1)[1].strip()
+            kind = rng.random()
+            if kind < 0.6:
+                v = rng.choice(_BAD_SCENARIO_VALUES)
+                if v0.startswith("[") and rng.random() < 0.5:          # one element of an array
+                    items = [x.strip() for x in v0.strip("[]").split(",")]
+                    items[rng.randrange(len(items))] = v
+                    v = "[" + ", ".join(items) + "]"
+            elif kind < 0.8 and re.match(r"^\[?[-0-9.e, ]+\]?$", v0):     # unit slips: mm as m, h as s, x1000
+                f = rng.choice((1000.0, 3600.0, 1e-3))
+                nums = [f"{float(x) * f:g}" for x in v0.strip("[]").split(",")]
+                nums = [x if ("." in x or "e" in x) else x + ".0" for x in nums]
+                v = "[" + ", ".join(nums) + "]" if v0.startswith("[") else nums[0]
+            else:
+                del lines[idx]
+                labels.append(f"del {key}")
+                break
+            lines[idx] = f"{key} = {v}"
+            labels.append(f"{key} = {v}")
+        out.append(Input("scenario " + "; ".join(labels), list(_SCENARIO_ARGV),
+                         {"scenario.toml": ("\n".join(lines) + "\n").encode()}, outputs=["{dir}/s.npz"]))
+    return out[:n]
+
+
 # --------------------------------------------------------------------------- arguments
 _BAD = ["nan", "inf", "-1", "0", "1e308", "1e-300", "x", "", "1e6", "-inf", "1e9"]
 
@@ -180,6 +290,13 @@ def argument_inputs(n: int, seed: int = 14) -> list[Input]:
           "--slip": ["1e300", "-1", "nan", "100"], "--max-order": ["0", "-1", "1e9", "x"],
           "--out": _unwritable(".npz") + _unwritable(".csv") + ["{dir}/x.txt"],
           "--png": _unwritable(".png")}, ["{dir}/s.npz"]),
+        ("synth-scenario", ["synth", "--scenario", "de_outer_run_to_failure", "--seconds", "0.2", "--rate", "8000",
+                            "--out", "{dir}/s.npz"],
+         {"--time-scale": ["nan", "inf", "-1", "0", "1e308", "1e-300", "x", ""],
+          "--scenario-start": ["nan", "-inf", "-1", "1e308", "x"],
+          "--scenario": ["{dir}/missing.toml", "{dir}/garbage.yaml", "{dir}/binary.yaml", "no_such_scenario",
+                         "mixed", "", "{dir}"],
+          "--profile": ["constant:10"], "--case": ["motor_6010_outer"]}, ["{dir}/s.npz"]),
         ("demo", ["demo", "--no-ros", "--speeds", "10", "--out", "{dir}/demo"],
          {"--speeds": ["nan", "-1", "1e308", "1e30"], "--out": ["/dev/full", "/proc/bkabem", "{ro}/demo"],
           "--top-hz": ["nan", "0", "-1"], "--sample-rate": ["nan", "0", "-1"]}, []),
@@ -191,7 +308,10 @@ def argument_inputs(n: int, seed: int = 14) -> list[Input]:
           "--seed": ["-1", "x"], "--namespace": ["bad ns", "/1x", "//", "/a b"], "--name": ["bad name", "1x", ""],
           "--params-file": ["{dir}/garbage.yaml", "{dir}/missing.yaml", "{dir}/binary.yaml"],
           "--record": ["{ro}/x.mcap", "{dir}/missing/x.mcap", "/dev/full", "{dir}/full.mcap"], "--case": ["{dir}/missing.toml"],
-          "--spectrum-rate": ["nan", "-1", "1e9"]}, []),
+          "--spectrum-rate": ["nan", "-1", "1e9"],
+          "--scenario": ["{dir}/missing.toml", "{dir}/garbage.yaml", "{dir}/binary.yaml", "no_such_scenario", "mixed",
+                         "{dir}"],
+          "--time-scale": ["nan", "0", "-1", "1e308", "x"], "--labels": ["x", "=v", "a=1,b"]}, []),
         ("speed", ["speed", "--seconds", "0.3", "--quiet"],
          {"--profile": ["constant:nan", "x", "ramp:0:1:0", "{dir}/missing.csv", "{dir}/garbage.csv"],
           "--rate": _BAD, "--seconds": ["nan", "-1", "0"], "--unit": ["furlongs"], "--topic": ["bad topic", "1x"],
@@ -202,7 +322,8 @@ def argument_inputs(n: int, seed: int = 14) -> list[Input]:
         ("fleet", ["fleet", "--machines", "1", "--seconds", "1"],
          {"--machines": ["0", "-1", "1e6", "1000000", "x"], "--processes": ["0", "-1", "100000"],
           "--sample-rate": ["nan", "0"], "--defect-depths": ["x", "nan", "-1", "1e300"],
-          "--prefix": ["bad prefix", "1"], "--seconds": ["nan", "-1"]}, []),
+          "--prefix": ["bad prefix", "1"], "--seconds": ["nan", "-1"],
+          "--scenario": ["{dir}/missing.toml", "{dir}/garbage.yaml", "no_such_scenario"]}, []),
         ("record", ["record", "--out", "{dir}/r.mcap", "--duration", "0.5", "--quiet"],
          {"--out": _unwritable(".mcap"),
           "--duration": ["nan", "-1", "0"], "--chunk-size": ["0", "-1", "x", "1e30"],
@@ -419,6 +540,7 @@ def report(outcomes: list[Outcome], title: str) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n-case", type=int, default=120)
+    ap.add_argument("--n-scenario", type=int, default=80)
     ap.add_argument("--n-args", type=int, default=200)
     ap.add_argument("--cli", default=f"{sys.executable} -m bkabem_ros")
     ap.add_argument("--jobs", type=int, default=2)
@@ -427,7 +549,8 @@ def main(argv=None) -> int:
     cli = shlex.split(a.cli)
     t0 = time.monotonic()
     rc = 0
-    for title, inputs in (("case files", case_inputs(a.n_case)), ("arguments", argument_inputs(a.n_args))):
+    for title, inputs in (("case files", case_inputs(a.n_case)), ("scenario files", scenario_inputs(a.n_scenario)),
+                          ("arguments", argument_inputs(a.n_args))):
         outs = run_all(inputs, cli, a.timeout, a.jobs)
         print(report(outs, title), flush=True)
         rc |= any(o.verdict not in ("ok0", "ok2") for o in outs)

@@ -25,6 +25,7 @@ import pytest  # noqa: E402
 from rclpy.serialization import serialize_message  # noqa: E402
 
 from bkabem_ros import mcap_io, msgs  # noqa: E402
+from test_msgs import _truth  # noqa: E402  (a ground truth with two defects, labels)
 
 T0 = 1_700_000_000_000_000_000
 FS = 51_200.0
@@ -54,14 +55,15 @@ def _spectrum(i: int):
     return msgs.spectrum_message(
         k * 89.4, k, np.stack([1e-3 / (1 + k), 2e-3 / (1 + k)]), np.stack([0.1 * k, -0.2 * k]),
         shaft_speed=2 * math.pi * 25.0, machine_id="m1", location="nde", quantity="acceleration",
-        channel_names=["vertical", "horizontal"], stamp=_stamp(i), frame_id="nde_bearing")
+        channel_names=["vertical", "horizontal"], stamp=_stamp(i), frame_id="nde_bearing", ground_truth=_truth())
 
 
 def _faults(i: int):
     return msgs.fault_frequencies_message(
         shaft_speed=2 * math.pi * 25.0, ftf=9.9, bpfo=89.4 + i, bpfi=135.6, bsf=58.9,
         machine_id="m1", bearing_designation="6010", defect_bearing="de", defect_length=1.0e-3,
-        defect_depth=20e-6, defect_angle=-math.pi / 2, stamp=_stamp(i), frame_id="de_bearing")
+        defect_depth=20e-6, defect_angle=-math.pi / 2, stamp=_stamp(i), frame_id="de_bearing",
+        ground_truth=_truth())
 
 
 def _speed(i: int):
@@ -106,6 +108,8 @@ def _same(decoded, m) -> None:
         if f == "header":
             assert (got.frame_id, got.stamp.sec, got.stamp.nanosec) == (
                 want.frame_id, want.stamp.sec, want.stamp.nanosec)
+        elif f == "ground_truth":            # nested messages: compared as what a reader gets (two defects, labels)
+            assert msgs.ground_truth_dict(got) == msgs.ground_truth_dict(want)
         elif isinstance(want, (list, tuple)) or hasattr(want, "typecode") or isinstance(want, np.ndarray):
             np.testing.assert_array_equal(np.asarray(got), np.asarray(want), err_msg=f)
         else:

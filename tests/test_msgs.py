@@ -72,7 +72,39 @@ def _spectrum():
     return msgs.spectrum_message(
         k * 89.4, k, amp, ph, shaft_speed=2 * math.pi * 25.0, machine_id="m1", location="nde",
         quantity="displacement", channel_names=["vertical", "horizontal"], stamp=T0_NS,
-        frame_id="nde_sensor")
+        frame_id="nde_sensor", ground_truth=_truth())
+
+
+def _truth():
+    """A ground truth with two defects (a DE outer-race dent, ball 3 of the NDE bearing), a scenario state, labels."""
+    from bkabem_core.scenario import Scenario
+
+    sc = Scenario.from_toml("""
+[scenario]
+name = "msgs_test"
+schema_version = 1
+case = "motor_6010_healthy"
+duration_s = 10.0
+[labels]
+line = "7"
+[[defects]]
+name = "de_outer"
+bearing = "de"
+race = "outer"
+angle_deg = -90.0
+time_s = [1.0]
+length_m = [1.0e-3]
+depth_m = [20e-6]
+[[defects]]
+name = "nde_ball"
+bearing = "nde"
+race = "ball"
+ball = 3
+time_s = [2.0]
+length_m = [0.8e-3]
+depth_m = [10e-6]
+""")
+    return msgs.ground_truth_message(sc.ground_truth(sc.state_at(5.0), 5.0, 25.0, 60.0), {"site": "a"})
 
 
 def _faults():
@@ -80,7 +112,7 @@ def _faults():
         shaft_speed=2 * math.pi * 25.0, ftf=9.9, bpfo=89.4, bpfi=135.6, bsf=58.9,
         machine_id="m1", bearing_designation="6205", defect_bearing="de",
         defect_length=1.0e-3, defect_depth=20e-6, defect_angle=-math.pi / 2, stamp=T0_NS,
-        frame_id="de_bearing")
+        frame_id="de_bearing", ground_truth=_truth())
 
 
 # ----------------------------------------------------------------------------- types
@@ -175,7 +207,10 @@ def test_definition_text_layout(name):
     parts = text.split("\n" + "=" * 80 + "\n")
     assert parts[0].lstrip().startswith("#") and "std_msgs/Header header" in parts[0]
     heads = [p.split("\n", 1)[0] for p in parts[1:]]
-    assert heads == ["MSG: std_msgs/Header", "MSG: builtin_interfaces/Time"]
+    # rosbag2's order (LocalMessageDefinitionSource: each type's dependencies as a std::set, i.e. sorted, each
+    # followed by its own, every type once): GroundTruth (0.2.0) and its Defect, then Header and its Time
+    assert heads == ["MSG: bkabem_msgs/GroundTruth", "MSG: bkabem_msgs/Defect", "MSG: std_msgs/Header",
+                     "MSG: builtin_interfaces/Time"]
     assert msgs.message_definition_text(f"bkabem_msgs/{name}") == text
     assert msgs.type_hash(f"bkabem_msgs/{name}").startswith("RIHS01_")
     assert len(msgs.type_hash(f"bkabem_msgs/msg/{name}")) == len("RIHS01_") + 64
@@ -227,6 +262,15 @@ def _same(decoded, m) -> None:
             np.testing.assert_array_equal(np.asarray(got), np.asarray(want), err_msg=field)
         elif field == "channel_names":
             assert list(got) == list(want)
+        elif field == "ground_truth":
+            assert msgs.ground_truth_dict(got) == msgs.ground_truth_dict(want)
+            if want.available:                 # (the fixtures' ground truth: two defects, labels)
+                gt = msgs.ground_truth_dict(got)
+                assert [(d["kind"], d["bearing"], d["ball"], d["fault_frequency"]) for d in gt["defects"]] == \
+                    [("outer", "de", 0, "bpfo"), ("ball", "nde", 3, "bsf")]
+                assert gt["defects"][1]["strike_frequency_hz"] == pytest.approx(
+                    2 * gt["defects"][1]["fault_multiplier"] * 25.0)
+                assert gt["labels"] == {"line": "7", "site": "a"} and gt["time_scale"] == 60.0
         else:
             assert got == want, field
 

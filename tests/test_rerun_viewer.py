@@ -167,10 +167,16 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
         de_png = v.screenshot(de.view_id, settle=2)
         _save_png(de_png, tmp_path / "rtf_de_truth.png")
         img = _pixels(de_png).astype(int)
-        red = (np.abs(img - np.array([255, 70, 70])).max(axis=2) < 50)
-        red[:40, :] = False                                 # the legend
-        rows = np.where(red.any(axis=1))[0]
-        assert rows.size and (rows.max() - rows.min()) > 0.4 * img.shape[0], (rows.min(), rows.max(), img.shape)
+        legend = np.zeros(img.shape[:2], bool)
+        legend[int(0.45 * img.shape[0]):, int(0.55 * img.shape[1]):] = True     # (the legend: bottom right)
+        red = (np.abs(img - np.array([255, 70, 70])).max(axis=2) < 50) & ~legend
+        green = (np.abs(img - np.array([120, 200, 80])).max(axis=2) < 50) & ~legend
+        rows, zero = np.where(red.any(axis=1))[0], np.where(green.any(axis=1))[0]
+        assert rows.size and zero.size, (rows, zero)
+        # the depth climbs (the run's last hour alone goes from 65 to 100 um: a third of the axis from 0), above
+        # the healthy stretch's 0 line
+        full = zero.max() - rows.min()
+        assert rows.max() < zero.min() and (rows.max() - rows.min()) > 0.2 * full, (rows.min(), rows.max(), zero)
         img = _pixels(v.screenshot(nde.view_id, settle=2)).astype(int)
         green = (np.abs(img - np.array([120, 200, 80])).max(axis=2) < 50)
         green[:40, :] = False
