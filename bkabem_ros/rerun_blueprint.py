@@ -13,7 +13,7 @@ Layout (:func:`blueprint`), DE left, NDE right, each column:
 3. trends over the whole run (tabs): ISO velocity RMS with the zone limits, the acceleration per
    block (min/max envelope and RMS: the overview that loads fast, ten points per second),
    displacement peak-to-peak, kurtosis and crest factor, the ground truth's defect depths (a
-   scenario's growing defects; empty for a healthy bearing);
+   scenario's growing defects; a 0 "no defect" line for a healthy bearing);
 4. the health panel: ISO zone, impulsiveness, what the envelope spectrum shows, the ground truth;
 
 and across the bottom shaft speed and fault frequencies over the whole run, each on its own
