@@ -246,6 +246,7 @@ class _LatticeHill:
         amp = lines.amplitude[:, :4][:, _PATTERN_OF]                    # HertzPair order [de x, de y, nde x, nde y]
         rows = np.flatnonzero(lines.speed_locked & (np.abs(amp).max(axis=1) > 0.0))   # the bearing lines
         self._rows = rows                                                # model line indices
+        self._base_rows = np.flatnonzero(np.abs(model._force_a[rows, 4:]).max(axis=1, initial=0.0) > 0.0)
         pos = {int(j): i for i, j in enumerate(model._locked_idx)}
         self._modes_rows = np.array([pos[int(j)] for j in rows], dtype=int)
         c = lines.coefficients[rows]
@@ -289,7 +290,6 @@ class _LatticeHill:
         self._u0 = u0
         self._phi0 = self._forces(u0, self._grid0)
         # stiffness modulation of each bearing (1-D ball passage at the truncated path + moving defects' tori)
-        # stiffness modulation of each bearing (1-D ball passage at the truncated path + moving defects' tori)
         on_pitch = (cs[:, 0] == 0) & (cs[:, 2] == 0) & (cs[:, 3] == 0) & (cs[:, 1] % z == 0)
         u_pitch = np.where(on_pitch[:, None], u0, 0.0)
         k_pitch = cs[:, 1] // z
@@ -319,6 +319,8 @@ class _LatticeHill:
         return (np.fft.fft(f - self._f_s, axis=0) / n)[grid.bins] + u * self._kb
 
     def spectrum(self, f: float) -> Spectrum:
+        """The improved spectrum at shaft speed ``f`` [Hz]: the bearing lines from Hill's step, every other line
+        (baseline forces) and the baseline's share of a bearing line as the plain model has them."""
         m = self.model
         n_k, n_s = self.n_lines, self._n_s
         h_pos = m.line_modes.receptance(f, self._modes_rows)[:, :, _PATTERN_OF]             # (K, 8, 4)
@@ -327,6 +329,7 @@ class _LatticeHill:
         g = np.einsum("ij,kjl->kil", _REL, h)
         u0 = self._u0
         r = u0 - np.einsum("kij,kj->ki", g, self._phi0)
+
         def apply(v):                                    # (I + G T) v
             x = v.reshape(n_s, 4)
             t_de, t_nde = self._t
@@ -341,6 +344,11 @@ class _LatticeHill:
         x = np.einsum("kij,kj->ki", h, phi1)                                               # (S, 8)
         disp = m.response([f])[0].reshape(len(m.lines), 8)  # lines the bearings do not excite: plain
         disp[self._rows] = 2.0 * x[:n_k]
+        if self._base_rows.size:                         # a baseline force on a bearing line (e.g. 2x misalignment)
+            j = self._base_rows
+            h_all = m.line_modes.receptance(f, self._modes_rows[j])                           # (J, 8, P)
+            fb = m._force_a[self._rows[j], 4:] * f ** m._speed_power[self._rows[j], None]
+            disp[self._rows[j]] += np.einsum("kup,kp->ku", h_all[:, :, 4:], fb)
         dc = (h[2 * n_k] @ (phi1[2 * n_k] + self._kb * self._u_s)).real.reshape(4, 2)
         return Spectrum(speed_hz=f, orders=m.orders.copy(), frequency_hz=m.frequency_hz(f),
                         displacement=disp.reshape(-1, 4, 2), dc_m=dc,
@@ -512,9 +520,12 @@ def _torus_index(d: np.ndarray, phase_map: np.ndarray, n_fast: int, n_slow: int)
 
 def _toeplitz(cs: np.ndarray, z: int, base: np.ndarray, tori, kb: np.ndarray, chunk: int = 256):
     """The stiffness modulation of one bearing as an operator on S: ``T[(s, r), (s', l)] = dK(c_s - c_s')[r, l]``
-    (sparse, (2 |S|) x (2 |S|)), ``dK = K_t - K_b`` (the FE's linear spring ``kb`` (2, 2) off the mean)."""
+    ((2 |S|) x (2 |S|) [N/m]), ``dK = K_t - K_b`` (the FE's linear spring ``kb`` (2, 2) off the mean). Dense if
+    the bearing has moving defects (their broad spectra couple every pair of lines), else sparse (ball passage
+    only: pairs a BPFO multiple apart)."""
     n_s = cs.shape[0]
     n_fast = base.shape[0]
+    dense = np.zeros((n_s, 2, n_s, 2), complex) if tori else None
     rows, cols, vals = [], [], []
     for a in range(0, n_s, chunk):
         d = (cs[a:a + chunk, None, :] - cs[None, :, :]).reshape(-1, 4)
@@ -528,6 +539,9 @@ def _toeplitz(cs: np.ndarray, z: int, base: np.ndarray, tori, kb: np.ndarray, ch
             blk[ok] += spec[i[ok], j[ok]]
         zero = ~d.any(axis=1)
         blk[zero] -= kb
+        if dense is not None:
+            dense[a:a + chunk] = blk.reshape(-1, n_s, 2, 2).transpose(0, 2, 1, 3)
+            continue
         nz = np.flatnonzero(np.abs(blk).reshape(-1, 4).max(axis=1) > 0.0)
         s_row, s_col = a + nz // n_s, nz % n_s
         for r in range(2):
@@ -535,11 +549,9 @@ def _toeplitz(cs: np.ndarray, z: int, base: np.ndarray, tori, kb: np.ndarray, ch
                 rows.append(2 * s_row + r)
                 cols.append(2 * s_col + c)
                 vals.append(blk[nz, r, c])
+    if dense is not None:
+        return dense.reshape(2 * n_s, 2 * n_s)
     rows, cols, vals = (np.concatenate(v) for v in (rows, cols, vals))
-    if rows.size > 0.25 * (2 * n_s) ** 2:                # dense (a moving defect couples every pair): BLAS
-        out = np.zeros((2 * n_s, 2 * n_s), complex)
-        out[rows, cols] = vals
-        return out
     return scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(2 * n_s, 2 * n_s))
 
 

@@ -130,3 +130,27 @@ def test_improved_method_agrees_with_the_tdsm_for_every_kind(kind):
     fine = HillCorrection(model, n_lattice=2 * hill._lattice.n_time).spectrum(30.0).displacement
     big = np.abs(r.improved) > 0.01 * np.abs(r.improved).max(axis=0, keepdims=True)
     assert np.abs(20 * np.log10(np.abs(fine[big]) / np.abs(r.improved[big]))).max() < 0.02
+
+
+def test_baseline_lines_keep_their_plain_response():
+    """With the machine baseline on (G 2.5 unbalance, a 2x misalignment force on the inner race's own 2 f_r line):
+    lines the bearings do not excite are the plain ones, and a bearing line that also carries a baseline force gets
+    the improved bearing response plus the plain response to that force (superposition: the baseline forces act on
+    the linear FE)."""
+    case = Case.load("motor_6010_inner").with_overrides({"baseline.misalignment_force_n": 50.0})
+    with_base, without = BkaBem(case), BkaBem(case, baseline=False)
+    hill, hill0 = HillCorrection(with_base), HillCorrection(without)
+    f = 30.0
+    sp, sp0 = hill.spectrum(f), hill0.spectrum(f)
+    plain, plain0 = with_base.spectrum(f), without.spectrum(f)
+    rows = hill._lattice._rows
+    other = np.setdiff1d(np.arange(len(with_base.lines)), rows)
+    assert other.size >= 1 and np.array_equal(sp.displacement[other], plain.displacement[other])
+    index0 = {tuple(c): i for i, c in enumerate(without.lines.coefficients)}
+    j = index0[(2, 0, 0, 0)]
+    i = int(np.flatnonzero((with_base.lines.coefficients == (2, 0, 0, 0)).all(axis=1))[0])
+    assert i in rows
+    baseline_part = plain.displacement[i] - plain0.displacement[j]
+    assert np.abs(baseline_part).max() > 10 * np.abs(sp0.displacement[j]).max()
+    assert np.allclose(sp.displacement[i] - sp0.displacement[j], baseline_part, rtol=1e-6,
+                       atol=1e-9 * np.abs(baseline_part).max())
