@@ -136,6 +136,14 @@ class Excitation:
         Radial (vertical, downward) and axial load the bearing carries [N].
     state : BearingState or None
         The static equilibrium the excitation starts from.
+    lines : LineSet or None
+        Every kept line (inner-race and ball defects); None for BPFO orders only.
+    n_balls : int
+    rates_per_hz : ndarray (4,) or None
+        Rates of the base phases per shaft Hz (:func:`rates_per_hz`).
+    torus_paths : dict of str -> TorusPath
+        The quasi-static path on the torus of each moving defect kind (:func:`torus_path`) the lines came from;
+        the improved method takes the stiffness along it (:mod:`bkabem_core.hill`). Empty for BPFO orders.
     """
 
     bpfo_per_hz: float
@@ -164,6 +172,7 @@ class Excitation:
     lines: LineSet | None = field(default=None, repr=False)
     n_balls: int = 0
     rates_per_hz: np.ndarray | None = field(default=None, repr=False)
+    torus_paths: dict = field(default_factory=dict, repr=False)
 
     def line_set(self) -> LineSet:
         """The excitation as a :class:`~bkabem_core.lines.LineSet` (inputs vertical, horizontal [m], the DC as its
@@ -354,6 +363,7 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
     all_orders, amp, pha, dc, off, keep = _orders_from_record(rel, 1, relative_amplitude_threshold, max_order)
     rates = rates_per_hz(fm)
     lines = None
+    tori = {}
     if any(k != "outer" for k in kinds):
         # inner-race and ball defects: the difference they make, on a 2-torus of their phases (module docstring)
         base = LineSet.from_orders(all_orders, amp.T * np.exp(1j * pha.T), z, rates, DIRECTIONS, dc=dc)
@@ -361,7 +371,8 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
         for kind in ("inner", "ball"):
             if kind in kinds:
                 slow = n_slow if n_slow > 0 else max(32, 1 << math.ceil(math.log2(4 * z)))
-                parts.append(_difference_lines(bearing, outer, kind, load, axial_load_n, n, slow, film_m, rates))
+                parts.append(_difference_lines(bearing, outer, kind, load, axial_load_n, n, slow, film_m, rates,
+                                               keep=tori))
         every = union(parts)
         lines = every.select(relative_amplitude_threshold, max_order * fm.bpfo if max_order > 0 else 0.0)
         order_like = (lines.coefficients[:, [0, 2, 3]] == 0).all(axis=1) & (lines.coefficients[:, 1] % z == 0)
@@ -394,6 +405,7 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
         lines=lines,
         n_balls=z,
         rates_per_hz=rates,
+        torus_paths=tori,
     )
 
 
@@ -494,7 +506,7 @@ def torus_path(bearing: Bearing, base: Bearing, kind: str, load, axial_load_n: f
 
 
 def _difference_lines(bearing: Bearing, base: Bearing, kind: str, load, axial_load_n: float, n_fast: int,
-                      n_slow: int, film_m: float, rates) -> LineSet:
+                      n_slow: int, film_m: float, rates, keep: dict | None = None) -> LineSet:
     """Lines of what the defects of ``kind`` add to the quasi-static path of ``base`` (the bearing without them).
 
     Sampled on the 2-torus of the kind's own angles (:func:`torus_path`), fine along the fast one, coarse along
@@ -506,6 +518,8 @@ def _difference_lines(bearing: Bearing, base: Bearing, kind: str, load, axial_lo
     z theta_cage) stays in the base's exact BPFO orders.
     """
     tp = torus_path(bearing, base, kind, load, axial_load_n, n_fast, n_slow, film_m)
+    if keep is not None:
+        keep[kind] = tp
     diff = (tp.path - tp.base[tp.base_index])[..., ::-1]                    # (vertical, horizontal)
     out = lines_from_grid(diff, tp.phase_map, rates, DIRECTIONS)
     out.dc = np.zeros(2) + out.dc

@@ -305,7 +305,8 @@ class _LatticeHill:
         self.stiffness_sources = {}
         for bi, (name, site) in enumerate(zip(BEARINGS, sites)):
             base = spec_pitch[:, 2 * bi:2 * bi + 2, 2 * bi:2 * bi + 2]
-            tori = _stiffness_tori(site, machine.excitation_load_n(name), n_fast, n_slow)
+            tori = _stiffness_tori(site, machine.excitation_load_n(name), n_fast, n_slow,
+                                   model.excitations.get(name))
             self.stiffness_sources[name] = ["ball passage"] + [t[0] for t in tori]
             self._t.append(_toeplitz(cs, z, base, tori, np.diag(self._kb[2 * bi:2 * bi + 2])))
 
@@ -464,10 +465,11 @@ def rank1_lattice(y: np.ndarray, n: int, max_step: int = 4096, seed: int = 0) ->
     return w
 
 
-def _stiffness_tori(site, load_n: float, n_fast: int, n_slow: int):
+def _stiffness_tori(site, load_n: float, n_fast: int, n_slow: int, excitation=None):
     """Per moving defect kind of the bearing: ``(kind, phase_map (2, 4), 2-D spectrum (n_fast, n_slow, 2, 2))`` of
     the tangent stiffness difference the kind makes on its torus along the exact quasi-static path [N/m] (zero
-    where no ball meets the defect)."""
+    where no ball meets the defect). The torus paths of the bearing's ``excitation`` are used where it has them on
+    this grid (the same paths its lines came from), else they are solved here."""
     b = site.bearing
     if not b.defect_set or not any(k in b.defect_set.kinds for k in ("inner", "ball")):
         return []
@@ -477,12 +479,16 @@ def _stiffness_tori(site, load_n: float, n_fast: int, n_slow: int):
     axial = site.axial_load_n
     outer = Bearing(g, defects=[d for d in b.defects if d.race == "outer"])
     theta = TWO_PI / z * np.arange(n_fast) / n_fast
-    path, state, _ = quasi_static_path_m(outer, load, axial, theta)
-    e_z = state.displacement_m[2]
-    kt = _tangent(outer, path, theta, e_z)
+    cached = getattr(excitation, "torus_paths", None) or {}
     tori = []
+    kt = e_z = None
     for kind in (k for k in ("inner", "ball") if k in b.defect_set.kinds):
-        tp = torus_path(b, outer, kind, load, axial, n_fast, n_slow)
+        tp = cached.get(kind)
+        if tp is None or tp.path.shape[:2] != (n_fast, n_slow):
+            tp = torus_path(b, outer, kind, load, axial, n_fast, n_slow)
+        if kt is None:
+            e_z = quasi_static_path_m(outer, load, axial, theta[:1])[1].displacement_m[2]
+            kt = _tangent(outer, tp.base, theta, e_z)
         dk = np.zeros(tp.path.shape[:2] + (2, 2))
         t = tp.touched
         dk[t] = _tangent(tp.bearing, tp.path[t], tp.cage[t], e_z, tp.shaft[t], tp.spin[t]) - kt[tp.base_index[t]]
