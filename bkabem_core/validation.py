@@ -354,8 +354,9 @@ def validate(case: Case | None = None, speed_hz: float = DEFAULT_SPEED_HZ, durat
             raise ValueError(f"improvement: one of {', '.join(METHODS)} (got {n!r})")
     plain_model = plain if plain is not None else BkaBem(case, baseline=False)
     if not plain_model.is_order_set:
-        raise ValueError("validate: the TDSM comparison takes BPFO-order line sets (outer race or healthy, no "
-                         "baseline); inner-race and ball defects are not validated against the TDSM yet")
+        raise ValueError("validate: the order-by-order TDSM comparison takes BPFO-order line sets (outer race or "
+                         "healthy, no baseline); inner-race, ball and mixed defects: validate_lines "
+                         "(bench/validate_kinds.py)")
     methods, wall = {}, {}
     for n in dict.fromkeys(names):
         m = make_method(n, case, plain_model)
