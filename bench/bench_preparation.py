@@ -6,8 +6,10 @@ Each measurement is a fresh process (``python -c`` with ``PYTHONPATH`` set to th
 of this checkout's build copied in if the baseline has none), the two checkouts alternating, so that both see the
 same machine load. Per case: ``BkaBem(case)`` wall and CPU time (process time: both worker threads), its stages
 (``preparation_time_s``), the line-mode statistics, and ``model.response([f])`` at 200 random speeds in 5-75 Hz
-(median). Medians over ``--repeat``; the ratio baseline / this checkout. ``--improved`` also times, in this
-checkout, ``HillCorrection`` of the model without baseline (preparation, spectrum at 5 speeds in 15-50 Hz, median).
+(median). Medians over ``--repeat``; the ratio baseline / this checkout. ``inner+ball``: two moving defects at
+once (``validate_kinds.kind_case``: the inner-race case with the ball defect in the NDE bearing). ``--improved``
+also times, in this checkout, ``HillCorrection`` of the model without baseline (preparation, spectrum at 5 speeds
+in 15-50 Hz, median).
 """
 
 from __future__ import annotations
@@ -22,13 +24,20 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-CASES = ("electric_motor_6010", "motor_6010_healthy", "motor_6010_outer", "motor_6010_inner", "motor_6010_ball")
+CASES = ("electric_motor_6010", "motor_6010_healthy", "motor_6010_outer", "motor_6010_inner", "motor_6010_ball",
+         "inner+ball")
 
 SNIPPET = r"""
 import json, time, numpy as np
 from bkabem_core.case import Case
 from bkabem_core.harmonic import BkaBem
-case = Case.load({name!r})
+if "+" in {name!r}:                        # several defects: built by this checkout's bench/validate_kinds.py
+    import sys
+    sys.path.insert(0, {bench!r})
+    from validate_kinds import kind_case
+    case = kind_case({name!r})
+else:
+    case = Case.load({name!r})
 t0, c0 = time.perf_counter(), time.process_time()
 m = BkaBem(case)
 wall, cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -57,8 +66,9 @@ print(json.dumps({{"wall_s": wall, "cpu_s": cpu, "parts": m.preparation_time_s, 
 
 def run(tree: Path, name: str, improved: bool = False) -> dict:
     env = dict(os.environ, PYTHONPATH=str(tree), OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"))
-    out = subprocess.run([sys.executable, "-c", SNIPPET.format(name=name, improved=improved)], env=env, cwd=str(tree),
-                         capture_output=True, text=True, check=True)
+    code = SNIPPET.format(name=name, improved=improved, bench=str(ROOT / "bench"))
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=str(tree), capture_output=True, text=True,
+                         check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
