@@ -154,3 +154,22 @@ def test_baseline_lines_keep_their_plain_response():
     assert np.abs(baseline_part).max() > 10 * np.abs(sp0.displacement[j]).max()
     assert np.allclose(sp.displacement[i] - sp0.displacement[j], baseline_part, rtol=1e-6,
                        atol=1e-9 * np.abs(baseline_part).max())
+
+
+def test_line_validation_ranks_only_lines_the_record_resolves():
+    """Two lines 0.02 Hz apart cannot be told apart by a 0.3-s fit: with a 1/T separation they are left out of the
+    ranking (the largest of them would otherwise be the worst line), the others are ranked as before."""
+    from bkabem_core.validation import LineValidation
+
+    f = np.array([100.0, 100.02, 200.0, 300.0, 400.0, 500.0, 600.0])
+    tdsm = np.ones((f.size, 4, 2), complex) * np.array([9.0, 8.0, 5.0, 4.0, 3.0, 2.0, 1.0])[:, None, None]
+    plain = tdsm.copy()
+    plain[0] *= 10.0                                          # the unresolved pair's fit is off by 20 dB
+    r = LineValidation(case="x", speed_hz=30.0, frequency_hz=f, coefficients=np.zeros((f.size, 4), np.int64),
+                       tdsm=tdsm, plain=plain, residual_fraction=np.zeros((4, 2)), wall_time_s={})
+    assert r.resolvable(1 / 0.3).tolist() == [False, False, True, True, True, True, True]
+    assert r.max_error_db().max() == pytest.approx(20.0)
+    assert r.max_error_db(min_separation_hz=1 / 0.3).max() == pytest.approx(0.0, abs=1e-12)
+    assert sorted(r.largest(0, 0, min_separation_hz=1 / 0.3).tolist()) == [2, 3, 4, 5, 6]
+    with pytest.raises(ValueError, match="improved"):
+        r.max_error_db(which="improved")
