@@ -81,9 +81,11 @@ class HillCorrection:
         The plain model (its machine, orders and line modes are used).
     n_time : int
         Instants per ball pass of the ball-force evaluation at the solution (512 resolve the dent ramps: 43
-        instants per ramp; 1024 change the result by < 0.001 dB).
+        instants per ramp; 1024 change the result by < 0.001 dB); for a non-order set the least number of
+        points of its rank-1 lattice.
     n_precompute : int
-        Instants per ball pass of the quasi-static path and its spectra (made once).
+        Instants per ball pass of the quasi-static path and its spectra (made once); for a non-order set those
+        of the ball-passage stiffness (the moving defects' tori have the excitation's grid).
     tol : float
         Relative residual of the GMRES solve (1e-4 changes the result by < 0.002 dB against 1e-8).
     method : str
