@@ -136,6 +136,14 @@ class Excitation:
         Radial (vertical, downward) and axial load the bearing carries [N].
     state : BearingState or None
         The static equilibrium the excitation starts from.
+    lines : LineSet or None
+        Every kept line (inner-race and ball defects); None for BPFO orders only.
+    n_balls : int
+    rates_per_hz : ndarray (4,) or None
+        Rates of the base phases per shaft Hz (:func:`rates_per_hz`).
+    torus_paths : dict of str -> TorusPath
+        The quasi-static path on the torus of each moving defect kind (:func:`torus_path`) the lines came from;
+        the improved method takes the stiffness along it (:mod:`bkabem_core.hill`). Empty for BPFO orders.
     """
 
     bpfo_per_hz: float
@@ -164,6 +172,7 @@ class Excitation:
     lines: LineSet | None = field(default=None, repr=False)
     n_balls: int = 0
     rates_per_hz: np.ndarray | None = field(default=None, repr=False)
+    torus_paths: dict = field(default_factory=dict, repr=False)
 
     def line_set(self) -> LineSet:
         """The excitation as a :class:`~bkabem_core.lines.LineSet` (inputs vertical, horizontal [m], the DC as its
@@ -354,6 +363,7 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
     all_orders, amp, pha, dc, off, keep = _orders_from_record(rel, 1, relative_amplitude_threshold, max_order)
     rates = rates_per_hz(fm)
     lines = None
+    tori = {}
     if any(k != "outer" for k in kinds):
         # inner-race and ball defects: the difference they make, on a 2-torus of their phases (module docstring)
         base = LineSet.from_orders(all_orders, amp.T * np.exp(1j * pha.T), z, rates, DIRECTIONS, dc=dc)
@@ -361,7 +371,8 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
         for kind in ("inner", "ball"):
             if kind in kinds:
                 slow = n_slow if n_slow > 0 else max(32, 1 << math.ceil(math.log2(4 * z)))
-                parts.append(_difference_lines(bearing, outer, kind, load, axial_load_n, n, slow, film_m, rates))
+                parts.append(_difference_lines(bearing, outer, kind, load, axial_load_n, n, slow, film_m, rates,
+                                               keep=tori))
         every = union(parts)
         lines = every.select(relative_amplitude_threshold, max_order * fm.bpfo if max_order > 0 else 0.0)
         order_like = (lines.coefficients[:, [0, 2, 3]] == 0).all(axis=1) & (lines.coefficients[:, 1] % z == 0)
@@ -394,6 +405,7 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
         lines=lines,
         n_balls=z,
         rates_per_hz=rates,
+        torus_paths=tori,
     )
 
 
@@ -410,34 +422,73 @@ def rates_per_hz(fault_multipliers) -> np.ndarray:
     return np.array([1.0, fault_multipliers.ftf, fault_multipliers.bsf, 0.0])
 
 
-def _difference_lines(bearing: Bearing, base: Bearing, kind: str, load, axial_load_n: float, n_fast: int,
-                      n_slow: int, film_m: float, rates) -> LineSet:
-    """Lines of what the defects of ``kind`` add to the quasi-static path of ``base`` (the bearing without them).
+@dataclass
+class TorusPath:
+    """The quasi-static path of a bearing with a moving defect on the 2-torus of the defect's own angles.
 
-    Sampled on the 2-torus of the kind's own angles, fine along the fast one, coarse along the slow one:
+    Grid ``(a, b) = 2 pi (i / n_fast, j / n_slow)``: inner race ``a = psi = z (theta_shaft - theta_cage)``,
+    ``b = theta_shaft``; ball ``a = theta_spin``, ``b = theta_cage`` (:func:`_difference_lines`).
 
-    ``"inner"``: ``psi = z (theta_shaft - theta_cage)`` (a ball's position relative to the inner race, one ball
-    pitch per turn; BPFI) and ``theta_shaft`` (where the defect is in the load zone), so ``theta_cage =
-    theta_shaft - psi / z``. ``"ball"``: the spin angle ``theta_spin`` and ``theta_cage`` (where the defective ball
-    is in the load zone). Where no ball meets the defect the difference is exactly zero, so it is narrow along the
-    fast angle and smooth along the slow one; the ball passage of the others (harmonics of z theta_cage) stays in
-    the base's exact BPFO orders.
+    Attributes
+    ----------
+    kind : str
+        ``"inner"`` or ``"ball"``.
+    phase_map : ndarray of int (2, 4)
+        Coefficients of ``a`` and ``b`` on the base phases (shaft, cage, spin, line).
+    cage, shaft, spin : ndarray (n_fast, n_slow) [rad]
+        The base phases at every grid point.
+    base_index : ndarray of int (n_fast, n_slow)
+        Index into the base's one-pitch table (:attr:`base`) of each grid point's ball-set position (exact).
+    base : ndarray (n_fast, 2)
+        The path of the bearing without these defects over one ball pitch (``n_fast`` cage angles) [m] (x, y).
+    path : ndarray (n_fast, n_slow, 2)
+        The path with them [m] (x, y).
+    touched : ndarray of bool (n_fast, n_slow)
+        Where a ball meets the defect (elsewhere ``path`` is exactly the base).
+    bearing : Bearing
+        The bearing with its outer-race defects and the defects of this kind.
     """
+
+    kind: str
+    phase_map: np.ndarray
+    cage: np.ndarray
+    shaft: np.ndarray
+    spin: np.ndarray
+    base_index: np.ndarray
+    base: np.ndarray
+    path: np.ndarray
+    touched: np.ndarray
+    bearing: Bearing
+
+
+def torus_grid(kind: str, n_balls: int, n_fast: int, n_slow: int):
+    """The grid of a moving defect's torus (:class:`TorusPath`): ``(phase_map (2, 4), cage, shaft, spin)``, the base
+    phases [rad] at ``(a, b) = 2 pi (i / n_fast, j / n_slow)`` (n_fast, n_slow)."""
+    z = int(n_balls)
+    i, j = np.meshgrid(np.arange(n_fast), np.arange(n_slow), indexing="ij")          # (n_fast, n_slow)
+    a, b = TWO_PI * i / n_fast, TWO_PI * j / n_slow
+    if kind == "inner":
+        return np.array([[z, -z, 0, 0], [1, 0, 0, 0]]), b - a / z, b, np.zeros_like(a)
+    if kind == "ball":
+        return np.array([[0, 0, 1, 0], [0, 1, 0, 0]]), b, np.zeros_like(a), a
+    raise ValueError(f"kind: 'inner' or 'ball' (got {kind!r})")
+
+
+def torus_path(bearing: Bearing, base: Bearing, kind: str, load, axial_load_n: float, n_fast: int, n_slow: int,
+               film_m: float = 0.0) -> TorusPath:
+    """The quasi-static path of ``bearing``'s defects of ``kind`` on their torus (:class:`TorusPath`), ``base``
+    the bearing without them. Only the grid points where a ball meets a defect are solved (batched Newton)."""
     z = bearing.geometry.n_balls
     if n_fast % n_slow:
         raise ValueError(f"samples: {n_fast} per ball pass must be a multiple of the {n_slow} slow samples")
     i, j = np.meshgrid(np.arange(n_fast), np.arange(n_slow), indexing="ij")          # (n_fast, n_slow)
-    a, b = TWO_PI * i / n_fast, TWO_PI * j / n_slow
     with_kind = Bearing(bearing.geometry, defects=[d for d in bearing.defects if d.race in ("outer", kind)])
     step = n_fast // n_slow
+    phase_map, cage, shaft, spin = torus_grid(kind, z, n_fast, n_slow)
     if kind == "inner":
-        cage, shaft, spin = b - a / z, b, np.zeros_like(a)
         u_index = (z * j * step - i) % n_fast                   # z theta_cage on the base's grid (exact)
-        phase_map = np.array([[z, -z, 0, 0], [1, 0, 0, 0]])
     else:
-        cage, shaft, spin = b, np.zeros_like(a), a
         u_index = (z * j * step) % n_fast
-        phase_map = np.array([[0, 0, 1, 0], [0, 1, 0, 0]])
     # the base's path on its own grid (one ball pitch, the excitation's cage angles): exact at these points
     pitch = TWO_PI / z
     ref_1d, _, _ = quasi_static_path_m(base, load, axial_load_n, pitch * np.arange(n_fast) / n_fast, film_m)
@@ -451,8 +502,26 @@ def _difference_lines(bearing: Bearing, base: Bearing, kind: str, load, axial_lo
                                                   shaft_angles_rad=shaft[touched], spin_angles_rad=spin[touched])
         full[touched] -= _reference_path(base, load, axial_load_n, cage[touched], film_m, ref[touched])
         full[touched] += ref[touched]
-    diff = (full - ref)[..., ::-1]                                          # (vertical, horizontal)
-    out = lines_from_grid(diff, phase_map, rates, DIRECTIONS)
+    return TorusPath(kind, phase_map, cage, shaft, spin, u_index, ref_1d, full, touched, with_kind)
+
+
+def _difference_lines(bearing: Bearing, base: Bearing, kind: str, load, axial_load_n: float, n_fast: int,
+                      n_slow: int, film_m: float, rates, keep: dict | None = None) -> LineSet:
+    """Lines of what the defects of ``kind`` add to the quasi-static path of ``base`` (the bearing without them).
+
+    Sampled on the 2-torus of the kind's own angles (:func:`torus_path`), fine along the fast one, coarse along
+    the slow one: ``"inner"``: ``psi = z (theta_shaft - theta_cage)`` (a ball's position relative to the inner
+    race, one ball pitch per turn; BPFI) and ``theta_shaft`` (where the defect is in the load zone), so
+    ``theta_cage = theta_shaft - psi / z``. ``"ball"``: the spin angle ``theta_spin`` and ``theta_cage`` (where
+    the defective ball is in the load zone). Where no ball meets the defect the difference is exactly zero, so it
+    is narrow along the fast angle and smooth along the slow one; the ball passage of the others (harmonics of
+    z theta_cage) stays in the base's exact BPFO orders.
+    """
+    tp = torus_path(bearing, base, kind, load, axial_load_n, n_fast, n_slow, film_m)
+    if keep is not None:
+        keep[kind] = tp
+    diff = (tp.path - tp.base[tp.base_index])[..., ::-1]                    # (vertical, horizontal)
+    out = lines_from_grid(diff, tp.phase_map, rates, DIRECTIONS)
     out.dc = np.zeros(2) + out.dc
     return out
 

@@ -174,8 +174,6 @@ def union(sets) -> LineSet:
     defect's load zone and the unbalance; the first set's rates)."""
     sets = [s for s in sets if s is not None]
     first = sets[0]
-    pos: dict = {}
-    coef, amp, power = [], [], []
     dc = np.zeros(len(first.inputs))
     line_hz = 0.0
     for s in sets:
@@ -184,17 +182,11 @@ def union(sets) -> LineSet:
         dc = dc + s.dc
         if np.any(s.coefficients[:, 3] != 0):
             line_hz = s.line_hz
-        for c, a, p in zip(s.keys(), s.amplitude, s.speed_power):
-            i = pos.get((c, int(p)))
-            if i is None:
-                pos[(c, int(p))] = len(coef)
-                coef.append(c)
-                amp.append(a.copy())
-                power.append(int(p))
-            else:
-                amp[i] = amp[i] + a
-    out = LineSet(np.array(coef, np.int64).reshape(-1, N_PHASES), np.array(amp).reshape(len(coef), -1),
-                  first.inputs, first.rates_per_hz, line_hz, np.array(power, np.int64), dc)
+    keys = np.concatenate([np.column_stack([s.coefficients, s.speed_power]) for s in sets]).astype(np.int64)
+    uniq, inverse = np.unique(keys.reshape(-1, N_PHASES + 1), axis=0, return_inverse=True)
+    amp = np.zeros((uniq.shape[0], len(first.inputs)), complex)
+    np.add.at(amp, inverse.reshape(-1), np.concatenate([s.amplitude for s in sets]))   # in order: as a loop adds
+    out = LineSet(uniq[:, :N_PHASES], amp, first.inputs, first.rates_per_hz, line_hz, uniq[:, N_PHASES], dc)
     return out.sorted()
 
 

@@ -5,6 +5,8 @@
     highest frequency the model serves, plus one static residual vector per input force pattern (the static
     response minus its modal part), M-orthonormalised. The static response is then exact, and the modes above
     the cut-off respond quasi-statically; the error against the full FE is tested (tests/test_harmonic.py).
+``LineModes`` (:mod:`bkabem_core.linemodes`)
+    The reduced model diagonalised along every line (the poles and residues the forms below use).
 ``OrderModalForm``
     Along line j (frequency ``omega = nu_j Omega``) the gyroscopic term joins the mass, so the dynamic stiffness is
     a fixed quadratic pencil per line; diagonalised once, the response is a pole-residue sum at every speed.
@@ -18,15 +20,53 @@ Units: SI (m, s, N, rad).
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import scipy.linalg
-from threadpoolctl import threadpool_limits
 
+from .linemodes import LineModes  # noqa: F401  (re-exported: the line modes of a basis)
 from .solvers import load_library
 
 TWO_PI = 2.0 * math.pi
+
+
+def plane_mask(rotor) -> np.ndarray | None:
+    """(ndof,) bool: True for the DOFs of the vertical bending plane (y, alpha), False for (x, beta); None if the
+    model is not separable into the two planes (some stiffness, mass or damping couples them, or the gyroscopic
+    matrix acts within a plane) or does not name its DOFs (``node_labels``, ``dof_index``)."""
+    labels, index = getattr(rotor, "node_labels", None), getattr(rotor, "dof_index", None)
+    if labels is None or index is None:
+        return None
+    y = np.zeros(rotor.K.shape[0], dtype=int)
+    for node in labels:
+        for direction, plane in (("x", 1), ("beta", 1), ("y", 2), ("alpha", 2)):
+            try:
+                y[index(node, direction)] = plane
+            except KeyError:
+                continue
+    if np.any(y == 0):
+        return None
+    ym = y == 2
+    for a in (rotor.K, rotor.M, rotor.C):
+        if np.abs(a[np.ix_(ym, ~ym)]).max(initial=0.0) > 1e-14 * np.abs(a).max(initial=1e-300):
+            return None
+    g = rotor.G
+    if (np.abs(g[np.ix_(ym, ym)]).max(initial=0.0) > 0.0 or np.abs(g[np.ix_(~ym, ~ym)]).max(initial=0.0) > 0.0):
+        return None
+    return ym
+
+
+def _ritz_vectors(k, m, p, w_cut):
+    """M-orthonormal ``[modes below w_cut, static residual vectors of the patterns p]`` and the modes' w^2."""
+    w2, phi = scipy.linalg.eigh(k, m, subset_by_value=(-np.inf, w_cut * w_cut))
+    if w2.size and w2.min() <= 0.0:
+        raise ValueError("ModalBasis: the model has a rigid-body mode (K singular); ground it first")
+    static = scipy.linalg.solve(k, p, assume_a="sym")
+    resid = static - phi @ ((phi.T @ p) / w2[:, None])
+    v = np.hstack([phi, resid])
+    mr = v.T @ m @ v
+    lower = np.linalg.cholesky(0.5 * (mr + mr.T))
+    return scipy.linalg.solve_triangular(lower, v.T, lower=True).T, w2       # V L^-T: V^T M V = I
 
 
 class ModalBasis:
@@ -34,7 +74,10 @@ class ModalBasis:
 
     Basis ``V = [Phi, R]``: the undamped modes ``Phi`` of ``(K, M)`` below ``cutoff_hz`` (bearings and supports
     included) and, for each input force pattern ``p``, the residual static vector ``K^-1 p - Phi Omega^-2 Phi^T p``;
-    all M-orthonormalised. The reduced matrices are ``V^T A V``.
+    all M-orthonormalised. The reduced matrices are ``V^T A V``. When the FE separates into its two bending planes
+    (:func:`plane_mask`: bearings without cross stiffness, the gyroscopic matrix coupling only the planes) the
+    basis is made plane by plane (each pattern's residual vector split into its planes): the same subspace, and
+    every vector in one plane (``planes``), which gives the line pencils a real form (:mod:`linemodes`).
 
     Parameters
     ----------
@@ -57,24 +100,38 @@ class ModalBasis:
     outputs : ndarray (U, m)
         Rows of ``V`` at the output DOFs.
     n_modes : int
-        Modes kept (m - P residual vectors).
+        Modes kept (the rest are residual vectors).
+    planes : ndarray of bool (m,) or None
+        True for the basis vectors of the vertical plane (y, alpha), False for (x, beta); None if the FE does not
+        separate into the planes.
     """
 
     def __init__(self, rotor, inputs: np.ndarray, outputs: np.ndarray, cutoff_hz: float):
         k, m = rotor.K, rotor.M
         w_cut = TWO_PI * float(cutoff_hz)
-        w2, phi = scipy.linalg.eigh(k, m, subset_by_value=(-np.inf, w_cut * w_cut))
-        if w2.size and w2.min() <= 0.0:
-            raise ValueError("ModalBasis: the model has a rigid-body mode (K singular); ground it first")
         p = np.asarray(inputs, dtype=float)
-        static = scipy.linalg.solve(k, p, assume_a="sym")
-        resid = static - phi @ ((phi.T @ p) / w2[:, None])
-        v = np.hstack([phi, resid])
-        mr = v.T @ m @ v
-        lower = np.linalg.cholesky(0.5 * (mr + mr.T))
-        v = scipy.linalg.solve_triangular(lower, v.T, lower=True).T        # V L^-T: V^T M V = I
+        planes = plane_mask(rotor)
+        if planes is None:
+            v, w2 = _ritz_vectors(k, m, p, w_cut)
+            self.planes = None
+        else:
+            # plane by plane: the same subspace, and a basis whose vectors each lie in one bending plane
+            parts, freq, flags = [], [], []
+            for y in (False, True):
+                idx = np.flatnonzero(planes == y)
+                pp = p[idx]
+                pp = pp[:, np.abs(pp).max(axis=0) > 0.0] if pp.size else pp
+                vi, w2i = _ritz_vectors(k[np.ix_(idx, idx)], m[np.ix_(idx, idx)], pp, w_cut)
+                full = np.zeros((k.shape[0], vi.shape[1]))
+                full[idx] = vi
+                parts.append(full)
+                freq.append(w2i)
+                flags.append(np.full(vi.shape[1], y))
+            v = np.hstack(parts)
+            w2 = np.sort(np.concatenate(freq))
+            self.planes = np.concatenate(flags)
         self.V = v
-        self.n_modes = int(phi.shape[1])
+        self.n_modes = int(w2.size)
         self.cutoff_hz = float(cutoff_hz)
         self.M, self.K, self.C, self.G = (v.T @ a @ v for a in (rotor.M, rotor.K, rotor.C, rotor.G))
         self.inputs = v.T @ p
@@ -112,103 +169,6 @@ class ModalBasis:
              + 1j * omega[:, None, None] * (self.C[None] + big_omega[:, None, None] * self.G[None]))
         q = np.linalg.solve(z, (force @ self.inputs.T)[..., None])[..., 0]
         return q @ self.outputs.T
-
-
-class LineModes:
-    """The reduced model diagonalised line by line: poles, input participations and output shapes.
-
-    Along line j the frequency is tied to the shaft speed, ``omega = nu_j Omega``, so the dynamic stiffness is the
-    fixed pencil ``Z_j(s) = K + s C + s^2 (M - i G / nu_j)`` (:class:`OrderModalForm`). Its state matrix
-    ``S_j = V diag(lambda) V^-1`` is computed once per line; then the receptance from the basis's input patterns
-    to its outputs at any frequency is
-
-        H_j(omega) = sum_r p_{j,r} a_{j,r}^T / (i omega - lambda_{j,r})
-
-    with ``a = V^-1 [0; M_j^-1 P]`` (participation of each input pattern) and ``p = O V[:m]`` (output shapes).
-    The eigen-decompositions of the lines are independent; they run on two threads (LAPACK releases the GIL).
-
-    Parameters
-    ----------
-    basis : ModalBasis
-    multipliers : ndarray (K,)
-        ``nu_j`` [-] (line frequency per shaft frequency).
-
-    Attributes
-    ----------
-    poles : ndarray complex (K, 2m) [rad/s]
-    participation : ndarray complex (K, 2m, P) [1/(N s)]
-    shapes : ndarray complex (K, 2m, U) [m s/m]
-    static : ndarray (U, P)
-        Static receptance [m/N] (exact: the basis holds the static residual vectors).
-    """
-
-    def __init__(self, basis: ModalBasis, multipliers: np.ndarray):
-        nu = np.asarray(multipliers, dtype=float)
-        if np.any(~np.isfinite(nu)) or np.any(nu <= 0.0):
-            raise ValueError("multipliers: must be finite and > 0")
-        self.basis = basis
-        self.multipliers = nu
-        n = basis.size
-        n_k, n_p, n_u = nu.size, basis.inputs.shape[1], basis.outputs.shape[0]
-        self.poles = np.empty((n_k, 2 * n), complex)
-        self.participation = np.empty((n_k, 2 * n, n_p), complex)
-        self.shapes = np.empty((n_k, 2 * n, n_u), complex)
-
-        def one(i):
-            s = np.zeros((2 * n, 2 * n), complex)
-            s[:n, n:] = np.eye(n)
-            m_inv = np.linalg.inv(basis.M - (1j / nu[i]) * basis.G)
-            s[n:, :n] = -m_inv @ basis.K
-            s[n:, n:] = -m_inv @ basis.C
-            lam, vec = np.linalg.eig(s)
-            self.poles[i] = lam
-            self.participation[i] = np.linalg.solve(vec, np.concatenate([np.zeros((n, n_p), complex),
-                                                                          m_inv @ basis.inputs]))
-            self.shapes[i] = (basis.outputs @ vec[:n, :]).T
-
-        # one BLAS thread per worker: two workers each running a 2-thread OpenBLAS on these small matrices
-        # oversubscribe a 2-core machine (measured 10-25 s instead of 2.2 s for the 50 lines of the default case)
-        with threadpool_limits(limits=1, user_api="blas"), ThreadPoolExecutor(max_workers=2) as pool:
-            list(pool.map(one, range(n_k)))
-        self.static = basis.outputs @ np.linalg.solve(basis.K, basis.inputs)
-        self.w_per_hz = TWO_PI * nu
-        self._shapes_t = None
-
-    def subset(self, lines: np.ndarray) -> "LineModes":
-        """The same decomposition restricted to the lines at indices ``lines`` (no new eigen-decomposition)."""
-        lines = np.asarray(lines, dtype=int)
-        other = object.__new__(LineModes)
-        other.__dict__.update(self.__dict__)
-        for name in ("multipliers", "poles", "participation", "shapes", "w_per_hz"):
-            setattr(other, name, getattr(self, name)[lines])
-        other._shapes_t = None
-        return other
-
-    def extended(self, multipliers: np.ndarray) -> "LineModes":
-        """Line modes of ``multipliers``: those already decomposed here are reused, only the new ones are made."""
-        nu = np.asarray(multipliers, dtype=float)
-        pos = {float(v): i for i, v in enumerate(self.multipliers)}
-        new = np.array(sorted({float(v) for v in nu if float(v) not in pos}))
-        more = LineModes(self.basis, new) if new.size else None
-        other = object.__new__(LineModes)
-        other.__dict__.update(self.__dict__)
-        src = [(self, pos[float(v)]) if float(v) in pos else (more, int(np.searchsorted(new, float(v))))
-               for v in nu]
-        for name in ("poles", "participation", "shapes"):
-            setattr(other, name, np.stack([getattr(m, name)[i] for m, i in src]) if src else
-                    getattr(self, name)[:0])
-        other.multipliers = nu
-        other.w_per_hz = TWO_PI * nu
-        return other
-
-    def receptance(self, speed_hz: float, lines: np.ndarray | None = None) -> np.ndarray:
-        """``H_j(omega_j)`` (K, U, P) [m/N] at shaft speed ``speed_hz`` [Hz] (lines: a subset of indices)."""
-        sl = slice(None) if lines is None else lines
-        iw = 1j * self.w_per_hz[sl] * float(speed_hz)
-        g = 1.0 / (iw[:, None] - self.poles[sl])                                       # (K, 2m)
-        if self._shapes_t is None:
-            self._shapes_t = np.ascontiguousarray(np.swapaxes(self.shapes, 1, 2))    # (K, U, 2m)
-        return np.matmul(self._shapes_t[sl], g[:, :, None] * self.participation[sl])
 
 
 class OrderModalForm:

@@ -16,7 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .modal import ModalBasis
-from .tdsm import HertzPair, Tdsm
+from .contacts import HertzPair
+from .tdsm import Tdsm
 
 TWO_PI = 2.0 * math.pi
 

@@ -139,7 +139,9 @@ REF = Path(__file__).parent / "fixtures" / "outer_race_main_a6a1bf7.npz"
 
 def test_identity_with_the_outer_race_results_of_main():
     """The embedded case through the new line machinery reproduces main's BKA-BEM (commit a6a1bf7, before the
-    fault library) to round-off: same orders, same excitation, same response at three speeds."""
+    fault library): same orders, the same excitation bit for bit, the same response at three speeds to the
+    round-off of the reduced model's factorisation (the basis made plane by plane and the line pencils in their
+    real form, issue 12: 1e-10 of each channel's largest; the reduced model itself is 1e-6 from the full FE)."""
     ref = np.load(REF)
     m = BkaBem(Case.load())
     assert np.array_equal(m.orders, ref["orders"]) and m.is_order_set
@@ -147,7 +149,7 @@ def test_identity_with_the_outer_race_results_of_main():
     assert np.array_equal(m.excitations["nde"].complex_amplitude_m(), ref["nde_amp"])
     x = m.response(ref["speeds"])
     scale = np.abs(ref["response"]).max(axis=1, keepdims=True)
-    assert np.max(np.abs(x - ref["response"]) / scale) < 1e-12
+    assert np.max(np.abs(x - ref["response"]) / scale) < 1e-9
     assert np.allclose(m.dc_m, ref["dc"], rtol=1e-13, atol=0)
 
 

@@ -1,0 +1,111 @@
+"""The line modes (bkabem_core.linemodes): the real plane-rotated form and the anchored refinement against the
+complex eigen-decomposition of every line, on the fault library's inner-race and ball line sets."""
+
+import numpy as np
+import pytest
+
+from bkabem_core.case import Case
+from bkabem_core.harmonic import BkaBem
+from bkabem_core.linemodes import LineModes
+from bkabem_core.modal import ModalBasis, plane_mask
+
+#: Accepted receptance error of the fast forms against the complex decomposition, relative to the receptance's
+#: largest entry at each frequency (measured: 1.6e-7 at the highest lines, where the pole sum itself has that
+#: conditioning against a direct solve; the improved method and the TDSM comparisons need 1e-4).
+TOL = 1e-6
+
+
+@pytest.fixture(scope="module")
+def fault_models():
+    return {k: BkaBem(Case.load(f"motor_6010_{k}"), solver="block") for k in ("inner", "ball")}
+
+
+def worst_error(case, nu, fast, ref, lines):
+    """Largest norm-relative receptance difference over the speeds 0..max (200 points plus every in-band
+    resonance speed, where the error would peak) of the given lines."""
+    worst = 0.0
+    f_max = case.max_speed_hz
+    for j in lines:
+        res = np.abs(ref.poles[j].imag) / (2 * np.pi * nu[j])
+        f = np.sort(np.r_[np.linspace(0.0, f_max, 201)[1:], res[(res > 0) & (res <= f_max)]])
+        w = 2 * np.pi * nu[j] * f
+        h_ref, h = ref.receptance_at(w, j), fast.receptance_at(w, j)
+        e = np.abs(h - h_ref).reshape(w.size, -1).max(1) / np.abs(h_ref).reshape(w.size, -1).max(1)
+        worst = max(worst, float(e.max()))
+    return worst
+
+
+def test_the_fe_separates_into_two_planes_and_the_plane_basis_spans_the_same_model(model):
+    """Bearing elements have no cross stiffness: K, M, C do not couple (x, beta) with (y, alpha), G couples only
+    them. The basis made plane by plane gives the receptances of the mixed one (direct solves) to round-off."""
+    rotor = model.rotor
+    ym = plane_mask(rotor)
+    assert ym is not None and ym.sum() == rotor.ndof // 2
+    b = model.basis
+    assert b.planes is not None and 0 < b.planes.sum() < b.size
+    for a in (b.K, b.M, b.C):
+        assert np.abs(a[np.ix_(b.planes, ~b.planes)]).max() <= 1e-12 * np.abs(a).max()
+    assert np.abs(b.G[np.ix_(b.planes, b.planes)]).max() <= 1e-12 * np.abs(b.G).max()
+
+    class Mixed:                                  # the same FE, without DOF names: the mixed basis of before
+        M, K, C, G = rotor.M, rotor.K, rotor.C, rotor.G
+
+    mixed = ModalBasis(Mixed, model._p, model._out_dofs.reshape(-1), b.cutoff_hz)
+    assert mixed.planes is None and mixed.size == b.size
+    for f, nu in ((3.0, 6.06), (40.0, 60.6), (75.0, 303.0)):
+        w, big = np.array([2 * np.pi * nu * f]), np.array([2 * np.pi * f])
+        h1, h2 = b.solve_unit(w, big), mixed.solve_unit(w, big)
+        assert np.abs(h1 - h2).max() <= 1e-8 * np.abs(h2).max()
+
+
+def test_line_modes_of_every_inner_race_line_match_the_complex_decomposition(fault_models):
+    """All 350 lines of the inner-race machine (multipliers 1-303): the real form with anchors and refinement
+    against the complex state matrix of each line, receptances within TOL at every speed up to the maximum."""
+    m = fault_models["inner"]
+    nu = m.multipliers[m._locked_idx]
+    fast = LineModes(m.basis, nu)
+    assert fast.stats["method"] == "real+anchors"
+    assert fast.stats["refined"] > 0.6 * nu.size                 # the refinement is what is being tested
+    ref = LineModes(m.basis, nu, method="complex")
+    assert worst_error(m.case, nu, fast, ref, range(nu.size)) <= TOL
+
+
+def test_line_modes_of_the_ball_lines_match_the_complex_decomposition(fault_models):
+    """The ball machine's 668 lines (FTF-spaced sidebands: groups of up to 60 lines per anchor): the refined
+    lines farthest from their anchors and every tenth line, within TOL."""
+    m = fault_models["ball"]
+    nu = m.multipliers[m._locked_idx]
+    fast = LineModes(m.basis, nu)
+    from bkabem_core.linemodes import _groups
+
+    far = []
+    for anchor, members in _groups(1.0 / nu, 0.05, 2e-3):
+        far += members[-2:]                                       # members are sorted by distance
+    pick = np.unique(np.r_[np.array(far, dtype=int), np.arange(0, nu.size, 10)])
+    ref = LineModes(m.basis, nu[pick], method="complex")
+    sub = fast.subset(pick)
+    assert worst_error(m.case, nu[pick], sub, ref, range(pick.size)) <= TOL
+
+
+def test_a_refinement_too_far_from_its_anchor_falls_back_to_the_exact_decomposition(fault_models):
+    """Groups 20 times too wide: some lines do not converge from their anchor; they are decomposed exactly and
+    become the next anchors, and every line is still right."""
+    m = fault_models["inner"]
+    nu = np.sort(m.multipliers[m._locked_idx])[::12]
+    fast = LineModes(m.basis, nu, group_width=1.0, group_width_abs=0.04, max_sweeps=6)
+    assert fast.stats["fallbacks"] > 0 and fast.stats["refined"] > 0
+    ref = LineModes(m.basis, nu, method="complex")
+    assert worst_error(m.case, nu, fast, ref, range(nu.size)) <= TOL
+
+
+def test_a_basis_without_planes_takes_the_complex_form(model):
+    class Mixed:
+        M, K, C, G = model.rotor.M, model.rotor.K, model.rotor.C, model.rotor.G
+
+    mixed = ModalBasis(Mixed, model._p, model._out_dofs.reshape(-1), model.basis.cutoff_hz)
+    lm = LineModes(mixed, model.multipliers[:5])
+    assert lm.stats["method"] == "complex"
+    ref = model.line_modes.subset(np.arange(5))
+    for f in (10.0, 60.0):
+        a, b = lm.receptance(f), ref.receptance(f)
+        assert np.abs(a - b).max() <= 1e-8 * np.abs(b).max()
