@@ -1,14 +1,25 @@
 """``bkabem fleet``: N machines, each a bkabem node in its own namespace, in one or several processes.
 
-Machine ``i`` (0-based) runs as node ``bkabem`` in namespace ``/<prefix><i:02d>`` (default ``/machine_00``,
+Machine ``i`` runs as node ``bkabem`` in namespace ``/<prefix><i:02d>`` (default ``/machine_00``,
 ``/machine_01``, ...), with ``machine_id`` = that name without the slash, ``seed = --seed + i`` and case
 ``cases[i % len(cases)]`` (``--case`` is repeatable). ``--defect-depths`` (comma list, m) gives each
 machine its own dent depth, cycled like the cases, so that a fleet holds healthy and damaged machines.
 
+Several hosts, one graph: each host runs ``--first-index K --machines N`` for its own disjoint range of
+indices (machines ``K .. K+N-1``; seeds, cases and depths follow the index, so the machines are the same as
+in one big fleet) with the same ``--index-width`` (digits of the index in the name; default: enough for
+this host's last index, at least 2) and opens discovery explicitly (``--discovery-range SUBNET``,
+``--discovery-server HOST``: docs/fleet.md). A namespace that shows up twice on the graph (two hosts with
+overlapping ranges) is reported.
+
 Nodes of one process share one executor and one BKA-BEM model per case (the ~2 s preparation is paid
 once per case and process). ``--processes P`` spreads the machines round-robin over P processes
-(default: 1 for up to 4 machines, else the CPU count). Each machine's speed topic is
-``/<prefix><i:02d>/speed``; ``bkabem speed --namespace /machine_03`` drives one of them.
+(default: 1 for up to 4 machines, else the CPU count). The executor is rclpy's EventsExecutor by default
+(``--executor events``: timers and callbacks dispatched from C++, no wait set rebuilt over every entity of every
+node per callback, which made the cost per machine grow with the machines per process); ``--executor single``
+is the SingleThreadedExecutor of ``bkabem node``. The machines of a process start their streams spread evenly
+over one chunk period, so that their publications do not all fall due at the same instant. Each machine's
+speed topic is ``/<prefix><i:02d>/speed``; ``bkabem speed --namespace /machine_03`` drives one of them.
 
 ``--seconds S`` stops the fleet after S seconds and prints one line of publish statistics per machine
 (how late each chunk was published after its last sample was due): the way to measure how many machines
@@ -30,17 +41,26 @@ import time
 #: (the workers' argument lists, thousands of DDS participants).
 MAX_MACHINES = 1000
 MAX_PROCESSES = 64
+#: Highest machine index of a plant (``--first-index`` + ``--machines`` - 1); node seeds stay below 2**31.
+MAX_INDEX = 999_999
+EXECUTORS = ("events", "single")
 
 
-def machine_names(n: int, prefix: str = "machine_") -> list[str]:
-    width = max(2, len(str(n - 1)))
-    return [f"{prefix}{i:0{width}d}" for i in range(n)]
+def index_width(first: int, n: int, width: int | None = None) -> int:
+    """Digits of the machine index in the names: ``width`` when given, else enough for the last index (>= 2)."""
+    return width if width is not None else max(2, len(str(first + n - 1)))
 
 
-def plan(n: int, cases: list[str], seed: int, prefix: str, depths: list[float] | None) -> list[dict]:
-    """One dict per machine: name, namespace, parameter overrides."""
+def machine_names(n: int, prefix: str = "machine_", first: int = 0, width: int | None = None) -> list[str]:
+    w = index_width(first, n, width)
+    return [f"{prefix}{i:0{w}d}" for i in range(first, first + n)]
+
+
+def plan(n: int, cases: list[str], seed: int, prefix: str, depths: list[float] | None, first: int = 0,
+         width: int | None = None) -> list[dict]:
+    """One dict per machine: index, name, namespace, parameter overrides (seed, case, depth follow the index)."""
     out = []
-    for i, name in enumerate(machine_names(n, prefix)):
+    for i, name in zip(range(first, first + n), machine_names(n, prefix, first, width)):
         ov = {"machine_id": name, "seed": seed + i}
         if cases:
             ov["case"] = cases[i % len(cases)]
@@ -50,12 +70,63 @@ def plan(n: int, cases: list[str], seed: int, prefix: str, depths: list[float] |
     return out
 
 
+def _make_executor(kind: str):
+    from rclpy.executors import SingleThreadedExecutor
+
+    if kind == "events":
+        from rclpy.experimental import EventsExecutor
+
+        return EventsExecutor()
+    return SingleThreadedExecutor()
+
+
+def _start_spread(nodes) -> None:
+    """Start the nodes' streams one after the other, spread evenly over one chunk period (their timers' phases,
+    hence their publications, then do not fall due together)."""
+    if not nodes:
+        return
+    period = min(nd.samples_per_chunk / nd.sample_rate for nd in nodes)
+    t0 = time.monotonic()
+    for k, nd in enumerate(nodes):
+        delay = t0 + k * period / len(nodes) - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        nd.start()
+
+
+class _NamespaceWatch:
+    """Warn (once per namespace) when a namespace of this process's machines has more than one ``bkabem`` node on
+    the graph: two hosts run overlapping ``--first-index`` ranges and their streams mix on the same topics."""
+
+    def __init__(self, node, namespaces):
+        from rclpy.clock import Clock, ClockType
+
+        self.node = node
+        self.mine = set(namespaces)
+        self.reported: set[str] = set()
+        self.timer = node.create_timer(3.0, self.check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def check(self) -> None:
+        from collections import Counter
+
+        try:
+            seen = Counter(ns for name, ns in self.node.get_node_names_and_namespaces() if name == "bkabem")
+        except Exception:  # noqa: BLE001 - graph queries fail during shutdown
+            return
+        for ns in sorted(self.mine):
+            if seen[ns] > 1 and ns not in self.reported:
+                self.reported.add(ns)
+                self.node.get_logger().warning(
+                    f"namespace {ns} has {seen[ns]} bkabem nodes on the graph: another fleet (host) runs the same "
+                    f"machine index; give each host a disjoint --first-index range")
+
+
 def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seconds: float | None,
-                   report=None) -> int:
+                   report=None, executor_kind: str = "events") -> int:
     """Run the given machines as nodes of this process; returns the exit code."""
     import rclpy
     from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.executors import ExternalShutdownException
     from rclpy.parameter import Parameter
 
     from bkabem_core.case import CaseError
@@ -79,12 +150,12 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
         except (CaseError, InvalidParameterValueException, InvalidParameterTypeException, ValueError) as exc:
             sys.stderr.write(f"bkabem fleet: error: {exc}\n")
             return 2
-        executor = SingleThreadedExecutor()
+        executor = _make_executor(executor_kind)
         for nd in nodes:
             executor.add_node(nd)
+        watch = _NamespaceWatch(nodes[0], [m["namespace"] for m in machines]) if nodes else None
         _quiet_gc()
-        for nd in nodes:
-            nd.start()
+        _start_spread(nodes)
         t_end = None if seconds is None else time.monotonic() + seconds
         try:
             while rclpy.ok():
@@ -95,6 +166,7 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
             pass
         for nd in nodes:
             st = nd.stats()
+            st["namespace_conflicts"] = sorted(watch.reported) if watch is not None else []
             _exit_log(nd, st)
             if report is not None:
                 report(st)
@@ -117,7 +189,12 @@ def add_parser(sub, add_case):
     p = sub.add_parser("fleet", help="start N namespaced bkabem nodes (a fleet of machines)",
                        description=__doc__.split("\n\n")[0])
     p.add_argument("--machines", type=pos_int("--machines", 1, MAX_MACHINES), required=True,
-                   help=f"number of machines (at most {MAX_MACHINES})")
+                   help=f"number of machines on this host (at most {MAX_MACHINES})")
+    p.add_argument("--first-index", type=pos_int("--first-index", 0, MAX_INDEX), default=0, metavar="K",
+                   help="index of this host's first machine: machines K .. K+N-1 (other hosts: disjoint ranges)")
+    p.add_argument("--index-width", type=pos_int("--index-width", 1, len(str(MAX_INDEX))), default=None,
+                   metavar="DIGITS", help="digits of the index in the names (default: enough for the last index, "
+                                          "at least 2); give every host of a plant the same width")
     p.add_argument("--processes", type=pos_int("--processes", 1, MAX_PROCESSES), default=None,
                    help="processes to spread the machines over (default: 1 up to 4 machines, else CPU count)")
     p.add_argument("--case", action="append", default=[], metavar="CASE",
@@ -131,6 +208,9 @@ def add_parser(sub, add_case):
     p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None)
     p.add_argument("--params-file", action="append", default=[], metavar="FILE",
                    help="parameter YAML applied to every machine (use /** as the node key)")
+    p.add_argument("--executor", choices=EXECUTORS, default="events",
+                   help="rclpy executor of each process: events (EventsExecutor, default) or single "
+                        "(SingleThreadedExecutor)")
     p.add_argument("--seconds", type=finite_float("--seconds", 0.0, strict=True), default=None,
                    help="stop after this long and print per-machine publish statistics")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None)
@@ -155,7 +235,13 @@ def main(args) -> int:
         bad = [d for d in depths if not (math.isfinite(d) and 0.0 <= d <= 1e-3)]
         if bad:
             fail("fleet", f"--defect-depths: {bad[0]!r} m is not a dent depth in [0, 0.001] m")
-    check_names([("--prefix", "namespace", "/" + machine_names(1, args.prefix)[0])])
+    last = args.first_index + args.machines - 1
+    if last > MAX_INDEX:
+        fail("fleet", f"--first-index: {args.first_index} + {args.machines} machines ends at index {last}, above "
+                      f"{MAX_INDEX}")
+    if args.index_width is not None and len(str(last)) > args.index_width:
+        fail("fleet", f"--index-width: {args.index_width} digits cannot hold machine index {last}")
+    check_names([("--prefix", "namespace", "/" + machine_names(1, args.prefix, last, args.index_width)[0])])
     from .cli import check_parameter_ranges
 
     check_parameter_ranges({k: v for k, v in {"sample_rate": args.sample_rate,
@@ -176,19 +262,20 @@ def main(args) -> int:
     report = _print_stats if args.seconds is not None else None
 
     if args.worker is not None:   # child process of a multi-process fleet
-        return run_in_process(json.loads(args.worker), common, ros_args, args.seconds, report)
+        return run_in_process(json.loads(args.worker), common, ros_args, args.seconds, report, args.executor)
 
-    machines = plan(args.machines, args.case, args.seed, args.prefix, depths)
+    machines = plan(args.machines, args.case, args.seed, args.prefix, depths, args.first_index, args.index_width)
     n_proc = args.processes or (1 if args.machines <= 4 else (os.cpu_count() or 1))
     n_proc = min(n_proc, args.machines)
     if n_proc == 1:
-        return run_in_process(machines, common, ros_args, args.seconds, report)
+        return run_in_process(machines, common, ros_args, args.seconds, report, args.executor)
 
     from .ros_env import announce
 
     announce()                      # here, not in every worker (they inherit the marker)
     groups = [machines[i::n_proc] for i in range(n_proc)]
-    base = [sys.executable, "-m", "bkabem_ros", "fleet", "--machines", str(args.machines)]
+    base = [sys.executable, "-m", "bkabem_ros", "fleet", "--machines", str(args.machines),
+            "--executor", args.executor]
     for flag, val in (("--sample-rate", args.sample_rate), ("--chunk-duration", args.chunk_duration),
                       ("--qos", args.qos), ("--seconds", args.seconds)):
         if val is not None:
