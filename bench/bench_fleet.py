@@ -66,6 +66,8 @@ def thread_cpu(pids) -> dict:
 
 def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor: bool) -> dict:
     env = ros_env()
+    env.pop("PYTHONUNBUFFERED")   # the baseline writes FLEETSTATS with sys.stdout.write: unbuffered, two workers' lines
+    #                               could interleave mid-line; block-buffered + its flush() is one write per line
     cwd = str(REPO)
     extra = []
     if variant == "before":
@@ -113,6 +115,9 @@ def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor:
     th.join(5)
     speed.stop()
     stats = [json.loads(ln.split(" ", 1)[1]) for ln in lines if ln.startswith("FLEETSTATS ")]
+    if len(stats) != n:
+        res_lost = [ln[:200] for ln in lines if "FLEETSTATS" in ln and not ln.startswith("FLEETSTATS ")]
+        print(f"warning: {len(stats)} of {n} statistics lines read; cut lines: {res_lost[:3]}", file=sys.stderr)
     wall = w1 - w0
     cpu = {k: round(100 * (c1[k] - c0[k]) / wall, 1) for k in c0}
     res = {"variant": variant, "machines": n, "reported": len(stats), "startup_s": round(startup_s, 1),

@@ -158,6 +158,8 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
         _start_spread(nodes)
         t_end = None if seconds is None else time.monotonic() + seconds
         try:
+            # spin_once in a loop, not spin(): Python runs the SIGTERM handler (and sees the end time) between calls;
+            # inside the EventsExecutor's C++ spin() a Python signal handler would never run
             while rclpy.ok():
                 if t_end is not None and time.monotonic() >= t_end:
                     break
@@ -178,8 +180,10 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
 
 
 def _print_stats(st: dict) -> None:
-    sys.stdout.write("FLEETSTATS " + json.dumps(st) + "\n")
+    """One line per machine in one write(2): the workers share the parent's stdout, and a line written in pieces
+    (unbuffered Python writes text in several calls) could be cut by another worker's line."""
     sys.stdout.flush()
+    os.write(sys.stdout.fileno(), ("FLEETSTATS " + json.dumps(st) + "\n").encode())
 
 
 def add_parser(sub, add_case):
