@@ -13,7 +13,9 @@ chunk of the whole run (start included): time the chunk's four waveform messages
 its last sample was due. "on time" = max lateness of every machine < one chunk period (100 ms).
 
 Variants: ``before`` = the fleet of the checkout ``--baseline DIR`` (run with ``PYTHONPATH=DIR``; copy the built
-``bkabem_core/*.so`` there), ``after`` = this checkout, ``after-single`` = this checkout with ``--executor single``.
+``bkabem_core/*.so`` there), ``after`` = this checkout, ``after-single`` = this checkout with ``--executor single``; a ``-rt`` suffix (``before-rt``, ``after-rt``) runs the
+fleet under ``chrt -f 10`` (SCHED_FIFO priority 10, as a dedicated streaming host would: other load on the
+machine then delays it less).
 Runs are interleaved (repeat, N, variant) so that the machine's other load hits all variants alike; the load
 average is recorded per run. ``--monitor`` adds one subscriber process on the same host that reads every waveform
 stream (``tests/fleet_monitor.py``, reliable) and reports gaps; its CPU is counted separately.
@@ -66,19 +68,21 @@ def thread_cpu(pids) -> dict:
 
 def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor: bool) -> dict:
     env = ros_env()
+    prefix = ["chrt", "-f", "10"] if variant.endswith("-rt") else []
+    variant_code = variant[:-3] if variant.endswith("-rt") else variant
     env.pop("PYTHONUNBUFFERED")   # the baseline writes FLEETSTATS with sys.stdout.write: unbuffered, two workers' lines
     #                               could interleave mid-line; block-buffered + its flush() is one write per line
     cwd = str(REPO)
     extra = []
-    if variant == "before":
+    if variant_code == "before":
         env["PYTHONPATH"] = baseline
         cwd = baseline
-    elif variant == "after-single":
+    elif variant_code == "after-single":
         extra = ["--executor", "single"]
     speed = Proc(bkabem("speed", "--namespace", "/bench", "--profile", "constant:25", "--rate", "2"), ros_env_copy(env))
     if monitor:
         extra += ["--qos", "reliable"]
-    fleet = subprocess.Popen(bkabem("fleet", "--machines", str(n), "--processes", "2", "--prefix", "bm_",
+    fleet = subprocess.Popen(prefix + bkabem("fleet", "--machines", str(n), "--processes", "2", "--prefix", "bm_",
                                     "--seconds", "100000", *extra, "--ros-args", "-r", "speed:=/bench/speed"),
                              env=env, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
     lines: list[str] = []
@@ -117,7 +121,8 @@ def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor:
     stats = [json.loads(ln.split(" ", 1)[1]) for ln in lines if ln.startswith("FLEETSTATS ")]
     if len(stats) != n:
         res_lost = [ln[:200] for ln in lines if "FLEETSTATS" in ln and not ln.startswith("FLEETSTATS ")]
-        print(f"warning: {len(stats)} of {n} statistics lines read; cut lines: {res_lost[:3]}", file=sys.stderr)
+        print(f"warning: {len(stats)} of {n} statistics lines read; cut lines: {res_lost[:3]}; fleet exit "
+              f"{fleet.returncode}; last lines:\n" + "\n".join(ln[:200] for ln in lines[-15:]), file=sys.stderr)
     wall = w1 - w0
     cpu = {k: round(100 * (c1[k] - c0[k]) / wall, 1) for k in c0}
     res = {"variant": variant, "machines": n, "reported": len(stats), "startup_s": round(startup_s, 1),
@@ -179,7 +184,9 @@ def plot(summary: list[dict], path: str) -> None:
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
     styles = {"before": ("tab:red", "o", "main before issue 15 (SingleThreadedExecutor)"),
               "after": ("tab:blue", "s", "issue 15 (EventsExecutor, spread start)"),
-              "after-single": ("tab:gray", "^", "issue 15 with --executor single")}
+              "after-single": ("tab:gray", "^", "issue 15 with --executor single"),
+              "before-rt": ("salmon", "v", "before, chrt -f 10"),
+              "after-rt": ("tab:cyan", "D", "issue 15, chrt -f 10")}
     for v, (c, mk, label) in styles.items():
         rs = sorted((s for s in summary if s["variant"] == v), key=lambda s: s["machines"])
         if not rs:
@@ -223,7 +230,7 @@ def main() -> int:
         rows = json.loads(Path(args.from_json).read_text())["runs"]
     else:
         variants = [v for v in args.variants.split(",") if v]
-        if "before" in variants and not args.baseline:
+        if any(v.startswith("before") for v in variants) and not args.baseline:
             ap.error("variant 'before' needs --baseline DIR")
         rows = []
         for r in range(args.repeats):
