@@ -166,6 +166,12 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
                 executor.spin_once(timeout_sec=0.1)
         except (KeyboardInterrupt, ExternalShutdownException):
             pass
+        except Exception as exc:  # noqa: BLE001
+            # SIGINT makes rclpy shut the context down; a spin_once inside its wait then raises RCLError ("failed
+            # to initialize wait set: the given context is not valid"): a normal stop, not a failure (it used to
+            # end the worker with exit 1 before its statistics were written)
+            if rclpy.ok() or type(exc).__name__ != "RCLError":
+                raise
         for nd in nodes:
             st = nd.stats()
             st["namespace_conflicts"] = sorted(watch.reported) if watch is not None else []
