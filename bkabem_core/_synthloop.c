@@ -676,6 +676,66 @@ CLONES int synth_accumulate_##SUF(int64_t n, int64_t C, const T *x, const double
 SYNTH_KERNELS(float, f32)
 SYNTH_KERNELS(double, f64)
 
+/* Random-slip warp of one segment (synth_random._SlipWalk.warp_fixed): for sample i < m at xi = j0 + i, the ball
+ * passes u = (c2 xi + c1) xi + u_frac since the knot, the walk W at u by the C1 cubic Hermite spline of its values
+ * w[k] at passes jw0 + k (Catmull-Rom slopes (w[k+1] - w[k-1]) / 2), and out[i] = rint((kappa W - rint(kappa W))
+ * 2^62), the phase offset in the loop's fixed point. The same operations in the same order as the numpy reference;
+ * returns -1 if a sample falls outside w. */
+/* rint (round half to even, the default rounding mode) without a libm call: for 0 <= x < 2^52, x + 2^52 lies
+ * in [2^52, 2^53) where the spacing of doubles is 1, so the addition rounds x to an integer exactly as rint does,
+ * and subtracting 2^52 is exact (negative x mirrored; -ffp-contract=off keeps the operations); doubles of
+ * magnitude >= 2^52 are integers already. Equal to rint and numpy's rint for every finite x (tested). */
+static inline double rint_inline(double x)
+{
+    const double two52 = 4503599627370496.0;               /* 2^52 */
+    if (fabs(x) >= two52) return x;
+    return x >= 0.0 ? (x + two52) - two52 : (x - two52) + two52;
+}
+
+int synth_slip_warp(int64_t m, double j0, double c1, double c2, double u_frac, const double *w, int64_t nw,
+                    int64_t jw0, double kappa, int64_t *out)
+{
+    if (m < 0 || nw < 4) return -1;
+    for (int64_t i = 0; i < m; ++i) {
+        const double xi = j0 + (double)i;
+        const double u = (c2 * xi + c1) * xi + u_frac;
+        if (!(u >= 0.0 && u < 9.0e15)) return -1;            /* passes since the knot: >= 0 (speed >= 0) */
+        const double fl = (double)(int64_t)u;                /* floor for u >= 0 */
+        const int64_t k = (int64_t)fl - jw0;
+        if (k < 1 || k + 2 >= nw) return -1;
+        const double t = u - fl, t2 = t * t, t3 = t2 * t;
+        const double w0 = w[k], w1 = w[k + 1];
+        const double m0 = 0.5 * (w[k + 1] - w[k - 1]), m1 = 0.5 * (w[k + 2] - w[k]);
+        const double ww = (2 * t3 - 3 * t2 + 1) * w0 + (t3 - 2 * t2 + t) * m0 + (3 * t2 - 2 * t3) * w1
+                          + (t3 - t2) * m1;
+        const double wp = kappa * ww;
+        out[i] = (int64_t)rint_inline((wp - rint_inline(wp)) * 0x1.0p62);
+    }
+    return 0;
+}
+
+/* Carrier mix of a line family with a carrier (synth_lines.py): out[i][c] += cs[i][0] re[i][c] - cs[i][1] im[i][c],
+ * i < m, c < C, row-major blocks; cs holds (cos, sin) of the carrier phase per sample. Two multiplies and two
+ * adds per element, in this order (the numpy reference synth_kernel.carrier_mix_reference does the same). */
+#define CARRIER_MIX(T, SUF)                                                                                         \
+int synth_carrier_mix_##SUF(int64_t m, int64_t C, const T *cs, const T *re, const T *im, T *out)                    \
+{                                                                                                                   \
+    if (m < 0 || C < 1) return -1;                                                                                  \
+    for (int64_t i = 0; i < m; ++i) {                                                                               \
+        const T c = cs[2 * i], s = cs[2 * i + 1];                                                                   \
+        const T *a = re + i * C, *b = im + i * C;                                                                   \
+        T *o = out + i * C;                                                                                         \
+        for (int64_t k = 0; k < C; ++k) {                                                                           \
+            const T x = c * a[k];                                                                                   \
+            const T y = s * b[k];                                                                                   \
+            o[k] = o[k] + (x - y);                                                                                  \
+        }                                                                                                           \
+    }                                                                                                               \
+    return 0;                                                                                                       \
+}
+CARRIER_MIX(float, f32)
+CARRIER_MIX(double, f64)
+
 /* Chunk features from the accumulators of n samples per channel (acc C x 6 as above, about off[c]): out 6 x C
  * rows mean, rms, peak, peak_to_peak, crest_factor, kurtosis (synth._moment_features in numpy, the reference):
  * raw moments s_p = sum / n; m2 = max(s2 - s1^2, 0); m4 = max(s4 - 4 s1 s3 + 6 s1^2 s2 - 3 s1^4, 0);

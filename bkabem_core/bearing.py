@@ -36,6 +36,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from .defects import (EDGE_PROFILES, KINDS, DefectProfile, DefectSet, Dent, outer_race_drop_m,  # noqa: F401
+                      step_cubic, wrap_to_pi)
+
 TWO_PI = 2.0 * math.pi
 
 
@@ -118,74 +121,6 @@ class FaultFrequencies:
 
     def to_dict(self) -> dict:
         return asdict(self)
-
-
-EDGE_PROFILES = ("ball", "cubic")
-
-
-@dataclass(frozen=True)
-class Dent:
-    """Localized outer-race defect (dent), paper Eqs. (1)-(2).
-
-    A sharp-edged pit of ``length_m`` x ``depth_m`` in the outer race at ``angle_rad``. What a ball feels is the
-    radial drop of its centre as it rolls over the pit (:meth:`Bearing.dent_depth_m`):
-
-    ``edge = "ball"`` (default)
-        The ball centre's path over the sharp edges: a ball of radius r_b in the concave race of radius R_o,
-        resting on the nearer edge, sinks ``R_o cos(psi) - sqrt(r_b^2 - R_o^2 sin^2(psi)) - (R_o - r_b)`` at an
-        angular distance psi inside that edge (about ``psi^2 R_o^2 / (2 R_x)`` with the rolling-direction
-        curvature ``1/R_x = 1/r_b - 1/R_o``), until it reaches the bottom: the full depth needs an entry ramp of
-        about ``sqrt(2 R_x h)`` (0.70 mm for 50 um in a 6010), and a pit shorter than twice that is never felt
-        to its full depth.
-    ``edge = "cubic"``
-        The earlier, geometry-free form: flat bottom with ADAMS cubic ``STEP`` edges over ``edge_fraction`` of
-        the dent half-angle; depth at most the ball's sagitta over the pit.
-
-    Attributes
-    ----------
-    length_m : float
-        Dent length along the rolling direction [m].
-    depth_m : float
-        Dent depth (the paper's "height") [m].
-    angle_rad : float
-        Position angle of the dent centre in the bearing plane [rad], from +x towards +y.
-    edge_fraction : float
-        ``edge = "cubic"`` only: width of each smoothed edge as a fraction of the dent half-angle [-], in [0, 1].
-    bearing : str
-        ``"de"`` or ``"nde"``: which bearing of the machine carries the dent.
-    race : str
-        Only ``"outer"`` is modelled.
-    edge : str
-        ``"ball"`` or ``"cubic"`` (above).
-    """
-
-    length_m: float
-    depth_m: float
-    angle_rad: float
-    edge_fraction: float = 0.1
-    bearing: str = "de"
-    race: str = "outer"
-    edge: str = "ball"
-
-    def __post_init__(self):
-        if self.edge not in EDGE_PROFILES:
-            raise ValueError(f"edge: must be one of {', '.join(EDGE_PROFILES)} (got {self.edge!r})")
-
-    def to_dict(self) -> dict:
-        return asdict(self)
-
-
-def step_cubic(x, x0: float, x1: float):
-    """ADAMS ``STEP(x, x0, 0, x1, 1)``: 0 below x0, 1 above x1, cubic ``D^2 (3 - 2 D)`` in between."""
-    if x1 <= x0:
-        return (np.asarray(x) >= x1).astype(float)
-    d = np.clip((np.asarray(x) - x0) / (x1 - x0), 0.0, 1.0)
-    return d * d * (3.0 - 2.0 * d)
-
-
-def wrap_to_pi(angle_rad):
-    """Wrap angles [rad] to [-pi, pi): the "n 2 pi" of paper Eq. (2)."""
-    return np.remainder(np.asarray(angle_rad) + math.pi, TWO_PI) - math.pi
 
 
 @dataclass(frozen=True)
@@ -317,21 +252,35 @@ class BearingLinearisation:
 
 
 class Bearing:
-    """A deep-groove ball bearing with an optional outer-race dent.
+    """A deep-groove ball bearing, healthy or with defects (:mod:`bkabem_core.defects`).
 
     Parameters
     ----------
     geometry : BearingGeometry
     dent : Dent or None
-        The dent this bearing carries (``None`` for a healthy bearing).
+        One defect this bearing carries (``None`` for a healthy bearing); the form of the physics issue.
+    defects : sequence of Dent, optional
+        Every defect it carries (outer race, inner race, ball; several at once). Give ``dent`` or ``defects``.
+
+    Attributes
+    ----------
+    defects : tuple of Dent
+        As given (depth-0 ones included).
+    defect_set : DefectSet
+        The active ones with this bearing's geometry: the drop every ball feels at given phases.
+    dent : Dent or None
+        The first defect (the single-defect interface: :meth:`dent_depth_m`, :attr:`dent_half_angle_rad`, ...).
     """
 
     #: Damping-to-stiffness ratio of Kraemer's rule [s] (paper Table 1 follows it: c = 2.5e-5 s x k).
     KRAEMER_DAMPING_RATIO_S = 2.5e-5
 
-    def __init__(self, geometry: BearingGeometry, dent: Dent | None = None):
+    def __init__(self, geometry: BearingGeometry, dent: Dent | None = None, defects=None):
+        if dent is not None and defects:
+            raise ValueError("Bearing: give dent or defects, not both")
         self.geometry = geometry
-        self.dent = dent
+        self.defects = tuple(defects) if defects else ((dent,) if dent is not None else ())
+        self.dent = self.defects[0] if self.defects else None
         g = geometry
         d, dm, cd, a0 = g.ball_diameter_m, g.pitch_diameter_m, g.diametral_clearance_m, g.contact_angle_rad
         # Race radii in the rolling direction (Sopanen/LUT; clearance and contact angle included) [m]
@@ -346,13 +295,21 @@ class Bearing:
         self._k = self.contact.k_total_n_m15
         self._ball_offsets = TWO_PI * np.arange(g.n_balls) / g.n_balls + g.first_ball_angle_rad
         self._rb = 0.5 * d
-        if dent is not None:
-            self._dent_half_angle = dent.length_m / (2.0 * self.outer_race_radius_m)
-            self._dent_edge = dent.edge_fraction * self._dent_half_angle if dent.edge == "cubic" else 0.0
-            self._dent_depth_eff = (min(dent.depth_m, self.dent_geometric_depth_limit_m) if dent.edge == "cubic"
-                                    else float(self._ball_drop(np.array(self._dent_half_angle))))
+        radii = (self.outer_race_radius_m, self.inner_race_radius_m, self._rb, self.contact.rx_outer_m,
+                 self.contact.rx_inner_m)
+        self.defect_set = DefectSet(self.defects, *radii, g.n_balls)
+        self._profile = DefectProfile(self.dent, *radii) if self.dent is not None else None
+        if self._profile is not None:
+            self._dent_half_angle = self._profile.half_angle_rad
+            self._dent_edge = self._profile.edge_rad
+            self._dent_depth_eff = self._profile.depth_eff_m
         else:
             self._dent_half_angle = self._dent_edge = self._dent_depth_eff = 0.0
+
+    @property
+    def has_defect(self) -> bool:
+        """Whether any ball feels a defect (some defect with depth > 0)."""
+        return bool(self.defect_set)
 
     # ------------------------------------------------------------------ kinematics
     def fault_multipliers(self) -> FaultFrequencies:
@@ -421,9 +378,9 @@ class Bearing:
     def dent_geometric_depth_limit_m(self) -> float:
         """Deepest a ball can sink into a dent of this length: its sagitta over the pit [m].
 
-        ``r_b - sqrt(r_b^2 - (l/2)^2)`` on a flat race (the ``"cubic"`` profile's limit; the ``"ball"`` profile
-        follows the ball over the edges in the curved race and needs no separate limit). 116 um for the paper's
-        2 mm dent and 8.73 mm balls.
+        ``r_b - sqrt(r_b^2 - (l/2)^2)`` on a flat race (the ``"cubic"`` profile's limit for the outer race; the
+        ``"ball"`` profile follows the ball over the edges in the curved race and needs no separate limit). 116 um
+        for the paper's 2 mm dent and 8.73 mm balls.
         """
         if self.dent is None:
             return 0.0
@@ -433,7 +390,7 @@ class Bearing:
 
     @property
     def dent_effective_depth_m(self) -> float:
-        """Largest radial drop of a ball centre in the dent (at its centre) [m]."""
+        """Largest radial drop of a ball centre in the (first) dent (at its centre) [m]."""
         return self._dent_depth_eff
 
     @property
@@ -441,49 +398,51 @@ class Bearing:
         """Angle over which a ball sinks from the race to the full depth at each edge [rad] (0: sharp/no dent).
 
         ``"ball"``: from the ball-over-edge geometry (the angle at which the drop reaches the depth, or the
-        half-angle when the pit is too short for that); ``"cubic"``: ``edge_fraction`` x the half-angle.
+        half-angle when the pit is too short for that); ``"cubic"``: ``edge_fraction`` x the half-angle. On the
+        defect's own surface (the ball for a ball defect).
         """
-        if self.dent is None:
-            return 0.0
-        if self.dent.edge == "cubic":
-            return self._dent_edge
-        psi = np.linspace(0.0, self._dent_half_angle, 2049)
-        full = np.nonzero(self._ball_drop(psi) >= self._dent_depth_eff * (1.0 - 1e-9))[0]
-        return float(psi[full[0]]) if full.size else float(self._dent_half_angle)
+        return 0.0 if self._profile is None else self._profile.entry_ramp_rad()
+
+    def shortest_defect_event_s(self, shaft_speed_hz: float) -> float:
+        """Shortest time a ball takes over an entry ramp of any of its defects at a shaft speed [s] (inf: none).
+
+        The rate of each kind's relative motion: outer race the cage, inner race shaft minus cage, ball the spin
+        (BSF); the time-domain model's step must resolve it."""
+        fm = self.fault_multipliers()
+        rate = {"outer": fm.ftf, "inner": 1.0 - fm.ftf, "ball": fm.bsf}
+        out = math.inf
+        for p in self.defect_set.profiles:
+            ramp = p.entry_ramp_rad()
+            edge = ramp if ramp > 0.0 else 0.25 * p.half_angle_rad
+            out = min(out, edge / (TWO_PI * rate[p.kind] * abs(shaft_speed_hz)))
+        return out
 
     def _ball_drop(self, psi):
-        """Radial drop [m] of a ball centre at angular distance ``psi`` [rad] inside the nearer sharp edge.
+        """Radial drop [m] of a ball centre at angular distance ``psi`` [rad] inside the nearer sharp edge of the
+        (first) outer-race dent (:func:`bkabem_core.defects.outer_race_drop_m`)."""
+        return outer_race_drop_m(psi, self.outer_race_radius_m, self._rb, self.dent.depth_m)
 
-        The ball (radius r_b) rests on the edge point of the concave race (radius R_o): its centre lies on the
-        circle of radius r_b about that point, ``r_c = R_o cos(psi) - sqrt(r_b^2 - R_o^2 sin^2(psi))``, against
-        ``R_o - r_b`` on the intact race; the drop is at most the dent depth.
-        """
-        ro, rb = self.outer_race_radius_m, self._rb
-        psi = np.asarray(psi, dtype=float)
-        s = np.minimum(ro * np.sin(np.clip(psi, 0.0, None)), rb)
-        drop = ro * np.cos(psi) - np.sqrt(np.maximum(rb * rb - s * s, 0.0)) - (ro - rb)
-        drop = np.where(ro * np.sin(np.clip(psi, 0.0, None)) >= rb, np.inf, drop)
-        return np.clip(drop, 0.0, self.dent.depth_m)
-
-    def dent_depth_m(self, ball_angle_rad):
+    def dent_depth_m(self, ball_angle_rad, shaft_angle_rad=0.0, spin_angle_rad=0.0):
         """Radial drop of the ball centre [m] at ball attitude angles [rad] (paper Eqs. 1-2; :class:`Dent`).
 
-        Zero outside the dent; the wrap of ``beta - phi_d`` to [-pi, pi) handles the ``n 2 pi`` of Eq. (2)
-        exactly.
+        Zero outside the defects; the wrap of ``beta - phi_d`` to [-pi, pi) handles the ``n 2 pi`` of Eq. (2)
+        exactly. For race defects the drop at these angles; with ball defects too, ``ball_angle_rad`` must be the
+        angles of all balls (trailing axis of length z). Shaft and spin angle [rad] place inner-race and ball
+        defects (:meth:`DefectSet.drop_m`).
         """
-        if self.dent is None or self._dent_depth_eff == 0.0:
-            return np.zeros(np.shape(ball_angle_rad))
-        return self.dent_drop_m(np.abs(wrap_to_pi(np.asarray(ball_angle_rad) - self.dent.angle_rad)))
+        beta = np.asarray(ball_angle_rad, dtype=float)
+        if not self.defect_set:
+            return np.zeros(beta.shape)
+        if "ball" in self.defect_set.kinds:
+            return self.defect_set.drop_m(beta, shaft_angle_rad, spin_angle_rad)
+        return self.defect_set.drop_m(beta[..., None], shaft_angle_rad, spin_angle_rad)[..., 0]
 
     def dent_drop_m(self, rel_angle_rad):
-        """Radial drop [m] at an absolute angular distance ``rel_angle_rad`` [rad] from the dent centre."""
+        """Radial drop [m] at an absolute angular distance ``rel_angle_rad`` [rad] from the (first) dent centre."""
         rel = np.asarray(rel_angle_rad, dtype=float)
-        if self.dent is None or self._dent_depth_eff == 0.0:
+        if self._profile is None or self._dent_depth_eff == 0.0:
             return np.zeros(rel.shape)
-        a = self._dent_half_angle
-        if self.dent.edge == "cubic":
-            return self._dent_depth_eff * (1.0 - step_cubic(rel, a - self._dent_edge, a))
-        return np.where(rel < a, self._ball_drop(a - rel), 0.0)
+        return self._profile.drop_m(rel)
 
     # ------------------------------------------------------------------ EHL
     def ehl_film_thickness_m(self, shaft_speed_hz: float, radial_load_n: float) -> float:
@@ -508,31 +467,32 @@ class Bearing:
         return h
 
     # ------------------------------------------------------------------ forces
-    def _geometry(self, e_x_m, e_y_m, cage_angle_rad, e_z_m, with_dent):
+    def _geometry(self, e_x_m, e_y_m, cage_angle_rad, e_z_m, with_dent, shaft_angle_rad=0.0, spin_angle_rad=0.0):
         """Per ball: direction cosines, radial and axial groove-centre offsets A_r, A_a [m]."""
         beta = self.ball_angles_rad(cage_angle_rad)
         cb, sb = np.cos(beta), np.sin(beta)
         ex = np.asarray(e_x_m, dtype=float)[..., None]
         ey = np.asarray(e_y_m, dtype=float)[..., None]
         ar = self._ar0 + ex * cb + ey * sb
-        if with_dent and self.dent is not None:
-            ar = ar - self.dent_depth_m(beta)
+        if with_dent and self.defect_set:
+            ar = ar - self.defect_set.drop_m(beta, shaft_angle_rad, spin_angle_rad)
         aa = self._aa0 + np.asarray(e_z_m, dtype=float)[..., None] + np.zeros_like(ar)
         return cb, sb, ar, aa
 
     def ball_deformations_m(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0, with_dent: bool = True,
-                            e_z_m=0.0):
+                            e_z_m=0.0, shaft_angle_rad=0.0, spin_angle_rad=0.0):
         """Total elastic deformation of every ball [m] (Eq. 1), negative = no contact.
 
         ``delta_i = sqrt(A_r^2 + A_a^2) - A_0 + h_film`` (module docstring); with no axial offset this is
         ``e_x cos beta_i + e_y sin beta_i - c_d/2 + h_film - h_dent(beta_i)``. Shape:
         ``broadcast(e_x, e_y, cage_angle, e_z).shape + (n_balls,)``.
         """
-        _, _, ar, aa = self._geometry(e_x_m, e_y_m, cage_angle_rad, e_z_m, with_dent)
+        _, _, ar, aa = self._geometry(e_x_m, e_y_m, cage_angle_rad, e_z_m, with_dent, shaft_angle_rad,
+                                      spin_angle_rad)
         return np.hypot(ar, aa) - self._a0 + film_m
 
     def forces_n(self, e_x_m, e_y_m, cage_angle_rad, film_m: float = 0.0, with_stiffness: bool = False,
-                 with_dent: bool = True, e_z_m=0.0):
+                 with_dent: bool = True, e_z_m=0.0, shaft_angle_rad=0.0, spin_angle_rad=0.0):
         """Lateral bearing force on the shaft [N] (Eqs. 3-4), optionally with its stiffness ``K = -dF/de`` [N/m].
 
         Parameters
@@ -549,6 +509,9 @@ class Bearing:
             False: the bearing as if it had no dent (static equilibrium, linearisation).
         e_z_m : array_like
             Axial displacement of the inner race [m], held (e.g. the static value under the axial load).
+        shaft_angle_rad, spin_angle_rad : array_like
+            Shaft angle and spin angle of the balls about their own axes [rad] (broadcast with the cage angle):
+            where inner-race and ball defects are (:meth:`DefectSet.drop_m`).
 
         Returns
         -------
@@ -556,7 +519,8 @@ class Bearing:
             Force components on the shaft [N].
         (k_xx, k_xy, k_yy) : tuple of ndarray, only with ``with_stiffness``.
         """
-        cb, sb, ar, aa = self._geometry(e_x_m, e_y_m, cage_angle_rad, e_z_m, with_dent)
+        cb, sb, ar, aa = self._geometry(e_x_m, e_y_m, cage_angle_rad, e_z_m, with_dent, shaft_angle_rad,
+                                        spin_angle_rad)
         a = np.hypot(ar, aa)
         delta = np.maximum(a - self._a0 + film_m, 0.0)
         root = np.sqrt(delta)

@@ -24,8 +24,8 @@ from .bearing import Bearing, BearingGeometry, Dent
 from .excitation import FourDofParameters
 
 DEFAULT_CASE = "electric_motor_6010"
-#: Version of the case format this code reads; version-1 files are migrated (:func:`migrate_v1`).
-SCHEMA_VERSION = 2
+#: Version of the case format this code reads; older files are migrated (:func:`migrate_v1`, :func:`migrate_v2`).
+SCHEMA_VERSION = 3
 
 
 class CaseError(ValueError):
@@ -71,14 +71,23 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "first_ball_angle_deg": ("float", ("range", -360.0, 360.0)),
         "damping_n_s_m": ("float", _NONNEG),
     },
-    "dent": {
+    "defects[]": {
         "bearing": ("str", ("in", {"de", "nde"})),
-        "race": ("str", ("in", {"outer"})),
+        "race": ("str", ("in", {"outer", "inner", "ball"})),
         "length_m": ("float", _POS),
         "depth_m": ("float", _NONNEG),
         "angle_deg": ("float", ("range", -360.0, 360.0)),
         "edge": ("str", ("in", {"ball", "cubic"})),
         "edge_fraction": ("float", ("range", 0.0, 1.0)),
+        "ball": ("int", ("ge", 1)),
+    },
+    "baseline": {
+        "unbalance_grade_mm_s": ("float", _NONNEG),
+        "unbalance_phase_deg": ("float", ("range", -360.0, 360.0)),
+        "misalignment_force_n": ("float", _NONNEG),
+        "misalignment_node": ("int", ("ge", 1)),
+        "electrical_force_n": ("float", _NONNEG),
+        "line_frequency_hz": ("float", _POS),
     },
     "excitation": {
         "method": ("str", ("in", {"quasi_static", "four_dof"})),
@@ -146,7 +155,12 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "max_sample_rate_hz": ("float", _POS),
     },
 }
-TOP_LEVEL = ("case", "bearing", "dent", "excitation", "bearings", "housings", "rotor", "operating")
+TOP_LEVEL = ("case", "bearing", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating")
+#: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
+_KIND_KEYS = {"ball": ("ball",)}
+#: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)
+BASELINE_OFF = {"unbalance_grade_mm_s": 0.0, "unbalance_phase_deg": 0.0, "misalignment_force_n": 0.0,
+                "misalignment_node": 1, "electrical_force_n": 0.0, "line_frequency_hz": 50.0}
 BEARING_NAMES = ("de", "nde")
 
 
@@ -191,7 +205,7 @@ def _check_value(key: str, value, check, source: str):
             raise CaseError(key, f"must be one of {allowed} (got {v!r})", source)
 
 
-def _check_table(prefix: str, table, schema: dict, source: str):
+def _check_table(prefix: str, table, schema: dict, source: str, optional=()):
     if not isinstance(table, dict):
         raise CaseError(prefix, "must be a table", source)
     for k in table:
@@ -200,6 +214,8 @@ def _check_table(prefix: str, table, schema: dict, source: str):
     for k, (kind, check) in schema.items():
         key = f"{prefix}.{k}"
         if k not in table:
+            if k in optional:
+                continue
             raise CaseError(key, "missing", source)
         v = table[k]
         if not _type_ok(kind, v):
@@ -212,7 +228,8 @@ def _check_table(prefix: str, table, schema: dict, source: str):
 
 
 def migrate_v1(raw: dict) -> dict:
-    """A schema-version-1 case as version 2, describing the model version 1 computed.
+    """A schema-version-1 case as version 3 (through 2: :func:`migrate_v2`), describing the model version 1
+    computed.
 
     Version 1 had the paper's configuration built in: FE bearings from Table 1 (``stiffness_*`` keys), the 4-DOF
     excitation with the whole rotor weight on the faulty bearing only, Eq. 5 as printed, cubic dent edges, no
@@ -223,6 +240,13 @@ def migrate_v1(raw: dict) -> dict:
     damper = exc.pop("bearing_damping_n_s_m", 550.0)
     raw.setdefault("bearing", {})["damping_n_s_m"] = damper
     raw.setdefault("dent", {}).setdefault("edge", "cubic")
+    raw.setdefault("case", {})["schema_version"] = 2
+    return migrate_v2(_migrate_v1_to_v2(raw))
+
+
+def _migrate_v1_to_v2(raw: dict) -> dict:
+    """The version-1 -> 2 steps of :func:`migrate_v1` (on a copy made there)."""
+    exc = raw.get("excitation", {})
     exc.update({"method": "four_dof", "load": "rotor_weight", "bearings": "faulty", "force": "paper"})
     for b in raw.get("bearings", {}).values():
         if isinstance(b, dict):
@@ -237,6 +261,20 @@ def migrate_v1(raw: dict) -> dict:
     rot.setdefault("damping_reference_hz", 1000.0)
     rot.setdefault("elements_per_wavelength", 0.0)
     raw.setdefault("operating", {}).setdefault("max_sample_rate_hz", 51200.0)
+    return raw
+
+
+def migrate_v2(raw: dict) -> dict:
+    """A schema-version-2 case as version 3, describing the model version 2 computed.
+
+    Version 2 had one outer-race ``[dent]`` and nothing but the bearings: the dent becomes the single entry of
+    ``[[defects]]`` (depth 0: a defect no ball feels, as before), ``[baseline]`` is switched off.
+    """
+    raw = copy.deepcopy(raw)
+    dent = raw.pop("dent", None)
+    if isinstance(dent, dict):
+        raw["defects"] = [dent]
+    raw.setdefault("baseline", dict(BASELINE_OFF))
     raw.setdefault("case", {})["schema_version"] = SCHEMA_VERSION
     return raw
 
@@ -246,10 +284,23 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
     for k in raw:
         if k not in TOP_LEVEL:
             raise CaseError(k, f"unknown section (allowed: {', '.join(TOP_LEVEL)})", source)
-    for sec in ("case", "bearing", "dent", "excitation", "rotor", "operating"):
+    for sec in ("case", "bearing", "baseline", "excitation", "rotor", "operating"):
         if sec not in raw:
             raise CaseError(sec, "missing section", source)
         _check_table(sec, raw[sec], SCHEMA[sec], source)
+    # defects: [[defects]] tables (none: a healthy machine, `defects = []`)
+    if "defects" not in raw:
+        raise CaseError("defects", "missing ([[defects]] tables, or `defects = []` for a healthy machine)", source)
+    if not _type_ok("table[]", raw["defects"]):
+        raise CaseError("defects", "must be an array of tables ([[defects]])", source)
+    for i, d in enumerate(raw["defects"]):
+        kind = d.get("race") if isinstance(d, dict) else None
+        optional = tuple(k for k, kinds in _KIND_KEYS.items() if kind not in kinds)
+        _check_table(f"defects[{i}]", d, SCHEMA["defects[]"], source, optional=optional)
+        for k in optional:
+            if k in d:
+                raise CaseError(f"defects[{i}].{k}", f"only for race = {' or '.join(map(repr, _KIND_KEYS[k]))} "
+                                f"(this one is {kind!r})", source)
     # bearings.de / bearings.nde
     if "bearings" not in raw:
         raise CaseError("bearings", "missing section", source)
@@ -290,17 +341,29 @@ def _check_cross(raw: dict, source: str) -> None:
     if b["n_balls"] * b["ball_diameter_m"] >= math.pi * b["pitch_diameter_m"]:
         raise CaseError("bearing.n_balls", f"{b['n_balls']} balls of {b['ball_diameter_m']} m do not fit on the "
                         f"pitch circle of {b['pitch_diameter_m']} m", source)
-    # dent length against the outer race
+    # defect lengths against their surface
+    z_b = b["n_balls"]
     r_out = (b["pitch_diameter_m"] + b["ball_diameter_m"] + b["diametral_clearance_m"] / 2.0) / 2.0
-    circ = 2.0 * math.pi * r_out
-    d = raw["dent"]
-    if d["length_m"] >= circ:
-        raise CaseError("dent.length_m", f"must be shorter than the outer-race circumference {circ * 1e3:.1f} mm "
-                        f"(got {d['length_m'] * 1e3:g} mm)", source)
-    if d["length_m"] >= circ / b["n_balls"]:
-        raise CaseError("dent.length_m", f"must be shorter than one ball pitch along the outer race "
-                        f"({circ / b['n_balls'] * 1e3:.2f} mm): longer spalls are outside this model "
-                        f"(got {d['length_m'] * 1e3:g} mm)", source)
+    r_in = (b["pitch_diameter_m"] - b["ball_diameter_m"] - b["diametral_clearance_m"] / 2.0) / 2.0
+    for i, d in enumerate(raw["defects"]):
+        key = f"defects[{i}]"
+        if d["race"] == "ball":
+            if d["ball"] > z_b:
+                raise CaseError(f"{key}.ball", f"must be a ball number 1..{z_b} (got {d['ball']})", source)
+            if d["length_m"] >= b["ball_diameter_m"] * math.pi / 4:
+                raise CaseError(f"{key}.length_m", f"must be shorter than a quarter of the ball's circumference "
+                                f"({b['ball_diameter_m'] * math.pi / 4 * 1e3:.2f} mm): a longer pit meets both "
+                                f"races at once, outside this model (got {d['length_m'] * 1e3:g} mm)", source)
+            continue
+        radius = r_out if d["race"] == "outer" else r_in
+        circ = 2.0 * math.pi * radius
+        if d["length_m"] >= circ:
+            raise CaseError(f"{key}.length_m", f"must be shorter than the {d['race']}-race circumference "
+                            f"{circ * 1e3:.1f} mm (got {d['length_m'] * 1e3:g} mm)", source)
+        if d["length_m"] >= circ / z_b:
+            raise CaseError(f"{key}.length_m", f"must be shorter than one ball pitch along the {d['race']} race "
+                            f"({circ / z_b * 1e3:.2f} mm): longer spalls are outside this model "
+                            f"(got {d['length_m'] * 1e3:g} mm)", source)
     # rotor geometry
     r = raw["rotor"]
     z = r["node_positions_m"]
@@ -337,6 +400,12 @@ def _check_cross(raw: dict, source: str) -> None:
                             f"({housing_nodes[name]}, got {e['housing_node']})", source)
     if raw["bearings"]["de"]["rotor_node"] == raw["bearings"]["nde"]["rotor_node"]:
         raise CaseError("bearings.nde.rotor_node", "DE and NDE bearings must sit on different shaft nodes", source)
+    if raw["excitation"]["method"] == "four_dof" and any(d["race"] != "outer" for d in raw["defects"]):
+        raise CaseError("excitation.method", "'four_dof' models outer-race dents only; inner-race and ball defects "
+                        "need 'quasi_static'", source)
+    if raw["baseline"]["misalignment_node"] not in shaft_nodes:
+        raise CaseError("baseline.misalignment_node", f"must be a shaft node 1..{n_nodes} "
+                        f"(got {raw['baseline']['misalignment_node']})", source)
 
 
 # --------------------------------------------------------------------------- the Case object
@@ -394,8 +463,11 @@ class Case:
     @classmethod
     def from_dict(cls, raw: dict, source: str = "") -> "Case":
         raw = copy.deepcopy(raw)
-        if isinstance(raw.get("case"), dict) and raw["case"].get("schema_version") == 1:
+        version = raw["case"].get("schema_version") if isinstance(raw.get("case"), dict) else None
+        if version == 1:
             raw = migrate_v1(raw)
+        elif version == 2:
+            raw = migrate_v2(raw)
         validate_case_dict({k: v for k, v in raw.items() if k != plausibility.SECTION}, source)
         bad = plausibility.problem(raw)           # physical bounds (unit slips) and computing limits
         if bad is not None:
@@ -431,17 +503,43 @@ class Case:
             first_ball_angle_rad=math.radians(b["first_ball_angle_deg"]),
         )
 
+    def defects(self, location: str | None = None) -> list[Dent]:
+        """The case's defects (``[[defects]]``), all or those of bearing ``location`` (``"de"``/``"nde"``)."""
+        out = []
+        for d in self.raw["defects"]:
+            if location is not None and d["bearing"] != location:
+                continue
+            out.append(Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]),
+                            angle_rad=math.radians(d["angle_deg"]), edge_fraction=float(d["edge_fraction"]),
+                            bearing=d["bearing"], race=d["race"], edge=d["edge"],
+                            ball_index=int(d.get("ball", 1)) - 1))
+        return out
+
     def dent(self) -> Dent:
-        d = self.raw["dent"]
-        return Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]),
-                    angle_rad=math.radians(d["angle_deg"]), edge_fraction=float(d["edge_fraction"]),
-                    bearing=d["bearing"], race=d["race"], edge=d["edge"])
+        """The first defect (the single-defect view of earlier versions); a healthy case gives a depth-0 outer-race
+        placeholder of length 0 at the DE bearing (no ball feels it)."""
+        found = self.defects()
+        if found:
+            return found[0]
+        return Dent(length_m=0.0, depth_m=0.0, angle_rad=0.0, bearing="de", race="outer")
+
+    @property
+    def defect_depth_m(self) -> float:
+        """Depth of the first defect [m] (0 for a healthy case)."""
+        return float(self.raw["defects"][0]["depth_m"]) if self.raw["defects"] else 0.0
+
+    def with_defect_depth(self, depth_m: float) -> "Case":
+        """The same case with the first defect at another depth [m] (a healthy case accepts only 0)."""
+        if not self.raw["defects"]:
+            if float(depth_m) != 0.0:
+                raise CaseError("defects", "the case has no defect whose depth could change", self.source)
+            return self
+        return self.with_overrides({"defects.0.depth_m": float(depth_m)})
 
     def bearing(self, location: str | None = None) -> Bearing:
-        """The bearing at ``location`` (``"de"``/``"nde"``; default: the faulty one) with its dent, if any."""
-        dent = self.dent()
-        loc = dent.bearing if location is None else location
-        return Bearing(self.bearing_geometry(), dent if loc == dent.bearing else None)
+        """The bearing at ``location`` (``"de"``/``"nde"``; default: the faulty one) with its defects, if any."""
+        loc = self.faulty_bearing if location is None else location
+        return Bearing(self.bearing_geometry(), defects=self.defects(loc))
 
     def four_dof_parameters(self) -> FourDofParameters:
         """The 4-DOF model's parameters (``[excitation]``; the bearing damper from ``[bearing]``)."""
@@ -472,31 +570,62 @@ class Case:
 
     @property
     def faulty_bearing(self) -> str:
-        return self.raw["dent"]["bearing"]
+        """The bearing of the first defect (``"de"`` for a healthy case)."""
+        return self.raw["defects"][0]["bearing"] if self.raw["defects"] else "de"
+
+    @property
+    def baseline(self) -> dict:
+        """``[baseline]``: unbalance, misalignment and electrical settings (docs/faults.md)."""
+        return dict(self.raw["baseline"])
 
     @property
     def max_speed_hz(self) -> float:
         return float(self.raw["operating"]["max_speed_hz"])
 
     def with_overrides(self, overrides: dict) -> "Case":
-        """A new validated case with ``{"section.key": value}`` overrides (e.g. ``{"dent.depth_m": 20e-6}``)."""
+        """A new validated case with ``{"section.key": value}`` overrides (e.g. ``{"defects.0.depth_m": 20e-6}``:
+        an integer picks an entry of an array of tables; ``dent.<key>``, the single defect of schema 2, is the first
+        defect)."""
         raw = copy.deepcopy(self.raw)
         for dotted, value in overrides.items():
+            if dotted.startswith("dent.") and raw["defects"]:       # schema 2's single [dent]: the first defect
+                dotted = "defects.0." + dotted[5:]
             *path, last = dotted.split(".")
             node = raw
             for p in path:
-                if p not in node or not isinstance(node[p], dict):
+                if isinstance(node, list) and p.isdigit() and int(p) < len(node):
+                    node = node[int(p)]
+                    continue
+                if not isinstance(node, dict) or p not in node or not isinstance(node[p], (dict, list)):
                     raise CaseError(dotted, "unknown key", self.source)
                 node = node[p]
-            if last not in node:
+            if not isinstance(node, dict) or last not in node:
                 raise CaseError(dotted, "unknown key", self.source)
             node[last] = value
         return Case.from_dict(raw, self.source + " (overridden)")
 
     def ground_truth(self) -> dict:
-        """What a labelled data set needs: bearing designation and geometry, defect, case identity."""
+        """What a labelled data set needs: bearing designation and geometry, every defect (kind, bearing, size,
+        position, fault-frequency multiplier), the machine baseline, case identity.
+
+        ``defects``: one entry per ``[[defects]]`` table, with ``fault_frequency`` (``"bpfo"``, ``"bpfi"`` or
+        ``"bsf"``) and ``fault_multiplier`` [Hz per shaft Hz] of its textbook signature (a ball defect strikes at
+        2 x BSF: ``strike_multiplier``). ``defect``: the first one (as in earlier versions; ``None`` if healthy).
+        """
         g = self.bearing_geometry()
-        d = self.dent()
+        fm = Bearing(g).fault_multipliers()
+        name = {"outer": "bpfo", "inner": "bpfi", "ball": "bsf"}
+        strike = {"outer": fm.bpfo, "inner": fm.bpfi, "ball": 2.0 * fm.bsf}
+        defects = []
+        for d in self.defects():
+            entry = {"kind": d.race, "bearing": d.bearing, "race": d.race, "length_m": d.length_m,
+                     "depth_m": d.depth_m, "angle_rad": d.angle_rad, "edge": d.edge,
+                     "fault_frequency": name[d.race], "fault_multiplier": getattr(fm, name[d.race]),
+                     "strike_multiplier": strike[d.race]}
+            if d.race == "ball":
+                entry["ball"] = d.ball_index + 1
+            defects.append(entry)
+        first = defects[0] if defects else None
         return {
             "case": self.name,
             "case_hash": self.case_hash,
@@ -506,8 +635,11 @@ class Case:
                 "n_balls": g.n_balls, "diametral_clearance_m": g.diametral_clearance_m,
                 "contact_angle_rad": g.contact_angle_rad,
             },
-            "defect": {"bearing": d.bearing, "race": d.race, "length_m": d.length_m, "depth_m": d.depth_m,
-                       "angle_rad": d.angle_rad},
+            "healthy": not any(d["depth_m"] > 0 for d in defects),
+            "defects": defects,
+            "defect": None if first is None else {k: first[k] for k in ("bearing", "race", "length_m", "depth_m",
+                                                                       "angle_rad")},
+            "baseline": self.baseline,
         }
 
 

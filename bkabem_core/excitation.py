@@ -37,6 +37,7 @@ import numpy as np
 from scipy.integrate import odeint
 
 from .bearing import TWO_PI, Bearing, BearingState
+from .lines import LineSet, lines_from_grid, union
 
 DIRECTIONS = ("vertical", "horizontal")
 METHODS = ("quasi_static", "four_dof")
@@ -160,6 +161,18 @@ class Excitation:
     radial_load_n: float = float("nan")
     axial_load_n: float = 0.0
     state: BearingState | None = field(default=None, repr=False)
+    lines: LineSet | None = field(default=None, repr=False)
+    n_balls: int = 0
+    rates_per_hz: np.ndarray | None = field(default=None, repr=False)
+
+    def line_set(self) -> LineSet:
+        """The excitation as a :class:`~bkabem_core.lines.LineSet` (inputs vertical, horizontal [m], the DC as its
+        ``dc``): every kept line of the bearing's defects; for an outer race or a healthy bearing exactly the kept
+        BPFO orders (``orders``, ``amplitude_m``, ``phase_rad``), which are then all its lines."""
+        if self.lines is not None:
+            return self.lines
+        return LineSet.from_orders(self.orders, self.complex_amplitude_m(), self.n_balls, self.rates_per_hz,
+                                   DIRECTIONS, dc=[self.dc_m[d] for d in DIRECTIONS])
 
     def to_dict(self) -> dict:
         """JSON-ready summary (field names of the CLI contract)."""
@@ -183,6 +196,7 @@ class Excitation:
             "housing_resonance_hz": _json_float(self.housing_resonance_hz),
             "wall_time_s": self.wall_time_s,
             "integrator_steps": self.n_steps,
+            "lines": None if self.lines is None else self.lines.to_dict(),
         }
 
     def with_selection(self, relative_amplitude_threshold: float, max_order: int = 0) -> "Excitation":
@@ -197,6 +211,7 @@ class Excitation:
         """The same result on the given orders (zero amplitude where an order is not resolved)."""
         orders = np.asarray(orders, dtype=int)
         out = copy.copy(self)
+        out.lines = None                              # rebuilt from the orders (line_set)
         ok = (orders >= 1) & (orders <= self.all_orders[-1])
         out.orders = orders
         out.amplitude_m, out.phase_rad = {}, {}
@@ -247,11 +262,13 @@ def _orders_from_record(rel: np.ndarray, periods: int, threshold: float, max_ord
 
 # --------------------------------------------------------------------------- quasi-static
 def quasi_static_path_m(bearing: Bearing, radial_load_n, axial_load_n: float, cage_angles_rad,
-                        film_m: float = 0.0, tol_m: float = 1e-15, max_iter: int = 100):
-    """Static equilibrium ``e(theta)`` [m] (N, 2: e_x, e_y) of the bearing with its dent at each cage angle.
+                        film_m: float = 0.0, tol_m: float = 1e-15, max_iter: int = 100, shaft_angles_rad=0.0,
+                        spin_angles_rad=0.0):
+    """Static equilibrium ``e(theta)`` [m] (N, 2: e_x, e_y) of the bearing with its defects at each cage angle.
 
     Solves ``F(e, theta; e_z0) + W = 0`` for all angles at once (batched damped Newton with the analytic 2 x 2
-    tangent), the axial displacement held at ``e_z0``, its static value under the axial load.
+    tangent), the axial displacement held at ``e_z0``, its static value under the axial load. ``shaft_angles_rad``
+    and ``spin_angles_rad`` (broadcast with the cage angles) place inner-race and ball defects.
 
     Returns
     -------
@@ -264,10 +281,13 @@ def quasi_static_path_m(bearing: Bearing, radial_load_n, axial_load_n: float, ca
     state = bearing.state(w[0], w[1], axial_load_n, film_m)
     e0 = state.displacement_m
     theta = np.asarray(cage_angles_rad, dtype=float)
-    ex = np.full(theta.shape, e0[0])
-    ey = np.full(theta.shape, e0[1])
+    shape = np.broadcast_shapes(theta.shape, np.shape(shaft_angles_rad), np.shape(spin_angles_rad))
+    theta = np.broadcast_to(theta, shape)
+    ex = np.full(shape, e0[0])
+    ey = np.full(shape, e0[1])
     for it in range(1, max_iter + 1):
-        fx, fy, (kxx, kxy, kyy) = bearing.forces_n(ex, ey, theta, film_m, with_stiffness=True, e_z_m=e0[2])
+        fx, fy, (kxx, kxy, kyy) = bearing.forces_n(ex, ey, theta, film_m, with_stiffness=True, e_z_m=e0[2],
+                                                   shaft_angle_rad=shaft_angles_rad, spin_angle_rad=spin_angles_rad)
         rx, ry = fx + w[0], fy + w[1]
         det = kxx * kyy - kxy * kxy
         sx = (kyy * rx - kxy * ry) / det                 # K s = r  (F(e + s) ~ F(e) - K s = -W)
@@ -280,13 +300,13 @@ def quasi_static_path_m(bearing: Bearing, radial_load_n, axial_load_n: float, ca
             break
     else:
         raise RuntimeError(f"quasi-static bearing equilibrium did not converge (last step {np.max(n):.2e} m)")
-    return np.stack([ex, ey], axis=1), state, it
+    return np.stack([ex, ey], axis=-1), state, it
 
 
 def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n: float = 0.0,
                             samples_per_ball_pass: int = 2048, relative_amplitude_threshold: float = 1e-3,
                             max_order: int = 0, reference_speed_hz: float = 1.0, location: str = "",
-                            film_m: float = 0.0) -> Excitation:
+                            film_m: float = 0.0, n_slow: int = 0) -> Excitation:
     """Excitation of one bearing from its quasi-static equilibrium over one ball pitch (no inertia).
 
     Parameters
@@ -305,35 +325,62 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
         Only labels the time axis of the result ([s] at this shaft speed).
     location : str
         ``"de"``/``"nde"``, recorded in the result.
+    n_slow : int
+        Inner-race and ball defects: samples of the slow angle of their 2-torus (shaft angle, cage angle); 0 =
+        the next power of 2 >= 4 z (64 for 14 balls: sidebands up to twice the ball passage). The fast angle has
+        ``samples_per_ball_pass`` samples.
 
     Returns
     -------
     Excitation
-        ``method = "quasi_static"``, exactly periodic, no housing resonance.
+        ``method = "quasi_static"``, exactly periodic, no housing resonance. ``lines`` holds every kept line
+        (inner-race and ball defects: the BPFO orders of the rest of the bearing plus the lines of the defect,
+        :func:`_difference_lines`); for an outer race or healthy bearing it is None and :meth:`Excitation.line_set`
+        gives the BPFO orders, exactly as before.
     """
     t0 = time.perf_counter()
-    z = bearing.geometry.n_balls
+    g = bearing.geometry
+    z = g.n_balls
+    fm = bearing.fault_multipliers()
     n = int(samples_per_ball_pass)
     pitch = TWO_PI / z
     theta = pitch * np.arange(n) / n
-    path, state, iterations = quasi_static_path_m(bearing, (0.0, -float(radial_load_n)), axial_load_n, theta,
-                                                  film_m)
+    load = (0.0, -float(radial_load_n))
+    kinds = bearing.defect_set.kinds
+    outer = Bearing(g, defects=[d for d in bearing.defects if d.race == "outer"]) if kinds != ("outer",) \
+        else bearing
+    path, state, iterations = quasi_static_path_m(outer, load, axial_load_n, theta, film_m)
     rel = np.vstack([path[:, 1], path[:, 0]])                     # vertical, horizontal
     all_orders, amp, pha, dc, off, keep = _orders_from_record(rel, 1, relative_amplitude_threshold, max_order)
-    ftf = bearing.fault_multipliers().ftf
+    rates = rates_per_hz(fm)
+    lines = None
+    if any(k != "outer" for k in kinds):
+        # inner-race and ball defects: the difference they make, on a 2-torus of their phases (module docstring)
+        base = LineSet.from_orders(all_orders, amp.T * np.exp(1j * pha.T), z, rates, DIRECTIONS, dc=dc)
+        parts = [base]
+        for kind in ("inner", "ball"):
+            if kind in kinds:
+                slow = n_slow if n_slow > 0 else max(32, 1 << math.ceil(math.log2(4 * z)))
+                parts.append(_difference_lines(bearing, outer, kind, load, axial_load_n, n, slow, film_m, rates))
+        every = union(parts)
+        lines = every.select(relative_amplitude_threshold, max_order * fm.bpfo if max_order > 0 else 0.0)
+        order_like = (lines.coefficients[:, [0, 2, 3]] == 0).all(axis=1) & (lines.coefficients[:, 1] % z == 0)
+        keep = np.zeros(all_orders.size, bool)
+        keep[np.isin(all_orders, lines.coefficients[order_like, 1] // z)] = True
+        dc = lines.dc
     return Excitation(
-        bpfo_per_hz=bearing.fault_multipliers().bpfo,
+        bpfo_per_hz=fm.bpfo,
         reference_speed_hz=float(reference_speed_hz),
         orders=all_orders[keep],
         amplitude_m={"vertical": amp[0, keep], "horizontal": amp[1, keep]},
         phase_rad={"vertical": pha[0, keep], "horizontal": pha[1, keep]},
         dc_m={"vertical": float(dc[0]), "horizontal": float(dc[1])},
         peak_to_peak_m={"vertical": float(np.ptp(rel[0])), "horizontal": float(np.ptp(rel[1]))},
-        clearance_m=bearing.geometry.diametral_clearance_m,
+        clearance_m=g.diametral_clearance_m,
         all_orders=all_orders,
         all_amplitude_m={"vertical": amp[0], "horizontal": amp[1]},
         all_phase_rad={"vertical": pha[0], "horizontal": pha[1]},
-        time_s=theta / (TWO_PI * ftf * reference_speed_hz),
+        time_s=theta / (TWO_PI * fm.ftf * reference_speed_hz),
         relative_displacement_m=rel,
         off_order_fraction=off,
         static_displacement_m=state.displacement_m[:2].copy(),
@@ -344,7 +391,70 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
         radial_load_n=float(radial_load_n),
         axial_load_n=float(axial_load_n),
         state=state,
+        lines=lines,
+        n_balls=z,
+        rates_per_hz=rates,
     )
+
+
+def _reference_path(base: Bearing, load, axial_load_n: float, cage, film_m: float, ref):
+    """The base's path at ``cage`` solved by the same batched Newton as the defective one: subtracted in place of
+    the tabulated ``ref`` where the defect acts, so that the difference does not carry the Newton tolerance of
+    two different iteration counts."""
+    path, _, _ = quasi_static_path_m(base, load, axial_load_n, cage, film_m)
+    return path
+
+
+def rates_per_hz(fault_multipliers) -> np.ndarray:
+    """Rates of the base phases (shaft, cage, spin, line) per shaft Hz: (1, FTF, BSF, 0)."""
+    return np.array([1.0, fault_multipliers.ftf, fault_multipliers.bsf, 0.0])
+
+
+def _difference_lines(bearing: Bearing, base: Bearing, kind: str, load, axial_load_n: float, n_fast: int,
+                      n_slow: int, film_m: float, rates) -> LineSet:
+    """Lines of what the defects of ``kind`` add to the quasi-static path of ``base`` (the bearing without them).
+
+    Sampled on the 2-torus of the kind's own angles, fine along the fast one, coarse along the slow one:
+
+    ``"inner"``: ``psi = z (theta_shaft - theta_cage)`` (a ball's position relative to the inner race, one ball
+    pitch per turn; BPFI) and ``theta_shaft`` (where the defect is in the load zone), so ``theta_cage =
+    theta_shaft - psi / z``. ``"ball"``: the spin angle ``theta_spin`` and ``theta_cage`` (where the defective ball
+    is in the load zone). Where no ball meets the defect the difference is exactly zero, so it is narrow along the
+    fast angle and smooth along the slow one; the ball passage of the others (harmonics of z theta_cage) stays in
+    the base's exact BPFO orders.
+    """
+    z = bearing.geometry.n_balls
+    if n_fast % n_slow:
+        raise ValueError(f"samples: {n_fast} per ball pass must be a multiple of the {n_slow} slow samples")
+    i, j = np.meshgrid(np.arange(n_fast), np.arange(n_slow), indexing="ij")          # (n_fast, n_slow)
+    a, b = TWO_PI * i / n_fast, TWO_PI * j / n_slow
+    with_kind = Bearing(bearing.geometry, defects=[d for d in bearing.defects if d.race in ("outer", kind)])
+    step = n_fast // n_slow
+    if kind == "inner":
+        cage, shaft, spin = b - a / z, b, np.zeros_like(a)
+        u_index = (z * j * step - i) % n_fast                   # z theta_cage on the base's grid (exact)
+        phase_map = np.array([[z, -z, 0, 0], [1, 0, 0, 0]])
+    else:
+        cage, shaft, spin = b, np.zeros_like(a), a
+        u_index = (z * j * step) % n_fast
+        phase_map = np.array([[0, 0, 1, 0], [0, 1, 0, 0]])
+    # the base's path on its own grid (one ball pitch, the excitation's cage angles): exact at these points
+    pitch = TWO_PI / z
+    ref_1d, _, _ = quasi_static_path_m(base, load, axial_load_n, pitch * np.arange(n_fast) / n_fast, film_m)
+    ref = ref_1d[u_index]
+    # only where a ball meets the defect does the equilibrium change: solve there (the rest is exactly the base)
+    beta = with_kind.ball_angles_rad(cage)
+    touched = np.any(with_kind.defect_set.drop_m(beta, shaft, spin) > 0.0, axis=-1)
+    full = ref.copy()
+    if touched.any():
+        full[touched], _, _ = quasi_static_path_m(with_kind, load, axial_load_n, cage[touched], film_m,
+                                                  shaft_angles_rad=shaft[touched], spin_angles_rad=spin[touched])
+        full[touched] -= _reference_path(base, load, axial_load_n, cage[touched], film_m, ref[touched])
+        full[touched] += ref[touched]
+    diff = (full - ref)[..., ::-1]                                          # (vertical, horizontal)
+    out = lines_from_grid(diff, phase_map, rates, DIRECTIONS)
+    out.dc = np.zeros(2) + out.dc
+    return out
 
 
 # --------------------------------------------------------------------------- 4-DOF
@@ -551,6 +661,9 @@ def compute_excitation(bearing: Bearing, params: FourDofParameters, axial_load_n
     Excitation
     """
     t_start = time.perf_counter()
+    if any(p.kind != "outer" for p in bearing.defect_set.profiles):
+        raise ValueError("the 4-DOF excitation models outer-race dents only (excitation.method = 'quasi_static' "
+                         "takes every kind)")
     model = FourDofModel(bearing, params, axial_load_n)
     t, rel, n_steps = model.integrate()
     all_orders, amp, pha, dc, off, keep = _orders_from_record(rel, params.record_cage_periods * model.z,
@@ -579,4 +692,6 @@ def compute_excitation(bearing: Bearing, params: FourDofParameters, axial_load_n
         radial_load_n=params.rotor_mass_kg * params.gravity_m_s2,
         axial_load_n=float(axial_load_n),
         state=model.state,
+        n_balls=model.z,
+        rates_per_hz=rates_per_hz(bearing.fault_multipliers()),
     )

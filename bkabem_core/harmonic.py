@@ -44,9 +44,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .baseline import baseline_forces
 from .bearing import FaultFrequencies
 from .case import Case
-from .excitation import DIRECTIONS, Excitation
+from .excitation import DIRECTIONS, Excitation, rates_per_hz
+from .lines import LineSet, union
 from .machine import BEARINGS, Machine
 from .modal import LineModes, ModalBasis, OrderModalForm, SpeedCells  # noqa: F401  (SpeedCells: for synth)
 from .rotor import Rotor
@@ -87,6 +89,7 @@ class Spectrum:
     displacement: np.ndarray
     dc_m: np.ndarray
     fault_frequencies_hz: FaultFrequencies
+    coefficients: np.ndarray | None = None
 
     @property
     def omega_rad_s(self) -> np.ndarray:
@@ -106,6 +109,8 @@ class Spectrum:
         """JSON-ready, field names of the CLI contract (architecture.md)."""
         out = {"speed_hz": self.speed_hz, "orders": [int(k) for k in self.orders],
                "fault_frequencies_hz": self.fault_frequencies_hz.to_dict()}
+        if self.coefficients is not None:
+            out["line_coefficients"] = self.coefficients.tolist()
         disp, acc, vel = self.displacement, self.acceleration, self.velocity
         for li, loc in enumerate(LOCATIONS):
             out[loc] = {}
@@ -137,10 +142,14 @@ class Sweep:
     orders: np.ndarray
     displacement: np.ndarray
     bpfo_per_hz: float
+    multipliers: np.ndarray | None = None
+    fixed_hz: np.ndarray | None = None
 
     @property
     def frequency_hz(self) -> np.ndarray:
-        return np.multiply.outer(self.speeds_hz, self.orders * self.bpfo_per_hz)
+        if self.multipliers is None:
+            return np.multiply.outer(self.speeds_hz, self.orders * self.bpfo_per_hz)
+        return np.multiply.outer(self.speeds_hz, self.multipliers) + self.fixed_hz
 
     @property
     def acceleration(self) -> np.ndarray:
@@ -183,7 +192,7 @@ class BkaBem:
     """
 
     def __init__(self, case: Case, excitation: Excitation | dict | None = None, solver: str = "modal",
-                 machine: Machine | None = None, like: "BkaBem | None" = None):
+                 machine: Machine | None = None, like: "BkaBem | None" = None, baseline: bool = True):
         if solver not in SOLVERS:
             raise ValueError(f"solver: must be one of {', '.join(SOLVERS)} (got {solver!r})")
         self.case = case
@@ -207,40 +216,63 @@ class BkaBem:
         self.preparation_time_s["excitation"] = t2 - t1 if excitation is None else 0.0
         self.fault_multipliers = case.bearing().fault_multipliers()
         self.bpfo_per_hz = self.fault_multipliers.bpfo
-        orders = np.unique(np.concatenate([np.asarray(e.orders, dtype=int) for e in raw.values()]))
-        self.orders = orders
-        self.excitations = {b: e.on_orders(orders) for b, e in raw.items()}
+        self.n_balls = int(case.bearing_geometry().n_balls)
+        rates = rates_per_hz(self.fault_multipliers)
         self.force_model = case.raw["excitation"]["force"]
 
-        # input patterns: a force pair across each bearing (+ rotor node, - housing node), vertical and horizontal
+        # input patterns: a force pair across each bearing (+ rotor node, - housing node), vertical and horizontal,
+        # then the machine baseline's force patterns (unbalance at the disks, misalignment, magnetic pull)
         idx = self.rotor.dof_index
         sites = self.machine.sites
         self._patterns = [(b, d) for b in BEARINGS for d in DIRECTIONS]
-        p = np.zeros((self.rotor.ndof, len(self._patterns)))
+        names = [f"{b}.{d}" for b, d in self._patterns]
+        base_lines, base_patterns = (baseline_forces(case, self.rotor, rates) if baseline
+                                     else (LineSet.empty((), rates), {}))
+        self.include_baseline = bool(baseline)
+        p = np.zeros((self.rotor.ndof, len(names) + len(base_patterns)))
         for j, (b, d) in enumerate(self._patterns):
             p[idx(sites[b].rotor_node, _DIR_DOF[d]), j] += 1.0
             p[idx(sites[b].housing_node, _DIR_DOF[d]), j] -= 1.0
+        for j, name in enumerate(base_lines.inputs):
+            p[:, len(names) + j] = base_patterns[name]
+        self.input_names = tuple(names) + tuple(base_lines.inputs)
         self._p = p
         nodes = {"de_rotor": sites["de"].rotor_node, "de_housing": sites["de"].housing_node,
                  "nde_rotor": sites["nde"].rotor_node, "nde_housing": sites["nde"].housing_node}
         self._out_dofs = np.array([[idx(nodes[loc], _DIR_DOF[d]) for d in DIRECTIONS] for loc in LOCATIONS])
-        # force per order on the patterns: F = a + i omega b  (K, 4) [N], [N s]
-        n_k = orders.size
-        self._force_a = np.zeros((n_k, len(self._patterns)), complex)
-        self._force_b = np.zeros((n_k, len(self._patterns)), complex)
-        f0 = np.zeros(len(self._patterns))
+
+        # the lines: every bearing's excitation lines and the baseline's, on one set (sorted by frequency)
+        self.bearing_lines = {b: e.line_set() for b, e in raw.items()}
+        disp = [ls.with_inputs(names[:4], [names.index(f"{b}.{d}") for d in DIRECTIONS])
+                for b, ls in self.bearing_lines.items()]
+        everything = union([u.with_inputs(self.input_names, range(4)) for u in disp]
+                           + [base_lines.with_inputs(self.input_names, range(4, len(self.input_names)))])
+        self.lines = everything
+        n_k = len(everything)
+        z = self.n_balls
+        c = everything.coefficients
+        pure = (c[:, 0] == 0) & (c[:, 2] == 0) & (c[:, 3] == 0) & (c[:, 1] % z == 0)
+        self.orders = np.where(pure, c[:, 1] // z, 0).astype(int)
+        self.excitations = {b: (e.on_orders(self.orders[pure]) if e.lines is None else e) for b, e in raw.items()}
+        # force per line on the patterns: F = a + i omega b  (K, P) [N], [N s]; bearing columns k_b U (+ c_b U)
+        amp = everything.amplitude
+        self._force_a = np.zeros((n_k, len(self.input_names)), complex)
+        self._force_b = np.zeros_like(self._force_a)
+        self._force_a[:, 4:] = amp[:, 4:]
+        f0 = np.zeros(len(self.input_names))
         for j, (b, d) in enumerate(self._patterns):
-            ex = self.excitations.get(b)
-            if ex is None:
+            if b not in raw:
                 continue
-            di = DIRECTIONS.index(d)
             kb = sites[b].stiffness_n_m[1 if d == "vertical" else 0]
             cb = sites[b].damping_n_s_m[1 if d == "vertical" else 0]
-            u = ex.complex_amplitude_m()[:, di]
-            self._force_a[:, j] = kb * u
+            self._force_a[:, j] = kb * amp[:, j]
             if self.force_model == "paper":
-                self._force_b[:, j] = cb * u
-            f0[j] = kb * ex.dc_m[d]
+                self._force_b[:, j] = cb * amp[:, j]
+            f0[j] = kb * self.bearing_lines[b].dc[DIRECTIONS.index(d)]
+        self._speed_power = everything.speed_power.astype(float)
+        self._locked = everything.speed_locked
+        self._locked_idx = np.flatnonzero(self._locked)
+        self._fixed_idx = np.flatnonzero(~self._locked)
         # DC (static) response at the outputs
         self._dc = np.linalg.solve(self.rotor.K, p @ f0)[self._out_dofs]
         t3 = time.perf_counter()
@@ -254,13 +286,15 @@ class BkaBem:
             except ValueError:
                 self.solver = "direct"
         elif solver == "modal":
-            if reuse and like._basis is not None:
+            if reuse and like._basis is not None and like.input_names == self.input_names:
                 self._basis = like._basis
                 if like._line_modes is not None:
                     pos = {float(v): i for i, v in enumerate(like._line_modes.multipliers)}
                     rows = [pos.get(float(v)) for v in self.multipliers]
                     if all(r is not None for r in rows):
                         self._line_modes = like._line_modes.subset(rows)
+                    else:
+                        self._line_modes = like._line_modes.extended(self.multipliers)
             else:
                 self._basis = ModalBasis(self.rotor, p, self._out_dofs.reshape(-1),
                                          MODAL_CUTOFF_FACTOR * case.max_frequency_hz)
@@ -268,11 +302,29 @@ class BkaBem:
         self.preparation_time_s["solver_setup"] = time.perf_counter() - t3
         self.preparation_time_s["total"] = sum(v for kk, v in self.preparation_time_s.items() if kk != "total")
 
+    @property
+    def is_order_set(self) -> bool:
+        """Whether every line is a BPFO order (an outer-race or healthy bearing set without baseline): the form
+        of the earlier versions, which the improved method and the TDSM validation take."""
+        return bool(np.all(self.orders > 0))
+
+    @property
+    def fixed_hz(self) -> np.ndarray:
+        """(K,) fixed part of each line's frequency [Hz] (the electrical line; 0 for speed-locked lines)."""
+        return self.lines.fixed_hz
+
+    def frequency_hz(self, speed_hz: float) -> np.ndarray:
+        """Line frequencies [Hz] at a shaft speed [Hz]."""
+        return self.lines.frequency_hz(speed_hz)
+
     # ------------------------------------------------------------------ solve
     @property
     def multipliers(self) -> np.ndarray:
-        """Line frequencies per shaft frequency: ``orders x BPFO_per_Hz`` [-]."""
-        return self.orders * self.bpfo_per_hz
+        """Speed-locked part of every line's frequency per shaft frequency ``nu_j`` [-] (``k BPFO_per_Hz`` for
+        BPFO order k, exactly that product for an order set)."""
+        if self.is_order_set:
+            return self.orders * self.bpfo_per_hz
+        return self.lines.multipliers
 
     @property
     def basis(self) -> ModalBasis:
@@ -284,45 +336,68 @@ class BkaBem:
 
     @property
     def line_modes(self) -> LineModes:
-        """The reduced model diagonalised along every order (made on first use; ~1 s)."""
+        """The reduced model diagonalised along every speed-locked line (made on first use; ~1 s for 50)."""
         if self._line_modes is None:
-            self._line_modes = LineModes(self.basis, self.multipliers)
+            self._line_modes = LineModes(self.basis, self.multipliers[self._locked_idx])
         return self._line_modes
 
     def response(self, speeds_hz) -> np.ndarray:
-        """Complex displacement amplitudes (S, K, 4, 2) [m] at shaft speeds [Hz] (S speeds, K orders)."""
+        """Complex displacement amplitudes (S, K, 4, 2) [m] at shaft speeds [Hz] (S speeds, K lines)."""
         speeds_hz = np.atleast_1d(np.asarray(speeds_hz, dtype=float))
         if np.any(~np.isfinite(speeds_hz)) or np.any(speeds_hz < 0):
             raise ValueError("speed_hz: must be finite and >= 0")
-        n_s, n_k = speeds_hz.size, self.orders.size
-        if self.solver == "modal":
-            form = self.order_modal_form()
-            out = np.stack([form(f) for f in speeds_hz])                                    # (S, K, 8)
-            return out.reshape(n_s, n_k, len(LOCATIONS), len(DIRECTIONS))
-        return self.response_full(speeds_hz)
+        n_s, n_k = speeds_hz.size, len(self.lines)
+        if self.solver != "modal":
+            return self.response_full(speeds_hz)
+        form = self.order_modal_form()
+        out = np.empty((n_s, n_k, len(LOCATIONS) * len(DIRECTIONS)), complex)
+        for i, f in enumerate(speeds_hz):
+            if self._locked_idx.size:
+                out[i, self._locked_idx] = form(f)
+            if self._fixed_idx.size:
+                out[i, self._fixed_idx] = self._fixed_lines(f)
+        self._apply_speed_power(out, speeds_hz)
+        return out.reshape(n_s, n_k, len(LOCATIONS), len(DIRECTIONS))
+
+    def _apply_speed_power(self, out: np.ndarray, speeds_hz: np.ndarray) -> None:
+        """Amplitudes that grow with speed (unbalance: f^2) scaled in place, (S, K, ...)."""
+        if np.any(self._speed_power != 0.0):
+            fac = np.power.outer(np.asarray(speeds_hz, dtype=float), self._speed_power)
+            out *= fac.reshape(fac.shape + (1,) * (out.ndim - 2))
+
+    def _fixed_lines(self, speed_hz: float) -> np.ndarray:
+        """The lines whose frequency does not follow the speed (the electrical line), (K_fixed, 8) [m]: one dense
+        solve of the reduced model each (the gyroscopic term changes with speed, so they have no fixed pencil)."""
+        idx = self._fixed_idx
+        w = TWO_PI * (self.lines.multipliers[idx] * speed_hz + self.lines.fixed_hz[idx])
+        big = np.full(idx.size, TWO_PI * speed_hz)
+        f = self._force_a[idx] + 1j * w[:, None] * self._force_b[idx]
+        return self.basis.solve(w, big, f)
 
     def response_full(self, speeds_hz) -> np.ndarray:
         """The same on the full FE model (block-tridiagonal or dense LU: the exact reference)."""
         speeds_hz = np.atleast_1d(np.asarray(speeds_hz, dtype=float))
-        n_s, n_k = speeds_hz.size, self.orders.size
-        omega = TWO_PI * np.multiply.outer(speeds_hz, self.multipliers)                        # (S, K)
+        n_s, n_k = speeds_hz.size, len(self.lines)
+        omega = TWO_PI * (np.multiply.outer(speeds_hz, self.multipliers) + self.lines.fixed_hz[None])   # (S, K)
         big_omega = np.broadcast_to((TWO_PI * speeds_hz)[:, None], omega.shape)
-        f_in = self._force_a[None] + 1j * omega[..., None] * self._force_b[None]              # (S, K, 4)
+        f_in = self._force_a[None] + 1j * omega[..., None] * self._force_b[None]              # (S, K, P)
         f = f_in.reshape(-1, f_in.shape[-1]) @ self._p.T                                       # (S K, ndof)
         w, big_w = omega.reshape(-1), big_omega.reshape(-1)
         if self._block is None and self.solver == "block":
             self._block = ShaftSolver(self.rotor)
         x = self._block.solve(w, big_w, f) if self._block is not None else solve_direct(self.rotor, w, big_w, f)
-        out = x[:, self._out_dofs.reshape(-1)]
+        out = x[:, self._out_dofs.reshape(-1)].reshape(n_s, n_k, -1)
+        self._apply_speed_power(out, speeds_hz)
         return out.reshape(n_s, n_k, len(LOCATIONS), len(DIRECTIONS))
 
     def spectrum(self, speed_hz: float) -> Spectrum:
         """BKA-BEM spectrum at one shaft speed [Hz]."""
         speed_hz = float(speed_hz)
         x = self.response([speed_hz])[0]
-        return Spectrum(speed_hz=speed_hz, orders=self.orders.copy(),
-                        frequency_hz=self.orders * self.bpfo_per_hz * speed_hz, displacement=x,
-                        dc_m=self._dc.copy(), fault_frequencies_hz=self.fault_multipliers.at_speed(speed_hz))
+        return Spectrum(speed_hz=speed_hz, orders=self.orders.copy(), frequency_hz=self.frequency_hz(speed_hz),
+                        displacement=x, dc_m=self._dc.copy(),
+                        fault_frequencies_hz=self.fault_multipliers.at_speed(speed_hz),
+                        coefficients=self.lines.coefficients.copy())
 
     def sweep(self, speeds_hz, batch: int = 16, progress: bool = False) -> Sweep:
         """Responses over many speeds [Hz], computed in batches (memory bounded)."""
@@ -336,7 +411,8 @@ class BkaBem:
             parts.append(self.response(speeds_hz[s:s + batch]))
         disp = np.concatenate(parts) if parts else np.zeros((0, self.orders.size, 4, 2), complex)
         return Sweep(speeds_hz=speeds_hz, orders=self.orders.copy(), displacement=disp,
-                     bpfo_per_hz=self.bpfo_per_hz)
+                     bpfo_per_hz=self.bpfo_per_hz, multipliers=self.multipliers.copy(),
+                     fixed_hz=self.lines.fixed_hz.copy())
 
     @property
     def dc_m(self) -> np.ndarray:
@@ -355,8 +431,9 @@ class BkaBem:
         key = _combination_key(combination)
         form = self._modal_forms.get(key)
         if form is None:
-            form = self._modal_forms[key] = OrderModalForm(self.line_modes, self._force_a, self._force_b,
-                                                           combination, orders=self.orders)
+            li = self._locked_idx
+            form = self._modal_forms[key] = OrderModalForm(self.line_modes, self._force_a[li], self._force_b[li],
+                                                           combination, orders=self.orders[li])
         return form
 
     def has_line_modes(self) -> bool:
@@ -371,6 +448,7 @@ class BkaBem:
         """Which solver runs and on what model size."""
         info = {"solver": self.solver, "ndof": self.rotor.ndof, "fe_elements": self.machine.mesh.n_elements,
                 "shaft_nodes": len(self.rotor.shaft_node_labels), "orders": int(self.orders.size),
+                "lines": len(self.lines), "inputs": list(self.input_names),
                 "excited_bearings": sorted(self.excitations), "force": self.force_model}
         if self._basis is not None:
             info.update({"modal_basis_size": self._basis.size, "modal_cutoff_hz": self._basis.cutoff_hz})

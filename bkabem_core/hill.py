@@ -73,6 +73,9 @@ class HillCorrection:
 
     def __init__(self, model: BkaBem, n_time: int = 512, n_precompute: int = 4096, tol: float = 1e-4):
         t0 = time.perf_counter()
+        if not model.is_order_set:
+            raise ValueError("HillCorrection: the model's lines must all be BPFO orders (an outer-race or healthy "
+                             "bearing set, BkaBem(..., baseline=False)); other defect kinds are not covered yet")
         self.model = model
         self.tol = float(tol)
         machine = model.machine

@@ -43,7 +43,7 @@ class BearingSite:
     name : str
         ``"de"`` or ``"nde"``.
     bearing : Bearing
-        The bearing with its dent, if it carries one.
+        The bearing with its defects, if it carries any.
     rotor_node, housing_node : int
         FE nodes it connects (case labels).
     radial_load_n : ndarray (2,)
@@ -75,7 +75,7 @@ class BearingSite:
 
     @property
     def has_defect(self) -> bool:
-        return self.bearing.dent is not None and self.bearing.dent_effective_depth_m > 0.0
+        return self.bearing.has_defect
 
     def to_dict(self) -> dict:
         return {"radial_load_n": self.radial_load_n.tolist(), "axial_load_n": self.axial_load_n,
@@ -122,12 +122,11 @@ class Machine:
         self.mesh: Mesh = mesh if mesh is not None else Mesh((1,) * n_el)
         loads = rotor_from_case(raw, damping={}).static_bearing_loads_n(g)      # statically determinate
         geometry = case.bearing_geometry()
-        dent = case.dent()
         damper = case.bearing_damping_n_s_m
         self.sites: dict[str, BearingSite] = {}
         for name in BEARINGS:
             b = raw["bearings"][name]
-            bearing = Bearing(geometry, dent if dent.bearing == name and dent.depth_m > 0.0 else None)
+            bearing = Bearing(geometry, defects=[d for d in case.defects(name) if d.depth_m > 0.0])
             fx, fy = loads[name]
             w = np.array([-fx, -fy], dtype=float)                 # the load on the shaft the bearing carries
             axial = float(b["axial_load_n"])
@@ -153,7 +152,7 @@ class Machine:
         """What the FE model depends on (everything but the defect and the excitation settings), as a string."""
         import json
 
-        raw = {k: v for k, v in case.raw.items() if k not in ("case", "dent", "excitation")}
+        raw = {k: v for k, v in case.raw.items() if k not in ("case", "defects", "baseline", "excitation")}
         return json.dumps(raw, sort_keys=True)
 
     @property

@@ -184,6 +184,23 @@ class LineModes:
         other._shapes_t = None
         return other
 
+    def extended(self, multipliers: np.ndarray) -> "LineModes":
+        """Line modes of ``multipliers``: those already decomposed here are reused, only the new ones are made."""
+        nu = np.asarray(multipliers, dtype=float)
+        pos = {float(v): i for i, v in enumerate(self.multipliers)}
+        new = np.array(sorted({float(v) for v in nu if float(v) not in pos}))
+        more = LineModes(self.basis, new) if new.size else None
+        other = object.__new__(LineModes)
+        other.__dict__.update(self.__dict__)
+        src = [(self, pos[float(v)]) if float(v) in pos else (more, int(np.searchsorted(new, float(v))))
+               for v in nu]
+        for name in ("poles", "participation", "shapes"):
+            setattr(other, name, np.stack([getattr(m, name)[i] for m, i in src]) if src else
+                    getattr(self, name)[:0])
+        other.multipliers = nu
+        other.w_per_hz = TWO_PI * nu
+        return other
+
     def receptance(self, speed_hz: float, lines: np.ndarray | None = None) -> np.ndarray:
         """``H_j(omega_j)`` (K, U, P) [m/N] at shaft speed ``speed_hz`` [Hz] (lines: a subset of indices)."""
         sl = slice(None) if lines is None else lines

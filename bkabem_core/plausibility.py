@@ -62,9 +62,16 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
                                                    "(mineral oils ~2e-8)"),
     "bearing.dynamic_viscosity_pa_s": (0.0, 10.0, "lubricant viscosities are 0 .. 10 Pa s"),
     "bearing.damping_n_s_m": _BEARING_DAMPING,
-    # the dent
-    "dent.length_m": (1e-6, 0.1, "dents are 1 um .. 100 mm long"),
-    "dent.depth_m": (0.0, 1e-3, "dents are 0 .. 1 mm deep"),
+    # the defects (schema 3; a schema-2 [dent] is migrated to the first entry)
+    "defects[].length_m": (1e-6, 0.1, "dents are 1 um .. 100 mm long"),
+    "defects[].depth_m": (0.0, 1e-3, "dents are 0 .. 1 mm deep"),
+    # the machine baseline
+    "baseline.unbalance_grade_mm_s": (0.0, 4000.0, "ISO 21940-11 balance grades are G 0.4 .. G 4000 mm/s (0 = off; "
+                                                   "electric motors G 2.5-6.3)"),
+    "baseline.misalignment_force_n": (0.0, 1e6, "misalignment forces are 0 .. 1 MN"),
+    "baseline.electrical_force_n": (0.0, 1e6, "magnetic pull forces are 0 .. 1 MN"),
+    "baseline.line_frequency_hz": (1.0, 1000.0, "supply frequencies are 1 .. 1000 Hz (grids 50/60 Hz, drives up "
+                                                "to a few hundred)"),
     # the 4-DOF excitation model
     "excitation.rotor_mass_kg": (1e-2, 1e5, "rotors weigh 10 g .. 100 t"),
     "excitation.housing_mass_kg": _HOUSING_MASS,

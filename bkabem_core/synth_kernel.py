@@ -61,6 +61,8 @@ import math
 
 import numpy as np
 
+from .synth_features import _moment_features
+
 #: Phase units of one ball pass.
 PASS_UNITS = 1 << 62
 FRAC_BITS = 24                 # bits of the fraction of a table step the spline weights are computed from
@@ -154,10 +156,21 @@ def _load():
         acc.argtypes = [i64, i64, ptr, ptr, ptr]
         acc.restype = ctypes.c_int
         fns[dt] = acc
+        mix = getattr(lib, f"synth_carrier_mix_{suf}", None)
+        if mix is not None:
+            mix.argtypes = [i64, i64, ptr, ptr, ptr, ptr]
+            mix.restype = ctypes.c_int
+            fns[("carrier_mix", dt)] = mix
         nrm = getattr(lib, f"synth_normals_{suf}")
         nrm.argtypes = [ctypes.c_uint64, i64, ptr]
         nrm.restype = ctypes.c_int
         fns[("normals", dt)] = nrm
+    sw = getattr(lib, "synth_slip_warp", None)
+    if sw is not None:
+        dbl = ctypes.c_double
+        sw.argtypes = [i64, dbl, dbl, dbl, dbl, ptr, i64, i64, dbl, ptr]
+        sw.restype = ctypes.c_int
+        fns["slip_warp"] = sw
     lib.synth_fast_path.argtypes = []
     lib.synth_fast_path.restype = ctypes.c_int
     fns["fast_path"] = bool(lib.synth_fast_path())
@@ -288,6 +301,61 @@ def normals(key: int, n: int, dtype=np.float32) -> np.ndarray:
     return out
 
 
+def slip_warp(m: int, j0: int, c1: float, c2: float, u_frac: float, w: np.ndarray, jw0: int, kappa: float):
+    """(m,) int64 phase offsets of random slip for one segment (see ``synth_slip_warp`` in _synthloop.c): in C when
+    built, else :func:`slip_warp_reference`; the two agree bit for bit."""
+    fn = _FNS.get("slip_warp") if _FNS is not None else None
+    if fn is None:
+        return slip_warp_reference(m, j0, c1, c2, u_frac, w, jw0, kappa)
+    w = np.ascontiguousarray(w, dtype=np.float64)
+    out = np.empty(int(m), dtype=np.int64)
+    if fn(int(m), float(j0), float(c1), float(c2), float(u_frac), w.ctypes.data, w.size, int(jw0), float(kappa),
+          out.ctypes.data):
+        raise ValueError("synth_slip_warp: a sample falls outside the walk's values")
+    return out
+
+
+def slip_warp_reference(m: int, j0: int, c1: float, c2: float, u_frac: float, w: np.ndarray, jw0: int,
+                        kappa: float) -> np.ndarray:
+    """:func:`slip_warp` in numpy (the operations of the C function in its order)."""
+    xi = np.arange(j0, j0 + m, dtype=np.float64)
+    u = (c2 * xi + c1) * xi + u_frac
+    fl = np.floor(u)
+    k = fl.astype(np.int64) - jw0
+    t = u - fl
+    t2 = t * t
+    t3 = t2 * t
+    w0, w1 = w[k], w[k + 1]
+    m0, m1 = 0.5 * (w[k + 1] - w[k - 1]), 0.5 * (w[k + 2] - w[k])
+    ww = (2 * t3 - 3 * t2 + 1) * w0 + (t3 - 2 * t2 + t) * m0 + (3 * t2 - 2 * t3) * w1 + (t3 - t2) * m1
+    wp = kappa * ww
+    return np.rint((wp - np.rint(wp)) * float(PASS_UNITS)).astype(np.int64)
+
+
+def carrier_mix(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:
+    """``out += cs[:, :1] re - cs[:, 1:] im`` for (m, C) blocks and the carrier's (cos, sin) ``cs`` (m, 2), all of
+    out's dtype and C-contiguous: in C when the kernel is built (bit for bit :func:`carrier_mix_reference`)."""
+    fn = _FNS.get(("carrier_mix", out.dtype)) if _FNS is not None else None
+    if fn is None:
+        carrier_mix_reference(cs, re, im, out)
+        return
+    m, c = out.shape
+    for a, name in ((cs, "cs"), (re, "re"), (im, "im")):
+        if a.dtype != out.dtype or a.shape[0] != m:
+            raise ValueError(f"{name} must be ({m}, ...) {out.dtype}")
+    if re.shape != out.shape or im.shape != out.shape or cs.shape != (m, 2):
+        raise ValueError("carrier_mix: shapes (m, 2), (m, C), (m, C), (m, C)")
+    if fn(m, c, _ptr(cs, "cs"), _ptr(re, "re"), _ptr(im, "im"), _ptr(out, "out")):
+        raise ValueError(f"synth_carrier_mix rejected m={m}, C={c}")
+
+
+def carrier_mix_reference(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:
+    """:func:`carrier_mix` in numpy (the same operations in the same order and precision)."""
+    x = cs[:, :1] * re
+    y = cs[:, 1:] * im
+    out += x - y
+
+
 FEATURE_NAMES = ("mean", "rms", "peak", "peak_to_peak", "crest_factor", "kurtosis")
 
 
@@ -303,9 +371,7 @@ def features_from_acc(acc: np.ndarray, n: int, off) -> dict:
 
 
 def features_from_acc_reference(acc: np.ndarray, n: int, off) -> dict:
-    """:func:`features_from_acc` in numpy (``synth._moment_features``)."""
-    from .synth import _moment_features      # here, not at the top: synth imports this module
-
+    """:func:`features_from_acc` in numpy (``synth_features._moment_features``)."""
     s = acc[:, :4] / float(n)
     return _moment_features(s[:, 0], s[:, 1], s[:, 2], s[:, 3], acc[:, 4].copy(), acc[:, 5].copy(),
                             np.asarray(off, dtype=np.float64))

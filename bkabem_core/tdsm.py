@@ -110,11 +110,21 @@ class HertzPair:
         # right-hand factors of the sums: [cos, sin, cos^2, cos sin, sin^2, 0]
         self.rt = np.ascontiguousarray(np.stack([c, s, c * c, c * s, s * s, np.zeros_like(c)], axis=2))
         ar0 = np.empty((len(cage_angles_rad), 2, g0.n_balls))
+        self._moving = []                     # (bearing index, DefectSet) of defects that are not BPFO-periodic
         for i, b in enumerate(bearings):
             ar0[:, i, :] = b._ar0
-            if b.dent is not None:
+            outer = [d for d in b.defects if d.race == "outer"]
+            if b.dent is not None and len(outer) == len(b.defects):
                 ar0[:, i, :] -= b.dent_depth_m(beta)
+            elif b.defect_set:
+                if outer:
+                    ar0[:, i, :] -= type(b)(b.geometry, defects=outer).dent_depth_m(beta)
+                moving = type(b)(b.geometry, defects=[d for d in b.defects if d.race != "outer"]).defect_set
+                if moving:
+                    self._moving.append((i, moving))
         self.ar0 = ar0                                                       # A_r at u = 0 [m]
+        self._beta = beta
+        self._clock = None
         self.aa = np.array([b._aa0 + axial_m[i] for i, b in enumerate(bearings)])[:, None]   # (2, 1) A_a [m]
         self.a0 = np.array([b.groove_centre_distance_m for b in bearings])[:, None]
         self.film = np.asarray(films_m, dtype=float)[:, None]
@@ -147,10 +157,43 @@ class HertzPair:
         q = self._kc * delta * root
         return q * c, (1.5 * self._kc) * root * c * c + q * (1.0 - c * c) / a
 
-    def evaluate(self, u, j):
+    @property
+    def periodic(self) -> bool:
+        """Whether the ball forces repeat every BPFO period (outer-race and healthy bearings); inner-race and ball
+        defects move with the shaft and the ball spin, so their drops come from :meth:`ar0_rows`."""
+        return not self._moving
+
+    def set_clock(self, step_s: float, shaft_rad_s: float, spin_rad_s: float) -> None:
+        """The time base of :meth:`ar0_rows`: table step j of absolute step n is ``n mod N`` (N table rows, one
+        BPFO period), shaft angle ``shaft_rad_s n h``, ball spin ``spin_rad_s n h``."""
+        self._clock = (float(step_s), float(shaft_rad_s), float(spin_rad_s))
+
+    def ar0_rows(self, n0: int, n1: int) -> np.ndarray:
+        """``A_r`` at u = 0 (n1 - n0, 2, z) [m] at absolute steps n0..n1-1, every defect included.
+
+        After r BPFO periods the ball set has turned by r ball pitches, so ball i sits in table column
+        ``(i + r) mod z``: a ball defect follows its ball through the columns; an inner-race defect is placed by
+        the column's position and the shaft angle."""
+        n = np.arange(n0, n1)
+        n_tab, z = self._beta.shape
+        j = n % n_tab
+        rows = self.ar0[j].copy()
+        if not self._moving:
+            return rows
+        h, w_shaft, w_spin = self._clock
+        cols = (np.arange(z)[None, :] + (n // n_tab)[:, None]) % z                 # column of ball i at step n
+        beta = np.take_along_axis(self._beta[j], cols, axis=1)                    # (n, z) per ball
+        for i, moving in self._moving:
+            d = moving.drop_m(beta, w_shaft * h * n, w_spin * h * n)
+            d_col = np.empty_like(d)
+            np.put_along_axis(d_col, cols, d, axis=1)
+            rows[:, i, :] -= d_col
+        return rows
+
+    def evaluate(self, u, j, ar0=None):
         buf = self._buf
         ar = u.reshape(2, 2).dot(self.cs[j])
-        ar += self.ar0[j]
+        ar += self.ar0[j] if ar0 is None else ar0
         buf[:2], buf[2:] = self._terms(ar)
         y = buf.dot(self.rt[j]).ravel()
         return -y[self._f_idx], y[self._k_idx]
@@ -213,8 +256,10 @@ class LinearPair:
         self._kflat = k
         self.n_table = n_table
 
-    def evaluate(self, u, j):
+    def evaluate(self, u, j, ar0=None):
         return -self._kflat * u, self.kt
+
+    periodic = True
 
     def potential_energy_j(self, u, j):
         return float(0.5 * np.sum(self._kflat * u * u))
@@ -516,7 +561,11 @@ class Tdsm:
         self.bpfo_period_s = 1.0 / self.bpfo_hz
         if max_step_s is None:
             max_step_s = self.MAX_STEP_S
-            faulty = [b for b in self.bearings if b.dent is not None and b.dent_effective_depth_m > 0.0]
+            moving = [b for b in self.bearings if any(p.kind != "outer" for p in b.defect_set.profiles)]
+            for b in moving:                 # inner-race and ball defects: their own relative speeds
+                max_step_s = min(max_step_s, b.shortest_defect_event_s(speed_hz) / self.STEPS_PER_DENT_EDGE)
+            faulty = [b for b in self.bearings if b.dent is not None and b.dent_effective_depth_m > 0.0
+                      and b.dent.race == "outer"]
             if faulty:
                 ramp = faulty[0].dent_entry_ramp_rad
                 edge = ramp if ramp > 0.0 else 0.25 * faulty[0].dent_half_angle_rad
@@ -532,6 +581,7 @@ class Tdsm:
         cage = self.cage_speed_rad_s * self.h * np.arange(self.steps_per_bpfo)
         if bearing_model == "hertz":
             self.forces = HertzPair(self.bearings, cage, films, self.axial_m)
+            self.forces.set_clock(self.h, TWO_PI * speed_hz, TWO_PI * fm.bsf * speed_hz)
         else:
             self.forces = LinearPair(self._k_ref, self.steps_per_bpfo)
 
@@ -739,7 +789,10 @@ class Tdsm:
             z0 = self.to_modal(initial_state) if self.diagonal else np.array(initial_state, dtype=float)
         st = _State(z0)
         du0 = self.Bz.dot(st.z).real
-        f0, _ = self.forces.evaluate(self._u_static + du0, 0)
+        if self.forces.periodic:
+            f0, _ = self.forces.evaluate(self._u_static + du0, 0)
+        else:
+            f0, _ = self.forces.evaluate(self._u_static + du0, 0, self.forces.ar0_rows(0, 1)[0])
         st.f_dev = f0 - self._f_static + self._kb.dot(du0)
         st.f_old = st.f_dev.copy()
         bar = None
@@ -847,10 +900,12 @@ class Tdsm:
         n_ = n0
         recorded = 0
         st.recorded = 0
+        periodic = self.forces.periodic
         try:
             k0 = 0
             while k0 < n_steps:
                 k1 = min(n_steps, k0 + chunk)
+                rows = None if periodic else self.forces.ar0_rows(n0 + k0 + 1, n0 + k1 + 1)
                 for k in range(k0, k1):
                     if rec is not None and k % rec_every == 0:
                         i = k // rec_every
@@ -869,8 +924,9 @@ class Tdsm:
                     u = up + H.dot(f_dev + f_dev - f_old)   # start: force extrapolated from the last two steps
                     # Newton on u = up + H f(u) with f = ball force + K_b u (deviations): J = I + H (K_t - K_b),
                     # small at these steps, so J^-1 ~ I - H (K_t - K_b) unless `exact`; the converged u is the same.
+                    ar_now = None if rows is None else rows[k - k0]
                     for it in range(1, max_newton + 1):
-                        f, kt = evaluate(u, j)
+                        f, kt = evaluate(u, j) if ar_now is None else evaluate(u, j, ar_now)
                         f -= f_s
                         du_s = u - u_s
                         f += kb.dot(du_s)

@@ -58,7 +58,8 @@ def _excitation_table(ex, max_rows: int = 24) -> str:
     lines = [
         f"{(ex.bearing or '').upper()} bearing, {what} under {ex.radial_load_n:.1f} N radial + {ex.axial_load_n:.0f} N "
         f"axial  (BPFO {ex.bpfo_per_hz:.4f} x shaft Hz, clearance {ex.clearance_m * 1e6:.1f} um, "
-        f"{len(ex.orders)} orders kept of {len(ex.all_orders)})",
+        f"{len(ex.orders)} orders kept of {len(ex.all_orders)}"
+        + (f"; {len(ex.lines)} lines of its defects, --json for all)" if ex.lines is not None else ")"),
         f"  DC           vertical {d['dc_m']['vertical'] * 1e6:9.3f} um   horizontal "
         f"{d['dc_m']['horizontal'] * 1e6:9.4f} um",
         f"  peak-to-peak vertical {d['peak_to_peak_m']['vertical'] * 1e6:9.3f} um   horizontal "

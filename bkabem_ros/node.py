@@ -268,8 +268,8 @@ class VibrationNode(_node_base()):
         self._declare_all(self._base_case)
         p = {s.name: self.get_parameter(s.name).value for s in PARAMETERS}
         self._case = self._base_case
-        if p["defect_depth"] != self._base_case.raw["dent"]["depth_m"]:
-            self._case = self._base_case.with_overrides({"dent.depth_m": float(p["defect_depth"])})
+        if p["defect_depth"] != self._base_case.defect_depth_m:
+            self._case = self._base_case.with_defect_depth(float(p["defect_depth"]))
         self.machine_id = p["machine_id"] or self.get_namespace().strip("/") or "bkabem"
         self.sample_rate = float(p["sample_rate"])
         self.samples_per_chunk = max(1, int(round(self.sample_rate * float(p["chunk_duration"]))))
@@ -417,7 +417,7 @@ class VibrationNode(_node_base()):
                 raise ValueError(f"parameter {name}: {v!r} is not one of {', '.join(spec.choices)}")
 
     def _declare_all(self, case) -> None:
-        derived = {"defect_depth": float(case.raw["dent"]["depth_m"]),
+        derived = {"defect_depth": float(case.defect_depth_m),
                    "max_speed": float(case.max_speed_hz) * TWO_PI}
         for spec in PARAMETERS:
             if spec.name != "case":
@@ -660,10 +660,9 @@ class VibrationNode(_node_base()):
         speed_hz = float(chunk.shaft_speed_hz)
         speed_rad_s = speed_hz * TWO_PI
         y, dc = self._line_spectrum(speed_hz)                       # (K, C), (C,)
-        orders = np.asarray(self._synth.orders, dtype=float)
-        z = self._synth.n_balls
-        y = y * np.exp(1j * orders * z * float(chunk.cage_angle_rad))[:, None]
-        freq = np.concatenate([[0.0], orders * self._bpfo_per_hz * speed_hz])
+        orders = self._synth.line_orders()                              # BPFO orders (any line: nu / BPFO)
+        y = y * np.exp(1j * self._synth.line_phases_rad(chunk))[:, None]
+        freq = np.concatenate([[0.0], self._synth.frequency_hz(speed_hz)])
         k_all = np.concatenate([[0.0], orders])
         items = []
         for b in BEARINGS:
@@ -744,7 +743,7 @@ class VibrationNode(_node_base()):
             self._depth_pending = depth_m
             return
         self.get_logger().info(f"defect_depth {depth_m:g} m: recomputing the bearing excitations in a helper process")
-        self._depth_job = _ExcitationJob(self._base_case.with_overrides({"dent.depth_m": depth_m}))
+        self._depth_job = _ExcitationJob(self._base_case.with_defect_depth(depth_m))
         self._depth_pending = None
 
     def _poll_depth_job(self) -> None:

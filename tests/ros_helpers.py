@@ -162,9 +162,13 @@ class Listener:
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
                          reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT)
 
-        def cb(msg, _t=topic):
+        def cb(msg, info, _t=topic):
+            # the middleware's reception time (system clock, ns): an arrival time that a pause of this Python
+            # process (a garbage collection of the test session's large heap, the spin thread waiting for the GIL)
+            # does not shift; the local clock where the middleware gives none
+            t = info.get("received_timestamp") or time.time_ns()
             with self._lock:
-                self.msgs[_t].append((time.time_ns(), msg))
+                self.msgs[_t].append((t, msg))
 
         return self.node.create_subscription(msg_type, topic, cb, qos)
 

@@ -2,6 +2,7 @@
 
 import re
 
+import numpy as np
 import pytest
 
 from bkabem_core.case import Case, CaseError, embedded_cases
@@ -41,16 +42,27 @@ def test_user_case_by_path(tmp_path):
     (lambda: _sub(r"^ball_diameter_m = .*\n", ""), "bearing.ball_diameter_m", "missing"),
     (lambda: _sub(r"^n_balls = 14", 'n_balls = "14"'), "bearing.n_balls", "must be an integer"),
     (lambda: _sub(r"^n_balls = 14", "n_balls = 14.0"), "bearing.n_balls", "must be an integer"),
-    (lambda: _sub(r"^length_m = 2.0e-3", "length_m = -2.0e-3"), "dent.length_m", "must be > 0"),
-    (lambda: _sub(r"^length_m = 2.0e-3", "length_m = 0.25"), "dent.length_m", "circumference"),
-    (lambda: _sub(r"^length_m = 2.0e-3", "length_m = 0.02"), "dent.length_m", "ball pitch"),
+    (lambda: _sub(r"^length_m = 2.0e-3", "length_m = -2.0e-3"), "defects[0].length_m", "must be > 0"),
+    (lambda: _sub(r"^length_m = 2.0e-3", "length_m = 0.25"), "defects[0].length_m", "circumference"),
+    (lambda: _sub(r"^length_m = 2.0e-3", "length_m = 0.02"), "defects[0].length_m", "ball pitch"),
     (lambda: _sub(r"^diametral_clearance_m = .*", "diametral_clearance_m = -1e-6"),
      "bearing.diametral_clearance_m", "must be >= 0"),
     (lambda: _sub(r"^n_balls = 14", "n_balls = 14\nball_count = 3"), "bearing.ball_count", "unknown key"),
     (lambda: _text() + "\n[extra]\nx = 1\n", "extra", "unknown section"),
     (lambda: _sub(r"^inner_conformity = 0.52", "inner_conformity = 0.5"), "bearing.inner_conformity", "> 0.5"),
     (lambda: _sub(r"^poisson_ratio = 0.3", "poisson_ratio = nan"), "bearing.poisson_ratio", "finite"),
-    (lambda: _sub(r'^bearing = "de"', 'bearing = "middle"'), "dent.bearing", "one of"),
+    (lambda: _sub(r'^bearing = "de"', 'bearing = "middle"'), "defects[0].bearing", "one of"),
+    (lambda: _sub(r'^race = "outer"', 'race = "cage"'), "defects[0].race", "one of"),
+    (lambda: _sub(r'^race = "outer"', 'race = "ball"'), "defects[0].ball", "missing"),
+    (lambda: _sub(r'^race = "outer"', 'race = "outer"\nball = 3'), "defects[0].ball", "only for race = 'ball'"),
+    (lambda: _sub(r'^race = "outer"', 'race = "ball"\nball = 15'), "defects[0].ball", "ball number 1..14"),
+    (lambda: _sub(r"^unbalance_grade_mm_s = 0.0", "unbalance_grade_mm_s = -1.0"),
+     "baseline.unbalance_grade_mm_s", ">= 0"),
+    (lambda: _sub(r"^misalignment_node = 1", "misalignment_node = 15"), "baseline.misalignment_node",
+     "shaft node"),
+    (lambda: _sub(r"^\[\[defects\]\]", "[defects]"), "defects", "array of tables"),
+    (lambda: _sub(r'^method = "quasi_static"', 'method = "four_dof"').replace('race = "outer"', 'race = "inner"'),
+     "excitation.method", "outer-race dents only"),
     (lambda: _sub(r"^rotor_node = 5", "rotor_node = 40"), "bearings.de.rotor_node", "shaft node"),
     (lambda: _sub(r"^max_order = 50", "max_order = -1"), "excitation.max_order", ">= 0"),
     (lambda: _sub(r"^ehl_film = false", "ehl_film = 0"), "bearing.ehl_film", "true or false"),
@@ -76,8 +88,57 @@ def test_unknown_embedded_case_and_missing_file():
 
 def test_overrides_are_validated_too():
     c = Case.load()
-    assert c.with_overrides({"dent.depth_m": 1e-5}).dent().depth_m == 1e-5
-    with pytest.raises(CaseError, match="dent.depth_m"):
-        c.with_overrides({"dent.depth_m": -1.0})
+    assert c.with_overrides({"defects.0.depth_m": 1e-5}).dent().depth_m == 1e-5
+    assert c.with_defect_depth(2e-5).defect_depth_m == 2e-5
+    with pytest.raises(CaseError, match=r"defects\[0\].depth_m"):
+        c.with_overrides({"defects.0.depth_m": -1.0})
     with pytest.raises(CaseError, match="unknown key"):
-        c.with_overrides({"dent.colour": "red"})
+        c.with_overrides({"defects.0.colour": "red"})
+    with pytest.raises(CaseError, match="unknown key"):
+        c.with_overrides({"defects.3.depth_m": 1e-5})
+
+
+def _v2_text() -> str:
+    """The embedded case as schema version 2 wrote it: one [dent], no [baseline]."""
+    text = _text()
+    start, mid, end = text.index("[[defects]]"), text.index("[baseline]"), text.index("[excitation]")
+    dent = "\n".join(line.split("#")[0].rstrip() for line in text[start:mid].splitlines()
+                     if line.strip() and not line.lstrip().startswith("#") and not line.startswith("["))
+    body = text[:start] + "[dent]\n" + "\n".join(x for x in dent.splitlines() if x.strip()) + "\n\n" + text[end:]
+    return body.replace("schema_version = 3", "schema_version = 2")
+
+
+def test_version_2_cases_migrate_to_the_same_machine(tmp_path):
+    """A v2 file (single [dent]) is read as v3: its dent is the one defect, the baseline is off, and its bearing
+    excitation is the embedded case's, bit for bit."""
+    from bkabem_core.machine import Machine
+
+    p = tmp_path / "v2.toml"
+    p.write_text(_v2_text())
+    old = Case.load(p)
+    new = Case.load()
+    assert old.raw["case"]["schema_version"] == 3 and "dent" not in old.raw
+    assert old.defects() == new.defects()
+    assert old.baseline["unbalance_grade_mm_s"] == 0.0
+    a, b = Machine(old).excitation("de"), Machine(new).excitation("de")
+    assert np.array_equal(a.complex_amplitude_m(), b.complex_amplitude_m())
+    assert np.array_equal(a.orders, b.orders)
+
+
+def test_healthy_case_and_ground_truth_of_every_defect(tmp_path):
+    text = _text()
+    start, end = text.index("[[defects]]"), text.index("[baseline]")
+    healthy = text[:start] + text[end:]
+    healthy = healthy.replace("[case]", "defects = []\n\n[case]", 1)
+    p = tmp_path / "healthy.toml"
+    p.write_text(healthy)
+    c = Case.load(p)
+    gt = c.ground_truth()
+    assert c.defects() == [] and gt["healthy"] and gt["defects"] == [] and gt["defect"] is None
+    several = text.replace("[baseline]", '[[defects]]\nbearing = "nde"\nrace = "ball"\nball = 3\nlength_m = 1.0e-3\n'
+                           'depth_m = 20.0e-6\nangle_deg = 0.0\nedge = "ball"\nedge_fraction = 0.1\n\n[baseline]')
+    p.write_text(several)
+    gt = Case.load(p).ground_truth()
+    assert [(d["kind"], d["bearing"]) for d in gt["defects"]] == [("outer", "de"), ("ball", "nde")]
+    assert gt["defects"][1]["ball"] == 3 and gt["defects"][1]["fault_frequency"] == "bsf"
+    assert gt["defects"][0]["fault_multiplier"] == pytest.approx(6.0598, abs=1e-4)

@@ -85,4 +85,4 @@ def test_bad_case_file_exit_2(tmp_path):
     bad.write_text(text.replace("depth_m = 50.0e-6", "depth_m = -50.0e-6"))
     p = run("excitation", "--case", str(bad), check=False)
     assert p.returncode == 2
-    assert p.stderr.strip().count("\n") == 0 and "dent.depth_m" in p.stderr and "must be >= 0" in p.stderr
+    assert p.stderr.strip().count("\n") == 0 and "defects[0].depth_m" in p.stderr and "must be >= 0" in p.stderr

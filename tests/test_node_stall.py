@@ -64,6 +64,9 @@ def test_speed_jumps_to_and_from_zero_do_not_stall_the_stream():
     # jump to or from 0 made 3-7 chunks late, the worst by 520-760 ms
     p50, p99, worst = map(float, m.groups())
     assert p50 < 10 and worst < 2.5 * CHUNK * 1e3, f"chunks published late: {m.group(0)}"
-    # arrival here (includes this process' own delays): at most two chunks (of ~60) a chunk period late
+    # arrival here (the middleware's reception time, so not this test process' own pauses): at most two chunks
+    # (of ~60) a chunk period late
     late_ms = np.array([(t - _ns(msg.header.stamp)) / 1e6 - CHUNK * 1e3 for t, msg in items])
-    assert np.sum(late_ms > CHUNK * 1e3) <= 2, np.sort(late_ms)[-8:]
+    assert np.all(np.abs(late_ms) < 5e3), "reception and stamp clocks disagree"
+    assert np.sum(late_ms > CHUNK * 1e3) <= 2, (m.group(0), np.sort(late_ms)[-8:])
+    print(f"arrival lateness: median {np.median(late_ms):.2f} ms, max {late_ms.max():.2f} ms; node: {m.group(0)}")

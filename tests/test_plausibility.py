@@ -39,8 +39,11 @@ def _with(path: str, value, raw=None):
     ("bearings.nde.axial_load_n", "*1000", "bearings.nde.axial_load_n"),                # kN written as N
     ("operating.max_sample_rate_hz", 1e30, "operating.max_sample_rate_hz"),
     ("housings.[1].support_stiffness_horizontal_n_m", 1e30, "housings[1].support_stiffness_horizontal_n_m"),
-    ("dent.depth_m", 1e300, "dent.depth_m"),
-    ("dent.depth_m", "*1000", "dent.depth_m"),                          # 50 mm deep
+    ("defects.[0].depth_m", 1e300, "defects[0].depth_m"),
+    ("defects.[0].depth_m", "*1000", "defects[0].depth_m"),            # 50 mm deep
+    ("defects.[0].length_m", "*1000", "defects[0].length_m"),          # 2 m long
+    ("baseline.unbalance_grade_mm_s", 1e6, "baseline.unbalance_grade_mm_s"),
+    ("baseline.line_frequency_hz", "*1000", "baseline.line_frequency_hz"),
     ("rotor.density_kg_m3", 1e308, "rotor.density_kg_m3"),
     ("rotor.disks.[3].mass_kg", 1e300, "rotor.disks[3].mass_kg"),
     ("excitation.gravity_m_s2", 0.0, "excitation.gravity_m_s2"),

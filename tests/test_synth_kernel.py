@@ -547,3 +547,33 @@ def test_features_from_acc_rejects_bad_arrays():
         sk.features_from_acc(acc[:, :5].copy(), 10, np.zeros(8))
     with pytest.raises(ValueError, match="n >= 1"):
         sk.features_from_acc(acc, 0, np.zeros(8))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_carrier_mix_c_equals_numpy(dtype):
+    """The carrier mix of line families with a carrier (synth_lines): C bit for bit its numpy reference."""
+    rng = np.random.default_rng(7)
+    m, c = 1031, 8
+    cs = rng.standard_normal((m, 2)).astype(dtype)
+    re, im = (rng.standard_normal((m, c)).astype(dtype) for _ in range(2))
+    out = rng.standard_normal((m, c)).astype(dtype)
+    ref = out.copy()
+    sk.carrier_mix(cs, re, im, out)
+    sk.carrier_mix_reference(cs, re, im, ref)
+    assert np.array_equal(out, ref)
+    with pytest.raises(ValueError):
+        sk.carrier_mix(cs[:10], re, im, out)
+
+
+@pytest.mark.parametrize("kappa", [1.0, -1.0, 0.2612])
+def test_slip_warp_c_equals_numpy(kappa):
+    """The slip warp of a segment (Hermite walk + fixed point) in C, bit for bit its numpy reference."""
+    rng = np.random.default_rng(3)
+    w = np.cumsum(0.01 * rng.standard_normal(200))
+    c1, c2 = 6.06 * 25 / 51200, 0.5 * 6.06 / 51200 * 0.4 / 5120
+    for j0, m in ((0, 5120), (777, 2000)):
+        ref = sk.slip_warp_reference(m, j0, c1, c2, 0.41, w, -1, kappa)
+        assert np.array_equal(sk.slip_warp(m, j0, c1, c2, 0.41, w, -1, kappa), ref)
+    if sk.AVAILABLE:
+        with pytest.raises(ValueError, match="outside"):
+            sk.slip_warp(5120, 0, 1.0, 0.0, 0.0, w, -1, 1.0)
