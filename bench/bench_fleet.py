@@ -13,9 +13,10 @@ chunk of the whole run (start included): time the chunk's four waveform messages
 its last sample was due. "on time" = max lateness of every machine < one chunk period (100 ms).
 
 Variants: ``before`` = the fleet of the checkout ``--baseline DIR`` (run with ``PYTHONPATH=DIR``; copy the built
-``bkabem_core/*.so`` there), ``after`` = this checkout, ``after-single`` = this checkout with ``--executor single``; a ``-rt`` suffix (``before-rt``, ``after-rt``) runs the
+``bkabem_core/*.so`` there), ``mid`` = likewise the checkout ``--mid DIR``, ``after`` = this checkout, ``after-single`` = this checkout with ``--executor single``; a ``-rt`` suffix (``before-rt``, ``after-rt``) runs the
 fleet under ``chrt -f 10`` (SCHED_FIFO priority 10, as a dedicated streaming host would: other load on the
 machine then delays it less).
+A size that does not start within 300 s (a saturated host) is recorded as not on time and the run goes on.
 Runs are interleaved (repeat, N, variant) so that the machine's other load hits all variants alike; the load
 average is recorded per run. ``--monitor`` adds one subscriber process on the same host that reads every waveform
 stream (``tests/fleet_monitor.py``, reliable) and reports gaps; its CPU is counted separately.
@@ -66,7 +67,7 @@ def thread_cpu(pids) -> dict:
     return out
 
 
-def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor: bool) -> dict:
+def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor: bool, mid: str | None = None) -> dict:
     env = ros_env()
     prefix = ["chrt", "-f", "10"] if variant.endswith("-rt") else []
     variant_code = variant[:-3] if variant.endswith("-rt") else variant
@@ -74,9 +75,8 @@ def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor:
     #                               could interleave mid-line; block-buffered + its flush() is one write per line
     cwd = str(REPO)
     extra = []
-    if variant_code == "before":
-        env["PYTHONPATH"] = baseline
-        cwd = baseline
+    if variant_code in ("before", "mid"):
+        env["PYTHONPATH"] = cwd = baseline if variant_code == "before" else mid
     elif variant_code == "after-single":
         extra = ["--executor", "single"]
     speed = Proc(bkabem("speed", "--namespace", "/bench", "--profile", "constant:25", "--rate", "2"), ros_env_copy(env))
@@ -153,6 +153,11 @@ def ros_env_copy(env: dict) -> dict:
     return e
 
 
+def med_split(rs: list[dict], key: str):
+    vals = [r["cpu_split_pct"][key] for r in rs if r["cpu_split_pct"].get(key) is not None]
+    return round(statistics.median(vals), 1) if vals else None
+
+
 def summarize(rows: list[dict]) -> list[dict]:
     out = []
     keys = sorted({(r["variant"], r["machines"]) for r in rows}, key=lambda k: (k[0], k[1]))
@@ -164,8 +169,7 @@ def summarize(rows: list[dict]) -> list[dict]:
             return round(statistics.median(vals), 2) if vals else None
 
         out.append({"variant": v, "machines": n, "runs": len(rs), "cpu_pct_median": med("cpu_pct_of_one_core"),
-                    "cpu_python_pct_median": round(statistics.median(r["cpu_split_pct"]["python"] for r in rs), 1),
-                    "cpu_dds_pct_median": round(statistics.median(r["cpu_split_pct"]["dds"] for r in rs), 1),
+                    "cpu_python_pct_median": med_split(rs, "python"), "cpu_dds_pct_median": med_split(rs, "dds"),
                     "lateness_p50_median": med("lateness_ms_p50_median"),
                     "lateness_p99_worst_median": med("lateness_ms_p99_worst"),
                     "lateness_max_worst_median": med("lateness_ms_max_worst"),
@@ -183,10 +187,12 @@ def plot(summary: list[dict], path: str) -> None:
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
     styles = {"before": ("tab:red", "o", "main before issue 15 (SingleThreadedExecutor)"),
-              "after": ("tab:blue", "s", "issue 15 (EventsExecutor, spread start)"),
+              "mid": ("tab:orange", "^", "issue 15 hosts part (EventsExecutor, spread start)"),
+              "after": ("tab:blue", "s", "issue 15 capacity (CDR fast path, primed start, shared response)"),
               "after-single": ("tab:gray", "^", "issue 15 with --executor single"),
-              "before-rt": ("salmon", "v", "before, chrt -f 10"),
-              "after-rt": ("tab:cyan", "D", "issue 15, chrt -f 10")}
+              "before-rt": ("salmon", "v", "main before issue 15, chrt -f 10"),
+              "mid-rt": ("gold", "<", "issue 15 hosts part, chrt -f 10"),
+              "after-rt": ("tab:cyan", "D", "issue 15 capacity, chrt -f 10")}
     for v, (c, mk, label) in styles.items():
         rs = sorted((s for s in summary if s["variant"] == v), key=lambda s: s["machines"])
         if not rs:
@@ -221,6 +227,7 @@ def main() -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--seconds", type=float, default=15.0)
     ap.add_argument("--baseline", default=None, help="checkout of the previous main (variant 'before')")
+    ap.add_argument("--mid", default=None, help="another checkout (variant 'mid', e.g. the branch before a change)")
     ap.add_argument("--monitor", action="store_true", help="one subscriber reading every stream on this host")
     ap.add_argument("--json", default=None)
     ap.add_argument("--png", default=None)
@@ -232,11 +239,19 @@ def main() -> int:
         variants = [v for v in args.variants.split(",") if v]
         if any(v.startswith("before") for v in variants) and not args.baseline:
             ap.error("variant 'before' needs --baseline DIR")
+        if any(v.startswith("mid") for v in variants) and not args.mid:
+            ap.error("variant 'mid' needs --mid DIR")
         rows = []
         for r in range(args.repeats):
             for n in [int(x) for x in args.machines.split(",") if x]:
                 for v in variants:
-                    res = one_run(n, v, args.seconds, args.baseline, args.monitor)
+                    try:
+                        res = one_run(n, v, args.seconds, args.baseline, args.monitor, args.mid)
+                    except RuntimeError as exc:      # did not start (saturated host): a failed size, not a crash
+                        print(f"warning: {v} with {n} machines: {exc}", file=sys.stderr, flush=True)
+                        res = {"variant": v, "machines": n, "reported": 0, "on_time": False, "error": str(exc)[:300],
+                               "cpu_pct_of_one_core": None, "cpu_split_pct": {"python": None, "dds": None},
+                               "load_average_1min": round(os.getloadavg()[0], 2)}
                     res["repeat"] = r
                     rows.append(res)
                     print(json.dumps(res), flush=True)

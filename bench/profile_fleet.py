@@ -11,7 +11,7 @@ process briefly) and reads the CPU time of every thread from /proc. Samples whos
 (pthread_cond_*wait, epoll_wait, poll, futex, nanosleep: the executor idling between timers) are idle and left
 out; the groups are shares of the busy samples. (Without native frames py-spy counts the EventsExecutor's
 condition-variable wait as busy.) A sample is put in the first group whose pattern is on its stack, in this order:
-synthesis (bkabem_core), serialize_message, publish (rclpy -> rmw -> Fast DDS write), message building
+synthesis (bkabem_core), serialize_message, the waveform CDR encoder, publish (rclpy -> rmw -> Fast DDS write), message building
 (bkabem_ros/msgs.py, the generated message classes), clock and time objects, the node's own Python
 (_on_tick/_prepare), the executor (wait set, dispatch); the rest is listed by its leaf frame.
 """
@@ -39,6 +39,7 @@ from bench_node import REPO, Proc, bkabem, ros_env  # noqa: E402
 GROUPS = [
     ("synthesis (bkabem_core, C kernels)", re.compile(r"bkabem_core/|_synthloop|_modalsum")),
     ("serialize_message (message -> CDR)", re.compile(r"serialize_message")),
+    ("waveform CDR fast path (waveform_cdr.py)", re.compile(r"bkabem_ros/waveform_cdr\.py")),
     ("publish (rclpy -> rmw -> Fast DDS write)", re.compile(r"Publisher\.publish")),
     ("message building (msgs.py, message classes)", re.compile(r"bkabem_ros/msgs\.py|bkabem_msgs/msg/|std_msgs/msg/")),
     ("clock and time objects", re.compile(r"Clock\.now|rclpy/time\.py")),

@@ -286,3 +286,57 @@ def test_rclpy_reads_mcap_ros2_encoded_bytes():
     as_dict["data"] = list(m.data)
     back = deserialize_message(enc(as_dict), VibrationWaveform)
     assert back == m
+
+
+# --------------------------------------------------------------------------- waveform CDR fast path (issue 15)
+@pytest.mark.parametrize("machine_id, frame_id, names, n", [
+    ("machine_07", "de_bearing", ["vertical", "horizontal"], 2560),   # the node's stream
+    ("", "", ["vertical", "horizontal"], 0),
+    ("m", "x" * 5, ["a"], 1),
+    ("abcdefg", "nde_bearing", ["ab", "c", "def"], 3),
+    ("maschine_ü", "f", ["v", "h"], 7),                                 # UTF-8: length in bytes
+])
+def test_waveform_encoder_bytes_equal_serialize_message(machine_id, frame_id, names, n):
+    """WaveformEncoder (the node's publication path) writes the bytes rclpy/Fast DDS would: equal to
+    serialize_message outside the alignment padding (Fast CDR leaves old buffer bytes there), the same length,
+    and deserialised the same message; string lengths here move every later field's alignment."""
+    from bkabem_ros.waveform_cdr import WaveformEncoder
+
+    rng = np.random.default_rng(len(machine_id) + n)
+    enc = WaveformEncoder(machine_id=machine_id, location="nde", quantity="displacement", unit="m",
+                          channel_names=names, sample_rate=51200.0, samples_per_channel=n, frame_id=frame_id)
+    for idx, speed, stamp in [(0, 0.0, 0), (2560 * 12345, 157.07963, 1_764_600_000_123_456_789),
+                              (2**40 + 3, -12.5, 999_999_999)]:
+        data = rng.normal(size=(len(names), n)) * 1e-6
+        ref_msg = msgs.waveform_message(data, sample_rate=51200.0, first_sample_index=idx, shaft_speed=speed,
+                                        machine_id=machine_id, location="nde", quantity="displacement",
+                                        channel_names=names, stamp=stamp, frame_id=frame_id)
+        ref = serialize_message(ref_msg)
+        raw = enc.encode(data, first_sample_index=idx, shaft_speed=speed, stamp_ns=stamp)
+        assert len(raw) == len(ref) == enc.size
+        keep = np.ones(len(ref), bool)
+        for a, b in enc.padding:
+            keep[a:b] = False
+        assert keep.sum() > len(ref) - 16           # a few alignment bytes, not whole fields
+        assert np.array_equal(np.frombuffer(raw, np.uint8)[keep], np.frombuffer(ref, np.uint8)[keep])
+        assert deserialize_message(raw, type(ref_msg)) == ref_msg
+
+
+def test_waveform_encoder_rejects_bad_input():
+    from bkabem_ros.waveform_cdr import WaveformEncoder
+
+    enc = WaveformEncoder(machine_id="m", location="de", quantity="acceleration", unit="m/s^2",
+                          channel_names=["v", "h"], sample_rate=25600.0, samples_per_channel=4, frame_id="f")
+    ok = np.zeros((2, 4))
+    for kw, word in [(dict(data=np.zeros((2, 5))), "shape"), (dict(first_sample_index=-1), "first_sample_index"),
+                     (dict(first_sample_index=1.5), "first_sample_index"), (dict(shaft_speed=math.nan), "shaft_speed"),
+                     (dict(stamp_ns=-1), "stamp")]:
+        args = dict(data=ok, first_sample_index=0, shaft_speed=1.0, stamp_ns=0) | kw
+        with pytest.raises(ValueError, match=word):
+            enc.encode(args.pop("data"), **args)
+    with pytest.raises(ValueError, match="sample_rate"):
+        WaveformEncoder(machine_id="m", location="de", quantity="acceleration", unit="m/s^2", channel_names=["v"],
+                        sample_rate=math.inf, samples_per_channel=4, frame_id="f")
+    with pytest.raises(ValueError, match="NUL"):
+        WaveformEncoder(machine_id="a\x00b", location="de", quantity="acceleration", unit="m/s^2",
+                        channel_names=["v"], sample_rate=1.0, samples_per_channel=4, frame_id="f")
