@@ -67,6 +67,17 @@ def thread_cpu(pids) -> dict:
     return out
 
 
+def loopback_bytes() -> int:
+    """Bytes received on the loopback interface so far (/proc/net/dev): what the fleet's data costs on UDP; data
+    that Fast DDS moves through shared memory does not show here."""
+    with open("/proc/net/dev") as fh:
+        for ln in fh:
+            name, _, rest = ln.partition(":")
+            if name.strip() == "lo":
+                return int(rest.split()[0])
+    return 0
+
+
 def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor: bool, mid: str | None = None) -> dict:
     env = ros_env()
     prefix = ["chrt", "-f", "10"] if variant.endswith("-rt") else []
@@ -107,9 +118,11 @@ def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor:
         time.sleep(2.0)
     pids = tree_pids(fleet.pid)
     c0, m0, w0 = thread_cpu(pids), thread_cpu([mon.pid]) if mon else None, time.monotonic()
+    lo0 = loopback_bytes()
     load0 = os.getloadavg()[0]
     time.sleep(seconds)
     c1, m1, w1 = thread_cpu(tree_pids(fleet.pid)), thread_cpu([mon.pid]) if mon else None, time.monotonic()
+    lo_rate = (loopback_bytes() - lo0) / (w1 - w0)
     mon_out = None
     if mon is not None:
         out, err = mon.communicate(timeout=120)
@@ -127,13 +140,17 @@ def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor:
     cpu = {k: round(100 * (c1[k] - c0[k]) / wall, 1) for k in c0}
     res = {"variant": variant, "machines": n, "reported": len(stats), "startup_s": round(startup_s, 1),
            "cpu_pct_of_one_core": round(sum(cpu.values()), 1), "cpu_split_pct": cpu,
-           "load_average_1min": round((load0 + os.getloadavg()[0]) / 2, 2)}
+           "load_average_1min": round((load0 + os.getloadavg()[0]) / 2, 2),
+           "loopback_MB_per_s": round(lo_rate / 1e6, 2)}
     if stats:
         res.update({
             "lateness_ms_p50_median": round(statistics.median(s["lateness_ms_p50"] for s in stats), 2),
             "lateness_ms_p99_worst": round(max(s["lateness_ms_p99"] for s in stats), 1),
             "lateness_ms_max_worst": round(max(s["lateness_ms_max"] for s in stats), 1),
             "chunks": sum(s["chunks"] for s in stats), "reanchors": sum(s["reanchors"] for s in stats),
+            "late_chunks": sum(s.get("late_chunks", 0) for s in stats),
+            # chunk number (0 = first) of the worst chunk of the worst machine: start-up or steady state
+            "worst_chunk": max(stats, key=lambda s: s["lateness_ms_max"]).get("lateness_max_chunk"),
             "speed_ok": all(s["speed_messages"] > 0 for s in stats)})
         res["on_time"] = (len(stats) == n and res["lateness_ms_max_worst"] < CHUNK_MS and res["reanchors"] == 0)
     else:
@@ -179,6 +196,23 @@ def summarize(rows: list[dict]) -> list[dict]:
     return out
 
 
+def markdown(summary: list[dict]) -> str:
+    """The summary as the BENCHMARKS.md table (one row per variant and size)."""
+    def f(v, nd=1):
+        return "–" if v is None else f"{v:.{nd}f}"
+
+    out = ["| variant | machines | runs | CPU, % of one core (Python thread / Fast DDS) | lateness p50 / p99 worst / "
+           "max worst [ms] (median of runs) | max of all runs [ms] | on time | load (1 min) |",
+           "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for s in sorted(summary, key=lambda s: (s["machines"], s["variant"])):
+        out.append(f"| {s['variant']} | {s['machines']} | {s['runs']} | {f(s['cpu_pct_median'])} "
+                   f"({f(s['cpu_python_pct_median'])} / {f(s['cpu_dds_pct_median'])}) | "
+                   f"{f(s['lateness_p50_median'], 2)} / {f(s['lateness_p99_worst_median'])} / "
+                   f"{f(s['lateness_max_worst_median'])} | {f(s['lateness_max_worst_all'])} | "
+                   f"{s['on_time_runs']} of {s['runs']} | {f(s['load_median'], 1)} |")
+    return "\n".join(out)
+
+
 def plot(summary: list[dict], path: str) -> None:
     import matplotlib
 
@@ -202,7 +236,7 @@ def plot(summary: list[dict], path: str) -> None:
         a2.plot(x, [s["lateness_max_worst_median"] for s in rs], marker=mk, color=c, label=label)
         a2.plot(x, [s["lateness_p99_worst_median"] for s in rs], marker=mk, color=c, ls=":", alpha=0.7)
     a1.axhline(200, color="k", lw=0.8, ls="--")
-    a1.text(2, 203, "2 cores", fontsize=8)
+    a1.text(0.98, 200, "2 cores", fontsize=8, ha="right", va="bottom", transform=a1.get_yaxis_transform())
     a1.set_xlabel("machines on one host (25.6 kHz x 8 channels, 0.1 s chunks)")
     a1.set_ylabel("CPU of the fleet [% of one core]")
     a1.set_title("CPU (median of runs)")
@@ -215,7 +249,8 @@ def plot(summary: list[dict], path: str) -> None:
     for a in (a1, a2):
         a.grid(alpha=0.3)
         a.set_xlim(left=0)
-    a1.legend(fontsize=8, loc="upper left")
+    a1.set_ylim(0, 215)
+    a1.legend(fontsize=7, loc="center left")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
@@ -231,10 +266,12 @@ def main() -> int:
     ap.add_argument("--monitor", action="store_true", help="one subscriber reading every stream on this host")
     ap.add_argument("--json", default=None)
     ap.add_argument("--png", default=None)
-    ap.add_argument("--from-json", default=None, help="only summarise/plot the rows of an earlier --json")
+    ap.add_argument("--from-json", default=None, help="only summarise/plot the rows of earlier --json files "
+                                                      "(comma list)")
+    ap.add_argument("--markdown", action="store_true", help="print the summary as a Markdown table")
     args = ap.parse_args()
     if args.from_json:
-        rows = json.loads(Path(args.from_json).read_text())["runs"]
+        rows = [r for f in args.from_json.split(",") for r in json.loads(Path(f).read_text())["runs"]]
     else:
         variants = [v for v in args.variants.split(",") if v]
         if any(v.startswith("before") for v in variants) and not args.baseline:
@@ -262,6 +299,8 @@ def main() -> int:
         print("SUMMARY " + json.dumps(s), flush=True)
     if args.json:
         Path(args.json).write_text(json.dumps({"runs": rows, "summary": summary}, indent=1))
+    if args.markdown:
+        print(markdown(summary))
     if args.png:
         plot(summary, args.png)
     return 0

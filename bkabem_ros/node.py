@@ -815,7 +815,9 @@ class VibrationNode(_node_base()):
     def stats(self) -> dict:
         """Counters and publish lateness in ms: ``lateness_*`` = time the chunk's four waveform messages had been
         handed to DDS minus the time its last sample was due (node clock); ``start_lateness_*`` = time the
-        publication began minus that due time (the timer's wake-up delay)."""
+        publication began minus that due time (the timer's wake-up delay); ``late_chunks`` = chunks handed to DDS a
+        whole chunk period or more after they were due, ``lateness_max_chunk`` = the number of the latest one in the
+        stream (0 = first)."""
         late = list(self._lateness_ns)
         start = list(self._start_lateness_ns)
         return {
@@ -831,6 +833,9 @@ class VibrationNode(_node_base()):
             "lateness_ms_p50": _percentile(late, 50) / 1e6,
             "lateness_ms_p99": _percentile(late, 99) / 1e6,
             "lateness_ms_max": (max(late) / 1e6) if late else float("nan"),
+            # where it was: the worst chunk's number (0 = the first published) and how many missed their period
+            "lateness_max_chunk": int(np.argmax(late)) if late else None,
+            "late_chunks": sum(1 for v in late if v >= self.chunk_ns),
             "start_lateness_ms_p50": _percentile(start, 50) / 1e6,
             "start_lateness_ms_p99": _percentile(start, 99) / 1e6,
         }
