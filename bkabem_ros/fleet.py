@@ -17,8 +17,10 @@ once per case and process). ``--processes P`` spreads the machines round-robin o
 (default: 1 for up to 4 machines, else the CPU count). The executor is rclpy's EventsExecutor by default
 (``--executor events``: timers and callbacks dispatched from C++, no wait set rebuilt over every entity of every
 node per callback, which made the cost per machine grow with the machines per process); ``--executor single``
-is the SingleThreadedExecutor of ``bkabem node``. The machines of a process start their streams spread evenly
-over one chunk period, so that their publications do not all fall due at the same instant. Each machine's
+is the SingleThreadedExecutor of ``bkabem node``. Every process makes its nodes and synthesises their first
+chunks, then all processes start together (a ready/go handshake with the parent), and the machines of a process
+start their streams spread evenly over one chunk period, so that their publications do not all fall due at the
+same instant (docs/fleet.md, "100 machines per host"). Each machine's
 speed topic is ``/<prefix><i:02d>/speed``; ``bkabem speed --namespace /machine_03`` drives one of them.
 
 ``--seconds S`` stops the fleet after S seconds and prints one line of publish statistics per machine
