@@ -134,9 +134,9 @@ class _NamespaceWatch:
 
 def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seconds: float | None,
                    report=None, executor_kind: str = "events", ready=None) -> int:
-    """Run the given machines as nodes of this process; returns the exit code. ``ready()``, when given, is called
-    once every node is made and its first chunk primed, and returns when the streams may start (False: stop
-    instead)."""
+    """Run the given machines as nodes of this process; returns the exit code. ``ready(spin)``, when given, is
+    called once every node is made and its first chunk primed, and returns when the streams may start (False:
+    stop instead); it may call ``spin()`` (one executor step) while it waits."""
     import rclpy
     from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
     from rclpy.executors import ExternalShutdownException
@@ -170,7 +170,7 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
         for nd in nodes:
             nd.prime()
         _quiet_gc()
-        go = ready() if ready is not None else True
+        go = ready(lambda: executor.spin_once(timeout_sec=0.05)) if ready is not None else True
         if go:
             _start_spread(nodes)
         t_end = None if seconds is None else time.monotonic() + seconds
@@ -202,21 +202,35 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
         rclpy.try_shutdown()
 
 
-def _worker_ready(fd: int) -> bool:
+def _worker_ready(fd: int, spin) -> bool:
     """Worker side of the start handshake: report "ready" on ``fd``, then wait for the parent's go on stdin (EOF,
-    a parent gone: start anyway). False: interrupted (SIGINT) while waiting, do not start."""
+    a parent gone: start anyway), spinning the executor meanwhile (``spin()``: the speed messages, graph events
+    and the executor's first pass over all nodes are dealt with before the streams start, not in their first
+    chunk period). False: interrupted (SIGINT) while waiting, do not start."""
+    import select
+
+    import rclpy
+
     try:
         os.write(fd, b"R")
         os.close(fd)
     except OSError:
         return True
     try:
-        sys.stdin.buffer.readline()
+        while rclpy.ok():
+            if select.select([sys.stdin], [], [], 0)[0]:
+                sys.stdin.buffer.readline()
+                return True
+            spin()
+        return False
     except KeyboardInterrupt:
         return False
     except (OSError, ValueError):
-        pass
-    return True
+        return True
+    except Exception as exc:  # noqa: BLE001 - SIGINT shuts the context down inside spin_once (see run_in_process)
+        if rclpy.ok() or type(exc).__name__ != "RCLError":
+            raise
+        return False
 
 
 def _start_together(procs, ready_fds) -> None:

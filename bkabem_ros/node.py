@@ -763,18 +763,19 @@ class VibrationNode(_node_base()):
                                   f"at sample {pend.index} (indices stay continuous)")
 
     def _restamp(self, pend: _Prepared) -> None:
-        """Stamp and due time of a prepared chunk (and its messages) from the current ``_t0_ns``."""
-        from rclpy.serialization import serialize_message
-
+        """Stamp and due time of a prepared chunk (and its messages) from the current ``_t0_ns``: the stamp is
+        written into the CDR bytes in place of the old one (every message starts with its header), and into the
+        message object where there is one."""
         from .msgs import time_msg
+        from .waveform_cdr import with_stamp
 
         pend.stamp_ns = self._t0_ns + int(round(pend.index * 1e9 / self.sample_rate))
         pend.due_ns = self._t0_ns + int(round((pend.index + self.samples_per_chunk) * 1e9 / self.sample_rate))
         items = []
         for pub, type_name, msg, raw in pend.items:
-            msg = _message(pub, msg, raw)
-            msg.header.stamp = time_msg(pend.stamp_ns)
-            items.append((pub, type_name, msg, serialize_message(msg)))
+            if msg is not None:
+                msg.header.stamp = time_msg(pend.stamp_ns)
+            items.append((pub, type_name, msg, with_stamp(raw, pend.stamp_ns)))
         pend.items = items
 
     # ------------------------------------------------------------------ live defect depth

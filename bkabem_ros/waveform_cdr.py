@@ -131,3 +131,16 @@ class WaveformEncoder:
         return b"".join((ENCAPSULATION, struct.pack("<iI", sec, nsec), self._head[8:],
                          struct.pack("<Qd", idx, speed), self._after,
                          np.ascontiguousarray(a, dtype="<f4").tobytes()))
+
+
+def with_stamp(raw: bytes, stamp_ns: int) -> bytes:
+    """The CDR bytes ``raw`` of a message whose first field is a ``std_msgs/Header`` (every bkabem message), with
+    ``header.stamp`` set to ``stamp_ns`` [ns since the epoch, >= 0]: the stamp is bytes 4..12 (``int32 sec``,
+    ``uint32 nanosec`` right after the encapsulation header), so nothing else is decoded or re-encoded."""
+    if raw[:4] != ENCAPSULATION or len(raw) < 12:
+        raise ValueError("not a little-endian CDR message with a header first")
+    ns = int(stamp_ns)
+    if ns < 0:
+        raise ValueError(f"stamp: {ns} ns is before the epoch")
+    sec, nsec = divmod(ns, 1_000_000_000)
+    return b"".join((raw[:4], struct.pack("<iI", sec, nsec), raw[12:]))

@@ -340,3 +340,24 @@ def test_waveform_encoder_rejects_bad_input():
     with pytest.raises(ValueError, match="NUL"):
         WaveformEncoder(machine_id="a\x00b", location="de", quantity="acceleration", unit="m/s^2",
                         channel_names=["v"], sample_rate=1.0, samples_per_channel=4, frame_id="f")
+
+
+def test_with_stamp_rewrites_only_the_header_stamp():
+    """waveform_cdr.with_stamp (the node's re-stamping of a prepared chunk): every bkabem message starts with its
+    header, so the new stamp replaces bytes 4..12 and the message deserialises with it and nothing else changed."""
+    from bkabem_ros.waveform_cdr import with_stamp
+
+    wave = msgs.waveform_message(np.arange(6.0).reshape(2, 3), sample_rate=100.0, first_sample_index=7,
+                                 shaft_speed=3.0, machine_id="m", location="de", quantity="acceleration",
+                                 stamp=5, frame_id="f")
+    spec = msgs.spectrum_message([0.0, 10.0], [0.0, 1.0], np.ones((2, 2)), np.zeros((2, 2)), shaft_speed=3.0,
+                                 machine_id="m", location="de", quantity="acceleration", stamp=5, frame_id="f")
+    for m in (wave, spec):
+        out = deserialize_message(with_stamp(serialize_message(m), 1_764_600_000_987_654_321), type(m))
+        assert msgs.stamp_to_ns(out.header) == 1_764_600_000_987_654_321
+        out.header.stamp = m.header.stamp
+        assert out == m
+    with pytest.raises(ValueError):
+        with_stamp(b"\x00\x00\x00\x00" + bytes(20), 0)
+    with pytest.raises(ValueError):
+        with_stamp(serialize_message(wave), -1)
