@@ -131,9 +131,11 @@ def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor:
     fleet.wait(120)
     th.join(5)
     speed.stop()
-    stats = [json.loads(ln.split(" ", 1)[1]) for ln in lines if ln.startswith("FLEETSTATS ")]
+    # a statistics line is one write, but rcl's "Failed to publish log message to rosout: " (stderr, no newline,
+    # merged into the same pipe) can stand in front of it: take the JSON after the marker wherever it starts
+    stats = [json.loads(ln[ln.index("FLEETSTATS {") + len("FLEETSTATS "):]) for ln in lines if "FLEETSTATS {" in ln]
     if len(stats) != n:
-        res_lost = [ln[:200] for ln in lines if "FLEETSTATS" in ln and not ln.startswith("FLEETSTATS ")]
+        res_lost = [ln[:200] for ln in lines if "FLEETSTATS" in ln and "FLEETSTATS {" not in ln]
         print(f"warning: {len(stats)} of {n} statistics lines read; cut lines: {res_lost[:3]}; fleet exit "
               f"{fleet.returncode}; last lines:\n" + "\n".join(ln[:200] for ln in lines[-15:]), file=sys.stderr)
     wall = w1 - w0
