@@ -60,9 +60,9 @@ def bkabem(*args) -> list[str]:
 
 
 class Proc:
-    def __init__(self, cmd, env):
+    def __init__(self, cmd, env, cwd=None):
         self.lines: list[str] = []
-        self.p = subprocess.Popen(cmd, env=env, cwd=str(REPO), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+        self.p = subprocess.Popen(cmd, env=env, cwd=str(cwd or REPO), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                   text=True, bufsize=1)
         self.t = threading.Thread(target=self._read, daemon=True)
         self.t.start()

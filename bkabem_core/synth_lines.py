@@ -31,6 +31,7 @@ Units: phases in turns, frequencies in Hz, amplitudes in the channels' units.
 from __future__ import annotations
 
 import math
+import weakref
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -298,13 +299,31 @@ class ModalSpectrum:
 
 
 class ExactSpectrum:
-    """Displacement combinations from :meth:`BkaBem.response` at each requested speed (LRU cache)."""
+    """Displacement combinations from :meth:`BkaBem.response` at each requested speed (LRU cache).
+
+    The cache is shared by every ExactSpectrum of the same model object and combination in the process: the
+    machines of a fleet that run one case share its model, and when they follow the same speed (one speed topic,
+    a line of identical drives) a speed step costs its amplitude knots once per process instead of once per
+    machine (a 0 -> 25 Hz step: ~2-5 ms of knots per machine, 50 machines of a process in one chunk period). The
+    entries are the model's exact response, so sharing changes no sample. Returned arrays are shared: read only.
+    """
+
+    #: id(model) -> {combination: LRU}; an entry goes with its model (weakref.finalize), so an id is never reused
+    _shared: dict[int, dict] = {}
 
     def __init__(self, model: BkaBem, combination: np.ndarray, cache: int = 256):
         self.model = model
         self._comb = combination
-        self._cache: OrderedDict[float, np.ndarray] = OrderedDict()
-        self._size = cache
+        comb = np.ascontiguousarray(combination)
+        key = (comb.shape, comb.dtype.str, comb.tobytes())
+        caches = self._shared.get(id(model))
+        if caches is None:
+            caches = self._shared[id(model)] = {}
+            weakref.finalize(model, self._shared.pop, id(model), None)
+        # one LRU per (model, combination) that holds as many entries as the sharers' caches did together
+        self._lru = caches.setdefault(key, [OrderedDict(), 0])
+        self._lru[1] += cache
+        self._cache: OrderedDict[float, np.ndarray] = self._lru[0]
 
     def __call__(self, speed_hz: float) -> np.ndarray:
         key = float(speed_hz)
@@ -313,7 +332,7 @@ class ExactSpectrum:
             k = self.model.orders.size
             x = self.model.response([key])[0].reshape(k, -1) @ self._comb.T
             self._cache[key] = x
-            if len(self._cache) > self._size:
+            if len(self._cache) > self._lru[1]:
                 self._cache.popitem(last=False)
         else:
             self._cache.move_to_end(key)

@@ -143,7 +143,7 @@ def cmd_node(args) -> int:
 
 
 def add_ros_commands(sub, add_case) -> None:
-    """Register ``node``, ``speed``, ``echo``, ``fleet`` and the optional ``record``/``replay``."""
+    """Register ``node``, ``speed``, ``echo``, ``fleet``, ``discovery-server`` and the optional ``record``/``replay``."""
     n = sub.add_parser("node", help="run the ROS 2 vibration-source node (speed in, waveforms out)",
                        description="The bkabem ROS 2 node. Topics, parameters, timing: docs/ros_node.md.")
     add_case(n)
@@ -159,11 +159,12 @@ def add_ros_commands(sub, add_case) -> None:
                    help="everything after this goes to ROS (-p name:=value, --params-file F, -r __ns:=/m1)")
     n.set_defaults(func=cmd_node, ros_network=True)
 
-    from . import echo, fleet, speed
+    from . import discovery, echo, fleet, speed
 
     speed.add_parser(sub, add_case)
     echo.add_parser(sub, add_case)
     fleet.add_parser(sub, add_case)
+    discovery.add_parser(sub, add_case)
     for name in ("record", "replay"):
         try:
             mod = importlib.import_module(f"bkabem_ros.{name}_cli")

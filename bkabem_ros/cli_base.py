@@ -33,7 +33,7 @@ EXIT_SIGTERM = 128 + signal.SIGTERM
 INPUT_ERRORS = (("bkabem_core.case", "CaseError"), ("bkabem_core.synth", "SynthError"),
 ("bkabem_ros.mcap_io", "RecorderError"),
                 ("bkabem_ros.mcap_check", "DamagedRecording"), ("bkabem_ros.ros_env", "SecurityUnavailable"),
-                ("bkabem_ros.ros_env", "RosArgumentsError"))
+                ("bkabem_ros.ros_env", "RosArgumentsError"), ("bkabem_ros.ros_env", "DiscoverySettingError"))
 
 DEBUG_HELP = "on an unexpected error show the traceback (default: one line)"
 
@@ -303,8 +303,9 @@ def _ros_environment(args, prog: str) -> None:
         net = net(args)
     if not net:
         return
-    from .ros_env import apply_defaults
+    from .ros_env import apply_defaults, apply_discovery_options
 
+    apply_discovery_options(args)       # --discovery-* options -> the standard variables (checked)
     quiet = bool(getattr(args, "quiet", False))
     apply_defaults(say=None if quiet else (lambda line: sys.stderr.write(f"{prog}: {line}\n")))
 
@@ -353,6 +354,15 @@ def _silence_stdout() -> None:
         pass
 
 
+def add_ros_options(sp) -> None:
+    """The discovery options (:func:`bkabem_ros.ros_env.add_discovery_options`) on a subcommand that joins the
+    ROS graph (``ros_network`` default set, a value or a predicate of the args)."""
+    if sp.get_default("ros_network") and not any(a.dest == "discovery_range" for a in sp._actions):
+        from .ros_env import add_discovery_options
+
+        add_discovery_options(sp)
+
+
 def subcommand_main(name: str, add_parser, argv=None) -> int:
     """``python -m <module> ARGS`` = ``bkabem <name> ARGS`` for a module that registers one subcommand."""
     parser = Parser(prog="bkabem")
@@ -361,4 +371,6 @@ def subcommand_main(name: str, add_parser, argv=None) -> int:
     sp = add_parser(sub)
     if sp is not None and not any(a.dest == "debug" for a in sp._actions):
         add_debug(sp)
+    if sp is not None:
+        add_ros_options(sp)
     return run_command(parser.parse_args([name, *(sys.argv[1:] if argv is None else argv)]))

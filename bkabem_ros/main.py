@@ -28,7 +28,7 @@ from threadpoolctl import threadpool_limits
 
 from . import core_cli, synth_cli
 from .cli import add_ros_commands
-from .cli_base import Parser, add_debug, run_command
+from .cli_base import Parser, add_debug, add_ros_options, run_command
 
 __all__ = ["build_parser", "main"]
 
@@ -43,6 +43,7 @@ def build_parser() -> Parser:
     add_ros_commands(sub, core_cli.add_case)
     for sp in sub.choices.values():
         add_debug(sp)
+        add_ros_options(sp)
     return p
 
 

@@ -79,7 +79,16 @@ class _Prepared:
     stamp_ns: int
     due_ns: int
     speed_rad_s: float
-    items: list  # (publisher, type_name, msg, serialized CDR bytes); the 4 waveforms first
+    items: list  # (publisher, type_name, msg or None (waveforms: see _message), serialized CDR bytes); waveforms first
+
+
+def _message(pub, msg, raw: bytes):
+    """The message object of a prepared item: ``msg``, or the CDR bytes deserialised (waveforms have no object)."""
+    if msg is not None:
+        return msg
+    from rclpy.serialization import deserialize_message
+
+    return deserialize_message(raw, pub.msg_type)
 
 
 # --------------------------------------------------------------------------- the node
@@ -180,6 +189,14 @@ class VibrationNode(_node_base()):
         for b in BEARINGS:
             for q in QUANTITIES:
                 self._wave_pub[(b, q)] = pub(VibrationWaveform, f"vibration/{b}/{q}")
+        from .msgs import SI_UNITS
+        from .waveform_cdr import WaveformEncoder
+
+        self._wave_cdr = {(b, q): WaveformEncoder(machine_id=self.machine_id, location=b, quantity=q,
+                                                  unit=SI_UNITS[q], channel_names=CHANNELS,
+                                                  sample_rate=self.sample_rate,
+                                                  samples_per_channel=self.samples_per_chunk, frame_id=self._frame[b])
+                          for b in BEARINGS for q in QUANTITIES}
         self._spec_pub = {b: pub(VibrationSpectrum, f"vibration/{b}/spectrum") for b in BEARINGS}
         self._ff_pub = pub(BearingFaultFrequencies, "vibration/fault_frequencies")
         # best effort + keep last: matches reliable and best-effort publishers; a flood only overwrites
@@ -206,6 +223,7 @@ class VibrationNode(_node_base()):
         self._started = False
         self._t0_ns: int | None = None
         self._pending: _Prepared | None = None
+        self._primed: _Prepared | None = None   # chunk 0 made ahead by prime(), stamped from t0 = 0
         self._timer = None
         self._poll_timer = None
         self._last_spectrum_speed: float | None = None
@@ -459,6 +477,17 @@ class VibrationNode(_node_base()):
             why = "the first speed message" if self._wait_for_speed and not self._have_speed else "/clock (use_sim_time)"
             self.get_logger().info(f"waiting for {why} before streaming")
 
+    def prime(self) -> None:
+        """Synthesise and encode chunk 0 now (at the current speed), so that :meth:`start` only stamps it.
+
+        The first chunk of a stream costs several times a later one (first knots, spectra, first calls: 1-4 ms
+        against ~0.1-0.3 ms); a fleet process primes all its machines before it starts their streams one after
+        the other within one chunk period. No effect once started, or with ``wait_for_speed`` (chunk 0 must
+        wait for the speed)."""
+        if self._started or self._primed is not None or self._wait_for_speed:
+            return
+        self._primed = self._prepare(0, 0)
+
     def _try_start(self) -> bool:
         if self._started:
             return True
@@ -476,7 +505,14 @@ class VibrationNode(_node_base()):
         self._timer = self.create_timer(self.samples_per_chunk / self.sample_rate, self._on_tick)
         now = self.get_clock().now().nanoseconds
         self._last_now_ns = now
-        self._pending = self._prepare(0, now)
+        primed, self._primed = self._primed, None
+        if primed is None:
+            self._pending = self._prepare(0, now)
+        else:                                   # chunk 0 made by prime() with t0 = 0: move it to t0 = now
+            self._t0_ns = now
+            self._restamp(primed)
+            self._next_spectrum_ns += now
+            self._pending = primed
         self.get_logger().info(f"streaming from t0 = {now / 1e9:.6f} s at {self._speed_rad_s:g} rad/s")
         return True
 
@@ -500,20 +536,29 @@ class VibrationNode(_node_base()):
         if int(chunk.first_sample_index) != index:
             raise RuntimeError(f"synth produced index {chunk.first_sample_index}, expected {index}")
         speed = float(chunk.shaft_speed_hz) * TWO_PI          # at the first sample
-        items = [(self._wave_pub[key], WAVEFORM_TYPE, msg) for key, msg in src.waveform_messages(chunk, stamp, truth)]
+        # the waveforms straight to CDR (waveform_cdr: the constant part of each stream encoded once); message
+        # objects only for sinks (recorders, viewers), made from the same bytes when one asks for them
+        items = []
+        for b in BEARINGS:
+            for q in QUANTITIES:
+                raw = self._wave_cdr[(b, q)].encode(chunk.samples[chunk.rows(b, q)], first_sample_index=index,
+                                                    shaft_speed=speed, stamp_ns=stamp,
+                                                    ground_truth=truth)
+                items.append((self._wave_pub[(b, q)], WAVEFORM_TYPE, None, raw))
         rate = float(self._live["spectrum_rate"])
         if (src.changed or self._last_spectrum_speed is None or speed != self._last_spectrum_speed
                 or (rate > 0 and stamp >= self._next_spectrum_ns)):
+            # spectra and fault frequencies (at most spectrum_rate + speed changes per second): message objects,
+            # serialised now, off the publication path
+            from rclpy.serialization import serialize_message
+
             for bearing, type_name, msg in src.spectrum_messages(chunk, stamp, truth):
-                items.append((self._ff_pub if bearing is None else self._spec_pub[bearing], type_name, msg))
+                pub = self._ff_pub if bearing is None else self._spec_pub[bearing]
+                items.append((pub, type_name, msg, serialize_message(msg)))
             self._spectra += 1
             self._last_spectrum_speed = speed
             if rate > 0:
                 self._next_spectrum_ns = stamp + int(1e9 / rate)
-        # serialise now, off the publication path: publishing CDR bytes skips the conversion and serialisation
-        from rclpy.serialization import serialize_message
-
-        items = [(pub, type_name, msg, serialize_message(msg)) for pub, type_name, msg in items]
         return _Prepared(index=index, stamp_ns=stamp, due_ns=due, speed_rad_s=speed, items=items)
 
     # ------------------------------------------------------------------ publication
@@ -540,31 +585,37 @@ class VibrationNode(_node_base()):
                 pub.publish(raw)
             self._published_chunks += 1
             if self._sinks:
-                for pub, type_name, msg, _raw in items:
-                    self._emit(pub.topic_name, type_name, msg, pend.stamp_ns)
+                for pub, type_name, msg, raw in items:
+                    self._emit(pub.topic_name, type_name, _message(pub, msg, raw), pend.stamp_ns)
             pend = self._pending = self._prepare(pend.index + self.samples_per_chunk)
             now = self.get_clock().now().nanoseconds
 
     def _reanchor(self, now: int) -> None:
         """Keep the index, move t0 so that the pending chunk starts now (after a clock jump or stall)."""
-        from .msgs import time_msg
-
         pend = self._pending
         old = pend.stamp_ns
         self._t0_ns = now - int(round(pend.index * 1e9 / self.sample_rate))
-        pend.stamp_ns = now
-        pend.due_ns = self._t0_ns + int(round((pend.index + self.samples_per_chunk) * 1e9 / self.sample_rate))
-        from rclpy.serialization import serialize_message
-
-        items = []
-        for pub, type_name, msg, _raw in pend.items:
-            msg.header.stamp = time_msg(now)
-            items.append((pub, type_name, msg, serialize_message(msg)))
-        pend.items = items
+        self._restamp(pend)
         self._next_spectrum_ns = now
         self._reanchors += 1
         self.get_logger().warning(f"clock jumped from {old / 1e9:.6f} s to {now / 1e9:.6f} s: stamps re-anchored "
                                   f"at sample {pend.index} (indices stay continuous)")
+
+    def _restamp(self, pend: _Prepared) -> None:
+        """Stamp and due time of a prepared chunk (and its messages) from the current ``_t0_ns``: the stamp is
+        written into the CDR bytes in place of the old one (every message starts with its header), and into the
+        message object where there is one."""
+        from .msgs import time_msg
+        from .waveform_cdr import with_stamp
+
+        pend.stamp_ns = self._t0_ns + int(round(pend.index * 1e9 / self.sample_rate))
+        pend.due_ns = self._t0_ns + int(round((pend.index + self.samples_per_chunk) * 1e9 / self.sample_rate))
+        items = []
+        for pub, type_name, msg, raw in pend.items:
+            if msg is not None:
+                msg.header.stamp = time_msg(pend.stamp_ns)
+            items.append((pub, type_name, msg, with_stamp(raw, pend.stamp_ns)))
+        pend.items = items
 
     # ------------------------------------------------------------------ live defect depth
     def _request_depth(self, depth_m: float) -> None:
@@ -577,7 +628,9 @@ class VibrationNode(_node_base()):
     def stats(self) -> dict:
         """Counters and publish lateness in ms: ``lateness_*`` = time the chunk's four waveform messages had been
         handed to DDS minus the time its last sample was due (node clock); ``start_lateness_*`` = time the
-        publication began minus that due time (the timer's wake-up delay)."""
+        publication began minus that due time (the timer's wake-up delay); ``late_chunks`` = chunks handed to DDS a
+        whole chunk period or more after they were due, ``lateness_max_chunk`` = the number of the latest one in the
+        stream (0 = first)."""
         late = list(self._lateness_ns)
         start = list(self._start_lateness_ns)
         return {
@@ -593,6 +646,9 @@ class VibrationNode(_node_base()):
             "lateness_ms_p50": _percentile(late, 50) / 1e6,
             "lateness_ms_p99": _percentile(late, 99) / 1e6,
             "lateness_ms_max": (max(late) / 1e6) if late else float("nan"),
+            # where it was: the worst chunk's number (0 = the first published) and how many missed their period
+            "lateness_max_chunk": int(np.argmax(late)) if late else None,
+            "late_chunks": sum(1 for v in late if v >= self.chunk_ns),
             "start_lateness_ms_p50": _percentile(start, 50) / 1e6,
             "start_lateness_ms_p99": _percentile(start, 99) / 1e6,
             **self._source.stats(),

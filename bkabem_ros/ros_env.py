@@ -17,6 +17,15 @@
   rmw_fastrtps then fails to create any node: "This Fast DDS version doesn't have the security libraries.
   Please compile Fast DDS using the -DSECURITY=ON CMake option"; with the Permissive strategy and no keystore
   rcl would instead run without security, silently). docs/ros_node.md has the details.
+- **Checked values.** The discovery variables are checked before rcl sees them (:func:`check_discovery`): rcl
+  and Fast DDS take a wrong ``ROS_AUTOMATIC_DISCOVERY_RANGE`` for LOCALHOST with a warning, drop a malformed
+  ``ROS_DISCOVERY_SERVER`` locator with a log line and run without the server (nothing discovered, exit 0),
+  and fail node creation on an unresolvable ``ROS_STATIC_PEERS`` host; here each is one line naming the
+  variable (or the option that set it) and exit code 2.
+- **Options.** :func:`add_discovery_options` gives a command ``--discovery-range``, ``--static-peers``,
+  ``--discovery-server`` and ``--super-client``; :func:`apply_discovery_options` turns them into the standard
+  variables (so worker processes inherit them) before :func:`apply_defaults`. An option is an explicit choice
+  like the variable it sets; without one the graph stays on this host.
 
 stdlib only: importing this costs nothing.
 """
@@ -27,6 +36,10 @@ import os
 from collections.abc import MutableMapping
 
 DISCOVERY_VARIABLES = ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS", "ROS_DISCOVERY_SERVER")
+#: Values rmw accepts for ROS_AUTOMATIC_DISCOVERY_RANGE (rcl's discovery_options).
+DISCOVERY_RANGES = ("OFF", "LOCALHOST", "SUBNET", "SYSTEM_DEFAULT")
+#: Default port of a Fast DDS discovery server (``fastdds discovery``); the one a locator without port gets.
+DISCOVERY_SERVER_PORT = 11811
 DEFAULT_RANGE = "LOCALHOST"
 _NOTED = "_BKABEM_DISCOVERY_NOTED"
 _DEFAULTED = "_BKABEM_DISCOVERY_DEFAULTED"
@@ -40,6 +53,10 @@ SECURITY_MESSAGE = (
 
 class SecurityUnavailable(ValueError):
     """``ROS_SECURITY_ENABLE=true`` was asked for and cannot be honoured."""
+
+
+class DiscoverySettingError(ValueError):
+    """A discovery variable or option that rcl / Fast DDS would misread, drop or fail on later."""
 
 
 class RosArgumentsError(ValueError):
@@ -131,6 +148,143 @@ def discovery_in_force(environ: MutableMapping[str, str] | None = None) -> str:
     return ", ".join(parts) if parts else "Fast DDS defaults (every interface)"
 
 
+def _host_problem(host: str) -> str | None:
+    """Why ``host`` is not an IPv4 address, a bracket-free IPv6 address or a resolvable host name, or None."""
+    import ipaddress
+    import re
+    import socket
+
+    if not host:
+        return "empty address"
+    if re.fullmatch(r"[0-9.]+", host):
+        try:
+            ipaddress.IPv4Address(host)
+        except ValueError:
+            return f"{host!r} is not an IPv4 address"
+        return None
+    if ":" in host:
+        try:
+            ipaddress.IPv6Address(host)
+        except ValueError:
+            return f"{host!r} is not an IPv6 address"
+        return None
+    label = r"(?!-)[A-Za-z0-9-]{1,63}(?<!-)"
+    if len(host) > 253 or not re.fullmatch(rf"{label}(\.{label})*\.?", host):
+        return f"{host!r} is not an address or host name"
+    try:
+        socket.getaddrinfo(host, None)
+    except (OSError, UnicodeError):
+        return f"host name {host!r} does not resolve"
+    return None
+
+
+def server_locator_problem(entry: str) -> str | None:
+    """Why one ``ROS_DISCOVERY_SERVER`` entry (``[UDPv4:|UDPv6:|TCPv4:|TCPv6:]host[:port]``, IPv6 in brackets:
+    ``[::1]:11811``) is wrong, or None (Fast DDS's own syntax, its default port 11811)."""
+    import re
+
+    text = entry.strip()
+    m = re.fullmatch(r"(?:(UDPv4|UDPv6|TCPv4|TCPv6):)?(\[[^\]]*\]|[^:\[\]]*)(?::([^:]*))?", text)
+    if m is None:
+        return f"{entry!r} is not host[:port] (IPv6: [addr]:port)"
+    kind, host, port = m.groups()
+    if host.startswith("["):
+        host = host[1:-1]
+        if ":" not in host:
+            return f"{entry!r}: brackets are for IPv6 addresses"
+    elif kind and kind.endswith("v6"):
+        return f"{entry!r}: an IPv6 address goes in brackets, [addr]:port"
+    why = _host_problem(host)
+    if why:
+        return f"{entry!r}: {why}"
+    if port is not None:
+        if not port.isdigit() or not 0 < int(port) < 65536:
+            return f"{entry!r}: port {port!r} is not in 1..65535"
+    return None
+
+
+def check_discovery(environ: MutableMapping[str, str] | None = None, names: dict | None = None) -> None:
+    """Raise :class:`DiscoverySettingError` for a discovery variable that rcl / Fast DDS would misread (see the
+    module docstring). ``names`` maps a variable to the option that set it (the message names that option)."""
+    env = os.environ if environ is None else environ
+    names = names or {}
+
+    def fail(var, why):
+        raise DiscoverySettingError(f"{names.get(var, var)}: {why}")
+
+    rng = _set(env, "ROS_AUTOMATIC_DISCOVERY_RANGE")
+    if rng is not None and rng not in DISCOVERY_RANGES:
+        fail("ROS_AUTOMATIC_DISCOVERY_RANGE", f"{rng!r} is not one of {', '.join(DISCOVERY_RANGES)} (rcl would "
+                                              f"fall back to LOCALHOST with a warning)")
+    peers = _set(env, "ROS_STATIC_PEERS")
+    if peers is not None:
+        for p in (x.strip() for x in peers.split(";")):
+            why = _host_problem(p[1:-1] if p.startswith("[") and p.endswith("]") else p) if p else None
+            if why:
+                fail("ROS_STATIC_PEERS", why)
+    server = _set(env, "ROS_DISCOVERY_SERVER")
+    if server is not None:
+        entries = [e for e in server.split(";") if e.strip()]
+        if not entries:
+            fail("ROS_DISCOVERY_SERVER", f"{server!r} names no server (host[:port];...)")
+        for e in entries:
+            why = server_locator_problem(e)
+            if why:
+                fail("ROS_DISCOVERY_SERVER", why + " (Fast DDS would drop it and run without the server)")
+    sc = env.get("ROS_SUPER_CLIENT", "").strip()
+    if sc and sc not in ("TRUE", "true", "True", "1", "FALSE", "false", "False", "0"):
+        fail("ROS_SUPER_CLIENT", f"{sc!r} is not TRUE or FALSE")
+
+
+_OPTION_OF = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "--discovery-range", "ROS_STATIC_PEERS": "--static-peers",
+              "ROS_DISCOVERY_SERVER": "--discovery-server", "ROS_SUPER_CLIENT": "--super-client"}
+
+
+def add_discovery_options(p) -> None:
+    """``--discovery-range``, ``--static-peers``, ``--discovery-server``, ``--super-client`` on a ROS command's
+    parser (main.build_parser adds them to every command that joins the graph)."""
+    g = p.add_argument_group("discovery (default: this host only; docs/fleet.md)")
+    g.add_argument("--discovery-range", default=None, metavar="RANGE", type=str.upper,
+                   help="sets ROS_AUTOMATIC_DISCOVERY_RANGE: LOCALHOST, SUBNET (multicast on the subnet), "
+                        "SYSTEM_DEFAULT or OFF")
+    g.add_argument("--static-peers", default=None, metavar="HOST[;HOST...]",
+                   help="sets ROS_STATIC_PEERS: hosts to discover by unicast (with --discovery-range LOCALHOST: "
+                        "only these)")
+    g.add_argument("--discovery-server", default=None, metavar="HOST[:PORT][;...]",
+                   help=f"sets ROS_DISCOVERY_SERVER: Fast DDS discovery server(s) (bkabem discovery-server; "
+                        f"port {DISCOVERY_SERVER_PORT} when left out)")
+    g.add_argument("--super-client", action="store_true", default=False,
+                   help="sets ROS_SUPER_CLIENT=TRUE: with a discovery server, learn the whole graph (monitors, "
+                        "tools listing topics), not only the matching endpoints")
+
+
+def apply_discovery_options(args, environ: MutableMapping[str, str] | None = None) -> None:
+    """Set the variables of :func:`add_discovery_options`'s options that were given, then check all of them."""
+    env = os.environ if environ is None else environ
+    given = {}
+    rng = getattr(args, "discovery_range", None)
+    if rng is not None:
+        given["ROS_AUTOMATIC_DISCOVERY_RANGE"] = rng
+    peers = getattr(args, "static_peers", None)
+    if peers is not None:
+        given["ROS_STATIC_PEERS"] = ";".join(x.strip() for x in peers.replace(",", ";").split(";"))
+        if not given["ROS_STATIC_PEERS"].strip(";"):
+            raise DiscoverySettingError(f"--static-peers: {peers!r} names no host")
+    server = getattr(args, "discovery_server", None)
+    if server is not None:
+        given["ROS_DISCOVERY_SERVER"] = server.strip()
+    if getattr(args, "super_client", False):
+        given["ROS_SUPER_CLIENT"] = "TRUE"
+        if "ROS_DISCOVERY_SERVER" not in given and _set(env, "ROS_DISCOVERY_SERVER") is None:
+            raise DiscoverySettingError("--super-client: needs --discovery-server (or ROS_DISCOVERY_SERVER)")
+    probe = dict(env)
+    probe.update(given)
+    check_discovery(probe, {k: _OPTION_OF[k] for k in given})
+    env.update(given)
+    if "ROS_AUTOMATIC_DISCOVERY_RANGE" in given:
+        env.pop(_DEFAULTED, None)        # the user's range now, not bkabem's default
+
+
 _pending: dict = {}
 
 
@@ -152,6 +306,7 @@ def apply_defaults(environ: MutableMapping[str, str] | None = None, *, say=None)
     env = os.environ if environ is None else environ
     if env.get("ROS_SECURITY_ENABLE", "").strip().lower() == "true":
         raise SecurityUnavailable(SECURITY_MESSAGE)
+    check_discovery(env)
     ours = env.get(_DEFAULTED) == "1" and env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == DEFAULT_RANGE
     chosen = [name for name in DISCOVERY_VARIABLES if _set(env, name) is not None
               and not (ours and name == "ROS_AUTOMATIC_DISCOVERY_RANGE")]

@@ -330,3 +330,95 @@ def test_rclpy_reads_mcap_ros2_encoded_bytes():
     as_dict["data"] = list(m.data)
     back = deserialize_message(enc(as_dict), VibrationWaveform)
     assert back == m
+
+
+# --------------------------------------------------------------------------- waveform CDR fast path (issue 15)
+def _cdr_truth(n: int):
+    """A ground truth with every field type set (two defects with strings of lengths that move the alignment)."""
+    gt = {"healthy": False, "case": "c" * (n % 5 + 1), "case_hash": "h" * 64, "scenario": "s" * (n % 3),
+          "scenario_hash": "x", "state_index": n, "state_label": "dent" + "!" * (n % 7), "state_start_s": 1.5 * n,
+          "scenario_time_s": 10.25 * n, "time_scale": 60.0, "load_factor": 1.1, "bearing_designation": "6010",
+          "baseline": {"unbalance_grade_mm_s": 2.5, "unbalance_phase_rad": 0.3},
+          "labels": {"condition": "run" * (n % 4), "k": "v"},
+          "defects": [{"name": "d" * (i + n % 3), "race": race, "bearing": b, "length_m": 2e-3 * (i + 1),
+                       "depth_m": 5e-5, "angle_rad": -1.57, "edge": "cubic", "fault_frequency": ff,
+                       "fault_multiplier": 3.58, "strike_multiplier": 3.58, "ball": i, "strike_frequency_hz": 89.6}
+                      for i, (race, b, ff) in enumerate([("outer", "de", "bpfo"), ("ball", "nde", "bsf")])]}
+    return msgs.ground_truth_message(gt)
+
+
+@pytest.mark.parametrize("machine_id, frame_id, names, n", [
+    ("machine_07", "de_bearing", ["vertical", "horizontal"], 2560),   # the node's stream
+    ("", "", ["vertical", "horizontal"], 0),
+    ("m", "x" * 5, ["a"], 1),
+    ("abcdefg", "nde_bearing", ["ab", "c", "def"], 3),
+    ("maschine_ü", "f", ["v", "h"], 7),                                 # UTF-8: length in bytes
+])
+def test_waveform_encoder_bytes_equal_serialize_message(machine_id, frame_id, names, n):
+    """WaveformEncoder (the node's publication path) writes the bytes rclpy/Fast DDS would: equal to
+    serialize_message outside the alignment padding (Fast CDR leaves old buffer bytes there), the same length,
+    and deserialised the same message; string lengths here move every later field's alignment."""
+    from bkabem_ros.waveform_cdr import WaveformEncoder
+
+    rng = np.random.default_rng(len(machine_id) + n)
+    enc = WaveformEncoder(machine_id=machine_id, location="nde", quantity="displacement", unit="m",
+                          channel_names=names, sample_rate=51200.0, samples_per_channel=n, frame_id=frame_id)
+    for (idx, speed, stamp), truth in zip([(0, 0.0, 0), (2560 * 12345, 157.07963, 1_764_600_000_123_456_789),
+                                           (2**40 + 3, -12.5, 999_999_999), (5, 1.0, 7), (6, 2.0, 8)],
+                                          [None, _cdr_truth(n), _cdr_truth(n), _cdr_truth(n + 1), None]):
+        data = rng.normal(size=(len(names), n)) * 1e-6
+        ref_msg = msgs.waveform_message(data, sample_rate=51200.0, first_sample_index=idx, shaft_speed=speed,
+                                        machine_id=machine_id, location="nde", quantity="displacement",
+                                        channel_names=names, stamp=stamp, frame_id=frame_id, ground_truth=truth)
+        ref = serialize_message(ref_msg)
+        raw = enc.encode(data, first_sample_index=idx, shaft_speed=speed, stamp_ns=stamp, ground_truth=truth)
+        assert len(raw) == len(ref)
+        if truth is None:
+            assert len(raw) == enc.size
+        keep = np.ones(len(ref), bool)
+        for a, b in enc.padding:
+            keep[a:b] = False
+        assert keep.sum() > len(ref) - 64           # alignment bytes (a few per string before a number), not fields
+        assert np.array_equal(np.frombuffer(raw, np.uint8)[keep], np.frombuffer(ref, np.uint8)[keep])
+        assert deserialize_message(raw, type(ref_msg)) == ref_msg
+
+
+def test_waveform_encoder_rejects_bad_input():
+    from bkabem_ros.waveform_cdr import WaveformEncoder
+
+    enc = WaveformEncoder(machine_id="m", location="de", quantity="acceleration", unit="m/s^2",
+                          channel_names=["v", "h"], sample_rate=25600.0, samples_per_channel=4, frame_id="f")
+    ok = np.zeros((2, 4))
+    for kw, word in [(dict(data=np.zeros((2, 5))), "shape"), (dict(first_sample_index=-1), "first_sample_index"),
+                     (dict(first_sample_index=1.5), "first_sample_index"), (dict(shaft_speed=math.nan), "shaft_speed"),
+                     (dict(stamp_ns=-1), "stamp")]:
+        args = dict(data=ok, first_sample_index=0, shaft_speed=1.0, stamp_ns=0) | kw
+        with pytest.raises(ValueError, match=word):
+            enc.encode(args.pop("data"), **args)
+    with pytest.raises(ValueError, match="sample_rate"):
+        WaveformEncoder(machine_id="m", location="de", quantity="acceleration", unit="m/s^2", channel_names=["v"],
+                        sample_rate=math.inf, samples_per_channel=4, frame_id="f")
+    with pytest.raises(ValueError, match="NUL"):
+        WaveformEncoder(machine_id="a\x00b", location="de", quantity="acceleration", unit="m/s^2",
+                        channel_names=["v"], sample_rate=1.0, samples_per_channel=4, frame_id="f")
+
+
+def test_with_stamp_rewrites_only_the_header_stamp():
+    """waveform_cdr.with_stamp (the node's re-stamping of a prepared chunk): every bkabem message starts with its
+    header, so the new stamp replaces bytes 4..12 and the message deserialises with it and nothing else changed."""
+    from bkabem_ros.waveform_cdr import with_stamp
+
+    wave = msgs.waveform_message(np.arange(6.0).reshape(2, 3), sample_rate=100.0, first_sample_index=7,
+                                 shaft_speed=3.0, machine_id="m", location="de", quantity="acceleration",
+                                 stamp=5, frame_id="f")
+    spec = msgs.spectrum_message([0.0, 10.0], [0.0, 1.0], np.ones((2, 2)), np.zeros((2, 2)), shaft_speed=3.0,
+                                 machine_id="m", location="de", quantity="acceleration", stamp=5, frame_id="f")
+    for m in (wave, spec):
+        out = deserialize_message(with_stamp(serialize_message(m), 1_764_600_000_987_654_321), type(m))
+        assert msgs.stamp_to_ns(out.header) == 1_764_600_000_987_654_321
+        out.header.stamp = m.header.stamp
+        assert out == m
+    with pytest.raises(ValueError):
+        with_stamp(b"\x00\x00\x00\x00" + bytes(20), 0)
+    with pytest.raises(ValueError):
+        with_stamp(serialize_message(wave), -1)

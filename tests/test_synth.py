@@ -553,3 +553,37 @@ def test_cli_bad_input(tmp_path, args, needle):
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and needle in r.stderr, r.stderr
     assert not (tmp_path / "x.npz").exists()
+
+
+def test_synthesisers_of_one_model_share_the_exact_response_and_give_the_same_samples(model):
+    """Issue 15: the synthesisers of one model (the machines of a fleet process that run one case) share the
+    exact-response cache, so a speed step that several of them follow is solved once per process; sharing changes
+    no sample: a run served from a cache that other synthesisers filled (and used) equals, bit for bit, the same
+    run with a cache of its own."""
+    from bkabem_core.synth_lines import ExactSpectrum
+
+    kw = dict(sample_rate_hz=25600, chunk_s=0.1, seed=5, spectrum="exact", band_limit="taper", features=False)
+    ExactSpectrum._shared.pop(id(model), None)
+    alone = render(Synthesizer(model, **kw), "ramp:5:30:1", 1.0)
+    ExactSpectrum._shared.pop(id(model), None)              # a fresh shared cache from here on
+    a, b = Synthesizer(model, **kw), Synthesizer(model, **kw)
+    assert a._exact._cache is b._exact._cache
+    calls = []
+    orig = model.response
+
+    def counting(speeds):
+        calls.append(float(np.atleast_1d(speeds)[0]))
+        return orig(speeds)
+
+    model.response = counting
+    try:
+        for f in (0.0, 25.0, 25.0, 40.0):
+            ca, cb = a.next_chunk(f), b.next_chunk(f)
+            np.testing.assert_array_equal(ca.samples, cb.samples)
+        assert calls and len(calls) == len(set(calls))       # each knot speed solved once for both machines
+        np.testing.assert_array_equal(render(Synthesizer(model, **kw), "ramp:5:30:1", 1.0), alone)
+        n = len(calls)
+        np.testing.assert_array_equal(render(Synthesizer(model, **kw), "ramp:5:30:1", 1.0), alone)
+        assert len(calls) == n                               # the second run came from the cache alone
+    finally:
+        del model.response
