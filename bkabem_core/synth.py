@@ -56,7 +56,7 @@ from .synth_features import _FOLD, Chunk, _moment_features, waveform_features  #
 from .synth_lines import (ISO_BAND_HZ, BEARINGS, DEFAULT_QUANTITIES, QUANTITIES, Channel, ExactSpectrum,  # noqa: F401
                           LineSetPath, ModalSpectrum, _Amplitudes, _combination, _Knot, make_channels)
 from .synth_profile import SpeedProfile, SynthError, _finite, parse_profile  # noqa: F401  (re-exported)
-from .synth_random import _NoiseBlocks, _SlipWalk  # noqa: F401
+from .synth_random import _NoiseBlocks, _SlipWalk, noise_key  # noqa: F401
 
 
 MAX_SAMPLE_RATE_HZ = 1.0e6
@@ -326,6 +326,11 @@ class Synthesizer(LineSetPath):
         fs = self.sample_rate_hz
         self._noise_sigma = np.array([dens.get(c.quantity, 0.0) * math.sqrt(fs / 2) for c in self.channels])
         self._noise_on = bool(np.any(self._noise_sigma > 0)) or self.snr_db is not None
+        # with the C kernel the noise is made inside the sample loop (synth_kernel.segment, noise=...), keyed by
+        # absolute sample; without it, numpy's generator in blocks, added after the samples (_NoiseBlocks)
+        self._noise_fused = self._noise_on and synth_kernel.AVAILABLE
+        self._noise_key = noise_key(self.seed)
+        self._noise_sigma_t = np.ascontiguousarray(self._noise_sigma, dtype=self.dtype)
         self._noise = _NoiseBlocks(self.seed, len(self.channels), self.dtype) if self._noise_on else None
 
     @property
@@ -688,24 +693,38 @@ class Synthesizer(LineSetPath):
             acc = synth_kernel.new_acc(len(self.channels))
         segments = list(self._segments(n0, n)) if not (len(ks) == 2 and ks[1].x >= n0 + n) else \
             [(ks[0], ks[1], n0, n0 + n)]
-        mixed = any(a.amp.families is not b.amp.families for a, b, _, _ in segments)
-        after = self._noise_on or self._general or mixed  # moments taken after the noise / the families' sum
-        fused = acc if not after else None
+        late = self._noise_on and not self._noise_fused     # numpy noise: added, and the moments taken, at the end
+        seg_acc = None if late else acc
         for a, b, lo, hi in segments:
             dest = out[lo - n0:hi - n0]
+            noise = self._segment_noise(a, b, lo) if self._noise_fused else None
+            if a.amp.families is None and b.amp.families is None:
+                self._segment(a, b, lo, hi, dest, seg_acc, noise)  # noise and features inside the sample loop
+                continue
             if a.amp.families is not b.amp.families:
                 self._segment_swap(a, b, lo, hi, dest)              # a model swap across line-set layouts
-            elif a.amp.families is not None:
-                self._segment_lines(a, b, lo, hi, dest)
             else:
-                self._segment(a, b, lo, hi, dest, fused)
-        if self._noise_on:
+                self._segment_lines(a, b, lo, hi, dest)
+            if noise is not None:                                    # the families' sum first, then one pass
+                synth_kernel.noise_add(dest, noise[0], lo, noise[2], self._dc_off, seg_acc)
+            elif seg_acc is not None:
+                self._accumulate(dest, self._dc_off, seg_acc)
+        if late:
             self._add_noise(n0, n, out)
-        if after and acc is not None:
-            self._accumulate(out, self._dc_off, acc)
+            if acc is not None:
+                self._accumulate(out, self._dc_off, acc)
         return self._make_chunk(n0, n, out, acc)
 
-    def _segment(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc) -> None:
+    def _segment_noise(self, a: _Knot, b: _Knot, lo: int):
+        """(key, first sample, sigma per channel in the samples' dtype) of the noise of a segment starting at
+        sample lo: the density's sigma, or with ``snr_db`` the segment's dynamic RMS / 10^(snr/20)."""
+        if self.snr_db is None:
+            return self._noise_key, lo, self._noise_sigma_t
+        g = 10 ** (-self.snr_db / 20)
+        sigma = g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
+        return self._noise_key, lo, np.ascontiguousarray(sigma, dtype=self.dtype)
+
+    def _segment(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc, noise=None) -> None:
         """Samples [lo, hi) of the segment between knots a and b into ``out`` (hi - lo, C).
 
         Ball passes since knot a, u(xi) = u_frac + c1 xi + c2 xi^2 at xi = sample - a.x (speed linear in time),
@@ -725,8 +744,12 @@ class Synthesizer(LineSetPath):
         if self._slip_walk is not None:              # the walk at the samples' passes, as fixed-point offsets (C)
             warp = self._slip_walk.warp_fixed(a.u_int, j, m, c1, c2, a.u_frac)[0]
         tb = b.amp.table if b.amp is not a.amp else None
-        self._segment_fn(phase0, dphase0, dd, warp, a.amp.table, tb, float(j), 65536.0 / length, out,
-                         acc, self._dc_off)
+        if noise is None:
+            self._segment_fn(phase0, dphase0, dd, warp, a.amp.table, tb, float(j), 65536.0 / length, out,
+                             acc, self._dc_off)
+        else:
+            self._segment_fn(phase0, dphase0, dd, warp, a.amp.table, tb, float(j), 65536.0 / length, out,
+                             acc, self._dc_off, noise=noise)
 
     @staticmethod
     def _add_scaled(out: np.ndarray, z: np.ndarray, sigma: np.ndarray) -> None:
