@@ -301,8 +301,10 @@ INLINE double blend_weight(double v)
 typedef struct {
     uint64_t key;
     int64_t n0;
-    const float *sigma_f;
+    const float *sigma_f;         /* NULL (both): no noise, only the extra part */
     const double *sigma_d;
+    const void *extra;            /* optional m x C block (out's dtype) added too, row 0 = the call's sample 0: the
+                                   * broadband floor (synth_floor.py) */
 } NoiseArgs;
 
 /* Samples of the next block: up to BLOCK, and with noise up to the next absolute multiple of BLOCK. */
@@ -452,7 +454,10 @@ static inline __attribute__((always_inline)) FMA_TARGET void prologue8_fma(
             vb_ = _mm256_fmadd_ps(w3_, _mm256_loadu_ps(b_ + 24), vb_);                                              \
             va_ = _mm256_fmadd_ps((s), _mm256_sub_ps(vb_, va_), va_);                                               \
         }                                                                                                           \
-        if (noise) va_ = _mm256_fmadd_ps(sigv, _mm256_loadu_ps(Z + 8 * (int64_t)(j)), va_);                        \
+        if (noise) {                                                                                                \
+            if (sigma) va_ = _mm256_fmadd_ps(sigv, _mm256_loadu_ps(Z + 8 * (int64_t)(j)), va_);                    \
+            if (xb != NULL) va_ = _mm256_add_ps(va_, _mm256_loadu_ps(xb + 8 * (int64_t)(j)));                      \
+        }                                                                                                           \
         _mm256_storeu_ps(ob + 8 * (int64_t)(j), va_);                                                               \
     } while (0)
 
@@ -465,10 +470,13 @@ static inline __attribute__((always_inline)) FMA_TARGET void rows8_fma(
     int32_t idx[BLOCK];
     float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK];
     float Z[noise ? BLOCK * 8 : 1];
-    const __m256 sigv = noise ? _mm256_loadu_ps(na->sigma_f) : _mm256_setzero_ps();
+    const int sigma = noise && na->sigma_f != NULL;
+    const float *extra = noise ? (const float *)na->extra : NULL;
+    const __m256 sigv = sigma ? _mm256_loadu_ps(na->sigma_f) : _mm256_setzero_ps();
     for (int64_t k0 = 0, nb; k0 < m; k0 += nb) {
         nb = block_length(noise, m - k0, noise ? na->n0 + k0 : 0);
-        if (noise) noise_fill8_avx2(na->key, na->n0 + k0, (int)nb, Z);
+        if (sigma) noise_fill8_avx2(na->key, na->n0 + k0, (int)nb, Z);
+        const float *restrict xb = extra != NULL ? extra + k0 * 8 : NULL;
         prologue8_fma(has_warp, blend, (int)nb, k0, &u, &d, dd, has_warp ? warp + k0 : NULL, fb, mask, xi0, blend_scale,
                       idx, W0, W1, W2, W3, sw);
         float *restrict ob = out + k0 * 8;
@@ -590,18 +598,23 @@ INLINE void moments_##SUF(const int C, int nb, const T *restrict x, const double
                                                                                                                     \
 /* x[j][c] += sigma[c] z[j][c] for the nb samples of a block from absolute sample n (one noise block at most): the  \
  * product in T, then the sum (the numpy reference's order). */                                                     \
-static void noise_add_block_##SUF(const int C, int nb, const NoiseArgs *na, int64_t n, T *restrict x)              \
+static void noise_add_block_##SUF(const int C, int nb, const NoiseArgs *na, int64_t n, T *restrict x,              \
+                                  const T *restrict extra)                                                          \
 {                                                                                                                   \
-    float Z[BLOCK * NOISE_MAX_C];                                                                                   \
-    if (C == 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill8_avx2(na->key, n, nb, Z);                            \
-    else if (C < 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill_narrow_avx2(na->key, n, nb, C, Z);               \
-    else noise_fill_scalar(na->key, n, nb, C, Z);                                                                   \
     const T *sig = sizeof(T) == 4 ? (const T *)(const void *)na->sigma_f : (const T *)(const void *)na->sigma_d;   \
-    for (int j = 0; j < nb; ++j)                                                                                    \
-        for (int c = 0; c < C; ++c) {                                                                               \
-            const T p = sig[c] * (T)Z[(int64_t)j * C + c];                                                          \
-            x[(int64_t)j * C + c] = x[(int64_t)j * C + c] + p;                                                      \
-        }                                                                                                           \
+    if (sig != NULL) {                                                                                              \
+        float Z[BLOCK * NOISE_MAX_C];                                                                               \
+        if (C == 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill8_avx2(na->key, n, nb, Z);                        \
+        else if (C < 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill_narrow_avx2(na->key, n, nb, C, Z);           \
+        else noise_fill_scalar(na->key, n, nb, C, Z);                                                               \
+        for (int j = 0; j < nb; ++j)                                                                                \
+            for (int c = 0; c < C; ++c) {                                                                           \
+                const T p = sig[c] * (T)Z[(int64_t)j * C + c];                                                      \
+                x[(int64_t)j * C + c] = x[(int64_t)j * C + c] + p;                                                  \
+            }                                                                                                       \
+    }                                                                                                               \
+    if (extra != NULL)                                                                                              \
+        for (int64_t i = 0; i < (int64_t)nb * C; ++i) x[i] = x[i] + extra[i];                                       \
 }                                                                                                                   \
                                                                                                                     \
 /* Segment loop (generic path), in blocks of BLOCK samples: phases, spline weights (and blend weights), then the  \
@@ -653,7 +666,8 @@ INLINE void segment_rows_##SUF(const int C, const int has_warp, const int blend,
                 }                                                                                                   \
             }                                                                                                       \
         }                                                                                                           \
-        if (noise) noise_add_block_##SUF(C, nb, na, na->n0 + k0, ob);                                              \
+        if (noise) noise_add_block_##SUF(C, nb, na, na->n0 + k0, ob,                                               \
+                                         na->extra != NULL ? (const T *)na->extra + k0 * C : NULL);                \
         if (feats) moments_##SUF(C, nb, ob, off, acc);                                                              \
     }                                                                                                               \
 }                                                                                                                   \
@@ -713,13 +727,13 @@ int synth_segment_##SUF(int64_t m, int64_t C, int64_t N, int fb, uint64_t phase0
 /* Noise added to an existing n x C block x (samples from absolute index n0) and, with acc, the features of the     \
  * result accumulated, in one pass per block (a line set's families are summed first: synth_lines.py). */          \
 CLONES int synth_noise_add_##SUF(int64_t n, int64_t C, T *x, uint64_t key, int64_t n0, const T *sigma,            \
-                                 const double *off, double *acc)                                                    \
+                                 const T *extra, const double *off, double *acc)                                    \
 {                                                                                                                   \
-    if (n < 0 || C < 1 || C > NOISE_MAX_C || sigma == NULL || (acc != NULL && off == NULL)) return -1;             \
-    NoiseArgs na = {key, n0, (const float *)(const void *)sigma, (const double *)(const void *)sigma};             \
+    if (n < 0 || C < 1 || C > NOISE_MAX_C || (acc != NULL && off == NULL)) return -1;                              \
+    NoiseArgs na = {key, n0, (const float *)(const void *)sigma, (const double *)(const void *)sigma, extra};      \
     for (int64_t k0 = 0, nb; k0 < n; k0 += nb) {                                                                    \
         nb = block_length(1, n - k0, n0 + k0);                                                                      \
-        noise_add_block_##SUF((int)C, (int)nb, &na, n0 + k0, x + k0 * C);                                           \
+        noise_add_block_##SUF((int)C, (int)nb, &na, n0 + k0, x + k0 * C, extra != NULL ? extra + k0 * C : NULL);   \
         if (acc != NULL) {                                                                                          \
             if (C == 8) moments_##SUF(8, (int)nb, x + k0 * C, off, acc);                                            \
             else moments_##SUF((int)C, (int)nb, x + k0 * C, off, acc);                                              \
@@ -746,6 +760,8 @@ CLONES int synth_accumulate_##SUF(int64_t n, int64_t C, const T *x, const double
 
 SYNTH_KERNELS(float, f32)
 SYNTH_KERNELS(double, f64)
+
+#include "_synthlines.h"
 
 /* Random-slip warp of one segment (synth_random._SlipWalk.warp_fixed): for sample i < m at xi = j0 + i, the ball
  * passes u = (c2 xi + c1) xi + u_frac since the knot (speed >= 0 in a segment, so u does not decrease), the walk W
@@ -927,6 +943,30 @@ int synth_noise_fill(uint64_t key, int64_t n0, int64_t n, int64_t C, int avx2, f
         if (avx2 && C == 8 && HAVE_NOISE_AVX2) noise_fill8_avx2(key, n0 + k0, (int)nb, Z + k0 * C);
         else if (avx2 && C < 8 && HAVE_NOISE_AVX2) noise_fill_narrow_avx2(key, n0 + k0, (int)nb, (int)C, Z + k0 * C);
         else noise_fill_scalar(key, n0 + k0, (int)nb, (int)C, Z + k0 * C);
+    }
+    return 0;
+}
+
+/* The broadband floor of samples n0 .. n0 + m - 1 (synth_floor.py): overlapping grains g of 2 S samples from g S,
+ * each a circular window into one of the precomputed shaped-noise frames (L x C float32 each, in frames),
+ * weighted by the sine window w(t) = sin(pi t / 2 S) (win: 2 S values), so that the two grains over any sample have
+ * w^2 + w^2 = 1. G grains given as (g, frame index, offset) in grains[3 G]. out: m x C float32, written. */
+int synth_floor_render(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const float *frames,
+                       const float *win, int64_t G, const int64_t *grains, float *out)
+{
+    if (m < 0 || C < 1 || S < 1 || L < 2 * S / 2 || G < 0) return -1;
+    memset(out, 0, sizeof(float) * (size_t)(m * C));
+    for (int64_t q = 0; q < G; ++q) {
+        const int64_t g = grains[3 * q], fr = grains[3 * q + 1], off = grains[3 * q + 2];
+        const float *F = frames + fr * L * C;
+        int64_t lo = g * S > n0 ? g * S : n0, hi = g * S + 2 * S < n0 + m ? g * S + 2 * S : n0 + m;
+        for (int64_t n = lo; n < hi; ++n) {
+            const int64_t t = n - g * S;
+            const float w = win[t];
+            const float *src = F + ((t + off) % L) * C;
+            float *o = out + (n - n0) * C;
+            for (int64_t c = 0; c < C; ++c) o[c] += w * src[c];
+        }
     }
     return 0;
 }
@@ -1312,8 +1352,8 @@ PyDoc_STRVAR(py_segment_doc, "segment(phase0, dphase0, ddphase, warp, table_a, t
 static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     (void)self;
-    if (nargs != 12 && nargs != 15) {
-        PyErr_SetString(PyExc_TypeError, "segment takes 12 arguments (15 with noise: key, n0, sigma)");
+    if (nargs != 12 && nargs != 16) {
+        PyErr_SetString(PyExc_TypeError, "segment takes 12 arguments (16 with noise: key, n0, sigma, extra)");
         return NULL;
     }
     uint64_t ph[3];
@@ -1325,10 +1365,10 @@ static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t na
     if (PyErr_Occurred()) return NULL;
     const int exact = PyObject_IsTrue(args[11]);
     if (exact < 0) return NULL;
-    Buf bo = {0}, ba = {0}, bb = {0}, bw = {0}, bacc = {0}, boff = {0}, bsig = {0};
+    Buf bo = {0}, ba = {0}, bb = {0}, bw = {0}, bacc = {0}, boff = {0}, bsig = {0}, bx = {0};
     PyObject *res = NULL;
-    NoiseArgs noise = {0, 0, NULL, NULL};
-    const int noisy = nargs == 15 && args[14] != Py_None;
+    NoiseArgs noise = {0, 0, NULL, NULL, NULL};
+    const int noisy = nargs == 16 && (args[14] != Py_None || args[15] != Py_None);
     if (noisy) {
         noise.key = (uint64_t)PyLong_AsUnsignedLongLongMask(args[12]);
         if (noise.key == (uint64_t)-1 && PyErr_Occurred()) return NULL;
@@ -1373,7 +1413,7 @@ static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t na
             goto done;
         }
     }
-    if (noisy) {
+    if (noisy && args[14] != Py_None) {
         if (!buf_take(args[14], &bsig, "sigma", "fd", 1, 0)) goto done;
         if (buf_kind(&bsig.v) != kind || bsig.v.shape[0] != C || C > NOISE_MAX_C || noise.n0 < 0) {
             PyErr_Format(PyExc_ValueError, "sigma must be (%zd,) of out's dtype, C <= %d, n0 >= 0", C, NOISE_MAX_C);
@@ -1381,6 +1421,14 @@ static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t na
         }
         noise.sigma_f = (const float *)bsig.v.buf;
         noise.sigma_d = (const double *)bsig.v.buf;
+    }
+    if (noisy && args[15] != Py_None) {
+        if (!buf_take(args[15], &bx, "extra", "fd", 2, 0)) goto done;
+        if (buf_kind(&bx.v) != kind || bx.v.shape[0] != m || bx.v.shape[1] != C || C > NOISE_MAX_C) {
+            PyErr_Format(PyExc_ValueError, "extra must be (%zd, %zd) of out's dtype", m, C);
+            goto done;
+        }
+        noise.extra = bx.v.buf;
     }
     if (m > 0) {
         int rc;
@@ -1408,6 +1456,7 @@ static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t na
     Py_INCREF(res);
 done:
     buf_drop(&bo), buf_drop(&ba), buf_drop(&bb), buf_drop(&bw), buf_drop(&bacc), buf_drop(&boff), buf_drop(&bsig);
+    buf_drop(&bx);
     return res;
 }
 

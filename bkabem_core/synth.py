@@ -118,6 +118,10 @@ class Synthesizer(LineSetPath):
         The mounted sensor's resonance on the housing channels (:mod:`bkabem_core.sensors`; None: ideal).
     anti_alias : AntiAliasFilter or None
         The acquisition's low-pass on every channel (None: none; ``AntiAliasFilter.for_rate(fs)`` the usual one).
+    broadband_floor : bool
+        Add the case's broadband floor (``baseline.broadband_force_n_per_sqrt_hz``: random force pairs across the
+        bearings through the machine's receptance, :mod:`bkabem_core.synth_floor`) when the case sets one (default
+        True); its frames are made by :meth:`prepare` or the first chunk (~0.3 s).
     """
 
     def __init__(self, model: BkaBem, sample_rate_hz: float = 25600.0, chunk_s: float = 0.1, *,
@@ -126,7 +130,7 @@ class Synthesizer(LineSetPath):
                  spectrum: str = "auto", knot_s: float = 0.1, max_speed_step_hz: float = 0.5,
                  min_speed_hz: float = 0.05, initial_speed_hz: float | None = None, dtype=np.float32,
                  features: bool = True, table_size: int | None = None, accelerometer: Accelerometer | None = None,
-                 anti_alias: AntiAliasFilter | None = None):
+                 anti_alias: AntiAliasFilter | None = None, broadband_floor: bool = True):
         if not isinstance(model, BkaBem):
             raise SynthError("model", f"must be a BkaBem (got {type(model).__name__})")
         fs = _finite("sample_rate_hz", sample_rate_hz, 0.0, strict=True)
@@ -180,6 +184,7 @@ class Synthesizer(LineSetPath):
             if v is not None and not isinstance(v, kind):
                 raise SynthError(name, f"must be a {kind.__name__} or None (got {type(v).__name__})")
         self.accelerometer, self.anti_alias = accelerometer, anti_alias
+        self._floor_wanted = bool(broadband_floor)
         self._spectrum_kind = spectrum
         self._max_order_arg = max_order
         self._table_size_arg = table_size
@@ -189,6 +194,9 @@ class Synthesizer(LineSetPath):
 
     # ------------------------------------------------------------------ model
     def _bind_model(self, model: BkaBem) -> None:
+        self._floor = None
+        self.floor_density = float(model.case.raw["baseline"].get("broadband_force_n_per_sqrt_hz", 0.0)) \
+            if self._floor_wanted else 0.0
         if not model.is_order_set:
             self._bind_lines(model)
             return
@@ -430,6 +438,8 @@ class Synthesizer(LineSetPath):
         ~0.6 s and 10 MB for 75 Hz). Once per model: synthesisers of one model share them. Cells above are made
         when first used. Any other line set than BPFO orders: the speed cells of its speed-locked lines over the same
         range (checked against the exact response first; ~10x the order set's cost for 350-670 lines)."""
+        if self.floor_density > 0:
+            self._floor_source()
         if self._general:
             self._line_spectrum_at(1.0)                          # makes the cells (or falls back to exact)
             if self._cells is not None:
@@ -693,27 +703,61 @@ class Synthesizer(LineSetPath):
             acc = synth_kernel.new_acc(len(self.channels))
         segments = list(self._segments(n0, n)) if not (len(ks) == 2 and ks[1].x >= n0 + n) else \
             [(ks[0], ks[1], n0, n0 + n)]
-        late = self._noise_on and not self._noise_fused     # numpy noise: added, and the moments taken, at the end
+        floor = self._floor_block(n0, n)
+        fused = self._noise_fused or (floor is not None and synth_kernel.AVAILABLE)
+        late = not fused and (self._noise_on or floor is not None)   # numpy: added, moments taken, at the end
         seg_acc = None if late else acc
         for a, b, lo, hi in segments:
             dest = out[lo - n0:hi - n0]
-            noise = self._segment_noise(a, b, lo) if self._noise_fused else None
+            noise = None
+            if fused:
+                noise = self._segment_noise(a, b, lo) if self._noise_on else (self._noise_key, lo, None)
+                noise = noise + (None if floor is None else self._floor_faded(floor[lo - n0:hi - n0], a, b, lo),)
             if a.amp.families is None and b.amp.families is None:
                 self._segment(a, b, lo, hi, dest, seg_acc, noise)  # noise and features inside the sample loop
                 continue
             if a.amp.families is not b.amp.families:
                 self._segment_swap(a, b, lo, hi, dest)              # a model swap across line-set layouts
-            else:
-                self._segment_lines(a, b, lo, hi, dest)
+            elif self._segment_lines(a, b, lo, hi, dest, seg_acc, noise):
+                continue                                             # noise and features in the C line-set pass
             if noise is not None:                                    # the families' sum first, then one pass
-                synth_kernel.noise_add(dest, noise[0], lo, noise[2], self._dc_off, seg_acc)
+                synth_kernel.noise_add(dest, noise[0], lo, noise[2], self._dc_off, seg_acc, noise[3])
             elif seg_acc is not None:
                 self._accumulate(dest, self._dc_off, seg_acc)
         if late:
-            self._add_noise(n0, n, out)
+            if self._noise_on:
+                self._add_noise(n0, n, out)
+            if floor is not None:
+                out += floor
             if acc is not None:
                 self._accumulate(out, self._dc_off, acc)
         return self._make_chunk(n0, n, out, acc)
+
+    # ------------------------------------------------------------------ broadband floor
+    def _floor_source(self):
+        """The :class:`~bkabem_core.synth_floor.BroadbandFloor` of this synthesiser (made when first needed)."""
+        if self._floor is None:
+            from .synth_floor import BroadbandFloor
+            self._floor = BroadbandFloor(self._model, self.floor_density, self._comb, self._cindex, self._power,
+                                         self._scale, self._housing_cols, self.sample_rate_hz, self.seed,
+                                         self.accelerometer, self.anti_alias)
+        return self._floor
+
+    def _floor_block(self, n0: int, n: int):
+        """The floor of samples [n0, n0 + n) in the samples' dtype, or None (off)."""
+        if self.floor_density <= 0:
+            return None
+        x = self._floor_source().render(n0, n)
+        return x if self.dtype == np.float32 else x.astype(self.dtype)
+
+    def _floor_faded(self, x: np.ndarray, a: _Knot, b: _Knot, lo: int) -> np.ndarray:
+        """The floor under the low-speed fade of the lines (no rolling, no roughness excitation at standstill):
+        linear in time from knot a's fade to knot b's, as the lines' amplitudes."""
+        fa, fb = a.amp.fade, b.amp.fade
+        if fa == 1.0 and fb == 1.0:
+            return x
+        s = (np.arange(lo, lo + x.shape[0]) - a.x) / max(b.x - a.x, 1)
+        return np.ascontiguousarray(x * (fa + (fb - fa) * s)[:, None], dtype=x.dtype)
 
     def _segment_noise(self, a: _Knot, b: _Knot, lo: int):
         """(key, first sample, sigma per channel in the samples' dtype) of the noise of a segment starting at
@@ -857,6 +901,7 @@ class Synthesizer(LineSetPath):
             "orders": [int(k) for k in self.orders],
             "accelerometer": None if self.accelerometer is None else self.accelerometer.to_dict(),
             "anti_alias": None if self.anti_alias is None else self.anti_alias.to_dict(),
+            "broadband_force_n_per_sqrt_hz": self.floor_density,
         })
         if self._general:
             gt["line_coefficients"] = self.coefficients.tolist()

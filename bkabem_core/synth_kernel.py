@@ -171,13 +171,26 @@ def _load():
         sw.argtypes = [i64, dbl, dbl, dbl, dbl, ptr, i64, i64, ptr, i64, ptr]
         sw.restype = ctypes.c_int
         fns["slip_warp"] = sw
+    ft = lib.synth_family_tables
+    ft.argtypes = [i64, i64, i64] + [ptr] * 12
+    ft.restype = ctypes.c_int
+    fns["family_tables"] = ft
+    ls = lib.synth_lines_segment_f32
+    ls.argtypes = [i64, i64, i64] + [ptr] * 10 + [ctypes.c_double, ctypes.c_double, ptr, ptr, ptr,
+                                                  ctypes.c_uint64, i64, ptr, ptr]
+    fr = lib.synth_floor_render
+    fr.argtypes = [i64, i64, i64, i64, i64, ptr, ptr, i64, ptr, ptr]
+    fr.restype = ctypes.c_int
+    fns["floor_render"] = fr
+    ls.restype = ctypes.c_int
+    fns["lines_segment"] = ls
     nf = lib.synth_noise_fill
     nf.argtypes = [ctypes.c_uint64, i64, i64, i64, ctypes.c_int, ptr]
     nf.restype = ctypes.c_int
     fns["noise_fill"] = nf
     for dt, suf in ((np.dtype(np.float32), "f32"), (np.dtype(np.float64), "f64")):
         na = getattr(lib, f"synth_noise_add_{suf}")
-        na.argtypes = [i64, i64, ptr, ctypes.c_uint64, i64, ptr, ptr, ptr]
+        na.argtypes = [i64, i64, ptr, ctypes.c_uint64, i64, ptr, ptr, ptr, ptr]
         na.restype = ctypes.c_int
         fns[("noise_add", dt)] = na
     lib.synth_fast_path.argtypes = []
@@ -267,17 +280,18 @@ def segment(phase0: int, dphase0: int, ddphase: int, warp, table_a: np.ndarray, 
 
     The arguments are checked in C (``_synthloop.c``, py_segment: C-contiguity, writeability, dtypes and shapes):
     ~1 us per call instead of ~6 us of Python checks and ctypes conversions. ``noise``: None, or ``(key, n0,
-    sigma)``: sensor noise ``sigma[c] z`` added to every sample before its features are taken, ``z`` the normals
-    of :func:`noise_fill` at the absolute sample indices ``n0 ..`` (``sigma`` (C,) of out's dtype). Raises
+    sigma[, extra])``: sensor noise ``sigma[c] z`` added to every sample before its features are taken, ``z`` the
+    normals of :func:`noise_fill` at the absolute sample indices ``n0 ..`` (``sigma`` (C,) of out's dtype, or None:
+    no noise), and ``extra`` (m, C) of out's dtype added too (the broadband floor; None: none). Raises
     RuntimeError if the kernel is not built, ValueError on wrong shapes, dtypes or non-contiguous arrays."""
     if _segment_c is None:
         raise RuntimeError("the C sample loop (bkabem_core/_synthloop.c) is not built: run `pip install -e .`")
     if noise is None:
         _segment_c(phase0, dphase0, ddphase, warp, table_a, table_b, xi0, blend_scale, out, acc, off, exact)
     else:
-        key, n0, sigma = noise
+        key, n0, sigma, *extra = noise
         _segment_c(phase0, dphase0, ddphase, warp, table_a, table_b, xi0, blend_scale, out, acc, off, exact,
-                   int(key) & _MASK64, int(n0), sigma)
+                   int(key) & _MASK64, int(n0), sigma, extra[0] if extra else None)
 
 
 def accumulate(x: np.ndarray, off: np.ndarray, acc: np.ndarray) -> None:
@@ -370,17 +384,21 @@ def noise_fill(key: int, n0: int, n: int, n_channels: int, avx2: bool = True) ->
     return out
 
 
-def noise_add(x: np.ndarray, key: int, n0: int, sigma: np.ndarray, off=None, acc=None) -> None:
-    """``x += sigma z`` (z: :func:`noise_fill` at absolute samples ``n0 ..``) for a finished block ``x`` (n, C),
-    and with ``acc`` its features accumulated (:func:`accumulate`), in one C pass."""
+def noise_add(x: np.ndarray, key: int, n0: int, sigma, off=None, acc=None, extra=None) -> None:
+    """``x += sigma z (+ extra)`` (z: :func:`noise_fill` at absolute samples ``n0 ..``; sigma None: no noise;
+    ``extra`` (n, C) of x's dtype, e.g. the broadband floor) for a finished block ``x`` (n, C), and with ``acc`` its
+    features accumulated (:func:`accumulate`), in one C pass."""
     fn = _FNS.get(("noise_add", x.dtype)) if _FNS is not None else None
     if fn is None:
         raise RuntimeError("the C kernel (bkabem_core/_synthloop.c) is not built: run `pip install -e .`")
     n, c = x.shape
-    sig = np.ascontiguousarray(sigma, dtype=x.dtype)
-    if sig.shape != (c,):
+    sig = None if sigma is None else np.ascontiguousarray(sigma, dtype=x.dtype)
+    if sig is not None and sig.shape != (c,):
         raise ValueError(f"sigma must be ({c},)")
-    if fn(n, c, _ptr(x, "x"), int(key) & _MASK64, int(n0), sig.ctypes.data,
+    if extra is not None and (extra.shape != x.shape or extra.dtype != x.dtype or not extra.flags.c_contiguous):
+        raise ValueError(f"extra must be {x.shape} C-contiguous {x.dtype}")
+    if fn(n, c, _ptr(x, "x"), int(key) & _MASK64, int(n0), 0 if sig is None else sig.ctypes.data,
+          0 if extra is None else extra.ctypes.data,
           0 if off is None else _ptr(off, "off"), 0 if acc is None else _ptr(acc, "acc")):
         raise ValueError(f"synth_noise_add rejected n={n}, C={c}")
 
@@ -420,7 +438,8 @@ def _noise_words_reference(key: int, block: int, steps: int) -> np.ndarray:
 
 
 def _noise_pairs_reference(w: np.ndarray):
-    """(z1, z2) float32 of words ``w`` (uint64), the operations of ``noise_pair`` in float32."""
+    """(z1, z2) float32 of words ``w`` (uint64), the operations of ``noise_pair`` in float32 (its fused
+    multiply-adds through double: the same value except where double rounding differs, ~2^-29 of them)."""
     f = np.float32
     u = ((w >> _U64(40)) + _U64(1)).astype(np.int32).astype(f) * f(2.0 ** -24)
     a = ((w >> _U64(16)) & _U64(0xFFFFFF)).astype(np.int32)
@@ -433,19 +452,22 @@ def _noise_pairs_reference(w: np.ndarray):
     m = np.where(lt, m + m, m)
     m = m - f(1.0)
     z = m * m
+    def fma(a, b, c):                               # float32 fused multiply-add via double (a b exact in double)
+        return (a.astype(np.float64) * b + np.float64(f(c))).astype(f)
+
     y = np.full_like(m, f(7.0376836292e-2))
     for c in (-1.1514610310e-1, 1.1676998740e-1, -1.2420140846e-1, 1.4249322787e-1, -1.6668057665e-1,
               2.0000714765e-1, -2.4999993993e-1, 3.3333331174e-1):
-        y = y * m + f(c)
+        y = fma(y, m, c)
     y = (y * m) * z
     y = y + e * f(-2.12194440e-4)
     y = y - z * f(0.5)
     ln = (m + y) + e * f(0.693359375)
     r = np.sqrt(f(-2.0) * ln)
     q = x * x
-    sn = (f(-1.9515295891e-4) * q + f(8.3321608736e-3)) * q + f(-1.6666654611e-1)
+    sn = fma(fma(np.full_like(q, f(-1.9515295891e-4)), q, 8.3321608736e-3), q, -1.6666654611e-1)
     sn = (sn * q) * x + x
-    cs = (f(2.443315711809948e-5) * q + f(-1.388731625493765e-3)) * q + f(4.166664568298827e-2)
+    cs = fma(fma(np.full_like(q, f(2.443315711809948e-5)), q, -1.388731625493765e-3), q, 4.166664568298827e-2)
     cs = ((cs * q) * q - q * f(0.5)) + f(1.0)
     swap = (a & 0x800000) != 0
     c, s = np.where(swap, sn, cs), np.where(swap, cs, sn)
@@ -470,6 +492,65 @@ def noise_reference(key: int, n0: int, n: int, n_channels: int) -> np.ndarray:
         out[j:j + cnt] = z[:, :c]
         j += cnt
     return out
+
+
+#: True if the line-set kernels (family tables by FFT, one call per segment over all families) are built.
+LINES_AVAILABLE = bool(AVAILABLE and "lines_segment" in _FNS)
+
+
+def family_tables(y: np.ndarray, plan: dict, table: np.ndarray, work: np.ndarray) -> None:
+    """The spline tables of every family of a line set into ``table`` (float32, the families' (N + 3, C) tables at
+    ``plan["out_off"]``) from the lines' channel amplitudes ``y`` (L, C) complex128, by the C FFT of
+    ``_synthlines.h`` (``plan``: :meth:`synth_lines.LineFamilies.plan`; ``work``: >= 2 N C doubles)."""
+    L, C = y.shape
+    y = np.ascontiguousarray(y, dtype=np.complex128)
+    pl = plan
+    if _FNS["family_tables"](pl["F"], C, L, y.ctypes.data, pl["n_lines"].ctypes.data, pl["line"].ctypes.data,
+                             pl["slot"].ctypes.data, pl["factor"].ctypes.data, pl["N"].ctypes.data,
+                             pl["tw"].ctypes.data, pl["tw_off"].ctypes.data, pl["carrier"].ctypes.data,
+                             _ptr(table, "table"), pl["out_off"].ctypes.data, _ptr(work, "work")):
+        raise ValueError("synth_family_tables rejected its arguments")
+
+
+def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, warp, wp: np.ndarray,
+                  wq: np.ndarray, dc: np.ndarray, xi0: float, blend_scale: float, out: np.ndarray, acc=None,
+                  off=None, noise=None) -> None:
+    """Samples of one segment of a line set, every family in one C pass (``_synthlines.h``), float32: ``phases``
+    (F, 6) uint64 (family phase0, dphase0, ddphase, then the carrier's), tables ``ta``/``tb`` (knot a, b; tb None:
+    no blend) laid out by ``plan``, ``warp`` (K, m) int64 slip offsets (or None) with the row of each family's
+    phase ``wp`` and carrier ``wq`` (-1: none), ``dc`` (C,) float32 static part, ``out`` (m, C) written; ``acc``/
+    ``off`` the features, ``noise`` (key, n0, sigma float32) as :func:`segment`."""
+    C = out.shape[1]
+    key, n0, sigma, *extra = noise if noise is not None else (0, 0, None)
+    extra = extra[0] if extra else None
+    if _FNS["lines_segment"](int(m), C, plan["F"], phases.ctypes.data, plan["lg"].ctypes.data,
+                             plan["carrier"].ctypes.data, plan["off_t"].ctypes.data, _ptr(ta, "ta"),
+                             0 if tb is None else _ptr(tb, "tb"), 0 if warp is None else warp.ctypes.data,
+                             wp.ctypes.data, wq.ctypes.data, dc.ctypes.data, float(xi0), float(blend_scale),
+                             _ptr(out, "out"), 0 if acc is None else _ptr(acc, "acc"),
+                             0 if off is None else off.ctypes.data, int(key) & _MASK64, int(n0),
+                             0 if sigma is None else sigma.ctypes.data, 0 if extra is None else extra.ctypes.data):
+        raise ValueError("synth_lines_segment rejected its arguments")
+
+
+def floor_render(n0: int, m: int, half: int, frames: np.ndarray, window: np.ndarray, grains: np.ndarray,
+                 out: np.ndarray) -> None:
+    """The broadband floor at absolute samples ``n0 .. n0 + m - 1`` into ``out`` (m, C) float32: grains (G, 3)
+    int64 (grain index g, frame, offset) over frames (F, L, C) float32, sine window (2 half,) (``synth_floor.py``),
+    in C when built, else in numpy."""
+    fn = _FNS.get("floor_render") if _FNS is not None else None
+    n_l, c = frames.shape[1], frames.shape[2]
+    if fn is not None:
+        if fn(int(m), c, int(n0), int(half), n_l, frames.ctypes.data, window.ctypes.data, len(grains),
+              grains.ctypes.data, _ptr(out, "out")):
+            raise ValueError("synth_floor_render rejected its arguments")
+        return
+    out[...] = 0.0
+    for g, fr, off in grains:
+        lo, hi = max(g * half, n0), min(g * half + 2 * half, n0 + m)
+        if hi > lo:
+            t = np.arange(lo - g * half, hi - g * half)
+            out[lo - n0:hi - n0] += window[t][:, None] * frames[fr][(t + off) % n_l]
 
 
 def carrier_mix(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:
@@ -669,7 +750,8 @@ def phases_reference(phase0: int, dphase0: int, ddphase: int, m: int) -> np.ndar
 def segment_reference(phase0: int, dphase0: int, ddphase: int, warp, table_a: np.ndarray, table_b, xi0: float,
                       blend_scale: float, out: np.ndarray, acc=None, off=None, noise=None) -> None:
     """:func:`segment` in numpy, operation for operation (the same IEEE operations in the same order and precision);
-    the noise from :func:`noise_reference` (slow: for tests)."""
+    the noise's normals from the C generator (:func:`noise_fill`, tested against :func:`noise_reference`; the
+    latter without the kernel, slow)."""
     m, c, n, fb = _check_segment(warp, table_a, table_b, out, acc, off)
     if m == 0:
         return
@@ -701,10 +783,13 @@ def segment_reference(phase0: int, dphase0: int, ddphase: int, warp, table_a: np
         vb *= s[:, None]
         np.add(va, vb, out=out)
     if noise is not None:
-        key, n0, sigma = noise
-        z = noise_reference(key, n0, m, c).astype(dt)
-        z *= np.asarray(sigma, dtype=dt)[None, :]
-        out += z
+        key, n0, sigma, *extra = noise
+        if sigma is not None:
+            z = (noise_fill(key, n0, m, c) if AVAILABLE else noise_reference(key, n0, m, c)).astype(dt)
+            z *= np.asarray(sigma, dtype=dt)[None, :]
+            out += z
+        if extra and extra[0] is not None:
+            out += extra[0]
     if acc is not None:
         accumulate_reference(out, off, acc)
 
