@@ -158,6 +158,67 @@ static inline void carrier_cos_sin(uint64_t v, float *co, float *si)
 
 #define LINES_MAX_C 64
 
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+/* One family's block for 8 float32 channels with AVX2 + FMA: rows, weights and blend weights from prologue8_fma
+ * (the order path's, so a family's phase rounds as there), the table rows and the carrier mix in 256-bit vectors,
+ * added to the block accumulator blk. */
+static NOINLINE FMA_TARGET void lines_family8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd,
+                                                 const int64_t *w, int fb, uint64_t mask, double xi0,
+                                                 double blend_scale, const float *A, const float *B, int64_t NT,
+                                                 int car, const float *CQ, const float *SQ, float *blk)
+{
+    int32_t idx[BLOCK];
+    float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK];
+    const int blend = B != NULL;
+    if (w != NULL) {
+        if (blend) prologue8_fma(1, 1, nb, k0, u, d, dd, w, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+        else prologue8_fma(1, 0, nb, k0, u, d, dd, w, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+    } else {
+        if (blend) prologue8_fma(0, 1, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+        else prologue8_fma(0, 0, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+    }
+#define LINES_TAP(T, r, w0, w1, w2, w3)                                                                            \
+    _mm256_fmadd_ps(w3, _mm256_loadu_ps((T) + (r) + 24),                                                            \
+                    _mm256_fmadd_ps(w2, _mm256_loadu_ps((T) + (r) + 16),                                            \
+                                    _mm256_fmadd_ps(w1, _mm256_loadu_ps((T) + (r) + 8),                             \
+                                                    _mm256_mul_ps(w0, _mm256_loadu_ps((T) + (r))))))
+    for (int j = 0; j < nb; ++j) {
+        const int64_t r = (int64_t)idx[j] * 8;
+        const __m256 w0 = _mm256_broadcast_ss(W0 + j), w1 = _mm256_broadcast_ss(W1 + j);
+        const __m256 w2 = _mm256_broadcast_ss(W2 + j), w3 = _mm256_broadcast_ss(W3 + j);
+        __m256 v = LINES_TAP(A, r, w0, w1, w2, w3);
+        if (blend) {
+            const __m256 s = _mm256_broadcast_ss(sw + j);
+            v = _mm256_fmadd_ps(s, _mm256_sub_ps(LINES_TAP(B, r, w0, w1, w2, w3), v), v);
+        }
+        __m256 o = _mm256_loadu_ps(blk + 8 * j);
+        if (!car) {
+            _mm256_storeu_ps(blk + 8 * j, _mm256_add_ps(o, v));
+            continue;
+        }
+        __m256 g = LINES_TAP(A + NT, r, w0, w1, w2, w3);
+        if (blend) {
+            const __m256 s = _mm256_broadcast_ss(sw + j);
+            g = _mm256_fmadd_ps(s, _mm256_sub_ps(LINES_TAP(B + NT, r, w0, w1, w2, w3), g), g);
+        }
+        o = _mm256_fmadd_ps(_mm256_broadcast_ss(CQ + j), v, o);
+        o = _mm256_fnmadd_ps(_mm256_broadcast_ss(SQ + j), g, o);
+        _mm256_storeu_ps(blk + 8 * j, o);
+    }
+#undef LINES_TAP
+}
+#define HAVE_LINES8 HAVE_FMA_PATH
+#else
+#define HAVE_LINES8 0
+static void lines_family8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd, const int64_t *w, int fb,
+                              uint64_t mask, double xi0, double blend_scale, const float *A, const float *B,
+                              int64_t NT, int car, const float *CQ, const float *SQ, float *blk)
+{
+    (void)nb, (void)k0, (void)u, (void)d, (void)dd, (void)w, (void)fb, (void)mask, (void)xi0, (void)blend_scale;
+    (void)A, (void)B, (void)NT, (void)car, (void)CQ, (void)SQ, (void)blk;
+}
+#endif
+
 static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
                                     const int64_t *carrier, const int64_t *off_t, const float *ta, const float *tb,
                                     const int64_t *warp, const int64_t *wp, const int64_t *wq, const float *dc,
@@ -178,10 +239,15 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
     for (int64_t k0 = 0, nbl; k0 < m; k0 += nbl) {
         nbl = block_length(noise, m - k0, noise ? na->n0 + k0 : 0);
         const int nb = (int)nbl;
-        for (int j = 0; j < nb; ++j)
-            for (int c = 0; c < C; ++c) blk[(int64_t)j * C + c] = dc[c];
+        if (C == 8)                                                   /* (a constant row length vectorises) */
+            for (int j = 0; j < nb; ++j)
+                for (int c = 0; c < 8; ++c) blk[8 * j + c] = dc[c];
+        else
+            for (int j = 0; j < nb; ++j)
+                for (int c = 0; c < C; ++c) blk[(int64_t)j * C + c] = dc[c];
         const int blend = tb != NULL;
-        if (blend) {
+        const int fast = C == 8 && isa_cap >= 1 && HAVE_LINES8;
+        if (blend && !fast) {
             float *restrict swp = sw;
             for (int j = 0; j < nb; ++j) swp[j] = (float)blend_weight(((double)(k0 + j) + xi0) * blend_scale);
         }
@@ -189,10 +255,12 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             const int fb = 62 - (int)lg[f];
             const uint64_t mask = ((uint64_t)1 << lg[f]) - 1;
             const int64_t *w = wp[f] >= 0 ? warp + wp[f] * m + k0 : NULL;
-            if (w) phase_block(1, nb, &st[f][0], &st[f][1], phases[6 * f + 2], w, fb, mask, idx, frac);
-            else phase_block(0, nb, &st[f][0], &st[f][1], phases[6 * f + 2], NULL, fb, mask, idx, frac);
-            WEIGHT_BLOCK(float)
             const int car = (int)carrier[f];
+            if (!fast) {
+                if (w) phase_block(1, nb, &st[f][0], &st[f][1], phases[6 * f + 2], w, fb, mask, idx, frac);
+                else phase_block(0, nb, &st[f][0], &st[f][1], phases[6 * f + 2], NULL, fb, mask, idx, frac);
+                WEIGHT_BLOCK(float)
+            }
             if (car) {
                 uint64_t u = st[f][2], d = st[f][3];
                 const uint64_t dd = phases[6 * f + 5];
@@ -205,7 +273,10 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             }
             const int64_t NT = ((int64_t)1 << lg[f]) * C + 3 * C;        /* floats of one table */
             const float *A = ta + off_t[f], *B = blend ? tb + off_t[f] : NULL;
-            if (C == 8) LINES_ROWS(8);
+            if (fast)
+                lines_family8_fma(nb, k0, &st[f][0], &st[f][1], phases[6 * f + 2], w, fb, mask, xi0, blend_scale, A,
+                                  B, NT, car, CQ, SQ, blk);
+            else if (C == 8) LINES_ROWS(8);
             else LINES_ROWS(C);
         }
         if (noise) noise_add_block_f32((int)C, nb, na, na->n0 + k0, blk,

@@ -951,7 +951,7 @@ int synth_noise_fill(uint64_t key, int64_t n0, int64_t n, int64_t C, int avx2, f
  * each a circular window into one of the precomputed shaped-noise frames (L x C float32 each, in frames),
  * weighted by the sine window w(t) = sin(pi t / 2 S) (win: 2 S values), so that the two grains over any sample have
  * w^2 + w^2 = 1. G grains given as (g, frame index, offset) in grains[3 G]. out: m x C float32, written. */
-int synth_floor_render(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const float *frames,
+CLONES int synth_floor_render(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const float *frames,
                        const float *win, int64_t G, const int64_t *grains, float *out)
 {
     if (m < 0 || C < 1 || S < 1 || L < 2 * S / 2 || G < 0) return -1;
@@ -960,12 +960,18 @@ int synth_floor_render(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, c
         const int64_t g = grains[3 * q], fr = grains[3 * q + 1], off = grains[3 * q + 2];
         const float *F = frames + fr * L * C;
         int64_t lo = g * S > n0 ? g * S : n0, hi = g * S + 2 * S < n0 + m ? g * S + 2 * S : n0 + m;
-        for (int64_t n = lo; n < hi; ++n) {
-            const int64_t t = n - g * S;
-            const float w = win[t];
-            const float *src = F + ((t + off) % L) * C;
-            float *o = out + (n - n0) * C;
-            for (int64_t c = 0; c < C; ++c) o[c] += w * src[c];
+        while (lo < hi) {                                  /* runs that do not wrap around the frame */
+            const int64_t t0 = lo - g * S, src0 = (t0 + off) % L;
+            const int64_t run = hi - lo < L - src0 ? hi - lo : L - src0;
+            const float *restrict src = F + src0 * C, *restrict w = win + t0;
+            float *restrict o = out + (lo - n0) * C;
+            if (C == 8)
+                for (int64_t i = 0; i < run; ++i)
+                    for (int c = 0; c < 8; ++c) o[8 * i + c] += w[i] * src[8 * i + c];
+            else
+                for (int64_t i = 0; i < run; ++i)
+                    for (int64_t c = 0; c < C; ++c) o[i * C + c] += w[i] * src[i * C + c];
+            lo += run;
         }
     }
     return 0;

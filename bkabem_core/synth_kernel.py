@@ -523,13 +523,15 @@ def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, wa
     C = out.shape[1]
     key, n0, sigma, *extra = noise if noise is not None else (0, 0, None)
     extra = extra[0] if extra else None
-    if _FNS["lines_segment"](int(m), C, plan["F"], phases.ctypes.data, plan["lg"].ctypes.data,
-                             plan["carrier"].ctypes.data, plan["off_t"].ctypes.data, _ptr(ta, "ta"),
-                             0 if tb is None else _ptr(tb, "tb"), 0 if warp is None else warp.ctypes.data,
-                             wp.ctypes.data, wq.ctypes.data, dc.ctypes.data, float(xi0), float(blend_scale),
+    fixed = plan.get("_addresses")
+    if fixed is None:                               # the plan's arrays do not change: their addresses once
+        fixed = plan["_addresses"] = tuple(plan[k].ctypes.data for k in ("lg", "carrier", "off_t"))
+    if _FNS["lines_segment"](int(m), C, plan["F"], _ptr(phases, "phases"), *fixed, _ptr(ta, "ta"),
+                             0 if tb is None else _ptr(tb, "tb"), 0 if warp is None else _ptr(warp, "warp"),
+                             _ptr(wp, "wp"), _ptr(wq, "wq"), _ptr(dc, "dc"), float(xi0), float(blend_scale),
                              _ptr(out, "out"), 0 if acc is None else _ptr(acc, "acc"),
-                             0 if off is None else off.ctypes.data, int(key) & _MASK64, int(n0),
-                             0 if sigma is None else sigma.ctypes.data, 0 if extra is None else extra.ctypes.data):
+                             0 if off is None else _ptr(off, "off"), int(key) & _MASK64, int(n0),
+                             0 if sigma is None else _ptr(sigma, "sigma"), 0 if extra is None else _ptr(extra, "extra")):
         raise ValueError("synth_lines_segment rejected its arguments")
 
 
