@@ -23,6 +23,34 @@
 #ifndef BKABEM_SYNTHLINES_H
 #define BKABEM_SYNTHLINES_H
 
+/* The broadband floor (synth_floor.py) of m samples from absolute sample n0 into out (m x C, written): grains q of G
+ * (grain g, frame, offset: samples [g S, g S + 2 S) read frame `frame` from `offset` under the sine window win),
+ * frames F x L x C. Each sample is 0 + w_1 f_1 + w_2 f_2 in the grains' order (synth_floor_render, the per-block
+ * render of the line-set kernel and the numpy fallback round alike). */
+static CLONES void floor_block_f32(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const float *frames,
+                                   const float *win, int64_t G, const int64_t *grains, float *out)
+{
+    memset(out, 0, sizeof(float) * (size_t)(m * C));
+    for (int64_t q = 0; q < G; ++q) {
+        const int64_t g = grains[3 * q], fr = grains[3 * q + 1], off = grains[3 * q + 2];
+        const float *F = frames + fr * L * C;
+        int64_t lo = g * S > n0 ? g * S : n0, hi = g * S + 2 * S < n0 + m ? g * S + 2 * S : n0 + m;
+        while (lo < hi) {                                  /* runs that do not wrap around the frame */
+            const int64_t t0 = lo - g * S, src0 = (t0 + off) % L;
+            const int64_t run = hi - lo < L - src0 ? hi - lo : L - src0;
+            const float *restrict src = F + src0 * C, *restrict w = win + t0;
+            float *restrict o = out + (lo - n0) * C;
+            if (C == 8)
+                for (int64_t i = 0; i < run; ++i)
+                    for (int c = 0; c < 8; ++c) o[8 * i + c] += w[i] * src[8 * i + c];
+            else
+                for (int64_t i = 0; i < run; ++i)
+                    for (int64_t c = 0; c < C; ++c) o[i * C + c] += w[i] * src[i * C + c];
+            lo += run;
+        }
+    }
+}
+
 /* In-place inverse FFT (sign +, unscaled) of x (N x C complex as re/im pairs, row-major: x[2 (n C + c)] = Re),
  * N a power of 2, tw[2 j] = cos(2 pi j / N), tw[2 j + 1] = sin(2 pi j / N), j < N / 2. */
 static CLONES void ifft_channels(int64_t N, int64_t C, double *restrict x, const double *restrict tw)
@@ -227,7 +255,7 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
 {
     int32_t idx[BLOCK], frac[BLOCK];
     float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK], CQ[BLOCK], SQ[BLOCK];
-    float blk[BLOCK * LINES_MAX_C];
+    float blk[BLOCK * LINES_MAX_C], flr[BLOCK * LINES_MAX_C];
     uint64_t st[64][4];                                  /* per family: phase, increment of family and carrier */
     if (F > 64 || C > LINES_MAX_C || C < 1) return -1;
     for (int64_t f = 0; f < F; ++f) {
@@ -279,8 +307,15 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             else if (C == 8) LINES_ROWS(8);
             else LINES_ROWS(C);
         }
-        if (noise) noise_add_block_f32((int)C, nb, na, na->n0 + k0, blk,
-                                       na->extra != NULL ? (const float *)na->extra + k0 * C : NULL);
+        if (noise) {
+            const float *extra = na->extra != NULL ? (const float *)na->extra + k0 * C : NULL;
+            if (na->frames != NULL) {                     /* the floor of this block, rendered while in L1 */
+                floor_block_f32(nbl, C, na->n0 + k0, na->half, na->frame_length, na->frames, na->win, na->n_grains,
+                                na->grains, flr);
+                extra = flr;
+            }
+            noise_add_block_f32((int)C, nb, na, na->n0 + k0, blk, extra);
+        }
         memcpy(out + k0 * C, blk, sizeof(float) * (size_t)(nb * C));
         if (acc != NULL) moments_f32((int)C, nb, out + k0 * C, off, acc);
     }
@@ -291,12 +326,18 @@ int synth_lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *pha
                             const int64_t *carrier, const int64_t *off_t, const float *ta, const float *tb,
                             const int64_t *warp, const int64_t *wp, const int64_t *wq, const float *dc, double xi0,
                             double blend_scale, float *out, double *acc, const double *off, uint64_t noise_key,
-                            int64_t noise_n0, const float *sigma, const float *extra)
+                            int64_t noise_n0, const float *sigma, const float *extra, const float *frames,
+                            const float *win, int64_t n_grains, const int64_t *grains, int64_t half,
+                            int64_t frame_length)
 {
-    if (m < 0 || (acc != NULL && off == NULL)) return -1;
-    NoiseArgs na = {noise_key, noise_n0, sigma, NULL, extra};
+    if (m < 0 || (acc != NULL && off == NULL) || F < 0 || F > 64) return -1;
+    for (int64_t f = 0; f < F; ++f)                      /* a slip row needs the offsets (else: out of bounds) */
+        if (warp == NULL && (wp[f] >= 0 || wq[f] >= 0)) return -1;
+    if (frames != NULL && (extra != NULL || win == NULL || grains == NULL || n_grains < 0 || half < 1
+                           || frame_length < 2 * half)) return -1;
+    NoiseArgs na = {noise_key, noise_n0, sigma, NULL, extra, frames, win, grains, n_grains, half, frame_length};
     return lines_segment_f32(m, C, F, phases, lg, carrier, off_t, ta, tb, warp, wp, wq, dc, xi0, blend_scale, out,
-                             acc, off, sigma != NULL || extra != NULL ? &na : NULL);
+                             acc, off, sigma != NULL || extra != NULL || frames != NULL ? &na : NULL);
 }
 
 #endif

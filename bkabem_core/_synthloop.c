@@ -305,6 +305,10 @@ typedef struct {
     const double *sigma_d;
     const void *extra;            /* optional m x C block (out's dtype) added too, row 0 = the call's sample 0: the
                                    * broadband floor (synth_floor.py) */
+    const float *frames;          /* or (float32, the line-set kernel) the floor itself, rendered per block from its */
+    const float *win;             /* frames (F x L x C), sine window (2 S) and grains (G x 3: grain, frame, offset), */
+    const int64_t *grains;        /* as synth_floor_render: no m x C buffer written and read back */
+    int64_t n_grains, half, frame_length;
 } NoiseArgs;
 
 /* Samples of the next block: up to BLOCK, and with noise up to the next absolute multiple of BLOCK. */
@@ -730,7 +734,8 @@ CLONES int synth_noise_add_##SUF(int64_t n, int64_t C, T *x, uint64_t key, int64
                                  const T *extra, const double *off, double *acc)                                    \
 {                                                                                                                   \
     if (n < 0 || C < 1 || C > NOISE_MAX_C || (acc != NULL && off == NULL)) return -1;                              \
-    NoiseArgs na = {key, n0, (const float *)(const void *)sigma, (const double *)(const void *)sigma, extra};      \
+    NoiseArgs na = {key, n0, (const float *)(const void *)sigma, (const double *)(const void *)sigma, extra,\
+                   NULL, NULL, NULL, 0, 0, 0};      \
     for (int64_t k0 = 0, nb; k0 < n; k0 += nb) {                                                                    \
         nb = block_length(1, n - k0, n0 + k0);                                                                      \
         noise_add_block_##SUF((int)C, (int)nb, &na, n0 + k0, x + k0 * C, extra != NULL ? extra + k0 * C : NULL);   \
@@ -955,25 +960,7 @@ CLONES int synth_floor_render(int64_t m, int64_t C, int64_t n0, int64_t S, int64
                        const float *win, int64_t G, const int64_t *grains, float *out)
 {
     if (m < 0 || C < 1 || S < 1 || L < 2 * S / 2 || G < 0) return -1;
-    memset(out, 0, sizeof(float) * (size_t)(m * C));
-    for (int64_t q = 0; q < G; ++q) {
-        const int64_t g = grains[3 * q], fr = grains[3 * q + 1], off = grains[3 * q + 2];
-        const float *F = frames + fr * L * C;
-        int64_t lo = g * S > n0 ? g * S : n0, hi = g * S + 2 * S < n0 + m ? g * S + 2 * S : n0 + m;
-        while (lo < hi) {                                  /* runs that do not wrap around the frame */
-            const int64_t t0 = lo - g * S, src0 = (t0 + off) % L;
-            const int64_t run = hi - lo < L - src0 ? hi - lo : L - src0;
-            const float *restrict src = F + src0 * C, *restrict w = win + t0;
-            float *restrict o = out + (lo - n0) * C;
-            if (C == 8)
-                for (int64_t i = 0; i < run; ++i)
-                    for (int c = 0; c < 8; ++c) o[8 * i + c] += w[i] * src[8 * i + c];
-            else
-                for (int64_t i = 0; i < run; ++i)
-                    for (int64_t c = 0; c < C; ++c) o[i * C + c] += w[i] * src[i * C + c];
-            lo += run;
-        }
-    }
+    floor_block_f32(m, C, n0, S, L, frames, win, G, grains, out);
     return 0;
 }
 
@@ -1373,7 +1360,7 @@ static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t na
     if (exact < 0) return NULL;
     Buf bo = {0}, ba = {0}, bb = {0}, bw = {0}, bacc = {0}, boff = {0}, bsig = {0}, bx = {0};
     PyObject *res = NULL;
-    NoiseArgs noise = {0, 0, NULL, NULL, NULL};
+    NoiseArgs noise = {0, 0, NULL, NULL, NULL, NULL, NULL, NULL, 0, 0, 0};
     const int noisy = nargs == 16 && (args[14] != Py_None || args[15] != Py_None);
     if (noisy) {
         noise.key = (uint64_t)PyLong_AsUnsignedLongLongMask(args[12]);

@@ -703,8 +703,11 @@ class Synthesizer(LineSetPath):
             acc = synth_kernel.new_acc(len(self.channels))
         segments = list(self._segments(n0, n)) if not (len(ks) == 2 and ks[1].x >= n0 + n) else \
             [(ks[0], ks[1], n0, n0 + n)]
-        floor = self._floor_block(n0, n)
-        fused = self._noise_fused or (floor is not None and synth_kernel.AVAILABLE)
+        floor_on = self.floor_density > 0
+        # the C line-set kernel renders the floor per block itself (lazy); any other path adds the chunk's floor
+        lazy = floor_on and self._general and self._lines_fused
+        floor = self._floor_block(n0, n) if floor_on and not lazy else None
+        fused = self._noise_fused or (floor_on and synth_kernel.AVAILABLE)
         late = not fused and (self._noise_on or floor is not None)   # numpy: added, moments taken, at the end
         seg_acc = None if late else acc
         for a, b, lo, hi in segments:
@@ -712,7 +715,10 @@ class Synthesizer(LineSetPath):
             noise = None
             if fused:
                 noise = self._segment_noise(a, b, lo) if self._noise_on else (self._noise_key, lo, None)
-                noise = noise + (None if floor is None else self._floor_faded(floor[lo - n0:hi - n0], a, b, lo),)
+                if lazy:
+                    noise = noise + (self._floor_part(a, b, lo, hi),)
+                else:
+                    noise = noise + (None if floor is None else self._floor_faded(floor[lo - n0:hi - n0], a, b, lo),)
             if a.amp.families is None and b.amp.families is None:
                 self._segment(a, b, lo, hi, dest, seg_acc, noise)  # noise and features inside the sample loop
                 continue
@@ -749,6 +755,15 @@ class Synthesizer(LineSetPath):
             return None
         x = self._floor_source().render(n0, n)
         return x if self.dtype == np.float32 else x.astype(self.dtype)
+
+    def _floor_part(self, a: _Knot, b: _Knot, lo: int, hi: int):
+        """The floor of samples [lo, hi) of the segment a-b for the line-set kernel: its source (rendered inside the
+        pass) where the segment is one line set at full level, else the samples, faded (:meth:`_floor_faded`)."""
+        fl = self._floor_source()
+        if a.amp.fade == 1.0 and b.amp.fade == 1.0 and a.amp.families is b.amp.families \
+                and a.amp.fbuf is not None:
+            return fl.source(lo, hi - lo)
+        return self._floor_faded(fl.render(lo, hi - lo), a, b, lo)
 
     def _floor_faded(self, x: np.ndarray, a: _Knot, b: _Knot, lo: int) -> np.ndarray:
         """The floor under the low-speed fade of the lines (no rolling, no roughness excitation at standstill):

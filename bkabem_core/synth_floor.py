@@ -132,19 +132,31 @@ class BroadbandFloor:
         self.window = np.sin(np.pi * t / (2 * self.half)).astype(np.float32)
         self._key = _mix64(self.seed ^ _TAG)
         self._buf = np.empty((0, c), dtype=np.float32)
+        self._rows: dict = {}
 
     def psd(self) -> np.ndarray:
         """(F, C) one-sided PSD of the floor at :attr:`frequency_hz` [channel unit^2 / Hz]."""
         return self.density ** 2 * np.sum(np.abs(self.transfer) ** 2, axis=2)
 
+    def _grain(self, g: int) -> tuple:
+        """(grain, frame, offset) of grain g (remembered: a grain spans ~3 chunks)."""
+        row = self._rows.get(g)
+        if row is None:
+            h = _mix64((self._key + (g & _MASK) * 0x9E3779B97F4A7C15) & _MASK)
+            row = self._rows[g] = (g, 2 * (g & 1) + (h & 1), (h >> 1) % self.frame_length)
+            if len(self._rows) > 64:
+                del self._rows[next(iter(self._rows))]
+        return row
+
     def grains(self, n0: int, n: int) -> np.ndarray:
         """(G, 3) int64 (grain, frame, offset) of the grains over samples [n0, n0 + n)."""
         s = self.half
-        rows = []
-        for g in range(n0 // s - 1, (n0 + n - 1) // s + 1):
-            h = _mix64((self._key + (g & _MASK) * 0x9E3779B97F4A7C15) & _MASK)
-            rows.append((g, 2 * (g & 1) + (h & 1), (h >> 1) % self.frame_length))
-        return np.array(rows, dtype=np.int64)
+        return np.array([self._grain(g) for g in range(n0 // s - 1, (n0 + n - 1) // s + 1)], dtype=np.int64)
+
+    def source(self, n0: int, n: int) -> tuple:
+        """What the line-set kernel needs to render samples [n0, n0 + n) itself (``synth_kernel.lines_segment``):
+        (frames, window, grains, half)."""
+        return self.frames, self.window, self.grains(n0, n), self.half
 
     def render(self, n0: int, n: int) -> np.ndarray:
         """(n, C) float32 floor at absolute samples n0 .. n0 + n - 1 (a view of a buffer reused by the next call)."""

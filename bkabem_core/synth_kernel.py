@@ -177,7 +177,7 @@ def _load():
     fns["family_tables"] = ft
     ls = lib.synth_lines_segment_f32
     ls.argtypes = [i64, i64, i64] + [ptr] * 10 + [ctypes.c_double, ctypes.c_double, ptr, ptr, ptr,
-                                                  ctypes.c_uint64, i64, ptr, ptr]
+                                                  ctypes.c_uint64, i64, ptr, ptr, ptr, ptr, i64, ptr, i64, i64]
     fr = lib.synth_floor_render
     fr.argtypes = [i64, i64, i64, i64, i64, ptr, ptr, i64, ptr, ptr]
     fr.restype = ctypes.c_int
@@ -505,10 +505,12 @@ def family_tables(y: np.ndarray, plan: dict, table: np.ndarray, work: np.ndarray
     L, C = y.shape
     y = np.ascontiguousarray(y, dtype=np.complex128)
     pl = plan
-    if _FNS["family_tables"](pl["F"], C, L, y.ctypes.data, pl["n_lines"].ctypes.data, pl["line"].ctypes.data,
-                             pl["slot"].ctypes.data, pl["factor"].ctypes.data, pl["N"].ctypes.data,
-                             pl["tw"].ctypes.data, pl["tw_off"].ctypes.data, pl["carrier"].ctypes.data,
-                             _ptr(table, "table"), pl["out_off"].ctypes.data, _ptr(work, "work")):
+    fixed = pl.get("_table_addresses")
+    if fixed is None:                               # the plan's arrays do not change: their addresses once
+        fixed = pl["_table_addresses"] = tuple(pl[k].ctypes.data for k in ("n_lines", "line", "slot", "factor",
+                                                                            "N", "tw", "tw_off", "carrier"))
+    if _FNS["family_tables"](pl["F"], C, L, _ptr(y, "y"), *fixed, _ptr(table, "table"), pl["out_off"].ctypes.data,
+                             _ptr(work, "work")):
         raise ValueError("synth_family_tables rejected its arguments")
 
 
@@ -519,10 +521,19 @@ def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, wa
     (F, 6) uint64 (family phase0, dphase0, ddphase, then the carrier's), tables ``ta``/``tb`` (knot a, b; tb None:
     no blend) laid out by ``plan``, ``warp`` (K, m) int64 slip offsets (or None) with the row of each family's
     phase ``wp`` and carrier ``wq`` (-1: none), ``dc`` (C,) float32 static part, ``out`` (m, C) written; ``acc``/
-    ``off`` the features, ``noise`` (key, n0, sigma float32) as :func:`segment`."""
+    ``off`` the features, ``noise`` (key, n0, sigma float32[, extra]) as :func:`segment`; ``extra`` an (m, C)
+    float32 block added with the noise, or the broadband floor itself as :meth:`synth_floor.BroadbandFloor.source`
+    ``(frames, window, grains, half)``, rendered per block inside the pass (the same samples as
+    :func:`floor_render`, without the chunk-sized buffer)."""
     C = out.shape[1]
     key, n0, sigma, *extra = noise if noise is not None else (0, 0, None)
     extra = extra[0] if extra else None
+    floor = (0, 0, 0, 0, 1, 2)
+    if isinstance(extra, tuple):
+        frames, window, grains, half = extra
+        floor = (_ptr(frames, "frames"), _ptr(window, "window"), len(grains), _ptr(grains, "grains"), int(half),
+                 frames.shape[1])
+        extra = None
     fixed = plan.get("_addresses")
     if fixed is None:                               # the plan's arrays do not change: their addresses once
         fixed = plan["_addresses"] = tuple(plan[k].ctypes.data for k in ("lg", "carrier", "off_t"))
@@ -531,7 +542,8 @@ def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, wa
                              _ptr(wp, "wp"), _ptr(wq, "wq"), _ptr(dc, "dc"), float(xi0), float(blend_scale),
                              _ptr(out, "out"), 0 if acc is None else _ptr(acc, "acc"),
                              0 if off is None else _ptr(off, "off"), int(key) & _MASK64, int(n0),
-                             0 if sigma is None else _ptr(sigma, "sigma"), 0 if extra is None else _ptr(extra, "extra")):
+                             0 if sigma is None else _ptr(sigma, "sigma"), 0 if extra is None else _ptr(extra, "extra"),
+                             *floor):
         raise ValueError("synth_lines_segment rejected its arguments")
 
 

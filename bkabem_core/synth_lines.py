@@ -360,6 +360,7 @@ class _Amplitudes:
     families: object | None = None      # ... and the LineFamilies they belong to (None: an order set)
     fbuf: np.ndarray | None = None      # ... or all of them in one float32 buffer (the C line-set kernels)
     dc: np.ndarray | None = None        # ... and the static part per channel (an order set has it in its table)
+    dc32: np.ndarray | None = None      # ... the same as float32 (the C line-set kernel's argument)
     _y: np.ndarray | None = None
     _rms: np.ndarray | None = None
 
@@ -453,6 +454,7 @@ class LineSetPath:
         dc8 = np.asarray(model.dc_m).reshape(-1)
         self._dc = (comb @ dc8)[index] * (power == 0)
         self._dc_off = np.ascontiguousarray(self._dc, dtype=np.float64)
+        self._dc32 = np.ascontiguousarray(self._dc, dtype=np.float32)
         self._chan_power = power.astype(float)
         self._power_index = power.astype(np.int64)
         self._chan_scale = scale.astype(float)
@@ -516,7 +518,8 @@ class LineSetPath:
             buf = np.empty(fam.plan["rows"] * y.shape[1], dtype=np.float32)
             synth_kernel.family_tables(y, fam.plan, buf, self._lines_work)
             return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=np.ones(y.shape[0]),
-                               table=None, ftables=None, families=fam, dc=self._dc.copy(), fbuf=buf)
+                               table=None, ftables=None, families=fam, dc=self._dc.copy(), fbuf=buf,
+                               dc32=self._dc32)
         tables = self._families.tables(y, self.dtype)
         return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=np.ones(y.shape[0]),
                            table=None, ftables=tables, families=self._families, dc=self._dc.copy())
@@ -534,18 +537,15 @@ class LineSetPath:
         dd = round(2.0 * c2 * PASS)
         return round(t0 * PASS) + j * d0 + dd * (j * (j - 1) // 2), d0 + j * dd, dd
 
-    def _segment_lines_fused(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc, noise) -> None:
-        """:meth:`_segment_lines` by the C line-set kernel: every family (its phase and carrier in exact fixed
-        point, their slip offsets) in one pass, the static part, the noise and the features of the block fused."""
-        m = hi - lo
-        fs, bpfo = self.sample_rate_hz, self.bpfo_per_hz
-        j = lo - a.x
-        ua = a.u_int + a.u_frac
-        fams = a.amp.families
-        n_f = len(fams)
-        ph = np.empty((n_f, 6), dtype=np.uint64)
-        wp = np.full(n_f, -1, dtype=np.int64)
-        wq = np.full(n_f, -1, dtype=np.int64)
+    def _fused_plan(self, fams: "LineFamilies") -> dict:
+        """What :meth:`_segment_lines_fused` needs of the families, made once per line set and slip setting: per
+        phase (each family's, then its carrier's) the constants of :meth:`_phase_args` (rate / BPFO, fixed, rate,
+        rate / 2), and the slip-offset row of each family's phase and carrier (-1: none) over the distinct slip
+        factors ``kappas``."""
+        key = (id(fams), self._slip_walk is not None)
+        cached = self._scratch.get("fused")
+        if cached is not None and cached["key"] == key:
+            return cached
         walk = self._slip_walk
         kappas: list = []
 
@@ -556,24 +556,56 @@ class LineSetPath:
                 kappas.append(kappa)
             return kappas.index(kappa)
 
+        ff = fams.families
+        bpfo = self.bpfo_per_hz
+        phases = []
+        for f in ff:
+            phases.append((f.rate_p / bpfo, f.fixed_p, f.rate_p, 0.5 * f.rate_p))
+            phases.append((f.rate_q / bpfo, f.fixed_q, f.rate_q, 0.5 * f.rate_q) if f.carrier else None)
+        wp = np.array([row(f.kappa_p) for f in ff], dtype=np.int64)
+        wq = np.array([row(f.kappa_q) if f.carrier else -1 for f in ff], dtype=np.int64)
+        plan = {"key": key, "kappas": tuple(kappas), "phases": phases, "wp": wp, "wq": wq}
+        self._scratch["fused"] = plan
+        return plan
+
+    def _segment_lines_fused(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc, noise) -> None:
+        """:meth:`_segment_lines` by the C line-set kernel: every family (its phase and carrier in exact fixed
+        point, their slip offsets) in one pass, the static part, the noise and the features of the block fused.
+        The phases are :meth:`_phase_args` inlined with its constants from :meth:`_fused_plan` (the same floating
+        operations in the same order: the same integers)."""
+        m = hi - lo
+        fs, bpfo = self.sample_rate_hz, self.bpfo_per_hz
+        j = lo - a.x
+        ua = a.u_int + a.u_frac
+        fams = a.amp.families
+        plan = self._fused_plan(fams)
+        length = b.x - a.x
+        af, dfa, fsl, xs = a.f, b.f - a.f, fs * length, a.x / fs
+        jj = j * (j - 1) // 2
         mask = (1 << 64) - 1
-        for fi, fam in enumerate(fams.families):
-            p = self._phase_args(fam.rate_p, fam.fixed_p, ua, a, b, j, fs, bpfo)
-            q = self._phase_args(fam.rate_q, fam.fixed_q, ua, a, b, j, fs, bpfo) if fam.carrier else (0, 0, 0)
-            ph[fi] = [v & mask for v in p + q]
-            wp[fi] = row(fam.kappa_p)
-            if fam.carrier:
-                wq[fi] = row(fam.kappa_q)
+        vals = []
+        for ph in plan["phases"]:
+            if ph is None:
+                vals += (0, 0, 0)
+                continue
+            r_b, fixed, rate, half = ph
+            t = r_b * ua + fixed * xs
+            t0 = t - math.floor(t)
+            c1 = (rate * af + fixed) / fs
+            c2 = half * dfa / fsl
+            d0 = round((c1 + c2) * PASS)
+            dd = round(2.0 * c2 * PASS)
+            vals += ((round(t0 * PASS) + j * d0 + dd * jj) & mask, (d0 + j * dd) & mask, dd & mask)
+        ph = np.array(vals, dtype=np.uint64)
         warp = None
-        if kappas:
-            length = b.x - a.x
+        if plan["kappas"]:
             c1u = bpfo / fs * a.f
             c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
-            warp = np.ascontiguousarray(walk.warp_fixed(a.u_int, j, m, c1u, c2u, a.u_frac, kappas))
+            warp = np.ascontiguousarray(self._slip_walk.warp_fixed(a.u_int, j, m, c1u, c2u, a.u_frac,
+                                                                   plan["kappas"]))
         tb = None if b.amp is a.amp else b.amp.fbuf
-        synth_kernel.lines_segment(m, ph, fams.plan, a.amp.fbuf, tb, warp, wp, wq,
-                                   np.ascontiguousarray(a.amp.dc, dtype=np.float32), float(j), 65536.0 / (b.x - a.x),
-                                   out, acc, self._dc_off, noise)
+        synth_kernel.lines_segment(m, ph, fams.plan, a.amp.fbuf, tb, warp, plan["wp"], plan["wq"],
+                                   a.amp.dc32, float(j), 65536.0 / length, out, acc, self._dc_off, noise)
 
     def _segment_lines(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc=None, noise=None) -> bool:
         """Samples [lo, hi) between knots a and b of any line set: every family's table(s) through the sample loop
@@ -653,8 +685,10 @@ class LineSetPath:
             a = b
 
         def vel(amp):
-            w = TWO_PI * (self._nu * amp.f + self._mu)
-            return amp.x[:, self._iso_rows] * (1j * w * 1e3 * amp.weights)[:, None]
+            if amp.v_iso is None:                                   # once per knot speed
+                w = TWO_PI * (self._nu * amp.f + self._mu)
+                amp.v_iso = amp.x[:, self._iso_rows] * (1j * w * 1e3 * amp.weights)[:, None]
+            return amp.v_iso
 
         va, vb = vel(a.amp), vel(b.amp)
         if va.shape != vb.shape:
