@@ -44,7 +44,6 @@ import bisect
 import math
 import sys
 from collections import OrderedDict
-from dataclasses import dataclass, field
 from typing import Iterator
 
 import numpy as np
@@ -56,7 +55,8 @@ from .synth_features import _FOLD, Chunk, _moment_features, waveform_features  #
 from .synth_lines import (ISO_BAND_HZ, BEARINGS, DEFAULT_QUANTITIES, QUANTITIES, Channel, ExactSpectrum,  # noqa: F401
                           LineSetPath, ModalSpectrum, _Amplitudes, _combination, _Knot, make_channels)
 from .synth_profile import SpeedProfile, SynthError, _finite, parse_profile  # noqa: F401  (re-exported)
-from .synth_random import _NoiseBlocks, _SlipWalk, noise_key  # noqa: F401
+from .synth_floor import FloorPath
+from .synth_random import NoisePath, _NoiseBlocks, _SlipWalk, noise_key  # noqa: F401
 
 
 MAX_SAMPLE_RATE_HZ = 1.0e6
@@ -65,7 +65,7 @@ _PASS = float(synth_kernel.PASS_UNITS)   # fixed-point units of one ball pass (2
 
 
 # =========================================================================== the synthesiser
-class Synthesizer(LineSetPath):
+class Synthesizer(LineSetPath, FloorPath, NoisePath):
     """Speed-driven, phase-continuous sensor signals of one case, chunk by chunk.
 
     Parameters
@@ -739,50 +739,6 @@ class Synthesizer(LineSetPath):
                 self._accumulate(out, self._dc_off, acc)
         return self._make_chunk(n0, n, out, acc)
 
-    # ------------------------------------------------------------------ broadband floor
-    def _floor_source(self):
-        """The :class:`~bkabem_core.synth_floor.BroadbandFloor` of this synthesiser (made when first needed)."""
-        if self._floor is None:
-            from .synth_floor import BroadbandFloor
-            self._floor = BroadbandFloor(self._model, self.floor_density, self._comb, self._cindex, self._power,
-                                         self._scale, self._housing_cols, self.sample_rate_hz, self.seed,
-                                         self.accelerometer, self.anti_alias)
-        return self._floor
-
-    def _floor_block(self, n0: int, n: int):
-        """The floor of samples [n0, n0 + n) in the samples' dtype, or None (off)."""
-        if self.floor_density <= 0:
-            return None
-        x = self._floor_source().render(n0, n)
-        return x if self.dtype == np.float32 else x.astype(self.dtype)
-
-    def _floor_part(self, a: _Knot, b: _Knot, lo: int, hi: int):
-        """The floor of samples [lo, hi) of the segment a-b for the line-set kernel: its source (rendered inside the
-        pass) where the segment is one line set at full level, else the samples, faded (:meth:`_floor_faded`)."""
-        fl = self._floor_source()
-        if a.amp.fade == 1.0 and b.amp.fade == 1.0 and a.amp.families is b.amp.families \
-                and a.amp.fbuf is not None:
-            return fl.source(lo, hi - lo)
-        return self._floor_faded(fl.render(lo, hi - lo), a, b, lo)
-
-    def _floor_faded(self, x: np.ndarray, a: _Knot, b: _Knot, lo: int) -> np.ndarray:
-        """The floor under the low-speed fade of the lines (no rolling, no roughness excitation at standstill):
-        linear in time from knot a's fade to knot b's, as the lines' amplitudes."""
-        fa, fb = a.amp.fade, b.amp.fade
-        if fa == 1.0 and fb == 1.0:
-            return x
-        s = (np.arange(lo, lo + x.shape[0]) - a.x) / max(b.x - a.x, 1)
-        return np.ascontiguousarray(x * (fa + (fb - fa) * s)[:, None], dtype=x.dtype)
-
-    def _segment_noise(self, a: _Knot, b: _Knot, lo: int):
-        """(key, first sample, sigma per channel in the samples' dtype) of the noise of a segment starting at
-        sample lo: the density's sigma, or with ``snr_db`` the segment's dynamic RMS / 10^(snr/20)."""
-        if self.snr_db is None:
-            return self._noise_key, lo, self._noise_sigma_t
-        g = 10 ** (-self.snr_db / 20)
-        sigma = g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
-        return self._noise_key, lo, np.ascontiguousarray(sigma, dtype=self.dtype)
-
     def _segment(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc, noise=None) -> None:
         """Samples [lo, hi) of the segment between knots a and b into ``out`` (hi - lo, C).
 
@@ -809,29 +765,6 @@ class Synthesizer(LineSetPath):
         else:
             self._segment_fn(phase0, dphase0, dd, warp, a.amp.table, tb, float(j), 65536.0 / length, out,
                              acc, self._dc_off, noise=noise)
-
-    @staticmethod
-    def _add_scaled(out: np.ndarray, z: np.ndarray, sigma: np.ndarray) -> None:
-        """out += z * sigma (per channel), rows folded (see _FOLD)."""
-        m, c = out.shape
-        q = m // _FOLD * _FOLD
-        sig = sigma.astype(out.dtype)
-        if q:
-            zz = z[:q].reshape(-1, _FOLD * c)
-            zz *= np.tile(sig, _FOLD)
-            out[:q].reshape(-1, _FOLD * c)[...] += zz
-        if q < m:
-            out[q:] += z[q:] * sig
-
-    def _add_noise(self, n0: int, n: int, out: np.ndarray) -> None:
-        z = self._noise.get(n0, n)
-        if self.snr_db is None:
-            self._add_scaled(out, z, self._noise_sigma)
-            return
-        g = 10 ** (-self.snr_db / 20)
-        for a, b, lo, hi in self._segments(n0, n):
-            sigma = g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
-            self._add_scaled(out[lo - n0:hi - n0], z[lo - n0:hi - n0], sigma)
 
     # ------------------------------------------------------------------ chunk metadata
     def _state_at(self, pos: float):

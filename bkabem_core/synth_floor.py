@@ -165,3 +165,41 @@ class BroadbandFloor:
         out = self._buf[:n]
         synth_kernel.floor_render(n0, n, self.half, self.frames, self.window, self.grains(n0, n), out)
         return out
+
+
+class FloorPath:
+    """The :class:`~bkabem_core.synth.Synthesizer`'s methods for the broadband floor (a mixin: it reads the
+    synthesiser's state; knots are :class:`~bkabem_core.synth_lines._Knot`)."""
+
+    def _floor_source(self):
+        """The :class:`~bkabem_core.synth_floor.BroadbandFloor` of this synthesiser (made when first needed)."""
+        if self._floor is None:
+            self._floor = BroadbandFloor(self._model, self.floor_density, self._comb, self._cindex, self._power,
+                                         self._scale, self._housing_cols, self.sample_rate_hz, self.seed,
+                                         self.accelerometer, self.anti_alias)
+        return self._floor
+
+    def _floor_block(self, n0: int, n: int):
+        """The floor of samples [n0, n0 + n) in the samples' dtype, or None (off)."""
+        if self.floor_density <= 0:
+            return None
+        x = self._floor_source().render(n0, n)
+        return x if self.dtype == np.float32 else x.astype(self.dtype)
+
+    def _floor_part(self, a: "_Knot", b: "_Knot", lo: int, hi: int):
+        """The floor of samples [lo, hi) of the segment a-b for the line-set kernel: its source (rendered inside the
+        pass) where the segment is one line set at full level, else the samples, faded (:meth:`_floor_faded`)."""
+        fl = self._floor_source()
+        if a.amp.fade == 1.0 and b.amp.fade == 1.0 and a.amp.families is b.amp.families \
+                and a.amp.fbuf is not None:
+            return fl.source(lo, hi - lo)
+        return self._floor_faded(fl.render(lo, hi - lo), a, b, lo)
+
+    def _floor_faded(self, x: np.ndarray, a: "_Knot", b: "_Knot", lo: int) -> np.ndarray:
+        """The floor under the low-speed fade of the lines (no rolling, no roughness excitation at standstill):
+        linear in time from knot a's fade to knot b's, as the lines' amplitudes."""
+        fa, fb = a.amp.fade, b.amp.fade
+        if fa == 1.0 and fb == 1.0:
+            return x
+        s = (np.arange(lo, lo + x.shape[0]) - a.x) / max(b.x - a.x, 1)
+        return np.ascontiguousarray(x * (fa + (fb - fa) * s)[:, None], dtype=x.dtype)

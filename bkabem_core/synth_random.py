@@ -12,6 +12,7 @@ from collections import OrderedDict
 import numpy as np
 
 from . import synth_kernel
+from .synth_features import _FOLD
 
 
 class _SlipWalk:
@@ -142,3 +143,41 @@ class _NoiseBlocks:
             out[i - n0:i - n0 + e - s] = self._block(b)[s:e]
             i += e - s
         return out
+
+
+class NoisePath:
+    """The :class:`~bkabem_core.synth.Synthesizer`'s methods for the sensor noise (a mixin: it reads the synthesiser's
+    state; with the C kernel the noise is made inside the sample loop from :meth:`_segment_noise`, without it numpy's
+    blocks are added after the samples)."""
+
+    def _segment_noise(self, a: "_Knot", b: "_Knot", lo: int):
+        """(key, first sample, sigma per channel in the samples' dtype) of the noise of a segment starting at
+        sample lo: the density's sigma, or with ``snr_db`` the segment's dynamic RMS / 10^(snr/20)."""
+        if self.snr_db is None:
+            return self._noise_key, lo, self._noise_sigma_t
+        g = 10 ** (-self.snr_db / 20)
+        sigma = g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
+        return self._noise_key, lo, np.ascontiguousarray(sigma, dtype=self.dtype)
+
+    @staticmethod
+    def _add_scaled(out: np.ndarray, z: np.ndarray, sigma: np.ndarray) -> None:
+        """out += z * sigma (per channel), rows folded (see _FOLD)."""
+        m, c = out.shape
+        q = m // _FOLD * _FOLD
+        sig = sigma.astype(out.dtype)
+        if q:
+            zz = z[:q].reshape(-1, _FOLD * c)
+            zz *= np.tile(sig, _FOLD)
+            out[:q].reshape(-1, _FOLD * c)[...] += zz
+        if q < m:
+            out[q:] += z[q:] * sig
+
+    def _add_noise(self, n0: int, n: int, out: np.ndarray) -> None:
+        z = self._noise.get(n0, n)
+        if self.snr_db is None:
+            self._add_scaled(out, z, self._noise_sigma)
+            return
+        g = 10 ** (-self.snr_db / 20)
+        for a, b, lo, hi in self._segments(n0, n):
+            sigma = g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
+            self._add_scaled(out[lo - n0:hi - n0], z[lo - n0:hi - n0], sigma)
