@@ -63,7 +63,7 @@
 #define FRAC_BITS 24                        /* bits of the fraction of a table step the weights are computed from */
 #define FRAC_MASK ((UINT64_C(1) << FRAC_BITS) - 1)
 #define BLEND_LEVELS 65536                  /* time-blend weight quantised to 2^-16 */
-#define BLOCK 256                           /* samples per block (phases, rows, moments) */
+#define BLOCK 256                           /* samples per block (phases, rows, moments); = NOISE_BLOCK */
 
 #if defined(__GNUC__)
 #define INLINE static inline __attribute__((always_inline))
@@ -78,6 +78,8 @@
 #else
 #define CLONES
 #endif
+
+#include "_synthnoise.h"
 
 typedef double v4d __attribute__((vector_size(32)));
 typedef int64_t v4l __attribute__((vector_size(32)));
@@ -292,6 +294,34 @@ INLINE double blend_weight(double v)
 #define STORE4_f32(p, l) do { v4f t_ = __builtin_convertvector((l), v4f) * (float)(1.0 / BLEND_LEVELS); memcpy((p), &t_, sizeof t_); } while (0)
 #define STORE4_f64(p, l) do { v4d t_ = __builtin_convertvector((l), v4d) * (1.0 / BLEND_LEVELS); memcpy((p), &t_, sizeof t_); } while (0)
 
+/* Sensor noise added inside a segment call (_synthnoise.h): stream key, absolute index of the call's sample 0, and
+ * the standard deviation per channel (float for float32 output, double for float64). With noise, the loop's blocks
+ * are aligned to the noise blocks (absolute multiples of BLOCK = NOISE_BLOCK), so each block seeds its generators
+ * once; the per-sample work does not depend on the block position, so the samples do not change. */
+typedef struct {
+    uint64_t key;
+    int64_t n0;
+    const float *sigma_f;         /* NULL (both): no noise, only the extra part */
+    const double *sigma_d;
+    const void *extra;            /* optional m x C block (out's dtype) added too, row 0 = the call's sample 0: the
+                                   * broadband floor (synth_floor.py) */
+    const float *frames;          /* or (float32, the line-set kernel) the floor itself, rendered per block from its */
+    const float *win;             /* frames (F x L x C), sine window (2 S) and grains (G x 3: grain, frame, offset), */
+    const int64_t *grains;        /* as synth_floor_render: no m x C buffer written and read back */
+    int64_t n_grains, half, frame_length;
+} NoiseArgs;
+
+/* Samples of the next block: up to BLOCK, and with noise up to the next absolute multiple of BLOCK. */
+INLINE int64_t block_length(const int noise, int64_t left, int64_t n_abs)
+{
+    int64_t nb = left < BLOCK ? left : BLOCK;
+    if (noise) {
+        const int64_t r = BLOCK - (int64_t)(((uint64_t)n_abs) % BLOCK);
+        nb = nb < r ? nb : r;
+    }
+    return nb;
+}
+
 /* Arguments a segment call can run with: m >= 0, C >= 1, N a power of 2 in 64 .. 2^16, fb = 62 - log2 N, the
  * table, out (if m > 0) and off (with acc) given. */
 static int segment_args_ok(int64_t m, int64_t C, int64_t N, int fb, const void *ta, const void *out,
@@ -428,19 +458,30 @@ static inline __attribute__((always_inline)) FMA_TARGET void prologue8_fma(
             vb_ = _mm256_fmadd_ps(w3_, _mm256_loadu_ps(b_ + 24), vb_);                                              \
             va_ = _mm256_fmadd_ps((s), _mm256_sub_ps(vb_, va_), va_);                                               \
         }                                                                                                           \
+        if (noise) {                                                                                                \
+            if (sigma) va_ = _mm256_fmadd_ps(sigv, _mm256_loadu_ps(Z + 8 * (int64_t)(j)), va_);                    \
+            if (xb != NULL) va_ = _mm256_add_ps(va_, _mm256_loadu_ps(xb + 8 * (int64_t)(j)));                      \
+        }                                                                                                           \
         _mm256_storeu_ps(ob + 8 * (int64_t)(j), va_);                                                               \
     } while (0)
 
 static inline __attribute__((always_inline)) FMA_TARGET void rows8_fma(
-    const int has_warp, const int blend, const int feats, int64_t m, uint64_t mask, int fb, uint64_t u, uint64_t d,
-    uint64_t dd, const int64_t *restrict warp, const float *restrict ta, const float *restrict tb, double xi0,
-    double blend_scale, float *restrict out, double *restrict acc, const double *restrict off)
+    const int has_warp, const int blend, const int feats, const int noise, int64_t m, uint64_t mask, int fb,
+    uint64_t u, uint64_t d, uint64_t dd, const int64_t *restrict warp, const float *restrict ta,
+    const float *restrict tb, double xi0, double blend_scale, float *restrict out, double *restrict acc,
+    const double *restrict off, const NoiseArgs *na)
 {
     int32_t idx[BLOCK];
     float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK];
-    for (int64_t k0 = 0; k0 < m; k0 += BLOCK) {
-        const int nb = m - k0 < BLOCK ? (int)(m - k0) : BLOCK;
-        prologue8_fma(has_warp, blend, nb, k0, &u, &d, dd, has_warp ? warp + k0 : NULL, fb, mask, xi0, blend_scale,
+    float Z[noise ? BLOCK * 8 : 1];
+    const int sigma = noise && na->sigma_f != NULL;
+    const float *extra = noise ? (const float *)na->extra : NULL;
+    const __m256 sigv = sigma ? _mm256_loadu_ps(na->sigma_f) : _mm256_setzero_ps();
+    for (int64_t k0 = 0, nb; k0 < m; k0 += nb) {
+        nb = block_length(noise, m - k0, noise ? na->n0 + k0 : 0);
+        if (sigma) noise_fill8_avx2(na->key, na->n0 + k0, (int)nb, Z);
+        const float *restrict xb = extra != NULL ? extra + k0 * 8 : NULL;
+        prologue8_fma(has_warp, blend, (int)nb, k0, &u, &d, dd, has_warp ? warp + k0 : NULL, fb, mask, xi0, blend_scale,
                       idx, W0, W1, W2, W3, sw);
         float *restrict ob = out + k0 * 8;
         int j = 0;
@@ -466,35 +507,37 @@ static inline __attribute__((always_inline)) FMA_TARGET void rows8_fma(
         for (; j < nb; ++j)
             ROW8_FMA(j, _mm256_broadcast_ss(W0 + j), _mm256_broadcast_ss(W1 + j), _mm256_broadcast_ss(W2 + j),
                      _mm256_broadcast_ss(W3 + j), blend ? _mm256_broadcast_ss(sw + j) : _mm256_setzero_ps());
-        if (feats) moments8_f32_avx2(nb, ob, off, acc);
+        if (feats) moments8_f32_avx2((int)nb, ob, off, acc);
     }
 }
 
-#define ROWS8(W, B, F) rows8_fma(W, B, F, m, mask, fb, u, d, dd, warp, ta, tb, xi0, blend_scale, out, acc, off)
+#define ROWS8(W, B, F, N) rows8_fma(W, B, F, N, m, mask, fb, u, d, dd, warp, ta, tb, xi0, blend_scale, out, acc, \
+                                     off, na)
+#define ROWS8_N(W, B, F) do { if (na != NULL) ROWS8(W, B, F, 1); else ROWS8(W, B, F, 0); } while (0)
 static NOINLINE FMA_TARGET void segment8_f32_fma(int64_t m, uint64_t mask, int fb, uint64_t u, uint64_t d,
                                                  uint64_t dd, const int64_t *warp, const float *ta, const float *tb,
                                                  double xi0, double blend_scale, float *out, double *acc,
-                                                 const double *off)
+                                                 const double *off, const NoiseArgs *na)
 {
     const int w = warp != NULL, b = tb != NULL, f = acc != NULL;
-    if (w && b && f) ROWS8(1, 1, 1);
-    else if (w && b) ROWS8(1, 1, 0);
-    else if (w && f) ROWS8(1, 0, 1);
-    else if (w) ROWS8(1, 0, 0);
-    else if (b && f) ROWS8(0, 1, 1);
-    else if (b) ROWS8(0, 1, 0);
-    else if (f) ROWS8(0, 0, 1);
-    else ROWS8(0, 0, 0);
+    if (w && b && f) ROWS8_N(1, 1, 1);
+    else if (w && b) ROWS8_N(1, 1, 0);
+    else if (w && f) ROWS8_N(1, 0, 1);
+    else if (w) ROWS8_N(1, 0, 0);
+    else if (b && f) ROWS8_N(0, 1, 1);
+    else if (b) ROWS8_N(0, 1, 0);
+    else if (f) ROWS8_N(0, 0, 1);
+    else ROWS8_N(0, 0, 0);
 }
 #define HAVE_FMA_PATH (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
 #else
 #define HAVE_FMA_PATH 0
 static void segment8_f32_fma(int64_t m, uint64_t mask, int fb, uint64_t u, uint64_t d, uint64_t dd,
                              const int64_t *warp, const float *ta, const float *tb, double xi0, double blend_scale,
-                             float *out, double *acc, const double *off)
+                             float *out, double *acc, const double *off, const NoiseArgs *na)
 {
     (void)m, (void)mask, (void)fb, (void)u, (void)d, (void)dd, (void)warp, (void)ta, (void)tb, (void)xi0;
-    (void)blend_scale, (void)out, (void)acc, (void)off;
+    (void)blend_scale, (void)out, (void)acc, (void)off, (void)na;
 }
 #endif
 
@@ -557,20 +600,43 @@ INLINE void moments_##SUF(const int C, int nb, const T *restrict x, const double
     else moments_base_##SUF(C, nb, x, off, acc);                                                                    \
 }                                                                                                                   \
                                                                                                                     \
+/* x[j][c] += sigma[c] z[j][c] for the nb samples of a block from absolute sample n (one noise block at most): the  \
+ * product in T, then the sum (the numpy reference's order). */                                                     \
+static void noise_add_block_##SUF(const int C, int nb, const NoiseArgs *na, int64_t n, T *restrict x,              \
+                                  const T *restrict extra)                                                          \
+{                                                                                                                   \
+    const T *sig = sizeof(T) == 4 ? (const T *)(const void *)na->sigma_f : (const T *)(const void *)na->sigma_d;   \
+    if (sig != NULL) {                                                                                              \
+        float Z[BLOCK * NOISE_MAX_C];                                                                               \
+        if (C == 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill8_avx2(na->key, n, nb, Z);                        \
+        else if (C < 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill_narrow_avx2(na->key, n, nb, C, Z);           \
+        else noise_fill_scalar(na->key, n, nb, C, Z);                                                               \
+        for (int j = 0; j < nb; ++j)                                                                                \
+            for (int c = 0; c < C; ++c) {                                                                           \
+                const T p = sig[c] * (T)Z[(int64_t)j * C + c];                                                      \
+                x[(int64_t)j * C + c] = x[(int64_t)j * C + c] + p;                                                  \
+            }                                                                                                       \
+    }                                                                                                               \
+    if (extra != NULL)                                                                                              \
+        for (int64_t i = 0; i < (int64_t)nb * C; ++i) x[i] = x[i] + extra[i];                                       \
+}                                                                                                                   \
+                                                                                                                    \
 /* Segment loop (generic path), in blocks of BLOCK samples: phases, spline weights (and blend weights), then the  \
  * rows, then (option) the moments of the block while it is in L1. */                                              \
 INLINE void segment_rows_##SUF(const int C, const int has_warp, const int blend, const int feats, int64_t m,        \
                                int64_t N, int fb, uint64_t u, uint64_t d, uint64_t dd,                             \
                                const int64_t *restrict warp, const T *restrict ta, const T *restrict tb,           \
                                double xi0, double blend_scale, T *restrict out, double *restrict acc,              \
-                               const double *restrict off)                                                         \
+                               const double *restrict off, const NoiseArgs *na)                                    \
 {                                                                                                                   \
     int32_t idx[BLOCK], frac[BLOCK];                                                                                \
     T W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK];                                                        \
     const uint64_t mask = (uint64_t)N - 1;                                                                          \
     const int64_t C2 = 2 * (int64_t)C, C3 = 3 * (int64_t)C;                                                         \
-    for (int64_t k0 = 0; k0 < m; k0 += BLOCK) {                                                                     \
-        const int nb = m - k0 < BLOCK ? (int)(m - k0) : BLOCK;                                                      \
+    const int noise = na != NULL;                                                                                   \
+    for (int64_t k0 = 0, nbl; k0 < m; k0 += nbl) {                                                                  \
+        nbl = block_length(noise, m - k0, noise ? na->n0 + k0 : 0);                                                 \
+        const int nb = (int)nbl;                                                                                    \
         phase_block(has_warp, nb, &u, &d, dd, has_warp ? warp + k0 : NULL, fb, mask, idx, frac);                    \
         WEIGHT_BLOCK(T)                                                                                             \
         if (blend) BLEND_BLOCK(T, STORE4_##SUF);                                                                    \
@@ -604,13 +670,15 @@ INLINE void segment_rows_##SUF(const int C, const int has_warp, const int blend,
                 }                                                                                                   \
             }                                                                                                       \
         }                                                                                                           \
+        if (noise) noise_add_block_##SUF(C, nb, na, na->n0 + k0, ob,                                               \
+                                         na->extra != NULL ? (const T *)na->extra + k0 * C : NULL);                \
         if (feats) moments_##SUF(C, nb, ob, off, acc);                                                              \
     }                                                                                                               \
 }                                                                                                                   \
                                                                                                                     \
 INLINE void segment_opts_##SUF(const int C, int64_t m, int64_t N, int fb, uint64_t u, uint64_t d, uint64_t dd,      \
                                const int64_t *warp, const T *ta, const T *tb, double xi0, double blend_scale,       \
-                               T *out, double *acc, const double *off)                                              \
+                               T *out, double *acc, const double *off, const NoiseArgs *na)                         \
 {                                                                                                                   \
     const int w = warp != NULL, b = tb != NULL, f = acc != NULL;                                                    \
     if (w && b && f) ROWS(SUF, 1, 1, 1);                                                                            \
@@ -628,16 +696,19 @@ INLINE void segment_opts_##SUF(const int C, int64_t m, int64_t N, int fb, uint64
  * optional. Returns 0, or -1 if the arguments are unusable (segment_args_ok). */                                   \
 CLONES int synth_segment_generic_##SUF(int64_t m, int64_t C, int64_t N, int fb, uint64_t phase0, uint64_t dphase0,  \
                                        uint64_t ddphase, const int64_t *warp, const T *ta, const T *tb, double xi0, \
-                                       double blend_scale, T *out, double *acc, const double *off)                  \
+                                       double blend_scale, T *out, double *acc, const double *off,                  \
+                                       const NoiseArgs *na)                                                         \
 {                                                                                                                   \
-    if (!segment_args_ok(m, C, N, fb, ta, out, acc, off)) return -1;                                                \
+    if (!segment_args_ok(m, C, N, fb, ta, out, acc, off) || (na != NULL && C > NOISE_MAX_C)) return -1;            \
     if (C == 8)                                                                                                     \
-        segment_opts_##SUF(8, m, N, fb, phase0, dphase0, ddphase, warp, ta, tb, xi0, blend_scale, out, acc, off);   \
+        segment_opts_##SUF(8, m, N, fb, phase0, dphase0, ddphase, warp, ta, tb, xi0, blend_scale, out, acc, off,    \
+                           na);                                                                                     \
     else if (C == 4)                                                                                                \
-        segment_opts_##SUF(4, m, N, fb, phase0, dphase0, ddphase, warp, ta, tb, xi0, blend_scale, out, acc, off);   \
+        segment_opts_##SUF(4, m, N, fb, phase0, dphase0, ddphase, warp, ta, tb, xi0, blend_scale, out, acc, off,    \
+                           na);                                                                                     \
     else                                                                                                            \
         segment_opts_##SUF((int)C, m, N, fb, phase0, dphase0, ddphase, warp, ta, tb, xi0, blend_scale, out, acc,    \
-                           off);                                                                                    \
+                           off, na);                                                                                \
     return 0;                                                                                                       \
 }                                                                                                                   \
                                                                                                                     \
@@ -645,16 +716,35 @@ CLONES int synth_segment_generic_##SUF(int64_t m, int64_t C, int64_t N, int fb, 
  * path. */                                                                                                         \
 int synth_segment_##SUF(int64_t m, int64_t C, int64_t N, int fb, uint64_t phase0, uint64_t dphase0,                 \
                         uint64_t ddphase, const int64_t *warp, const T *ta, const T *tb, double xi0,                \
-                        double blend_scale, T *out, double *acc, const double *off)                                 \
+                        double blend_scale, T *out, double *acc, const double *off, const NoiseArgs *na)            \
 {                                                                                                                   \
     if (sizeof(T) == 4 && C == 8 && isa_cap >= 1 && HAVE_FMA_PATH) {                                               \
         if (!segment_args_ok(m, C, N, fb, ta, out, acc, off)) return -1;                                            \
         segment8_f32_fma(m, (uint64_t)N - 1, fb, phase0, dphase0, ddphase, warp, (const float *)(const void *)ta,   \
-                         (const float *)(const void *)tb, xi0, blend_scale, (float *)(void *)out, acc, off);        \
+                         (const float *)(const void *)tb, xi0, blend_scale, (float *)(void *)out, acc, off, na);    \
         return 0;                                                                                                   \
     }                                                                                                               \
     return synth_segment_generic_##SUF(m, C, N, fb, phase0, dphase0, ddphase, warp, ta, tb, xi0, blend_scale, out,  \
-                                       acc, off);                                                                   \
+                                       acc, off, na);                                                               \
+}                                                                                                                   \
+                                                                                                                    \
+/* Noise added to an existing n x C block x (samples from absolute index n0) and, with acc, the features of the     \
+ * result accumulated, in one pass per block (a line set's families are summed first: synth_lines.py). */          \
+CLONES int synth_noise_add_##SUF(int64_t n, int64_t C, T *x, uint64_t key, int64_t n0, const T *sigma,            \
+                                 const T *extra, const double *off, double *acc)                                    \
+{                                                                                                                   \
+    if (n < 0 || C < 1 || C > NOISE_MAX_C || (acc != NULL && off == NULL)) return -1;                              \
+    NoiseArgs na = {key, n0, (const float *)(const void *)sigma, (const double *)(const void *)sigma, extra,\
+                   NULL, NULL, NULL, 0, 0, 0};      \
+    for (int64_t k0 = 0, nb; k0 < n; k0 += nb) {                                                                    \
+        nb = block_length(1, n - k0, n0 + k0);                                                                      \
+        noise_add_block_##SUF((int)C, (int)nb, &na, n0 + k0, x + k0 * C, extra != NULL ? extra + k0 * C : NULL);   \
+        if (acc != NULL) {                                                                                          \
+            if (C == 8) moments_##SUF(8, (int)nb, x + k0 * C, off, acc);                                            \
+            else moments_##SUF((int)C, (int)nb, x + k0 * C, off, acc);                                              \
+        }                                                                                                           \
+    }                                                                                                               \
+    return 0;                                                                                                       \
 }                                                                                                                   \
                                                                                                                     \
 /* Feature accumulation (as the fused one of synth_segment) over an existing n x C block x. */                      \
@@ -670,48 +760,133 @@ CLONES int synth_accumulate_##SUF(int64_t n, int64_t C, const T *x, const double
 }
 
 #define ROWS(SUF, W, B, F) segment_rows_##SUF(C, W, B, F, m, N, fb, u, d, dd, warp, ta, tb, xi0, blend_scale, out, \
-                                              acc, off)
+                                              acc, off, na)
 
 
 SYNTH_KERNELS(float, f32)
 SYNTH_KERNELS(double, f64)
 
+#include "_synthlines.h"
+
 /* Random-slip warp of one segment (synth_random._SlipWalk.warp_fixed): for sample i < m at xi = j0 + i, the ball
- * passes u = (c2 xi + c1) xi + u_frac since the knot, the walk W at u by the C1 cubic Hermite spline of its values
- * w[k] at passes jw0 + k (Catmull-Rom slopes (w[k+1] - w[k-1]) / 2), and out[i] = rint((kappa W - rint(kappa W))
- * 2^62), the phase offset in the loop's fixed point. The same operations in the same order as the numpy reference;
- * returns -1 if a sample falls outside w. */
-/* rint (round half to even, the default rounding mode) without a libm call: for 0 <= x < 2^52, x + 2^52 lies
- * in [2^52, 2^53) where the spacing of doubles is 1, so the addition rounds x to an integer exactly as rint does,
- * and subtracting 2^52 is exact (negative x mirrored; -ffp-contract=off keeps the operations); doubles of
- * magnitude >= 2^52 are integers already. Equal to rint and numpy's rint for every finite x (tested). */
-static inline double rint_inline(double x)
+ * passes u = (c2 xi + c1) xi + u_frac since the knot (speed >= 0 in a segment, so u does not decrease), the walk W
+ * at u by the C1 cubic Hermite spline of its values w[k] at passes jw0 + k (Catmull-Rom slopes
+ * m_k = (w[k+1] - w[k-1]) / 2), written per pass interval [j, j + 1) as the cubic in t = u - j
+ *     W = ((a3 t + a2) t + a1) t + a0,  a0 = w_j, a1 = m_j, a2 = 3 (w_{j+1} - w_j) - 2 m_j - m_{j+1},
+ *     a3 = 2 (w_j - w_{j+1}) + m_j + m_{j+1},
+ * and for each of the K factors kappa the phase offset in the loop's fixed point, out[k m + i] =
+ * rint(y 2^52) 2^10 with y = kappa W - rint(kappa W) (a fraction of a pass in [-1/2, 1/2], to 2^-52). Why this form:
+ * the coefficients change once per pass (~100-400 samples), so the samples of an interval are a Horner step of 4
+ * doubles at a time with AVX2 (the previous per-sample Hermite with two libm-free rints cost ~70 us a chunk, now
+ * ~5 us); rint(y 2^52) is exact by adding and subtracting 1.5 2^52 (|y 2^52| < 2^51), and the integer is the bits
+ * of that sum less those of 1.5 2^52, so AVX2 needs no 64-bit conversion. Scalar and AVX2 code do the same double
+ * operations (no contraction), so they agree bit for bit, and with synth_kernel.slip_warp_reference. Returns -1 if
+ * a sample falls outside w or K is out of 1..8. */
+#define WARP_MAGIC 6755399441055744.0              /* 1.5 2^52 */
+static inline int64_t warp_fixed1(double wp)
 {
-    const double two52 = 4503599627370496.0;               /* 2^52 */
-    if (fabs(x) >= two52) return x;
-    return x >= 0.0 ? (x + two52) - two52 : (x - two52) + two52;
+    const double r = (wp + WARP_MAGIC) - WARP_MAGIC;                /* rint(wp), |wp| < 2^51 */
+    const double y = (wp - r) * 0x1.0p52;
+    const double v = y + WARP_MAGIC;
+    int64_t bits, base;
+    const double mg = WARP_MAGIC;
+    memcpy(&bits, &v, 8);
+    memcpy(&base, &mg, 8);
+    return (int64_t)((uint64_t)(bits - base) << 10);
 }
 
-int synth_slip_warp(int64_t m, double j0, double c1, double c2, double u_frac, const double *w, int64_t nw,
-                    int64_t jw0, double kappa, int64_t *out)
+/* Coefficients of the interval starting at walk index k (w[k - 1] .. w[k + 2] must exist). */
+static inline void warp_coefficients(const double *w, int64_t k, double a[4])
 {
-    if (m < 0 || nw < 4) return -1;
-    for (int64_t i = 0; i < m; ++i) {
+    const double w0 = w[k], w1 = w[k + 1];
+    const double m0 = 0.5 * (w[k + 1] - w[k - 1]), m1 = 0.5 * (w[k + 2] - w[k]);
+    const double d = w1 - w0;
+    a[0] = w0;
+    a[1] = m0;
+    a[2] = ((3.0 * d) - (2.0 * m0)) - m1;
+    a[3] = ((-2.0 * d) + m0) + m1;
+}
+
+static inline int64_t warp_interval(double u, int64_t jw0, int64_t nw)
+{
+    const int64_t k = (int64_t)u - jw0;                            /* floor for u >= 0 */
+    return (k < 1 || k + 2 >= nw) ? -1 : k;
+}
+
+static int warp_scalar_range(int64_t i0, int64_t i1, double j0, double c1, double c2, double u_frac,
+                             const double *w, int64_t nw, int64_t jw0, const double *kappa, int K, int64_t m,
+                             int64_t *out, int64_t *pk, double a[4])
+{
+    for (int64_t i = i0; i < i1; ++i) {
         const double xi = j0 + (double)i;
         const double u = (c2 * xi + c1) * xi + u_frac;
-        if (!(u >= 0.0 && u < 9.0e15)) return -1;            /* passes since the knot: >= 0 (speed >= 0) */
-        const double fl = (double)(int64_t)u;                /* floor for u >= 0 */
-        const int64_t k = (int64_t)fl - jw0;
-        if (k < 1 || k + 2 >= nw) return -1;
-        const double t = u - fl, t2 = t * t, t3 = t2 * t;
-        const double w0 = w[k], w1 = w[k + 1];
-        const double m0 = 0.5 * (w[k + 1] - w[k - 1]), m1 = 0.5 * (w[k + 2] - w[k]);
-        const double ww = (2 * t3 - 3 * t2 + 1) * w0 + (t3 - 2 * t2 + t) * m0 + (3 * t2 - 2 * t3) * w1
-                          + (t3 - t2) * m1;
-        const double wp = kappa * ww;
-        out[i] = (int64_t)rint_inline((wp - rint_inline(wp)) * 0x1.0p62);
+        if (!(u >= 0.0 && u < 9.0e15)) return -1;
+        const int64_t k = warp_interval(u, jw0, nw);
+        if (k < 0) return -1;
+        if (k != *pk) warp_coefficients(w, k, a), *pk = k;
+        const double t = u - (double)(k + jw0);
+        const double ww = ((a[3] * t + a[2]) * t + a[1]) * t + a[0];
+        for (int q = 0; q < K; ++q) out[q * m + i] = warp_fixed1(kappa[q] * ww);
     }
     return 0;
+}
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+static NOINLINE __attribute__((target("avx2"))) int warp_avx2(int64_t m, double j0, double c1, double c2,
+                                                              double u_frac, const double *w, int64_t nw,
+                                                              int64_t jw0, const double *kappa, int K, int64_t *out)
+{
+    int64_t k = -1;
+    double a[4] = {0, 0, 0, 0};
+    const __m256d lanes = _mm256_set_pd(3.0, 2.0, 1.0, 0.0), vc1 = _mm256_set1_pd(c1), vc2 = _mm256_set1_pd(c2);
+    const __m256d vuf = _mm256_set1_pd(u_frac), magic = _mm256_set1_pd(WARP_MAGIC), two52 = _mm256_set1_pd(0x1.0p52);
+    const __m256i mbase = _mm256_castpd_si256(magic);
+    int64_t i = 0;
+    for (; i + 4 <= m; i += 4) {
+        const __m256d xi = _mm256_add_pd(_mm256_set1_pd(j0 + (double)i), lanes);
+        const __m256d u = _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(vc2, xi), vc1), xi), vuf);
+        /* all four in the current interval [k + jw0, k + jw0 + 1)? (u >= 0: truncation is the floor) */
+        const double lo = (double)(k + jw0), hi = lo + 1.0;
+        const __m256d inside = _mm256_and_pd(_mm256_cmp_pd(u, _mm256_set1_pd(lo), _CMP_GE_OQ),
+                                             _mm256_cmp_pd(u, _mm256_set1_pd(hi), _CMP_LT_OQ));
+        if (k < 0 || _mm256_movemask_pd(inside) != 15) {
+            if (warp_scalar_range(i, i + 4, j0, c1, c2, u_frac, w, nw, jw0, kappa, K, m, out, &k, a)) return -1;
+            continue;
+        }
+        const __m256d t = _mm256_sub_pd(u, _mm256_set1_pd(lo));
+        __m256d ww = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(a[3]), t), _mm256_set1_pd(a[2]));
+        ww = _mm256_add_pd(_mm256_mul_pd(ww, t), _mm256_set1_pd(a[1]));
+        ww = _mm256_add_pd(_mm256_mul_pd(ww, t), _mm256_set1_pd(a[0]));
+        for (int q = 0; q < K; ++q) {
+            const __m256d wp = _mm256_mul_pd(_mm256_set1_pd(kappa[q]), ww);
+            const __m256d r = _mm256_sub_pd(_mm256_add_pd(wp, magic), magic);
+            const __m256d v = _mm256_add_pd(_mm256_mul_pd(_mm256_sub_pd(wp, r), two52), magic);
+            const __m256i iv = _mm256_slli_epi64(_mm256_sub_epi64(_mm256_castpd_si256(v), mbase), 10);
+            _mm256_storeu_si256((__m256i *)(out + q * m + i), iv);
+        }
+    }
+    return warp_scalar_range(i, m, j0, c1, c2, u_frac, w, nw, jw0, kappa, K, m, out, &k, a);
+}
+#define HAVE_WARP_AVX2 (__builtin_cpu_supports("avx2"))
+#else
+#define HAVE_WARP_AVX2 0
+static int warp_avx2(int64_t m, double j0, double c1, double c2, double u_frac, const double *w, int64_t nw,
+                     int64_t jw0, const double *kappa, int K, int64_t *out)
+{
+    (void)m, (void)j0, (void)c1, (void)c2, (void)u_frac, (void)w, (void)nw, (void)jw0, (void)kappa, (void)K;
+    (void)out;
+    return -1;
+}
+#endif
+
+int synth_slip_warp(int64_t m, double j0, double c1, double c2, double u_frac, const double *w, int64_t nw,
+                    int64_t jw0, const double *kappa, int64_t K, int64_t *out)
+{
+    if (m < 0 || nw < 4 || K < 1 || K > 8) return -1;
+    if (isa_cap >= 1 && HAVE_WARP_AVX2) return warp_avx2(m, j0, c1, c2, u_frac, w, nw, jw0, kappa, (int)K, out);
+    int64_t k = -1;
+    double a[4] = {0, 0, 0, 0};
+    return warp_scalar_range(0, m, j0, c1, c2, u_frac, w, nw, jw0, kappa, (int)K, m, out, &k, a);
 }
 
 /* Carrier mix of a line family with a carrier (synth_lines.py): out[i][c] += cs[i][0] re[i][c] - cs[i][1] im[i][c],
@@ -763,7 +938,33 @@ int synth_features(int64_t C, int64_t n, const double *acc, const double *off, d
     return 0;
 }
 
-/* ------------------------------------------------------------------------------------------ sensor noise
+/* Normals of absolute samples n0 .. n0 + n - 1, C channels, into Z (n x C float32): the noise of a segment call
+ * (_synthnoise.h), for tests and the numpy fallback's comparisons. avx2: use the AVX2 code where C = 8. */
+int synth_noise_fill(uint64_t key, int64_t n0, int64_t n, int64_t C, int avx2, float *Z)
+{
+    if (n < 0 || n0 < 0 || C < 1 || C > NOISE_MAX_C) return -1;
+    for (int64_t k0 = 0, nb; k0 < n; k0 += nb) {
+        nb = block_length(1, n - k0, n0 + k0);
+        if (avx2 && C == 8 && HAVE_NOISE_AVX2) noise_fill8_avx2(key, n0 + k0, (int)nb, Z + k0 * C);
+        else if (avx2 && C < 8 && HAVE_NOISE_AVX2) noise_fill_narrow_avx2(key, n0 + k0, (int)nb, (int)C, Z + k0 * C);
+        else noise_fill_scalar(key, n0 + k0, (int)nb, (int)C, Z + k0 * C);
+    }
+    return 0;
+}
+
+/* The broadband floor of samples n0 .. n0 + m - 1 (synth_floor.py): overlapping grains g of 2 S samples from g S,
+ * each a circular window into one of the precomputed shaped-noise frames (L x C float32 each, in frames),
+ * weighted by the sine window w(t) = sin(pi t / 2 S) (win: 2 S values), so that the two grains over any sample have
+ * w^2 + w^2 = 1. G grains given as (g, frame index, offset) in grains[3 G]. out: m x C float32, written. */
+CLONES int synth_floor_render(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const float *frames,
+                       const float *win, int64_t G, const int64_t *grains, float *out)
+{
+    if (m < 0 || C < 1 || S < 1 || L < 2 * S / 2 || G < 0) return -1;
+    floor_block_f32(m, C, n0, S, L, frames, win, G, grains, out);
+    return 0;
+}
+
+/* ------------------------------------------------------------------------------------------ sensor noise (ziggurat)
  * Standard normal numbers for the sensor noise, ~4x faster than numpy's generator here (which made noise the
  * largest cost of a noisy run). Stream: xoshiro256+ (Blackman & Vigna) seeded by splitmix64 from a 64-bit key (the
  * caller derives one key per block of samples from seed and block number, so values depend on the absolute sample
@@ -1144,8 +1345,8 @@ PyDoc_STRVAR(py_segment_doc, "segment(phase0, dphase0, ddphase, warp, table_a, t
 static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     (void)self;
-    if (nargs != 12) {
-        PyErr_SetString(PyExc_TypeError, "segment takes 12 arguments");
+    if (nargs != 12 && nargs != 16) {
+        PyErr_SetString(PyExc_TypeError, "segment takes 12 arguments (16 with noise: key, n0, sigma, extra)");
         return NULL;
     }
     uint64_t ph[3];
@@ -1157,8 +1358,16 @@ static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t na
     if (PyErr_Occurred()) return NULL;
     const int exact = PyObject_IsTrue(args[11]);
     if (exact < 0) return NULL;
-    Buf bo = {0}, ba = {0}, bb = {0}, bw = {0}, bacc = {0}, boff = {0};
+    Buf bo = {0}, ba = {0}, bb = {0}, bw = {0}, bacc = {0}, boff = {0}, bsig = {0}, bx = {0};
     PyObject *res = NULL;
+    NoiseArgs noise = {0, 0, NULL, NULL, NULL, NULL, NULL, NULL, 0, 0, 0};
+    const int noisy = nargs == 16 && (args[14] != Py_None || args[15] != Py_None);
+    if (noisy) {
+        noise.key = (uint64_t)PyLong_AsUnsignedLongLongMask(args[12]);
+        if (noise.key == (uint64_t)-1 && PyErr_Occurred()) return NULL;
+        noise.n0 = (int64_t)PyLong_AsLongLong(args[13]);
+        if (noise.n0 == -1 && PyErr_Occurred()) return NULL;
+    }
     if (!buf_take(args[8], &bo, "out", "fd", 2, 1) || !buf_take(args[4], &ba, "table_a", "fd", 2, 0)) goto done;
     const char kind = buf_kind(&bo.v);
     const Py_ssize_t m = bo.v.shape[0], C = bo.v.shape[1], N = ba.v.shape[0] - 3;
@@ -1197,9 +1406,27 @@ static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t na
             goto done;
         }
     }
+    if (noisy && args[14] != Py_None) {
+        if (!buf_take(args[14], &bsig, "sigma", "fd", 1, 0)) goto done;
+        if (buf_kind(&bsig.v) != kind || bsig.v.shape[0] != C || C > NOISE_MAX_C || noise.n0 < 0) {
+            PyErr_Format(PyExc_ValueError, "sigma must be (%zd,) of out's dtype, C <= %d, n0 >= 0", C, NOISE_MAX_C);
+            goto done;
+        }
+        noise.sigma_f = (const float *)bsig.v.buf;
+        noise.sigma_d = (const double *)bsig.v.buf;
+    }
+    if (noisy && args[15] != Py_None) {
+        if (!buf_take(args[15], &bx, "extra", "fd", 2, 0)) goto done;
+        if (buf_kind(&bx.v) != kind || bx.v.shape[0] != m || bx.v.shape[1] != C || C > NOISE_MAX_C) {
+            PyErr_Format(PyExc_ValueError, "extra must be (%zd, %zd) of out's dtype", m, C);
+            goto done;
+        }
+        noise.extra = bx.v.buf;
+    }
     if (m > 0) {
         int rc;
         const int fb = 62 - l2;
+        const NoiseArgs *na = noisy ? &noise : NULL;
         const int64_t *w = bw.held ? (const int64_t *)bw.v.buf : NULL;
         double *acc = bacc.held ? (double *)bacc.v.buf : NULL;
         const double *off = boff.held ? (const double *)boff.v.buf : NULL;
@@ -1207,11 +1434,11 @@ static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t na
         if (kind == 'f')
             rc = (exact ? synth_segment_generic_f32 : synth_segment_f32)(
                 m, C, N, fb, ph[0], ph[1], ph[2], w, (const float *)ba.v.buf,
-                bb.held ? (const float *)bb.v.buf : NULL, xi0, blend_scale, (float *)bo.v.buf, acc, off);
+                bb.held ? (const float *)bb.v.buf : NULL, xi0, blend_scale, (float *)bo.v.buf, acc, off, na);
         else
             rc = synth_segment_generic_f64(m, C, N, fb, ph[0], ph[1], ph[2], w, (const double *)ba.v.buf,
                                            bb.held ? (const double *)bb.v.buf : NULL, xi0, blend_scale,
-                                           (double *)bo.v.buf, acc, off);
+                                           (double *)bo.v.buf, acc, off, na);
         Py_END_ALLOW_THREADS
         if (rc) {
             PyErr_Format(PyExc_ValueError, "synth_segment rejected m=%zd, C=%zd, N=%zd", m, C, N);
@@ -1221,7 +1448,8 @@ static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t na
     res = Py_None;
     Py_INCREF(res);
 done:
-    buf_drop(&bo), buf_drop(&ba), buf_drop(&bb), buf_drop(&bw), buf_drop(&bacc), buf_drop(&boff);
+    buf_drop(&bo), buf_drop(&ba), buf_drop(&bb), buf_drop(&bw), buf_drop(&bacc), buf_drop(&boff), buf_drop(&bsig);
+    buf_drop(&bx);
     return res;
 }
 

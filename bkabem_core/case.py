@@ -88,6 +88,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "misalignment_node": ("int", ("ge", 1)),
         "electrical_force_n": ("float", _NONNEG),
         "line_frequency_hz": ("float", _POS),
+        "broadband_force_n_per_sqrt_hz": ("float", _NONNEG),
     },
     "excitation": {
         "method": ("str", ("in", {"quasi_static", "four_dof"})),
@@ -156,6 +157,8 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     },
 }
 TOP_LEVEL = ("case", "bearing", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating")
+#: keys a section may leave out (their default: 0 = off), so that cases written before them stay valid
+_OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz",)}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
 _KIND_KEYS = {"ball": ("ball",)}
 #: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)
@@ -287,7 +290,7 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
     for sec in ("case", "bearing", "baseline", "excitation", "rotor", "operating"):
         if sec not in raw:
             raise CaseError(sec, "missing section", source)
-        _check_table(sec, raw[sec], SCHEMA[sec], source)
+        _check_table(sec, raw[sec], SCHEMA[sec], source, optional=_OPTIONAL.get(sec, ()))
     # defects: [[defects]] tables (none: a healthy machine, `defects = []`)
     if "defects" not in raw:
         raise CaseError("defects", "missing ([[defects]] tables, or `defects = []` for a healthy machine)", source)
@@ -599,7 +602,8 @@ class Case:
                 if not isinstance(node, dict) or p not in node or not isinstance(node[p], (dict, list)):
                     raise CaseError(dotted, "unknown key", self.source)
                 node = node[p]
-            if not isinstance(node, dict) or last not in node:
+            optional = len(path) == 1 and last in _OPTIONAL.get(path[0], ())
+            if not isinstance(node, dict) or (last not in node and not optional):
                 raise CaseError(dotted, "unknown key", self.source)
             node[last] = value
         return Case.from_dict(raw, self.source + " (overridden)")

@@ -44,7 +44,6 @@ import bisect
 import math
 import sys
 from collections import OrderedDict
-from dataclasses import dataclass, field
 from typing import Iterator
 
 import numpy as np
@@ -56,7 +55,8 @@ from .synth_features import _FOLD, Chunk, _moment_features, waveform_features  #
 from .synth_lines import (ISO_BAND_HZ, BEARINGS, DEFAULT_QUANTITIES, QUANTITIES, Channel, ExactSpectrum,  # noqa: F401
                           LineSetPath, ModalSpectrum, _Amplitudes, _combination, _Knot, make_channels)
 from .synth_profile import SpeedProfile, SynthError, _finite, parse_profile  # noqa: F401  (re-exported)
-from .synth_random import _NoiseBlocks, _SlipWalk  # noqa: F401
+from .synth_floor import FloorPath
+from .synth_random import NoisePath, _NoiseBlocks, _SlipWalk, noise_key  # noqa: F401
 
 
 MAX_SAMPLE_RATE_HZ = 1.0e6
@@ -65,7 +65,7 @@ _PASS = float(synth_kernel.PASS_UNITS)   # fixed-point units of one ball pass (2
 
 
 # =========================================================================== the synthesiser
-class Synthesizer(LineSetPath):
+class Synthesizer(LineSetPath, FloorPath, NoisePath):
     """Speed-driven, phase-continuous sensor signals of one case, chunk by chunk.
 
     Parameters
@@ -118,6 +118,10 @@ class Synthesizer(LineSetPath):
         The mounted sensor's resonance on the housing channels (:mod:`bkabem_core.sensors`; None: ideal).
     anti_alias : AntiAliasFilter or None
         The acquisition's low-pass on every channel (None: none; ``AntiAliasFilter.for_rate(fs)`` the usual one).
+    broadband_floor : bool
+        Add the case's broadband floor (``baseline.broadband_force_n_per_sqrt_hz``: random force pairs across the
+        bearings through the machine's receptance, :mod:`bkabem_core.synth_floor`) when the case sets one (default
+        True); its frames are made by :meth:`prepare` or the first chunk (~0.3 s).
     """
 
     def __init__(self, model: BkaBem, sample_rate_hz: float = 25600.0, chunk_s: float = 0.1, *,
@@ -126,7 +130,7 @@ class Synthesizer(LineSetPath):
                  spectrum: str = "auto", knot_s: float = 0.1, max_speed_step_hz: float = 0.5,
                  min_speed_hz: float = 0.05, initial_speed_hz: float | None = None, dtype=np.float32,
                  features: bool = True, table_size: int | None = None, accelerometer: Accelerometer | None = None,
-                 anti_alias: AntiAliasFilter | None = None):
+                 anti_alias: AntiAliasFilter | None = None, broadband_floor: bool = True):
         if not isinstance(model, BkaBem):
             raise SynthError("model", f"must be a BkaBem (got {type(model).__name__})")
         fs = _finite("sample_rate_hz", sample_rate_hz, 0.0, strict=True)
@@ -180,6 +184,7 @@ class Synthesizer(LineSetPath):
             if v is not None and not isinstance(v, kind):
                 raise SynthError(name, f"must be a {kind.__name__} or None (got {type(v).__name__})")
         self.accelerometer, self.anti_alias = accelerometer, anti_alias
+        self._floor_wanted = bool(broadband_floor)
         self._spectrum_kind = spectrum
         self._max_order_arg = max_order
         self._table_size_arg = table_size
@@ -189,6 +194,9 @@ class Synthesizer(LineSetPath):
 
     # ------------------------------------------------------------------ model
     def _bind_model(self, model: BkaBem) -> None:
+        self._floor = None
+        self.floor_density = float(model.case.raw["baseline"].get("broadband_force_n_per_sqrt_hz", 0.0)) \
+            if self._floor_wanted else 0.0
         if not model.is_order_set:
             self._bind_lines(model)
             return
@@ -326,6 +334,11 @@ class Synthesizer(LineSetPath):
         fs = self.sample_rate_hz
         self._noise_sigma = np.array([dens.get(c.quantity, 0.0) * math.sqrt(fs / 2) for c in self.channels])
         self._noise_on = bool(np.any(self._noise_sigma > 0)) or self.snr_db is not None
+        # with the C kernel the noise is made inside the sample loop (synth_kernel.segment, noise=...), keyed by
+        # absolute sample; without it, numpy's generator in blocks, added after the samples (_NoiseBlocks)
+        self._noise_fused = self._noise_on and synth_kernel.AVAILABLE
+        self._noise_key = noise_key(self.seed)
+        self._noise_sigma_t = np.ascontiguousarray(self._noise_sigma, dtype=self.dtype)
         self._noise = _NoiseBlocks(self.seed, len(self.channels), self.dtype) if self._noise_on else None
 
     @property
@@ -425,6 +438,8 @@ class Synthesizer(LineSetPath):
         ~0.6 s and 10 MB for 75 Hz). Once per model: synthesisers of one model share them. Cells above are made
         when first used. Any other line set than BPFO orders: the speed cells of its speed-locked lines over the same
         range (checked against the exact response first; ~10x the order set's cost for 350-670 lines)."""
+        if self.floor_density > 0:
+            self._floor_source()
         if self._general:
             self._line_spectrum_at(1.0)                          # makes the cells (or falls back to exact)
             if self._cells is not None:
@@ -688,24 +703,43 @@ class Synthesizer(LineSetPath):
             acc = synth_kernel.new_acc(len(self.channels))
         segments = list(self._segments(n0, n)) if not (len(ks) == 2 and ks[1].x >= n0 + n) else \
             [(ks[0], ks[1], n0, n0 + n)]
-        mixed = any(a.amp.families is not b.amp.families for a, b, _, _ in segments)
-        after = self._noise_on or self._general or mixed  # moments taken after the noise / the families' sum
-        fused = acc if not after else None
+        floor_on = self.floor_density > 0
+        # the C line-set kernel renders the floor per block itself (lazy); any other path adds the chunk's floor
+        lazy = floor_on and self._general and self._lines_fused
+        floor = self._floor_block(n0, n) if floor_on and not lazy else None
+        fused = self._noise_fused or (floor_on and synth_kernel.AVAILABLE)
+        late = not fused and (self._noise_on or floor is not None)   # numpy: added, moments taken, at the end
+        seg_acc = None if late else acc
         for a, b, lo, hi in segments:
             dest = out[lo - n0:hi - n0]
+            noise = None
+            if fused:
+                noise = self._segment_noise(a, b, lo) if self._noise_on else (self._noise_key, lo, None)
+                if lazy:
+                    noise = noise + (self._floor_part(a, b, lo, hi),)
+                else:
+                    noise = noise + (None if floor is None else self._floor_faded(floor[lo - n0:hi - n0], a, b, lo),)
+            if a.amp.families is None and b.amp.families is None:
+                self._segment(a, b, lo, hi, dest, seg_acc, noise)  # noise and features inside the sample loop
+                continue
             if a.amp.families is not b.amp.families:
                 self._segment_swap(a, b, lo, hi, dest)              # a model swap across line-set layouts
-            elif a.amp.families is not None:
-                self._segment_lines(a, b, lo, hi, dest)
-            else:
-                self._segment(a, b, lo, hi, dest, fused)
-        if self._noise_on:
-            self._add_noise(n0, n, out)
-        if after and acc is not None:
-            self._accumulate(out, self._dc_off, acc)
+            elif self._segment_lines(a, b, lo, hi, dest, seg_acc, noise):
+                continue                                             # noise and features in the C line-set pass
+            if noise is not None:                                    # the families' sum first, then one pass
+                synth_kernel.noise_add(dest, noise[0], lo, noise[2], self._dc_off, seg_acc, noise[3])
+            elif seg_acc is not None:
+                self._accumulate(dest, self._dc_off, seg_acc)
+        if late:
+            if self._noise_on:
+                self._add_noise(n0, n, out)
+            if floor is not None:
+                out += floor
+            if acc is not None:
+                self._accumulate(out, self._dc_off, acc)
         return self._make_chunk(n0, n, out, acc)
 
-    def _segment(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc) -> None:
+    def _segment(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc, noise=None) -> None:
         """Samples [lo, hi) of the segment between knots a and b into ``out`` (hi - lo, C).
 
         Ball passes since knot a, u(xi) = u_frac + c1 xi + c2 xi^2 at xi = sample - a.x (speed linear in time),
@@ -725,31 +759,12 @@ class Synthesizer(LineSetPath):
         if self._slip_walk is not None:              # the walk at the samples' passes, as fixed-point offsets (C)
             warp = self._slip_walk.warp_fixed(a.u_int, j, m, c1, c2, a.u_frac)[0]
         tb = b.amp.table if b.amp is not a.amp else None
-        self._segment_fn(phase0, dphase0, dd, warp, a.amp.table, tb, float(j), 65536.0 / length, out,
-                         acc, self._dc_off)
-
-    @staticmethod
-    def _add_scaled(out: np.ndarray, z: np.ndarray, sigma: np.ndarray) -> None:
-        """out += z * sigma (per channel), rows folded (see _FOLD)."""
-        m, c = out.shape
-        q = m // _FOLD * _FOLD
-        sig = sigma.astype(out.dtype)
-        if q:
-            zz = z[:q].reshape(-1, _FOLD * c)
-            zz *= np.tile(sig, _FOLD)
-            out[:q].reshape(-1, _FOLD * c)[...] += zz
-        if q < m:
-            out[q:] += z[q:] * sig
-
-    def _add_noise(self, n0: int, n: int, out: np.ndarray) -> None:
-        z = self._noise.get(n0, n)
-        if self.snr_db is None:
-            self._add_scaled(out, z, self._noise_sigma)
-            return
-        g = 10 ** (-self.snr_db / 20)
-        for a, b, lo, hi in self._segments(n0, n):
-            sigma = g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
-            self._add_scaled(out[lo - n0:hi - n0], z[lo - n0:hi - n0], sigma)
+        if noise is None:
+            self._segment_fn(phase0, dphase0, dd, warp, a.amp.table, tb, float(j), 65536.0 / length, out,
+                             acc, self._dc_off)
+        else:
+            self._segment_fn(phase0, dphase0, dd, warp, a.amp.table, tb, float(j), 65536.0 / length, out,
+                             acc, self._dc_off, noise=noise)
 
     # ------------------------------------------------------------------ chunk metadata
     def _state_at(self, pos: float):
@@ -834,6 +849,7 @@ class Synthesizer(LineSetPath):
             "orders": [int(k) for k in self.orders],
             "accelerometer": None if self.accelerometer is None else self.accelerometer.to_dict(),
             "anti_alias": None if self.anti_alias is None else self.anti_alias.to_dict(),
+            "broadband_force_n_per_sqrt_hz": self.floor_density,
         })
         if self._general:
             gt["line_coefficients"] = self.coefficients.tolist()

@@ -168,9 +168,31 @@ def _load():
     sw = getattr(lib, "synth_slip_warp", None)
     if sw is not None:
         dbl = ctypes.c_double
-        sw.argtypes = [i64, dbl, dbl, dbl, dbl, ptr, i64, i64, dbl, ptr]
+        sw.argtypes = [i64, dbl, dbl, dbl, dbl, ptr, i64, i64, ptr, i64, ptr]
         sw.restype = ctypes.c_int
         fns["slip_warp"] = sw
+    ft = lib.synth_family_tables
+    ft.argtypes = [i64, i64, i64] + [ptr] * 12
+    ft.restype = ctypes.c_int
+    fns["family_tables"] = ft
+    ls = lib.synth_lines_segment_f32
+    ls.argtypes = [i64, i64, i64] + [ptr] * 10 + [ctypes.c_double, ctypes.c_double, ptr, ptr, ptr,
+                                                  ctypes.c_uint64, i64, ptr, ptr, ptr, ptr, i64, ptr, i64, i64]
+    fr = lib.synth_floor_render
+    fr.argtypes = [i64, i64, i64, i64, i64, ptr, ptr, i64, ptr, ptr]
+    fr.restype = ctypes.c_int
+    fns["floor_render"] = fr
+    ls.restype = ctypes.c_int
+    fns["lines_segment"] = ls
+    nf = lib.synth_noise_fill
+    nf.argtypes = [ctypes.c_uint64, i64, i64, i64, ctypes.c_int, ptr]
+    nf.restype = ctypes.c_int
+    fns["noise_fill"] = nf
+    for dt, suf in ((np.dtype(np.float32), "f32"), (np.dtype(np.float64), "f64")):
+        na = getattr(lib, f"synth_noise_add_{suf}")
+        na.argtypes = [i64, i64, ptr, ctypes.c_uint64, i64, ptr, ptr, ptr, ptr]
+        na.restype = ctypes.c_int
+        fns[("noise_add", dt)] = na
     lib.synth_fast_path.argtypes = []
     lib.synth_fast_path.restype = ctypes.c_int
     fns["fast_path"] = bool(lib.synth_fast_path())
@@ -253,15 +275,23 @@ def _check_segment(warp, table_a, table_b, out, acc, off):
 
 
 def segment(phase0: int, dphase0: int, ddphase: int, warp, table_a: np.ndarray, table_b, xi0: float,
-            blend_scale: float, out: np.ndarray, acc=None, off=None, exact: bool = False) -> None:
+            blend_scale: float, out: np.ndarray, acc=None, off=None, exact: bool = False, noise=None) -> None:
     """Samples of one call into ``out`` (m, C) with the C kernel (see the module docstring).
 
     The arguments are checked in C (``_synthloop.c``, py_segment: C-contiguity, writeability, dtypes and shapes):
-    ~1 us per call instead of ~6 us of Python checks and ctypes conversions. Raises RuntimeError if the kernel is
-    not built, ValueError on wrong shapes, dtypes or non-contiguous arrays."""
+    ~1 us per call instead of ~6 us of Python checks and ctypes conversions. ``noise``: None, or ``(key, n0,
+    sigma[, extra])``: sensor noise ``sigma[c] z`` added to every sample before its features are taken, ``z`` the
+    normals of :func:`noise_fill` at the absolute sample indices ``n0 ..`` (``sigma`` (C,) of out's dtype, or None:
+    no noise), and ``extra`` (m, C) of out's dtype added too (the broadband floor; None: none). Raises
+    RuntimeError if the kernel is not built, ValueError on wrong shapes, dtypes or non-contiguous arrays."""
     if _segment_c is None:
         raise RuntimeError("the C sample loop (bkabem_core/_synthloop.c) is not built: run `pip install -e .`")
-    _segment_c(phase0, dphase0, ddphase, warp, table_a, table_b, xi0, blend_scale, out, acc, off, exact)
+    if noise is None:
+        _segment_c(phase0, dphase0, ddphase, warp, table_a, table_b, xi0, blend_scale, out, acc, off, exact)
+    else:
+        key, n0, sigma, *extra = noise
+        _segment_c(phase0, dphase0, ddphase, warp, table_a, table_b, xi0, blend_scale, out, acc, off, exact,
+                   int(key) & _MASK64, int(n0), sigma, extra[0] if extra else None)
 
 
 def accumulate(x: np.ndarray, off: np.ndarray, acc: np.ndarray) -> None:
@@ -301,35 +331,240 @@ def normals(key: int, n: int, dtype=np.float32) -> np.ndarray:
     return out
 
 
-def slip_warp(m: int, j0: int, c1: float, c2: float, u_frac: float, w: np.ndarray, jw0: int, kappa: float):
-    """(m,) int64 phase offsets of random slip for one segment (see ``synth_slip_warp`` in _synthloop.c): in C when
-    built, else :func:`slip_warp_reference`; the two agree bit for bit."""
+def slip_warp(m: int, j0: int, c1: float, c2: float, u_frac: float, w: np.ndarray, jw0: int, kappas) -> np.ndarray:
+    """(K, m) int64 phase offsets of random slip for one segment, one row per factor of ``kappas`` (K <= 8; see
+    ``synth_slip_warp`` in _synthloop.c): in C when built, else :func:`slip_warp_reference`; the two agree bit for
+    bit."""
     fn = _FNS.get("slip_warp") if _FNS is not None else None
+    kap = np.ascontiguousarray(np.atleast_1d(np.asarray(kappas, dtype=np.float64)))
     if fn is None:
-        return slip_warp_reference(m, j0, c1, c2, u_frac, w, jw0, kappa)
+        return slip_warp_reference(m, j0, c1, c2, u_frac, w, jw0, kap)
     w = np.ascontiguousarray(w, dtype=np.float64)
-    out = np.empty(int(m), dtype=np.int64)
-    if fn(int(m), float(j0), float(c1), float(c2), float(u_frac), w.ctypes.data, w.size, int(jw0), float(kappa),
-          out.ctypes.data):
-        raise ValueError("synth_slip_warp: a sample falls outside the walk's values")
+    out = np.empty((kap.size, int(m)), dtype=np.int64)
+    if fn(int(m), float(j0), float(c1), float(c2), float(u_frac), w.ctypes.data, w.size, int(jw0), kap.ctypes.data,
+          kap.size, out.ctypes.data):
+        raise ValueError("synth_slip_warp: a sample falls outside the walk's values (or K not in 1..8)")
     return out
 
 
 def slip_warp_reference(m: int, j0: int, c1: float, c2: float, u_frac: float, w: np.ndarray, jw0: int,
-                        kappa: float) -> np.ndarray:
-    """:func:`slip_warp` in numpy (the operations of the C function in its order)."""
+                        kappas) -> np.ndarray:
+    """:func:`slip_warp` in numpy (the operations of the C function in its order): the walk's Hermite cubic in
+    Horner form per pass interval, ``rint(y 2^52) 2^10`` with ``y = kappa W - rint(kappa W)``."""
+    kap = np.atleast_1d(np.asarray(kappas, dtype=np.float64))
     xi = np.arange(j0, j0 + m, dtype=np.float64)
     u = (c2 * xi + c1) * xi + u_frac
     fl = np.floor(u)
     k = fl.astype(np.int64) - jw0
     t = u - fl
-    t2 = t * t
-    t3 = t2 * t
     w0, w1 = w[k], w[k + 1]
     m0, m1 = 0.5 * (w[k + 1] - w[k - 1]), 0.5 * (w[k + 2] - w[k])
-    ww = (2 * t3 - 3 * t2 + 1) * w0 + (t3 - 2 * t2 + t) * m0 + (3 * t2 - 2 * t3) * w1 + (t3 - t2) * m1
-    wp = kappa * ww
-    return np.rint((wp - np.rint(wp)) * float(PASS_UNITS)).astype(np.int64)
+    d = w1 - w0
+    a2 = ((3.0 * d) - (2.0 * m0)) - m1
+    a3 = ((-2.0 * d) + m0) + m1
+    ww = ((a3 * t + a2) * t + m0) * t + w0
+    out = np.empty((kap.size, int(m)), dtype=np.int64)
+    for q, kappa in enumerate(kap):
+        wp = kappa * ww
+        out[q] = np.rint((wp - np.rint(wp)) * 2.0 ** 52).astype(np.int64) << 10
+    return out
+
+
+# ----------------------------------------------------------------------------------------- sensor noise
+def noise_fill(key: int, n0: int, n: int, n_channels: int, avx2: bool = True) -> np.ndarray:
+    """(n, C) float32 standard normals of the noise stream ``key`` at absolute samples ``n0 .. n0 + n - 1``: what
+    :func:`segment` adds with ``noise=(key, n0, sigma)`` (``_synthnoise.h``: xoshiro256+ lanes seeded per block of
+    256 samples, Box-Muller with single-precision polynomials). ``avx2=False`` takes the scalar code (the same
+    bits). Raises RuntimeError if the kernel is not built."""
+    if _FNS is None:
+        raise RuntimeError("the C kernel (bkabem_core/_synthloop.c) is not built: run `pip install -e .`")
+    out = np.empty((int(n), int(n_channels)), dtype=np.float32)
+    if _FNS["noise_fill"](int(key) & _MASK64, int(n0), int(n), int(n_channels), int(bool(avx2)), out.ctypes.data):
+        raise ValueError(f"synth_noise_fill rejected n0={n0}, n={n}, C={n_channels}")
+    return out
+
+
+def noise_add(x: np.ndarray, key: int, n0: int, sigma, off=None, acc=None, extra=None) -> None:
+    """``x += sigma z (+ extra)`` (z: :func:`noise_fill` at absolute samples ``n0 ..``; sigma None: no noise;
+    ``extra`` (n, C) of x's dtype, e.g. the broadband floor) for a finished block ``x`` (n, C), and with ``acc`` its
+    features accumulated (:func:`accumulate`), in one C pass."""
+    fn = _FNS.get(("noise_add", x.dtype)) if _FNS is not None else None
+    if fn is None:
+        raise RuntimeError("the C kernel (bkabem_core/_synthloop.c) is not built: run `pip install -e .`")
+    n, c = x.shape
+    sig = None if sigma is None else np.ascontiguousarray(sigma, dtype=x.dtype)
+    if sig is not None and sig.shape != (c,):
+        raise ValueError(f"sigma must be ({c},)")
+    if extra is not None and (extra.shape != x.shape or extra.dtype != x.dtype or not extra.flags.c_contiguous):
+        raise ValueError(f"extra must be {x.shape} C-contiguous {x.dtype}")
+    if fn(n, c, _ptr(x, "x"), int(key) & _MASK64, int(n0), 0 if sig is None else sig.ctypes.data,
+          0 if extra is None else extra.ctypes.data,
+          0 if off is None else _ptr(off, "off"), 0 if acc is None else _ptr(acc, "acc")):
+        raise ValueError(f"synth_noise_add rejected n={n}, C={c}")
+
+
+_U64 = np.uint64
+
+
+def _noise_words_reference(key: int, block: int, steps: int) -> np.ndarray:
+    """(steps, 4) uint64 words of the four xoshiro256+ lanes of noise block ``block`` (``_synthnoise.h``)."""
+    golden = _U64(0x9E3779B97F4A7C15)
+
+    def mix(z):
+        z = _U64(z)
+        z = (z ^ (z >> _U64(30))) * _U64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> _U64(27))) * _U64(0x94D049BB133111EB)
+        return z ^ (z >> _U64(31))
+
+    with np.errstate(over="ignore"):
+        x = mix(_U64(key & _MASK64) ^ mix(_U64(block) + golden))
+        st = np.zeros((4, 4), dtype=np.uint64)
+        for lane in range(4):
+            for i in range(4):
+                x = x + golden
+                st[i, lane] = mix(x)
+        s0, s1, s2, s3 = (st[i].copy() for i in range(4))
+        out = np.empty((steps, 4), dtype=np.uint64)
+        for k in range(steps):
+            out[k] = s0 + s3
+            t = s1 << _U64(17)
+            s2 ^= s0
+            s3 ^= s1
+            s1 ^= s2
+            s0 ^= s3
+            s2 ^= t
+            s3 = (s3 << _U64(45)) | (s3 >> _U64(19))
+    return out
+
+
+def _noise_pairs_reference(w: np.ndarray):
+    """(z1, z2) float32 of words ``w`` (uint64), the operations of ``noise_pair`` in float32 (its fused
+    multiply-adds through double: the same value except where double rounding differs, ~2^-29 of them)."""
+    f = np.float32
+    u = ((w >> _U64(40)) + _U64(1)).astype(np.int32).astype(f) * f(2.0 ** -24)
+    a = ((w >> _U64(16)) & _U64(0xFFFFFF)).astype(np.int32)
+    x = (a & 0x1FFFFF).astype(f) * f(3.74507028e-7)
+    bits = u.view(np.int32)
+    e = ((bits >> 23) - 126).astype(f)
+    m = ((bits & 0x007FFFFF) | 0x3F000000).view(f)
+    lt = m < f(0.707106781186547524)
+    e = np.where(lt, e - f(1.0), e)
+    m = np.where(lt, m + m, m)
+    m = m - f(1.0)
+    z = m * m
+    def fma(a, b, c):                               # float32 fused multiply-add via double (a b exact in double)
+        return (a.astype(np.float64) * b + np.float64(f(c))).astype(f)
+
+    y = np.full_like(m, f(7.0376836292e-2))
+    for c in (-1.1514610310e-1, 1.1676998740e-1, -1.2420140846e-1, 1.4249322787e-1, -1.6668057665e-1,
+              2.0000714765e-1, -2.4999993993e-1, 3.3333331174e-1):
+        y = fma(y, m, c)
+    y = (y * m) * z
+    y = y + e * f(-2.12194440e-4)
+    y = y - z * f(0.5)
+    ln = (m + y) + e * f(0.693359375)
+    r = np.sqrt(f(-2.0) * ln)
+    q = x * x
+    sn = fma(fma(np.full_like(q, f(-1.9515295891e-4)), q, 8.3321608736e-3), q, -1.6666654611e-1)
+    sn = (sn * q) * x + x
+    cs = fma(fma(np.full_like(q, f(2.443315711809948e-5)), q, -1.388731625493765e-3), q, 4.166664568298827e-2)
+    cs = ((cs * q) * q - q * f(0.5)) + f(1.0)
+    swap = (a & 0x800000) != 0
+    c, s = np.where(swap, sn, cs), np.where(swap, cs, sn)
+    c = np.where((a & 0x400000) != 0, -c, c)
+    s = np.where((a & 0x200000) != 0, -s, s)
+    return r * c, r * s
+
+
+def noise_reference(key: int, n0: int, n: int, n_channels: int) -> np.ndarray:
+    """:func:`noise_fill` in numpy (the test's transcription of ``_synthnoise.h``; slow: a Python loop over the
+    generator steps)."""
+    c = int(n_channels)
+    steps_per_sample = (c + 7) // 8
+    out = np.empty((int(n), c), dtype=np.float32)
+    j = 0
+    while j < n:
+        b, first = divmod(n0 + j, 256)
+        cnt = min(256 - first, n - j)
+        words = _noise_words_reference(key, b, (first + cnt) * steps_per_sample)[first * steps_per_sample:]
+        z1, z2 = _noise_pairs_reference(words)                        # (cnt * S, 4) each
+        z = np.concatenate([z1, z2], axis=1).reshape(cnt, steps_per_sample * 8)
+        out[j:j + cnt] = z[:, :c]
+        j += cnt
+    return out
+
+
+#: True if the line-set kernels (family tables by FFT, one call per segment over all families) are built.
+LINES_AVAILABLE = bool(AVAILABLE and "lines_segment" in _FNS)
+
+
+def family_tables(y: np.ndarray, plan: dict, table: np.ndarray, work: np.ndarray) -> None:
+    """The spline tables of every family of a line set into ``table`` (float32, the families' (N + 3, C) tables at
+    ``plan["out_off"]``) from the lines' channel amplitudes ``y`` (L, C) complex128, by the C FFT of
+    ``_synthlines.h`` (``plan``: :meth:`synth_lines.LineFamilies.plan`; ``work``: >= 2 N C doubles)."""
+    L, C = y.shape
+    y = np.ascontiguousarray(y, dtype=np.complex128)
+    pl = plan
+    fixed = pl.get("_table_addresses")
+    if fixed is None:                               # the plan's arrays do not change: their addresses once
+        fixed = pl["_table_addresses"] = tuple(pl[k].ctypes.data for k in ("n_lines", "line", "slot", "factor",
+                                                                            "N", "tw", "tw_off", "carrier"))
+    if _FNS["family_tables"](pl["F"], C, L, _ptr(y, "y"), *fixed, _ptr(table, "table"), pl["out_off"].ctypes.data,
+                             _ptr(work, "work")):
+        raise ValueError("synth_family_tables rejected its arguments")
+
+
+def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, warp, wp: np.ndarray,
+                  wq: np.ndarray, dc: np.ndarray, xi0: float, blend_scale: float, out: np.ndarray, acc=None,
+                  off=None, noise=None) -> None:
+    """Samples of one segment of a line set, every family in one C pass (``_synthlines.h``), float32: ``phases``
+    (F, 6) uint64 (family phase0, dphase0, ddphase, then the carrier's), tables ``ta``/``tb`` (knot a, b; tb None:
+    no blend) laid out by ``plan``, ``warp`` (K, m) int64 slip offsets (or None) with the row of each family's
+    phase ``wp`` and carrier ``wq`` (-1: none), ``dc`` (C,) float32 static part, ``out`` (m, C) written; ``acc``/
+    ``off`` the features, ``noise`` (key, n0, sigma float32[, extra]) as :func:`segment`; ``extra`` an (m, C)
+    float32 block added with the noise, or the broadband floor itself as :meth:`synth_floor.BroadbandFloor.source`
+    ``(frames, window, grains, half)``, rendered per block inside the pass (the same samples as
+    :func:`floor_render`, without the chunk-sized buffer)."""
+    C = out.shape[1]
+    key, n0, sigma, *extra = noise if noise is not None else (0, 0, None)
+    extra = extra[0] if extra else None
+    floor = (0, 0, 0, 0, 1, 2)
+    if isinstance(extra, tuple):
+        frames, window, grains, half = extra
+        floor = (_ptr(frames, "frames"), _ptr(window, "window"), len(grains), _ptr(grains, "grains"), int(half),
+                 frames.shape[1])
+        extra = None
+    fixed = plan.get("_addresses")
+    if fixed is None:                               # the plan's arrays do not change: their addresses once
+        fixed = plan["_addresses"] = tuple(plan[k].ctypes.data for k in ("lg", "carrier", "off_t"))
+    if _FNS["lines_segment"](int(m), C, plan["F"], _ptr(phases, "phases"), *fixed, _ptr(ta, "ta"),
+                             0 if tb is None else _ptr(tb, "tb"), 0 if warp is None else _ptr(warp, "warp"),
+                             _ptr(wp, "wp"), _ptr(wq, "wq"), _ptr(dc, "dc"), float(xi0), float(blend_scale),
+                             _ptr(out, "out"), 0 if acc is None else _ptr(acc, "acc"),
+                             0 if off is None else _ptr(off, "off"), int(key) & _MASK64, int(n0),
+                             0 if sigma is None else _ptr(sigma, "sigma"), 0 if extra is None else _ptr(extra, "extra"),
+                             *floor):
+        raise ValueError("synth_lines_segment rejected its arguments")
+
+
+def floor_render(n0: int, m: int, half: int, frames: np.ndarray, window: np.ndarray, grains: np.ndarray,
+                 out: np.ndarray) -> None:
+    """The broadband floor at absolute samples ``n0 .. n0 + m - 1`` into ``out`` (m, C) float32: grains (G, 3)
+    int64 (grain index g, frame, offset) over frames (F, L, C) float32, sine window (2 half,) (``synth_floor.py``),
+    in C when built, else in numpy."""
+    fn = _FNS.get("floor_render") if _FNS is not None else None
+    n_l, c = frames.shape[1], frames.shape[2]
+    if fn is not None:
+        if fn(int(m), c, int(n0), int(half), n_l, frames.ctypes.data, window.ctypes.data, len(grains),
+              grains.ctypes.data, _ptr(out, "out")):
+            raise ValueError("synth_floor_render rejected its arguments")
+        return
+    out[...] = 0.0
+    for g, fr, off in grains:
+        lo, hi = max(g * half, n0), min(g * half + 2 * half, n0 + m)
+        if hi > lo:
+            t = np.arange(lo - g * half, hi - g * half)
+            out[lo - n0:hi - n0] += window[t][:, None] * frames[fr][(t + off) % n_l]
 
 
 def carrier_mix(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:
@@ -527,8 +762,10 @@ def phases_reference(phase0: int, dphase0: int, ddphase: int, m: int) -> np.ndar
 
 
 def segment_reference(phase0: int, dphase0: int, ddphase: int, warp, table_a: np.ndarray, table_b, xi0: float,
-                      blend_scale: float, out: np.ndarray, acc=None, off=None) -> None:
-    """:func:`segment` in numpy, operation for operation (the same IEEE operations in the same order and precision)."""
+                      blend_scale: float, out: np.ndarray, acc=None, off=None, noise=None) -> None:
+    """:func:`segment` in numpy, operation for operation (the same IEEE operations in the same order and precision);
+    the noise's normals from the C generator (:func:`noise_fill`, tested against :func:`noise_reference`; the
+    latter without the kernel, slow)."""
     m, c, n, fb = _check_segment(warp, table_a, table_b, out, acc, off)
     if m == 0:
         return
@@ -559,6 +796,14 @@ def segment_reference(phase0: int, dphase0: int, ddphase: int, warp, table_a: np
         vb -= va
         vb *= s[:, None]
         np.add(va, vb, out=out)
+    if noise is not None:
+        key, n0, sigma, *extra = noise
+        if sigma is not None:
+            z = (noise_fill(key, n0, m, c) if AVAILABLE else noise_reference(key, n0, m, c)).astype(dt)
+            z *= np.asarray(sigma, dtype=dt)[None, :]
+            out += z
+        if extra and extra[0] is not None:
+            out += extra[0]
     if acc is not None:
         accumulate_reference(out, off, acc)
 

@@ -171,6 +171,30 @@ class LineFamilies:
         self._slots = [np.mod(f.k, f.table_size) for f in self.families]
         self._line_emphasis = [1.0 / np.sinc(f.k / f.table_size) ** 4 for f in self.families]
         self._pad = {f.table_size: (np.arange(f.table_size + 3) - 1) % f.table_size for f in self.families}
+        self.plan = self._plan()
+
+    def _plan(self) -> dict:
+        """Flat arrays of the families for the C kernels (synth_kernel.family_tables, lines_segment): per family
+        its lines, FFT slots and factors (pre-emphasis, negative where the line enters conjugated), table size and
+        its log2, twiddles, carrier flag and table offset (floats per channel-row unit: x C by the caller)."""
+        fams = self.families
+        n_lines = np.array([f.lines.size for f in fams], dtype=np.int64)
+        line = np.concatenate([f.lines for f in fams]).astype(np.int64)
+        slot = np.concatenate(self._slots).astype(np.int64)
+        factor = np.concatenate([e * f.sign for e, f in zip(self._line_emphasis, fams)]).astype(np.float64)
+        sizes = np.array([f.table_size for f in fams], dtype=np.int64)
+        tw, tw_off = [], {}
+        for n in sorted(set(sizes.tolist())):
+            tw_off[n] = sum(t.size for t in tw)
+            j = np.arange(n // 2)
+            tw.append(np.stack([np.cos(2 * np.pi * j / n), np.sin(2 * np.pi * j / n)], axis=1).ravel())
+        carrier = np.array([int(f.carrier) for f in fams], dtype=np.int64)
+        rows = (sizes + 3) * (1 + carrier)                        # table rows of each family (two for a carrier)
+        return {"F": len(fams), "n_lines": n_lines, "line": line, "slot": slot, "factor": factor, "N": sizes,
+                "lg": np.array([int(n).bit_length() - 1 for n in sizes], dtype=np.int64),
+                "tw": np.concatenate(tw), "tw_off": np.array([tw_off[int(n)] for n in sizes], dtype=np.int64),
+                "carrier": carrier, "row_off": np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64),
+                "rows": int(rows.sum()), "max_n": int(sizes.max())}
 
     def __len__(self) -> int:
         return len(self.families)
@@ -353,7 +377,9 @@ class _Amplitudes:
     v_iso: np.ndarray | None = None     # (K, 8) housing velocity [mm/s], Re | Im, made when first needed
     ftables: list | None = None         # any other line set: per family its table(s) (synth_lines.LineFamilies)
     families: object | None = None      # ... and the LineFamilies they belong to (None: an order set)
+    fbuf: np.ndarray | None = None      # ... or all of them in one float32 buffer (the C line-set kernels)
     dc: np.ndarray | None = None        # ... and the static part per channel (an order set has it in its table)
+    dc32: np.ndarray | None = None      # ... the same as float32 (the C line-set kernel's argument)
     _y: np.ndarray | None = None
     _rms: np.ndarray | None = None
 
@@ -422,6 +448,14 @@ class LineSetPath:
         self._k_max = max(1, int(math.ceil(float(self._nu.max()) / self.bpfo_per_hz)))
         self._families = LineFamilies(self.coefficients, lines.rates_per_hz, lines.line_hz, self.n_balls,
                                       self.bpfo_per_hz, self._table_size_arg)
+        c = len(self.channels)
+        # the C line-set kernels (float32): every family's tables by one FFT each into one buffer per knot, and one
+        # pass per segment over all families with noise and features fused (_synthlines.h)
+        self._lines_fused = synth_kernel.LINES_AVAILABLE and self.dtype == np.float32 and c <= 64 \
+            and len(self._families) <= 64
+        plan = self._families.plan
+        plan["out_off"] = plan["off_t"] = np.ascontiguousarray(plan["row_off"] * c)
+        self._lines_work = np.empty(2 * plan["max_n"] * c) if self._lines_fused else None
         self.table_size = max(f.table_size for f in self._families.families)
         # (cos, sin) of a carrier's phase: one line each, a 64-point spline table (pre-emphasised: exact line)
         n = 64
@@ -439,7 +473,9 @@ class LineSetPath:
         dc8 = np.asarray(model.dc_m).reshape(-1)
         self._dc = (comb @ dc8)[index] * (power == 0)
         self._dc_off = np.ascontiguousarray(self._dc, dtype=np.float64)
+        self._dc32 = np.ascontiguousarray(self._dc, dtype=np.float32)
         self._chan_power = power.astype(float)
+        self._power_index = power.astype(np.int64)
         self._chan_scale = scale.astype(float)
         self._scratch: dict = {}
         self._gt_base = self._ground_truth_base()
@@ -490,10 +526,19 @@ class LineSetPath:
                                 x.shape[1])
         fade, taper = self._order_weights(f)
         w = TWO_PI * (self._nu * f + self._mu)                               # (K,) [rad/s]
-        fac = (1j * w[:, None]) ** self._chan_power[None, :] * (self._chan_scale * fade)[None, :]
+        iw = 1j * w
+        powers = np.stack([np.ones_like(iw), iw, iw * iw])                  # (i w)^p, p = 0, 1, 2 (no complex pow)
+        fac = powers[self._power_index].T * (self._chan_scale * fade)[None, :]
         if taper is not None:
             fac = fac * taper[:, None]
         y = x[:, self._cindex] * fac
+        if self._lines_fused:
+            fam = self._families
+            buf = np.empty(fam.plan["rows"] * y.shape[1], dtype=np.float32)
+            synth_kernel.family_tables(y, fam.plan, buf, self._lines_work)
+            return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=np.ones(y.shape[0]),
+                               table=None, ftables=None, families=fam, dc=self._dc.copy(), fbuf=buf,
+                               dc32=self._dc32)
         tables = self._families.tables(y, self.dtype)
         return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=np.ones(y.shape[0]),
                            table=None, ftables=tables, families=self._families, dc=self._dc.copy())
@@ -511,10 +556,85 @@ class LineSetPath:
         dd = round(2.0 * c2 * PASS)
         return round(t0 * PASS) + j * d0 + dd * (j * (j - 1) // 2), d0 + j * dd, dd
 
-    def _segment_lines(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray) -> None:
+    def _fused_plan(self, fams: "LineFamilies") -> dict:
+        """What :meth:`_segment_lines_fused` needs of the families, made once per line set and slip setting: per
+        phase (each family's, then its carrier's) the constants of :meth:`_phase_args` (rate / BPFO, fixed, rate,
+        rate / 2), and the slip-offset row of each family's phase and carrier (-1: none) over the distinct slip
+        factors ``kappas``."""
+        key = (id(fams), self._slip_walk is not None)
+        cached = self._scratch.get("fused")
+        if cached is not None and cached["key"] == key:
+            return cached
+        walk = self._slip_walk
+        kappas: list = []
+
+        def row(kappa: float) -> int:
+            if walk is None or kappa == 0.0:
+                return -1
+            if kappa not in kappas:
+                kappas.append(kappa)
+            return kappas.index(kappa)
+
+        ff = fams.families
+        bpfo = self.bpfo_per_hz
+        phases = []
+        for f in ff:
+            phases.append((f.rate_p / bpfo, f.fixed_p, f.rate_p, 0.5 * f.rate_p))
+            phases.append((f.rate_q / bpfo, f.fixed_q, f.rate_q, 0.5 * f.rate_q) if f.carrier else None)
+        wp = np.array([row(f.kappa_p) for f in ff], dtype=np.int64)
+        wq = np.array([row(f.kappa_q) if f.carrier else -1 for f in ff], dtype=np.int64)
+        plan = {"key": key, "kappas": tuple(kappas), "phases": phases, "wp": wp, "wq": wq}
+        self._scratch["fused"] = plan
+        return plan
+
+    def _segment_lines_fused(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc, noise) -> None:
+        """:meth:`_segment_lines` by the C line-set kernel: every family (its phase and carrier in exact fixed
+        point, their slip offsets) in one pass, the static part, the noise and the features of the block fused.
+        The phases are :meth:`_phase_args` inlined with its constants from :meth:`_fused_plan` (the same floating
+        operations in the same order: the same integers)."""
+        m = hi - lo
+        fs, bpfo = self.sample_rate_hz, self.bpfo_per_hz
+        j = lo - a.x
+        ua = a.u_int + a.u_frac
+        fams = a.amp.families
+        plan = self._fused_plan(fams)
+        length = b.x - a.x
+        af, dfa, fsl, xs = a.f, b.f - a.f, fs * length, a.x / fs
+        jj = j * (j - 1) // 2
+        mask = (1 << 64) - 1
+        vals = []
+        for ph in plan["phases"]:
+            if ph is None:
+                vals += (0, 0, 0)
+                continue
+            r_b, fixed, rate, half = ph
+            t = r_b * ua + fixed * xs
+            t0 = t - math.floor(t)
+            c1 = (rate * af + fixed) / fs
+            c2 = half * dfa / fsl
+            d0 = round((c1 + c2) * PASS)
+            dd = round(2.0 * c2 * PASS)
+            vals += ((round(t0 * PASS) + j * d0 + dd * jj) & mask, (d0 + j * dd) & mask, dd & mask)
+        ph = np.array(vals, dtype=np.uint64)
+        warp = None
+        if plan["kappas"]:
+            c1u = bpfo / fs * a.f
+            c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
+            warp = np.ascontiguousarray(self._slip_walk.warp_fixed(a.u_int, j, m, c1u, c2u, a.u_frac,
+                                                                   plan["kappas"]))
+        tb = None if b.amp is a.amp else b.amp.fbuf
+        synth_kernel.lines_segment(m, ph, fams.plan, a.amp.fbuf, tb, warp, plan["wp"], plan["wq"],
+                                   a.amp.dc32, float(j), 65536.0 / length, out, acc, self._dc_off, noise)
+
+    def _segment_lines(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc=None, noise=None) -> bool:
         """Samples [lo, hi) between knots a and b of any line set: every family's table(s) through the sample loop
         at the family's own phase (exact fixed point, as :meth:`_segment`); a carrier's cosine and sine through the
-        same loop from a two-column table, mixed in C (:func:`synth_kernel.carrier_mix`)."""
+        same loop from a two-column table, mixed in C (:func:`synth_kernel.carrier_mix`). With the C line-set
+        kernel, all of it in one pass (:meth:`_segment_lines_fused`), and then the noise and the features (``acc``)
+        are taken there too: returns True if they were."""
+        if a.amp.fbuf is not None:
+            self._segment_lines_fused(a, b, lo, hi, out, acc, noise)
+            return True
         m = hi - lo
         length = b.x - a.x
         fs, bpfo = self.sample_rate_hz, self.bpfo_per_hz
@@ -555,6 +675,7 @@ class LineSetPath:
             self._segment_fn(q0, dq0, ddq, warp_of(fam.kappa_q), self._carrier_table, None, float(j), blend, scratch[2], None,
                              self._dc_off[:2])
             synth_kernel.carrier_mix(scratch[2], scratch[0], scratch[1], out)
+        return False
 
     def _segment_swap(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray) -> None:
         """A segment across a model swap between line sets of different families (``set_model``): each knot's
@@ -583,8 +704,10 @@ class LineSetPath:
             a = b
 
         def vel(amp):
-            w = TWO_PI * (self._nu * amp.f + self._mu)
-            return amp.x[:, self._iso_rows] * (1j * w * 1e3 * amp.weights)[:, None]
+            if amp.v_iso is None:                                   # once per knot speed
+                w = TWO_PI * (self._nu * amp.f + self._mu)
+                amp.v_iso = amp.x[:, self._iso_rows] * (1j * w * 1e3 * amp.weights)[:, None]
+            return amp.v_iso
 
         va, vb = vel(a.amp), vel(b.amp)
         if va.shape != vb.shape:

@@ -1,0 +1,343 @@
+/*
+ * Any line set in one pass (included by _synthloop.c after the sample-loop kernels): the spline tables of a line
+ * set's families made by an FFT that keeps the channels in vector lanes, and the samples of a segment summed over
+ * all families in one call, with the sensor noise and the chunk features fused (synth_lines.py).
+ *
+ * Why: a non-order line set (inner race: 9 families, ball: 10) was one numpy inverse FFT per family and knot
+ * (~90 us for 1024 points x 8 channels in numpy: the ball's tables alone were 1.1 ms per knot) and per family two
+ * or three calls of the sample loop, a carrier table and a mix pass over the chunk (~20 us each). Here:
+ *
+ * Tables (synth_family_tables): family f's G(phi) = sum_k Y_k exp(i k 2 pi phi) at phi = n / N, n = 0 .. N-1, for
+ * its lines' channel amplitudes Y (pre-emphasised, conjugated where the family holds the conjugate line), as an
+ * iterative radix-2 decimation-in-time inverse FFT (no 1/N) in double over N x C complex values, the C channels
+ * contiguous so the butterflies are vector operations over the channels (the twiddles are cos / sin of 2 pi j / N,
+ * exact to rounding, from the caller). A real family writes Re G to its (N + 3) x C table, a carrier family Re G
+ * and Im G to two; rows padded as the order tables (row r = coefficient (r - 1) mod N).
+ *
+ * Samples (synth_lines_segment_f32): per block of samples, every family's table row index and spline weights from
+ * its own fixed-point phase (+ its slip offsets), the two knots' tables blended in time as the order path, and for a
+ * carrier family cos and sin of its carrier phase (+ slip) from 24 bits of the turn: octant, then Cephes' sinf /
+ * cosf polynomials on [0, pi/4] (error ~1e-7), so x += cos(2 pi phi_q) Re G - sin(2 pi phi_q) Im G; then the
+ * static part, the noise and the features of the block. Float32, any C (the channel loops are unrolled for C = 8).
+ */
+#ifndef BKABEM_SYNTHLINES_H
+#define BKABEM_SYNTHLINES_H
+
+/* The broadband floor (synth_floor.py) of m samples from absolute sample n0 into out (m x C, written): grains q of G
+ * (grain g, frame, offset: samples [g S, g S + 2 S) read frame `frame` from `offset` under the sine window win),
+ * frames F x L x C. Each sample is 0 + w_1 f_1 + w_2 f_2 in the grains' order (synth_floor_render, the per-block
+ * render of the line-set kernel and the numpy fallback round alike). */
+static CLONES void floor_block_f32(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const float *frames,
+                                   const float *win, int64_t G, const int64_t *grains, float *out)
+{
+    memset(out, 0, sizeof(float) * (size_t)(m * C));
+    for (int64_t q = 0; q < G; ++q) {
+        const int64_t g = grains[3 * q], fr = grains[3 * q + 1], off = grains[3 * q + 2];
+        const float *F = frames + fr * L * C;
+        int64_t lo = g * S > n0 ? g * S : n0, hi = g * S + 2 * S < n0 + m ? g * S + 2 * S : n0 + m;
+        while (lo < hi) {                                  /* runs that do not wrap around the frame */
+            const int64_t t0 = lo - g * S, src0 = (t0 + off) % L;
+            const int64_t run = hi - lo < L - src0 ? hi - lo : L - src0;
+            const float *restrict src = F + src0 * C, *restrict w = win + t0;
+            float *restrict o = out + (lo - n0) * C;
+            if (C == 8)
+                for (int64_t i = 0; i < run; ++i)
+                    for (int c = 0; c < 8; ++c) o[8 * i + c] += w[i] * src[8 * i + c];
+            else
+                for (int64_t i = 0; i < run; ++i)
+                    for (int64_t c = 0; c < C; ++c) o[i * C + c] += w[i] * src[i * C + c];
+            lo += run;
+        }
+    }
+}
+
+/* In-place inverse FFT (sign +, unscaled) of x (N x C complex as re/im pairs, row-major: x[2 (n C + c)] = Re),
+ * N a power of 2, tw[2 j] = cos(2 pi j / N), tw[2 j + 1] = sin(2 pi j / N), j < N / 2. */
+static CLONES void ifft_channels(int64_t N, int64_t C, double *restrict x, const double *restrict tw)
+{
+    for (int64_t i = 1, j = 0; i < N; ++i) {                     /* bit reversal of the rows */
+        int64_t bit = N >> 1;
+        for (; j & bit; bit >>= 1) j ^= bit;
+        j ^= bit;
+        if (i < j)
+            for (int64_t c = 0; c < 2 * C; ++c) {
+                const double t = x[2 * i * C + c];
+                x[2 * i * C + c] = x[2 * j * C + c];
+                x[2 * j * C + c] = t;
+            }
+    }
+    for (int64_t len = 2; len <= N; len <<= 1) {
+        const int64_t half = len >> 1, step = N / len;
+        for (int64_t s = 0; s < N; s += len)
+            for (int64_t k = 0; k < half; ++k) {
+                const double wr = tw[2 * k * step], wi = tw[2 * k * step + 1];
+                double *restrict a = x + 2 * (s + k) * C, *restrict b = x + 2 * (s + k + half) * C;
+                for (int64_t c = 0; c < C; ++c) {
+                    const double br = b[2 * c], bi = b[2 * c + 1];
+                    const double tr = br * wr - bi * wi, ti = br * wi + bi * wr;
+                    const double ar = a[2 * c], ai = a[2 * c + 1];
+                    a[2 * c] = ar + tr, a[2 * c + 1] = ai + ti;
+                    b[2 * c] = ar - tr, b[2 * c + 1] = ai - ti;
+                }
+            }
+    }
+}
+
+/* Tables of F families. y: L x C complex (re/im pairs) channel amplitudes of the lines. Per family f: n_lines[f]
+ * lines line[...] (concatenated over the families), their FFT slot (k mod N) and factor (emphasis, sign: a negative
+ * factor conjugates), size N[f] with twiddles tw + tw_off[f], and its output tables at table + out_off[f] (one or,
+ * for carrier[f], two consecutive (N + 3) x C float tables). work: at least max N x C x 2 doubles. Returns 0 or -1. */
+int synth_family_tables(int64_t F, int64_t C, int64_t L, const double *y, const int64_t *n_lines,
+                        const int64_t *line, const int64_t *slot, const double *factor, const int64_t *N,
+                        const double *tw, const int64_t *tw_off, const int64_t *carrier, float *table,
+                        const int64_t *out_off, double *work)
+{
+    int64_t p = 0;
+    for (int64_t f = 0; f < F; ++f) {
+        const int64_t n = N[f];
+        if (n < 4 || (n & (n - 1)) != 0) return -1;
+        memset(work, 0, sizeof(double) * (size_t)(2 * n * C));
+        for (int64_t i = 0; i < n_lines[f]; ++i, ++p) {
+            const int64_t l = line[p], s = slot[p];
+            if (l < 0 || l >= L || s < 0 || s >= n) return -1;
+            const double g = factor[p] < 0 ? -factor[p] : factor[p], conj = factor[p] < 0 ? -1.0 : 1.0;
+            for (int64_t c = 0; c < C; ++c) {
+                work[2 * (s * C + c)] += g * y[2 * (l * C + c)];
+                work[2 * (s * C + c) + 1] += conj * g * y[2 * (l * C + c) + 1];
+            }
+        }
+        ifft_channels(n, C, work, tw + tw_off[f]);
+        float *re = table + out_off[f], *im = re + (n + 3) * C;
+        for (int64_t r = 0; r < n + 3; ++r) {
+            const int64_t src = (r - 1 + n) % n;
+            for (int64_t c = 0; c < C; ++c) {
+                re[r * C + c] = (float)work[2 * (src * C + c)];
+                if (carrier[f]) im[r * C + c] = (float)work[2 * (src * C + c) + 1];
+            }
+        }
+    }
+    return 0;
+}
+
+/* cos and sin of 2 pi (v / 2^64 of a turn modulo 4: v in units of 2^62 per turn) from the top 24 bits of the turn's
+ * fraction: octant o = 3 bits, x = (21 bits) (pi/4) 2^-21 (or pi/4 - x for odd octants, exact in the integers). */
+static inline void carrier_cos_sin(uint64_t v, float *co, float *si)
+{
+    const uint32_t q = (uint32_t)((v >> 38) & 0xFFFFFF);
+    const uint32_t o = q >> 21, r = q & 0x1FFFFF;
+    const float x = (float)(int32_t)((o & 1) ? 0x200000 - r : r) * 3.74507028e-7f;
+    const float z = x * x;
+    float sn = -1.9515295891e-4f;
+    sn = sn * z + 8.3321608736e-3f;
+    sn = sn * z + -1.6666654611e-1f;
+    sn = sn * z * x + x;
+    float cs = 2.443315711809948e-5f;
+    cs = cs * z + -1.388731625493765e-3f;
+    cs = cs * z + 4.166664568298827e-2f;
+    cs = cs * z * z - 0.5f * z + 1.0f;
+    float c = (o & 1) ? sn : cs, s = (o & 1) ? cs : sn;          /* the angle within its quadrant */
+    switch (o >> 1) {
+    case 0: *co = c, *si = s; break;
+    case 1: *co = -s, *si = c; break;
+    case 2: *co = -c, *si = -s; break;
+    default: *co = s, *si = -c; break;
+    }
+}
+
+/* One segment of a line set: m samples x C channels into out (written). Per family f (F of them): phases[f] =
+ * {phase0, dphase0, ddphase} of the family phase and {...} of its carrier (uint64, the order path's fixed point),
+ * log2 of its table size lg[f], carrier[f], its tables at offset off_t[f] in ta (knot a) and tb (knot b; NULL: no
+ * blend), its slip offsets rows wp[f], wq[f] of warp (m int64 each; -1: none). dc: static part per channel.
+ * xi0, blend_scale as in segment. acc/off: features (optional); na: noise (optional). Returns 0 or -1. */
+#define LINES_ROWS(CC)                                                                                              \
+    do {                                                                                                            \
+        for (int j = 0; j < nb; ++j) {                                                                              \
+            const float *a0 = A + (int64_t)idx[j] * (CC);                                                           \
+            const float w0 = W0[j], w1 = W1[j], w2 = W2[j], w3 = W3[j];                                             \
+            float v[LINES_MAX_C], g[LINES_MAX_C];                                                                  \
+            for (int c = 0; c < (CC); ++c)                                                                          \
+                v[c] = w0 * a0[c] + w1 * a0[(CC) + c] + w2 * a0[2 * (CC) + c] + w3 * a0[3 * (CC) + c];             \
+            if (B) {                                                                                                \
+                const float *b0 = B + (int64_t)idx[j] * (CC);                                                       \
+                for (int c = 0; c < (CC); ++c) {                                                                    \
+                    const float vb = w0 * b0[c] + w1 * b0[(CC) + c] + w2 * b0[2 * (CC) + c] + w3 * b0[3 * (CC) + c]; \
+                    v[c] = v[c] + sw[j] * (vb - v[c]);                                                              \
+                }                                                                                                   \
+            }                                                                                                       \
+            float *o = blk + (int64_t)j * (CC);                                                                     \
+            if (!car) {                                                                                             \
+                for (int c = 0; c < (CC); ++c) o[c] += v[c];                                                        \
+                continue;                                                                                           \
+            }                                                                                                       \
+            const float *a1 = A + NT + (int64_t)idx[j] * (CC);                                                      \
+            for (int c = 0; c < (CC); ++c)                                                                          \
+                g[c] = w0 * a1[c] + w1 * a1[(CC) + c] + w2 * a1[2 * (CC) + c] + w3 * a1[3 * (CC) + c];             \
+            if (B) {                                                                                                \
+                const float *b1 = B + NT + (int64_t)idx[j] * (CC);                                                  \
+                for (int c = 0; c < (CC); ++c) {                                                                    \
+                    const float vb = w0 * b1[c] + w1 * b1[(CC) + c] + w2 * b1[2 * (CC) + c] + w3 * b1[3 * (CC) + c]; \
+                    g[c] = g[c] + sw[j] * (vb - g[c]);                                                              \
+                }                                                                                                   \
+            }                                                                                                       \
+            const float cq = CQ[j], sq = SQ[j];                                                                     \
+            for (int c = 0; c < (CC); ++c) o[c] += cq * v[c] - sq * g[c];                                           \
+        }                                                                                                           \
+    } while (0)
+
+#define LINES_MAX_C 64
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+/* One family's block for 8 float32 channels with AVX2 + FMA: rows, weights and blend weights from prologue8_fma
+ * (the order path's, so a family's phase rounds as there), the table rows and the carrier mix in 256-bit vectors,
+ * added to the block accumulator blk. */
+static NOINLINE FMA_TARGET void lines_family8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd,
+                                                 const int64_t *w, int fb, uint64_t mask, double xi0,
+                                                 double blend_scale, const float *A, const float *B, int64_t NT,
+                                                 int car, const float *CQ, const float *SQ, float *blk)
+{
+    int32_t idx[BLOCK];
+    float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK];
+    const int blend = B != NULL;
+    if (w != NULL) {
+        if (blend) prologue8_fma(1, 1, nb, k0, u, d, dd, w, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+        else prologue8_fma(1, 0, nb, k0, u, d, dd, w, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+    } else {
+        if (blend) prologue8_fma(0, 1, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+        else prologue8_fma(0, 0, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+    }
+#define LINES_TAP(T, r, w0, w1, w2, w3)                                                                            \
+    _mm256_fmadd_ps(w3, _mm256_loadu_ps((T) + (r) + 24),                                                            \
+                    _mm256_fmadd_ps(w2, _mm256_loadu_ps((T) + (r) + 16),                                            \
+                                    _mm256_fmadd_ps(w1, _mm256_loadu_ps((T) + (r) + 8),                             \
+                                                    _mm256_mul_ps(w0, _mm256_loadu_ps((T) + (r))))))
+    for (int j = 0; j < nb; ++j) {
+        const int64_t r = (int64_t)idx[j] * 8;
+        const __m256 w0 = _mm256_broadcast_ss(W0 + j), w1 = _mm256_broadcast_ss(W1 + j);
+        const __m256 w2 = _mm256_broadcast_ss(W2 + j), w3 = _mm256_broadcast_ss(W3 + j);
+        __m256 v = LINES_TAP(A, r, w0, w1, w2, w3);
+        if (blend) {
+            const __m256 s = _mm256_broadcast_ss(sw + j);
+            v = _mm256_fmadd_ps(s, _mm256_sub_ps(LINES_TAP(B, r, w0, w1, w2, w3), v), v);
+        }
+        __m256 o = _mm256_loadu_ps(blk + 8 * j);
+        if (!car) {
+            _mm256_storeu_ps(blk + 8 * j, _mm256_add_ps(o, v));
+            continue;
+        }
+        __m256 g = LINES_TAP(A + NT, r, w0, w1, w2, w3);
+        if (blend) {
+            const __m256 s = _mm256_broadcast_ss(sw + j);
+            g = _mm256_fmadd_ps(s, _mm256_sub_ps(LINES_TAP(B + NT, r, w0, w1, w2, w3), g), g);
+        }
+        o = _mm256_fmadd_ps(_mm256_broadcast_ss(CQ + j), v, o);
+        o = _mm256_fnmadd_ps(_mm256_broadcast_ss(SQ + j), g, o);
+        _mm256_storeu_ps(blk + 8 * j, o);
+    }
+#undef LINES_TAP
+}
+#define HAVE_LINES8 HAVE_FMA_PATH
+#else
+#define HAVE_LINES8 0
+static void lines_family8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd, const int64_t *w, int fb,
+                              uint64_t mask, double xi0, double blend_scale, const float *A, const float *B,
+                              int64_t NT, int car, const float *CQ, const float *SQ, float *blk)
+{
+    (void)nb, (void)k0, (void)u, (void)d, (void)dd, (void)w, (void)fb, (void)mask, (void)xi0, (void)blend_scale;
+    (void)A, (void)B, (void)NT, (void)car, (void)CQ, (void)SQ, (void)blk;
+}
+#endif
+
+static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
+                                    const int64_t *carrier, const int64_t *off_t, const float *ta, const float *tb,
+                                    const int64_t *warp, const int64_t *wp, const int64_t *wq, const float *dc,
+                                    double xi0, double blend_scale, float *out, double *acc, const double *off,
+                                    const NoiseArgs *na)
+{
+    int32_t idx[BLOCK], frac[BLOCK];
+    float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK], CQ[BLOCK], SQ[BLOCK];
+    float blk[BLOCK * LINES_MAX_C], flr[BLOCK * LINES_MAX_C];
+    uint64_t st[64][4];                                  /* per family: phase, increment of family and carrier */
+    if (F > 64 || C > LINES_MAX_C || C < 1) return -1;
+    for (int64_t f = 0; f < F; ++f) {
+        st[f][0] = phases[6 * f], st[f][1] = phases[6 * f + 1];
+        st[f][2] = phases[6 * f + 3], st[f][3] = phases[6 * f + 4];
+        if (lg[f] < 6 || lg[f] > 16) return -1;
+    }
+    const int noise = na != NULL;
+    for (int64_t k0 = 0, nbl; k0 < m; k0 += nbl) {
+        nbl = block_length(noise, m - k0, noise ? na->n0 + k0 : 0);
+        const int nb = (int)nbl;
+        if (C == 8)                                                   /* (a constant row length vectorises) */
+            for (int j = 0; j < nb; ++j)
+                for (int c = 0; c < 8; ++c) blk[8 * j + c] = dc[c];
+        else
+            for (int j = 0; j < nb; ++j)
+                for (int c = 0; c < C; ++c) blk[(int64_t)j * C + c] = dc[c];
+        const int blend = tb != NULL;
+        const int fast = C == 8 && isa_cap >= 1 && HAVE_LINES8;
+        if (blend && !fast) {
+            float *restrict swp = sw;
+            for (int j = 0; j < nb; ++j) swp[j] = (float)blend_weight(((double)(k0 + j) + xi0) * blend_scale);
+        }
+        for (int64_t f = 0; f < F; ++f) {
+            const int fb = 62 - (int)lg[f];
+            const uint64_t mask = ((uint64_t)1 << lg[f]) - 1;
+            const int64_t *w = wp[f] >= 0 ? warp + wp[f] * m + k0 : NULL;
+            const int car = (int)carrier[f];
+            if (!fast) {
+                if (w) phase_block(1, nb, &st[f][0], &st[f][1], phases[6 * f + 2], w, fb, mask, idx, frac);
+                else phase_block(0, nb, &st[f][0], &st[f][1], phases[6 * f + 2], NULL, fb, mask, idx, frac);
+                WEIGHT_BLOCK(float)
+            }
+            if (car) {
+                uint64_t u = st[f][2], d = st[f][3];
+                const uint64_t dd = phases[6 * f + 5];
+                const int64_t *wc = wq[f] >= 0 ? warp + wq[f] * m + k0 : NULL;
+                for (int j = 0; j < nb; ++j) {
+                    carrier_cos_sin(u + (wc ? (uint64_t)wc[j] : 0), CQ + j, SQ + j);
+                    u += d, d += dd;
+                }
+                st[f][2] = u, st[f][3] = d;
+            }
+            const int64_t NT = ((int64_t)1 << lg[f]) * C + 3 * C;        /* floats of one table */
+            const float *A = ta + off_t[f], *B = blend ? tb + off_t[f] : NULL;
+            if (fast)
+                lines_family8_fma(nb, k0, &st[f][0], &st[f][1], phases[6 * f + 2], w, fb, mask, xi0, blend_scale, A,
+                                  B, NT, car, CQ, SQ, blk);
+            else if (C == 8) LINES_ROWS(8);
+            else LINES_ROWS(C);
+        }
+        if (noise) {
+            const float *extra = na->extra != NULL ? (const float *)na->extra + k0 * C : NULL;
+            if (na->frames != NULL) {                     /* the floor of this block, rendered while in L1 */
+                floor_block_f32(nbl, C, na->n0 + k0, na->half, na->frame_length, na->frames, na->win, na->n_grains,
+                                na->grains, flr);
+                extra = flr;
+            }
+            noise_add_block_f32((int)C, nb, na, na->n0 + k0, blk, extra);
+        }
+        memcpy(out + k0 * C, blk, sizeof(float) * (size_t)(nb * C));
+        if (acc != NULL) moments_f32((int)C, nb, out + k0 * C, off, acc);
+    }
+    return 0;
+}
+
+int synth_lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
+                            const int64_t *carrier, const int64_t *off_t, const float *ta, const float *tb,
+                            const int64_t *warp, const int64_t *wp, const int64_t *wq, const float *dc, double xi0,
+                            double blend_scale, float *out, double *acc, const double *off, uint64_t noise_key,
+                            int64_t noise_n0, const float *sigma, const float *extra, const float *frames,
+                            const float *win, int64_t n_grains, const int64_t *grains, int64_t half,
+                            int64_t frame_length)
+{
+    if (m < 0 || (acc != NULL && off == NULL) || F < 0 || F > 64) return -1;
+    for (int64_t f = 0; f < F; ++f)                      /* a slip row needs the offsets (else: out of bounds) */
+        if (warp == NULL && (wp[f] >= 0 || wq[f] >= 0)) return -1;
+    if (frames != NULL && (extra != NULL || win == NULL || grains == NULL || n_grains < 0 || half < 1
+                           || frame_length < 2 * half)) return -1;
+    NoiseArgs na = {noise_key, noise_n0, sigma, NULL, extra, frames, win, grains, n_grains, half, frame_length};
+    return lines_segment_f32(m, C, F, phases, lg, carrier, off_t, ta, tb, warp, wp, wq, dc, xi0, blend_scale, out,
+                             acc, off, sigma != NULL || extra != NULL || frames != NULL ? &na : NULL);
+}
+
+#endif

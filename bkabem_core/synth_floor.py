@@ -1,0 +1,205 @@
+"""The broadband floor: seeded random force pairs across the bearings, transmitted by the machine's receptance.
+
+Every running machine has a broadband vibration floor under its lines: the rolling contacts' surface roughness,
+friction and flow excite the structure at all frequencies, and what an accelerometer shows is that excitation
+shaped by the transmission path, with the structure's resonances standing out (fault_kinds.md: "never white
+alone"). Model: at each bearing and in each radial direction an independent, stationary, Gaussian force pair
+between rotor and housing node (the input patterns of the bearing lines, :class:`~bkabem_core.harmonic.BkaBem`), of
+one-sided force spectral density ``S_F`` [N/sqrt(Hz)], flat over the band (case key
+``baseline.broadband_force_n_per_sqrt_hz``, 0 = off). Its response at every channel is
+
+    S_y(f) = S_F^2 sum_{inputs i} |G_c(f) H_{c,i}(f)|^2
+
+with ``H`` the receptance of the channel's displacement combination to force pair i of the FE model at standstill
+(reduced modal basis, no gyroscopic coupling: the floor's shape is the non-rotating structure's), ``G_c`` the
+channel's factor ((i 2 pi f)^2 for acceleration, 10^3 i 2 pi f for velocity in mm/s, 1 for displacement) and the
+measurement chain (accelerometer on the housing channels, anti-alias filter on all; :mod:`bkabem_core.sensors`).
+
+Source of the level: the force of a rolling contact on its roughness is the contact stiffness times the roughness
+displacement. Superfinished raceways and balls of deep-groove bearings have RMS roughness of order 0.02-0.1 um
+(Harris & Kotzalas, *Essential concepts of bearing technology*, 5th ed., ch. 23 on surface finish; ISO 15242-1
+measures the resulting vibration), the bearing's radial stiffness is ~1e8 N/m (the embedded 6010: 1.2e8 N/m
+vertical, Table 1 of the paper): ~5e-8 m x 1.2e8 N/m ~ 6 N RMS spread over 0-25 kHz is ~0.04 N/sqrt(Hz). The
+fault-library cases use 0.01 N/sqrt(Hz) (a quiet, new bearing; docs/faults.md); it is a level to set per machine,
+not a law.
+
+Realisation (the synthesiser's fast path): ``N_FRAMES`` periodic frames of ``L = 2^FRAME_BITS`` samples, each an
+exact sample of the process (complex Gaussian line amplitudes on the FFT grid f_k = k fs / L with
+E|A_k|^2 = 2 S_F^2 fs / L per input, through the receptance, one inverse FFT per frame: ~0.3 s once per
+synthesiser), and the output is an overlap of *grains*: grain g covers samples [g S, g S + 2 S), S = L / 2, reading
+frame ``2 (g mod 2) + (h_g mod 2)`` from offset ``h_g / 2 mod L`` (``h_g`` a hash of seed and g) under the sine
+window ``sin(pi t / 2 S)``. Two grains overlap at every sample, from different frames (one even, one odd grain),
+and their windows' squares add to 1, so the floor is Gaussian with the PSD above, stationary (its spectrum smeared
+by the window, ~1.6 Hz at 51.2 kHz), not periodic, seeded and a function of the absolute sample index only (any
+chunking gives the same samples; continuous: each grain fades in and out from 0). Cost per sample: two taps of 8
+channels (``synth_kernel.floor_render``), added inside the sample loop with the noise.
+
+Units: forces N, densities N/sqrt(Hz), frequencies Hz, samples in the channels' units.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import synth_kernel
+from .sensors import chain_gains
+
+FRAME_BITS = 15                 # frame length L = 2^15 samples (0.64 s at 51.2 kHz: 1.56 Hz line spacing)
+N_FRAMES = 4
+_TAG = 0xF1005
+_MASK = (1 << 64) - 1
+
+
+def _mix64(z: int) -> int:
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9 & _MASK
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EB & _MASK
+    return z ^ (z >> 31)
+
+
+def receptance(model, frequency_hz: np.ndarray) -> np.ndarray:
+    """(F, 8, 4) complex receptance [m/N] of the output displacements (LOCATIONS x DIRECTIONS of
+    :mod:`bkabem_core.harmonic`) to a unit force pair across each bearing and direction (de vertical, de horizontal,
+    nde vertical, nde horizontal: +1 N on the rotor node, -1 N on the housing node) at ``frequency_hz`` [Hz], of the
+    machine at standstill: the model's reduced modal basis, ``(K + i w C - w^2 M) q = P f``, by its state-space
+    eigen-decomposition (one, then a pole-residue sum at every frequency)."""
+    basis = model.basis
+    m = basis.M.shape[0]
+    minv = np.linalg.inv(basis.M)
+    a = np.zeros((2 * m, 2 * m))
+    a[:m, m:] = np.eye(m)
+    a[m:, :m] = -minv @ basis.K
+    a[m:, m:] = -minv @ basis.C
+    b = np.zeros((2 * m, 4))
+    b[m:] = minv @ basis.inputs[:, :4]
+    lam, vec = np.linalg.eig(a)
+    right = np.linalg.solve(vec, b)                                  # (2m, 4) modal inputs
+    left = basis.outputs @ vec[:m]                                   # (8, 2m) modal outputs
+    s = 2j * np.pi * np.asarray(frequency_hz, dtype=float)
+    g = 1.0 / (s[:, None] - lam[None, :])                           # (F, 2m)
+    res = (left[:, :, None] * right[None, :, :]).transpose(1, 0, 2).reshape(2 * m, -1)   # (2m, 8 x 4)
+    return (g @ res).reshape(s.size, 8, 4)
+
+
+class BroadbandFloor:
+    """The floor of one synthesiser's channels (module docstring).
+
+    Parameters
+    ----------
+    model : BkaBem
+    density_n_rthz : float
+        One-sided force spectral density of every force pair [N/sqrt(Hz)] (> 0).
+    combination, cindex, power, scale : ndarray
+        The synthesiser's displacement combinations (U, 8), each channel's row, power of (i omega) and unit scale
+        (:func:`bkabem_core.synth_lines._combination`).
+    housing_cols : ndarray of int
+        Combinations that are housing displacements (the accelerometer acts there).
+    sample_rate_hz : float
+    seed : int
+    accelerometer, anti_alias : sensors or None
+    """
+
+    def __init__(self, model, density_n_rthz: float, combination, cindex, power, scale, housing_cols,
+                 sample_rate_hz: float, seed: int, accelerometer=None, anti_alias=None):
+        self.density = float(density_n_rthz)
+        self.sample_rate_hz = fs = float(sample_rate_hz)
+        n = 1 << FRAME_BITS
+        self.frame_length = n
+        self.half = n // 2
+        k = np.arange(1, n // 2)
+        f = k * fs / n
+        h = np.einsum("uo,foi->fui", combination, receptance(model, f))          # (F, U, 4) [m/N]
+        gains = chain_gains(f, housing_cols, accelerometer, anti_alias, combination.shape[0])
+        if gains is not None:
+            h = h * gains[:, :, None]
+        iw = 2j * np.pi * f
+        fac = np.stack([np.ones_like(iw), iw, iw * iw])[np.asarray(power, dtype=int)].T * np.asarray(scale)[None, :]
+        self.transfer = h[:, np.asarray(cindex)] * fac[:, :, None]               # (F, C, 4) channel per N
+        self.frequency_hz = f
+        self.seed = int(seed)
+        c = self.transfer.shape[1]
+        frames = np.empty((N_FRAMES, n, c), dtype=np.float32)
+        scale_a = self.density * math.sqrt(fs / n)                      # E|A|^2 = 2 S^2 df: (g1 + i g2) sqrt(S^2 df)
+        for i in range(N_FRAMES):
+            rng = np.random.default_rng(np.random.SeedSequence([self.seed, _TAG, i]))
+            a = scale_a * (rng.standard_normal((k.size, 4)) + 1j * rng.standard_normal((k.size, 4)))
+            spec = np.zeros((n, c), complex)
+            spec[1:n // 2] = np.einsum("fci,fi->fc", self.transfer, a)
+            frames[i] = (np.fft.ifft(spec, axis=0).real * n).astype(np.float32)
+        self.frames = frames
+        t = np.arange(2 * self.half)
+        self.window = np.sin(np.pi * t / (2 * self.half)).astype(np.float32)
+        self._key = _mix64(self.seed ^ _TAG)
+        self._buf = np.empty((0, c), dtype=np.float32)
+        self._rows: dict = {}
+
+    def psd(self) -> np.ndarray:
+        """(F, C) one-sided PSD of the floor at :attr:`frequency_hz` [channel unit^2 / Hz]."""
+        return self.density ** 2 * np.sum(np.abs(self.transfer) ** 2, axis=2)
+
+    def _grain(self, g: int) -> tuple:
+        """(grain, frame, offset) of grain g (remembered: a grain spans ~3 chunks)."""
+        row = self._rows.get(g)
+        if row is None:
+            h = _mix64((self._key + (g & _MASK) * 0x9E3779B97F4A7C15) & _MASK)
+            row = self._rows[g] = (g, 2 * (g & 1) + (h & 1), (h >> 1) % self.frame_length)
+            if len(self._rows) > 64:
+                del self._rows[next(iter(self._rows))]
+        return row
+
+    def grains(self, n0: int, n: int) -> np.ndarray:
+        """(G, 3) int64 (grain, frame, offset) of the grains over samples [n0, n0 + n)."""
+        s = self.half
+        return np.array([self._grain(g) for g in range(n0 // s - 1, (n0 + n - 1) // s + 1)], dtype=np.int64)
+
+    def source(self, n0: int, n: int) -> tuple:
+        """What the line-set kernel needs to render samples [n0, n0 + n) itself (``synth_kernel.lines_segment``):
+        (frames, window, grains, half)."""
+        return self.frames, self.window, self.grains(n0, n), self.half
+
+    def render(self, n0: int, n: int) -> np.ndarray:
+        """(n, C) float32 floor at absolute samples n0 .. n0 + n - 1 (a view of a buffer reused by the next call)."""
+        if self._buf.shape[0] < n:
+            self._buf = np.empty((n, self.frames.shape[2]), dtype=np.float32)
+        out = self._buf[:n]
+        synth_kernel.floor_render(n0, n, self.half, self.frames, self.window, self.grains(n0, n), out)
+        return out
+
+
+class FloorPath:
+    """The :class:`~bkabem_core.synth.Synthesizer`'s methods for the broadband floor (a mixin: it reads the
+    synthesiser's state; knots are :class:`~bkabem_core.synth_lines._Knot`)."""
+
+    def _floor_source(self):
+        """The :class:`~bkabem_core.synth_floor.BroadbandFloor` of this synthesiser (made when first needed)."""
+        if self._floor is None:
+            self._floor = BroadbandFloor(self._model, self.floor_density, self._comb, self._cindex, self._power,
+                                         self._scale, self._housing_cols, self.sample_rate_hz, self.seed,
+                                         self.accelerometer, self.anti_alias)
+        return self._floor
+
+    def _floor_block(self, n0: int, n: int):
+        """The floor of samples [n0, n0 + n) in the samples' dtype, or None (off)."""
+        if self.floor_density <= 0:
+            return None
+        x = self._floor_source().render(n0, n)
+        return x if self.dtype == np.float32 else x.astype(self.dtype)
+
+    def _floor_part(self, a: "_Knot", b: "_Knot", lo: int, hi: int):
+        """The floor of samples [lo, hi) of the segment a-b for the line-set kernel: its source (rendered inside the
+        pass) where the segment is one line set at full level, else the samples, faded (:meth:`_floor_faded`)."""
+        fl = self._floor_source()
+        if a.amp.fade == 1.0 and b.amp.fade == 1.0 and a.amp.families is b.amp.families \
+                and a.amp.fbuf is not None:
+            return fl.source(lo, hi - lo)
+        return self._floor_faded(fl.render(lo, hi - lo), a, b, lo)
+
+    def _floor_faded(self, x: np.ndarray, a: "_Knot", b: "_Knot", lo: int) -> np.ndarray:
+        """The floor under the low-speed fade of the lines (no rolling, no roughness excitation at standstill):
+        linear in time from knot a's fade to knot b's, as the lines' amplitudes."""
+        fa, fb = a.amp.fade, b.amp.fade
+        if fa == 1.0 and fb == 1.0:
+            return x
+        s = (np.arange(lo, lo + x.shape[0]) - a.x) / max(b.x - a.x, 1)
+        return np.ascontiguousarray(x * (fa + (fb - fa) * s)[:, None], dtype=x.dtype)
