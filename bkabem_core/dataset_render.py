@@ -40,8 +40,8 @@ from .sensors import Accelerometer, AntiAliasFilter
 from .synth import Synthesizer
 from .synth_profile import SpeedProfile, parse_profile
 
-#: Models a worker keeps (each ~10-50 MB for the fault library's motor).
-POOL_SIZE = 8
+#: Models a worker keeps (each ~10-50 MB for the fault library's motor; a scenario run has ~20 states).
+POOL_SIZE = 24
 _POOL: ModelPool | None = None
 RUNS_DIR = "runs"
 META_KEY = b"bkabem.run"
@@ -140,8 +140,9 @@ def _chunks(run: Run):
         from .scenario_run import ScenarioRun
 
         scenario = Scenario.load(run.scenario_path or p["scenario"])
+        # spectrum "exact": one solve per chunk border (~1 ms), not a modal form per state (~1 s each to set up)
         sr = ScenarioRun(scenario, time_scale=p["time_scale"], start_s=p["scenario_start_s"], sample_rate_hz=fs,
-                         chunk_s=p["chunk_s"], speed=profile, pool=pool(), **_synth_options(p))
+                         chunk_s=p["chunk_s"], speed=profile, pool=pool(), spectrum="exact", **_synth_options(p))
         model_s = time.perf_counter() - t0
 
         def it():
