@@ -303,6 +303,9 @@ def render_dataset(spec: DatasetSpec, out_dir, *, engine: str = "local", workers
         raise DatasetError("--engine", f"must be one of {', '.join(ENGINES)} (got {engine!r})")
     if scheduler is not None and engine != "dask":
         raise DatasetError("--scheduler", "only with --engine dask")
+    if spec.mcap and not sinks:
+        raise DatasetError("output.mcap", "the spec asks for an MCAP per run: give the writer, sinks = "
+                           "('bkabem_ros.dataset_mcap:McapRunSink',) (the bkabem dataset command does)")
     if workers is None:
         workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     t0 = time.perf_counter()

@@ -287,7 +287,9 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
                 "channel_names": names, "units": list(synth.units),
                 "sample_time": "sample i is at i / sample_rate_hz seconds; cage angle 0 at t = 0",
                 "labels": rows}
-        writer.add_key_value_metadata({META_KEY.decode(): json.dumps(meta, sort_keys=True, default=str)})
+        text = json.dumps(meta, default=str)            # insertion order: the labels' column order
+        rows = json.loads(text)["labels"]                # what a resumed run reads back: the same types and order
+        writer.add_key_value_metadata({META_KEY.decode(): text})
         writer.close()
         writer = None
         fh.flush()

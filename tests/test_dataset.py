@@ -445,31 +445,35 @@ mcap = true
 
 
 def test_scenario_runs_label_every_state_and_record_mcap(tmp_path):
-    """A run to failure: one label row per scenario state, each at the scenario's own size for the state's start
-    (the timeline evaluated here from the scenario file), the state column of the file switching at those
-    samples; the MCAP of the run holds the node's waveform messages with the same ground truth."""
+    """A run to failure: one label row per scenario state in the signal (the state due at each chunk border),
+    each at the scenario's own size for the state's start (the timeline evaluated here from the scenario file),
+    the state column of the file switching at those samples; the MCAP of the run holds the node's waveform
+    messages with the same ground truth."""
     from bkabem_core.scenario import Scenario
+
+    from bkabem_ros.dataset_mcap import SINK
 
     spec = DatasetSpec.load(_spec(tmp_path, SCENARIO_SPEC))
     out = tmp_path / "out"
-    render_dataset(spec, out, workers=1, log=lambda line: None)
+    render_dataset(spec, out, workers=1, sinks=(SINK,), log=lambda line: None)
     rows = read_labels(out).to_pylist()
     sc = Scenario.load("de_outer_run_to_failure")
     fs, scale = 25600.0, 7200.0
     n_chunk = int(0.25 * fs)
-    assert len(rows) == len(sc.states) and rows[0]["fault"] == "healthy" and rows[-1]["fault"] == "outer"
+    # the state in effect at each chunk border: the one due there (a state shorter than a chunk is skipped)
+    due = [sc.state_index_at(k * n_chunk / fs * scale) for k in range(int(6.0 * fs) // n_chunk)]
+    segments = [(k * n_chunk, j) for k, j in enumerate(due) if k == 0 or due[k - 1] != j]
+    assert len(rows) == len(segments) > 10 and rows[0]["fault"] == "healthy" and rows[-1]["fault"] == "outer"
     state = pq.read_table(out / rows[0]["file"], columns=["state"]).column(0).to_numpy()
     t_h = [2.0, 6.0, 9.0, 11.0, 12.0]
     depth = [5e-6, 15e-6, 35e-6, 65e-6, 100e-6]
-    for k, row in enumerate(rows):
-        # each state starts at the first chunk border at or after its start in scenario time
-        first = int(math.ceil(sc.states[k].start_s / scale * fs / n_chunk - 1e-9)) * n_chunk
+    for row, (first, k) in zip(rows, segments):
         assert row["first_sample"] == first and row["state_index"] == k
         assert np.all(state[first:first + row["n_samples"]] == k)
+        assert row["state_start_s"] == sc.states[k].start_s
         if k:
             th = sc.states[k].start_s / 3600.0
-            j = max(i for i in range(len(t_h)) if t_h[i] <= th + 1e-12)
-            j = min(j, len(t_h) - 2)
+            j = min(max(i for i in range(len(t_h)) if t_h[i] <= th + 1e-12), len(t_h) - 2)
             w = (th - t_h[j]) / (t_h[j + 1] - t_h[j])
             d = depth[j] * (depth[j + 1] / depth[j]) ** w                  # exponential growth between points
             assert row["d0_depth_m"] == pytest.approx(d, rel=1e-6) and row["d0_bearing"] == "de"
