@@ -16,7 +16,7 @@ import math
 import os
 from pathlib import Path
 
-from bkabem_core.dataset_render import TEMP_MARK, commit
+from bkabem_core.dataset_render import TEMP_MARK, commit, fsync_file
 
 from .mcap_io import McapRecorder
 from .msgs import ground_truth_message, waveform_message
@@ -60,11 +60,7 @@ class McapRunSink:
         self.rec.close()
         if self.rec.error is not None:
             raise self.rec.error
-        fd = os.open(self.tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+        fsync_file(self.tmp)
         commit(self.tmp, self.final)
 
     def abort(self) -> None:
