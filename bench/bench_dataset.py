@@ -14,7 +14,9 @@ whole path     :func:`bkabem_core.dataset_render.render_run`: synthesis, Parquet
 Configurations: ``acc4`` = 4 accelerometer channels with 1 % slip and 5e-4 m/s^2/sqrt(Hz) sensor noise (the
 realistic path, the dataset_example spec's settings); ``acc4-plain`` the same without slip and noise; ``acc+disp8``
 8 channels (acceleration + displacement) with slip and noise. Real-time factor = signal seconds / wall seconds of
-one core, median of ``--repeat`` passes over the runs; the per-run wall time (median) too. A last block renders
+one core, median of ``--repeat`` passes over the runs (and signal seconds / CPU seconds of the process, which
+other processes on a shared machine disturb less but which leaves out the fsync's wait for the disk); the per-run
+wall time (median) too. A last block renders
 the dataset_example spec end to end (``render_dataset``, every core, models included) for the wall-clock picture.
 """
 
@@ -75,7 +77,7 @@ def bench_kind(kind: str, cname: str, seconds: float, runs: int, repeat: int, co
     for run in spec.runs:                                   # warm: imports, the synthesiser of the machine
         dataset_render.render_run(run, tmp / "warm", compression)
     shutil.rmtree(tmp / "warm", ignore_errors=True)
-    synth_rates, whole_rates, per_run = [], [], []
+    synth_rates, whole_rates, cpu_rates, per_run = [], [], [], []
     for rep in range(repeat):
         sig = t_synth = 0.0
         for run in spec.runs:
@@ -88,16 +90,18 @@ def bench_kind(kind: str, cname: str, seconds: float, runs: int, repeat: int, co
         synth_rates.append(sig / t_synth)
         out = tmp / f"{kind}_{cname}_{rep}"
         t_all = 0.0
+        c0 = time.process_time()
         for run in spec.runs:
             t0 = time.perf_counter()
             dataset_render.render_run(run, out, compression)
             dt = time.perf_counter() - t0
             t_all += dt
             per_run.append(dt)
+        cpu_rates.append(sig / (time.process_time() - c0))
         whole_rates.append(sig / t_all)
         shutil.rmtree(out, ignore_errors=True)
     return {"kind": kind, "config": cname, "model_s": model_s, "synth_x": statistics.median(synth_rates),
-            "whole_x": statistics.median(whole_rates), "run_wall_ms": 1e3 * statistics.median(per_run),
+            "whole_x": statistics.median(whole_rates), "whole_cpu_x": statistics.median(cpu_rates), "run_wall_ms": 1e3 * statistics.median(per_run),
             "writing_share": 1.0 - statistics.median(synth_rates) ** -1 / statistics.median(whole_rates) ** -1}
 
 
@@ -125,13 +129,13 @@ def main(argv=None) -> int:
               f"load {os.getloadavg()[0]:.2f} at start; {a.seconds:g} s runs at 25.6 kHz, {a.runs} runs, "
               f"median of {a.repeat}, compression {a.compression}")
         print("| kind | config | model [s] | synth only [x real time] | whole path [x real time per core] | "
-              "per run [ms] | writing share |")
-        print("|---|---|---:|---:|---:|---:|---:|")
+              "whole path, CPU time [x] | per run [ms] | writing share |")
+        print("|---|---|---:|---:|---:|---:|---:|---:|")
         for kind in a.kinds.split(","):
             for cname in a.configs.split(","):
                 r = bench_kind(kind, cname, a.seconds, a.runs, a.repeat, a.compression, tmp)
                 rows.append(r)
-                print(f"| {kind} | {cname} | {r['model_s']:.2f} | {r['synth_x']:.0f} | {r['whole_x']:.0f} | "
+                print(f"| {kind} | {cname} | {r['model_s']:.2f} | {r['synth_x']:.0f} | {r['whole_x']:.0f} | {r['whole_cpu_x']:.0f} | "
                       f"{r['run_wall_ms']:.1f} | {100 * r['writing_share']:.0f} % |", flush=True)
         end = None
         if not a.no_end_to_end:

@@ -218,7 +218,9 @@ def _local(tasks: list[list[Run]], out_dir: str, compression: str, sinks: tuple,
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-    ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("forkserver"), initializer=_worker_init)
+    # spawn: the workers are children of this process, so PR_SET_PDEATHSIG ends them when it is killed (forkserver
+    # workers are the fork server's children and outlived a kill -9 of the command, measured)
+    ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), initializer=_worker_init)
     try:
         pending = set()
         it = iter(tasks)

@@ -265,6 +265,20 @@ depth_m = [20.0e-6, 50.0e-6]
 """
 
 
+def _children(pid: int) -> list[int]:
+    out = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        out += [int(c) for c in (task / "children").read_text().split()]
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
 def _cli(*args) -> list[str]:
     return [sys.executable, "-m", "bkabem_ros", "dataset", *map(str, args)]
 
@@ -281,10 +295,21 @@ def test_killed_process_resumes_skips_finished_runs_and_rerenders_a_truncated_fi
             assert proc.poll() is None, proc.communicate()
             assert time.monotonic() - t0 < 240, "no run finished in 240 s"
             time.sleep(0.05)
-    finally:
-        os.killpg(proc.pid, signal.SIGKILL)                     # the command and its workers, mid-run
+        children = _children(proc.pid)
+        assert len(children) >= 2, children                    # the worker processes
+        os.kill(proc.pid, signal.SIGKILL)                       # the command only, mid-run: its workers follow it
         proc.wait()
-    time.sleep(0.5)
+        t1 = time.monotonic()
+        while any(_alive(c) for c in children):
+            assert time.monotonic() - t1 < 10, f"workers {children} outlived the killed command"
+            time.sleep(0.05)
+    finally:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)                 # whatever is left of that process group
+        except ProcessLookupError:
+            pass
+        proc.wait()
+    time.sleep(0.2)
     finished = sorted(p.name for p in (out / "runs").glob("*.parquet"))
     assert 4 <= len(finished) < 40, len(finished)
     assert not (out / "labels.parquet").exists()
