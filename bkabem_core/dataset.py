@@ -319,7 +319,9 @@ def render_dataset(spec: DatasetSpec, out_dir, *, engine: str = "local", workers
         if not (out / MANIFEST).exists():
             _write_json_atomic(out / MANIFEST, _manifest(spec, False))
         if spec_text is not None and not (out / "spec.toml").exists():
-            (out / "spec.toml").write_text(spec_text)
+            tmp = out / f".spec.toml{TEMP_MARK}-{os.getpid()}"
+            tmp.write_text(spec_text)
+            commit(tmp, out / "spec.toml")
         done, todo, res.damaged = folder.scan(log)
         res.skipped = len(done)
         tasks = plan_tasks(todo, workers)
