@@ -513,3 +513,16 @@ def test_scenario_runs_label_every_state_and_record_mcap(tmp_path):
               for m in msgs if "/de/" in m.topic]
     want = [0.0 if not r["n_defects"] else r["d0_depth_m"] for r in rows for _ in range(r["n_samples"] // n_chunk)]
     assert depths == pytest.approx(want, rel=1e-9)
+
+
+def test_embedded_specs_load_and_list(capsys):
+    from bkabem_core.dataset_spec import embedded_specs
+
+    assert {"dataset_example", "dataset_run_to_failure"} <= set(embedded_specs())
+    ex = DatasetSpec.load("dataset_example")
+    assert len(ex.runs) == 8 and sum(r.params["duration_s"] for r in ex.runs) == 8.0
+    assert [r.params["fault"] for r in ex.runs[::2]] == ["healthy", "outer", "inner", "ball"]
+    rtf = DatasetSpec.load("dataset_run_to_failure")
+    assert len(rtf.runs) == 3 and len({r.params["seed"] for r in rtf.runs}) == 3 and rtf.runs[0].is_scenario
+    rc, out, err = _main(["dataset", "dataset_example", "--list"], capsys)
+    assert rc == 0 and out.strip().splitlines()[-1] == f"8 runs, spec hash {ex.spec_hash}"
