@@ -526,3 +526,25 @@ def test_embedded_specs_load_and_list(capsys):
     assert len(rtf.runs) == 3 and len({r.params["seed"] for r in rtf.runs}) == 3 and rtf.runs[0].is_scenario
     rc, out, err = _main(["dataset", "dataset_example", "--list"], capsys)
     assert rc == 0 and out.strip().splitlines()[-1] == f"8 runs, spec hash {ex.spec_hash}"
+
+
+def test_speed_profile_runs_carry_their_speed_per_sample(tmp_path):
+    """A ramp 10 -> 40 Hz over 1 s, held for the rest of a 1.5-s run: the file's speed column is that ramp at
+    every sample's time (evaluated here), the labels give its min, max and mean and the fault frequencies at the
+    mean; an outer-race run in the same spec too."""
+    text = FAST_SPEC.replace("replicates = 2", "replicates = 1").replace("speed_hz = [12.5, 30.0]", "") \
+        .replace("duration_s = 0.5", "duration_s = 1.5\nprofile = \"ramp:10:40:1\"")
+    spec = DatasetSpec.load(_spec(tmp_path, text))
+    render_dataset(spec, tmp_path / "out", workers=1, log=lambda line: None)
+    n = int(1.5 * FS)
+    t = np.arange(n) / FS
+    want = np.where(t < 1.0, 10.0 + 30.0 * t, 40.0)
+    rows = read_labels(tmp_path / "out").to_pylist()
+    assert [r["fault"] for r in rows] == ["healthy", "outer", "outer"]
+    for row in rows:
+        v = pq.read_table(tmp_path / "out" / row["file"], columns=["speed_hz"]).column(0).to_numpy()
+        assert np.allclose(v, want, rtol=1e-6, atol=1e-4)
+        assert row["profile"] == "ramp:10:40:1"
+        assert row["speed_hz_min"] == pytest.approx(10.0) and row["speed_hz_max"] == pytest.approx(40.0)
+        assert row["speed_hz_mean"] == pytest.approx(want.mean(), rel=1e-6)
+        assert row["bpfo_hz"] == pytest.approx(row["bpfo_per_hz"] * want.mean(), rel=1e-6)
