@@ -39,6 +39,8 @@ from .dataset_spec import DatasetSpec, Run
 
 ENGINES = ("local", "dask")
 MANIFEST = "manifest.json"
+#: What a data set's folder holds before its manifest is written (a crash right at the start).
+_OWN = (".lock", "spec.toml")
 
 
 class DatasetError(RuntimeError):
@@ -88,9 +90,18 @@ class _Folder:
     """The output folder, locked for this process."""
 
     def __init__(self, out_dir, spec: DatasetSpec):
+        if not str(out_dir).strip():
+            raise DatasetError("--out", "empty: give the data set's folder")
         self.path = Path(out_dir)
         if self.path.exists() and not self.path.is_dir():
             raise DatasetError("--out", f"{self.path} exists and is not a folder")
+        if self.path.is_dir() and not (self.path / MANIFEST).exists():
+            other = [p.name for p in self.path.iterdir() if p.name not in _OWN and TEMP_MARK not in p.name
+                     and not (p.name == RUNS_DIR and p.is_dir() and not any(p.iterdir()))]
+            if other:
+                raise DatasetError("--out", f"{self.path} holds other files ({', '.join(sorted(other)[:3])}"
+                                   f"{', ...' if len(other) > 3 else ''}) and no bkabem data set: give a new or "
+                                   f"empty folder")
         try:
             (self.path / RUNS_DIR).mkdir(parents=True, exist_ok=True)
         except OSError as exc:

@@ -15,6 +15,7 @@ What a data scientist relies on, each checked against something computed here, n
 from __future__ import annotations
 
 import copy
+import json
 import math
 import os
 import signal
@@ -29,7 +30,7 @@ import pytest
 from scipy import signal as sps
 
 from bkabem_core.case import Case
-from bkabem_core.dataset import read_labels, render_dataset
+from bkabem_core.dataset import _manifest, read_labels, render_dataset
 from bkabem_core.dataset_spec import DatasetSpec
 
 REPO = Path(__file__).resolve().parents[1]
@@ -219,7 +220,9 @@ def test_same_files_for_one_and_two_workers_and_any_order(tmp_path):
     later = partial.runs[6:]
     partial.runs = later
     render_dataset(partial, b, workers=1, log=lambda line: None)
-    (b / "manifest.json").unlink()                  # it was the partial spec's
+    (b / "labels.parquet").unlink()                 # the partial spec's; the folder becomes the full spec's
+    (b / "labels.csv").unlink()
+    (b / "manifest.json").write_text(json.dumps(_manifest(spec, False)))
     render_dataset(spec, b, workers=2, log=lambda line: None)
     fa, fb = _files(a), _files(b)
     assert len(fa) == 12 and fa.keys() == fb.keys()
@@ -328,6 +331,18 @@ def test_killed_process_resumes_skips_finished_runs_and_rerenders_a_truncated_fi
     fa, fb = _files(out), _files(ref)
     assert len(fa) == 40 and fa == fb
     assert (out / "labels.parquet").read_bytes() == (ref / "labels.parquet").read_bytes()
+
+
+@pytest.mark.parametrize("out", ["", "{tmp}/file", "{tmp}/busy"])
+def test_an_output_that_is_no_data_set_folder_is_refused(tmp_path, capsys, out):
+    """An empty --out, a file, a folder with other files (not a data set's): exit 2, one line, nothing written."""
+    (tmp_path / "file").write_text("x")
+    (tmp_path / "busy").mkdir()
+    (tmp_path / "busy" / "notes.txt").write_text("mine")
+    before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+    rc, _, err = _main(["dataset", "dataset_example", "--out", out.format(tmp=tmp_path)], capsys)
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "--out:" in err, err
+    assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before
 
 
 def test_another_spec_in_the_folder_is_refused(tmp_path):
