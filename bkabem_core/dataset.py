@@ -34,11 +34,14 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .dataset_render import RUNS_DIR, TEMP_MARK, check_run_file, commit, fsync_dir, render_run, run_path
+from .dataset_render import (RUNS_DIR, TEMP_MARK, Finisher, check_run_file, commit, fsync_dir, render_run,
+                             run_path)
 from .dataset_spec import DatasetSpec, Run
 
 ENGINES = ("local", "dask")
 MANIFEST = "manifest.json"
+#: Most runs in one task.
+TASK_RUNS = 16
 #: What a data set's folder holds before its manifest is written (a crash right at the start).
 _OWN = (".lock", "spec.toml")
 
@@ -186,11 +189,11 @@ class _Folder:
 def plan_tasks(todo: list[Run], workers: int) -> list[list[Run]]:
     """The runs as tasks: runs of one machine together (its model is built once per task and kept by the worker),
     in index order; a machine's runs split into pieces of at most ``ceil(runs / (2 workers))`` so that every
-    worker has work."""
+    worker has work, and at most :data:`TASK_RUNS` (the progress bar moves per task)."""
     groups: dict[str, list[Run]] = {}
     for r in sorted(todo, key=lambda r: r.index):
         groups.setdefault(r.case_hash, []).append(r)
-    piece = max(1, -(-len(todo) // (2 * max(1, workers))))
+    piece = max(1, min(-(-len(todo) // (2 * max(1, workers))), TASK_RUNS))
     tasks = []
     for runs in groups.values():
         n = -(-len(runs) // piece)                       # pieces of this machine, as equal as can be
@@ -203,8 +206,14 @@ def _task(runs: list[Run], out_dir: str, compression: str, sinks: tuple) -> list
     """What a worker runs: one BLAS thread (small matrices; determinism), then the runs one after the other."""
     from threadpoolctl import threadpool_limits
 
-    with threadpool_limits(limits=1, user_api="blas"):
-        return [render_run(run, out_dir, compression, sinks) for run in runs]
+    fin = Finisher()
+    try:
+        with threadpool_limits(limits=1, user_api="blas"):
+            out = [render_run(run, out_dir, compression, sinks, finish=fin) for run in runs]
+        fin.wait()                     # every run of the task fsync-ed and in place before it is reported
+    finally:
+        fin.close()
+    return out
 
 
 def _worker_init() -> None:
@@ -223,8 +232,7 @@ def _worker_init() -> None:
 def _local(tasks: list[list[Run]], out_dir: str, compression: str, sinks: tuple, workers: int):
     if workers <= 1:
         for runs in tasks:
-            for run in runs:                    # one by one: the progress bar moves per run
-                yield _task([run], out_dir, compression, sinks)
+            yield _task(runs, out_dir, compression, sinks)
         return
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
