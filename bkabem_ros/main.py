@@ -10,6 +10,7 @@ module                                      commands
 ==========================================  =================================================================
 :mod:`bkabem_ros.core_cli`                  ``excitation``, ``spectrum``, ``sweep``, ``validate``, ``demo``
 :mod:`bkabem_ros.synth_cli`                 ``synth``
+:mod:`bkabem_ros.dataset_cli`               ``dataset``
 :mod:`bkabem_ros.cli` (+ ``speed``,         ``node``, ``speed``, ``echo``, ``fleet``, ``record``, ``replay``
 ``echo``, ``fleet``, ``record_cli``,
 ``replay_cli``)
@@ -26,7 +27,7 @@ import sys
 
 from threadpoolctl import threadpool_limits
 
-from . import core_cli, synth_cli
+from . import core_cli, dataset_cli, synth_cli
 from .cli import add_ros_commands
 from .cli_base import Parser, add_debug, add_ros_options, run_command
 
@@ -40,6 +41,7 @@ def build_parser() -> Parser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
     core_cli.add_parsers(sub)
     synth_cli.add_parser(sub)
+    dataset_cli.add_parser(sub)
     add_ros_commands(sub, core_cli.add_case)
     for sp in sub.choices.values():
         add_debug(sp)
