@@ -100,7 +100,11 @@ def test_kurtosis_and_crest_factor():
 
 def test_marker_plan_is_data_driven_for_several_defects():
     lines = {"1x": 25.0, "FTF": 9.9, "BPFO": 89.4, "BPFI": 135.6, "BSF": 58.9, "2xBSF": 117.8}
-    defects = [fault_lines.Defect("outer", "de"), fault_lines.Defect("inner", "nde"), fault_lines.Defect("ball", "de")]
+    defects = [fault_lines.Defect("outer", "de", depth_m=5e-5), fault_lines.Defect("inner", "nde", depth_m=3e-5),
+               fault_lines.Defect("ball", "de", depth_m=2e-5)]
+    # a defect of depth 0 (a scenario's defect before it appears) excites nothing: no harmonics for it
+    plan0 = fault_lines.marker_plan(lines, [fault_lines.Defect("inner", "nde")], f_max=400.0)
+    assert [m.label for m in plan0] == ["1x", "FTF", "BPFO", "BPFI", "BSF", "2xBSF"]
     plan = fault_lines.marker_plan(lines, defects, f_max=400.0)
     by = {}
     for m in plan:

@@ -92,3 +92,17 @@ def test_floor_is_gaussian_seeded_and_chunking_invariant(healthy):
     z = (x[i] - x[i].mean()) / x[i].std()
     assert abs(np.mean(z ** 4) - 3.0) < 0.15                 # Gaussian (kurtosis 3; a sine is 1.5)
     assert abs(np.mean(z ** 3)) < 0.05
+
+
+def test_a_new_seed_after_reset_gives_the_new_seeds_floor(healthy):
+    """A reused synthesiser (a data set's worker: ``seed`` set, ``reset()``) renders what a fresh one with that seed
+    renders: the floor's frames and grains follow the seed, not the synthesiser's first seed."""
+    s = Synthesizer(healthy, sample_rate_hz=FS, chunk_s=0.1, seed=5, features=False, broadband_floor=True)
+    for _ in range(3):
+        s.next_chunk(SPEED_HZ)
+    s.seed = 9
+    s.reset()
+    reused = np.concatenate([s.next_chunk(SPEED_HZ).samples for _ in range(3)], axis=1).astype(float)
+    fresh = _run(healthy, 0.3, seed=9)[0]
+    assert np.array_equal(reused, fresh)
+    assert not np.array_equal(fresh, _run(healthy, 0.3, seed=5)[0])
