@@ -14,12 +14,8 @@ import importlib.util
 from pathlib import Path
 
 
-from .cli_base import UsageError, finite_float, output_path, pos_int
-
-
-def fail(command: str, message: str):
-    """Bad input of ``command``: raise :class:`UsageError` (the command line writes the one line, exit code 2)."""
-    raise UsageError(message)
+from .cli_base import (UsageError, check_parameter_ranges, fail, finite_float, output_path,  # noqa: F401
+                       pos_int)
 
 
 def _shorthand(p) -> None:
@@ -72,22 +68,6 @@ def _ros_args(args) -> list[str]:
             fail("node", f"--params-file: {f}: {why}")
         out += ["--params-file", f]
     return out + list(args.ros_args or [])
-
-
-def check_parameter_ranges(overrides: dict, option_of=lambda name: "--" + name.replace("_", "-")) -> None:
-    """The node's parameter ranges (node.PARAMETERS) for the shorthand options, before rclpy starts: bad input is
-    one line, not a log of the node's start-up followed by rclpy's refusal."""
-    from .node import PARAMETER_SPECS
-
-    for name, value in overrides.items():
-        spec = PARAMETER_SPECS.get(name)
-        if spec is None or spec.range is None or isinstance(value, (bool, str)):
-            continue
-        lo, hi = spec.range
-        if not lo <= value <= hi:
-            unit = f" {spec.unit}" if spec.unit else ""
-            raise UsageError(f"{option_of(name)}: {value:g}{unit} is outside the parameter's range "
-                             f"{lo:g} .. {hi:g}{unit}")
 
 
 def check_scenario(option: str, ref: str | None) -> None:

@@ -374,3 +374,24 @@ def subcommand_main(name: str, add_parser, argv=None) -> int:
     if sp is not None:
         add_ros_options(sp)
     return run_command(parser.parse_args([name, *(sys.argv[1:] if argv is None else argv)]))
+
+
+def fail(command: str, message: str):
+    """Bad input of ``command``: raise :class:`UsageError` (the command line writes the one line, exit code 2)."""
+    raise UsageError(message)
+
+
+def check_parameter_ranges(overrides: dict, option_of=lambda name: "--" + name.replace("_", "-")) -> None:
+    """The node's parameter ranges (node_params.PARAMETERS) for the shorthand options, before rclpy starts: bad input is
+    one line, not a log of the node's start-up followed by rclpy's refusal."""
+    from .node_params import PARAMETER_SPECS
+
+    for name, value in overrides.items():
+        spec = PARAMETER_SPECS.get(name)
+        if spec is None or spec.range is None or isinstance(value, (bool, str)):
+            continue
+        lo, hi = spec.range
+        if not lo <= value <= hi:
+            unit = f" {spec.unit}" if spec.unit else ""
+            raise UsageError(f"{option_of(name)}: {value:g}{unit} is outside the parameter's range "
+                             f"{lo:g} .. {hi:g}{unit}")

@@ -152,7 +152,7 @@ def main(args) -> int:
     from rclpy.executors import ExternalShutdownException
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    from .cli import fail
+    from .cli_base import fail
 
     topics = list(args.topics) or list(DEFAULT_TOPICS)
     from .ros_env import check_names, init  # noqa: PLC0415

@@ -315,7 +315,7 @@ def add_parser(sub, add_case):
 
 
 def main(args) -> int:
-    from .cli import fail
+    from .cli_base import fail
 
     import math
 
@@ -352,7 +352,7 @@ def main(args) -> int:
                  else f"--scenario: {exc}")
     elif args.time_scale is not None and args.worker is None:
         fail("fleet", "--time-scale: only with --scenario")
-    from .cli import check_parameter_ranges
+    from .cli_base import check_parameter_ranges
 
     check_parameter_ranges({k: v for k, v in {"sample_rate": args.sample_rate,
                                               "chunk_duration": args.chunk_duration}.items() if v is not None})

@@ -9,11 +9,11 @@ differ); without rclpy, mcap_ros2's decoder built from the embedded schemas give
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Iterable, Iterator
 from typing import Any, NamedTuple
 
 from . import msg_compat, msgs
+from .msg_compat import message_class  # noqa: F401  (re-exported: mcap_io, record, replay)
 
 __all__ = ["Channels", "Message", "RawMessage", "file_metadata", "iter_messages", "iter_raw", "message_class",
            "scan", "summary"]
@@ -108,21 +108,6 @@ def _iter_raw_stream(path, wanted, start_time_ns) -> Iterator[RawMessage]:
             pass
     out.sort(key=lambda r: r.log_time)
     yield from out
-
-
-_CLASSES: dict[str, Any] = {}
-
-
-def message_class(type_name: str):
-    """The rclpy message class for ``pkg/msg/Type`` (imports ``pkg.msg``), or None."""
-    full = msgs.type_name(type_name)
-    if full not in _CLASSES:
-        pkg, _, name = full.split("/")
-        try:
-            _CLASSES[full] = getattr(importlib.import_module(f"{pkg}.msg"), name)
-        except (ImportError, AttributeError):
-            _CLASSES[full] = None
-    return _CLASSES[full]
 
 
 def _decoder(path):

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import array
 import functools
+import importlib
 import re
 from typing import Any
 
@@ -92,9 +93,22 @@ def version_of(type_name: str, recorded_text: str | None) -> str:
 
 
 # --------------------------------------------------------------------------- upgrading
-def _message_class(type_name: str):
-    from .mcap_read import message_class  # noqa: PLC0415  (mcap_read imports this module)
+_CLASSES: dict[str, Any] = {}
 
+
+def message_class(type_name: str):
+    """The rclpy message class for ``pkg/msg/Type`` (imports ``pkg.msg``), or None."""
+    full = msgs.type_name(type_name)
+    if full not in _CLASSES:
+        pkg, _, name = full.split("/")
+        try:
+            _CLASSES[full] = getattr(importlib.import_module(f"{pkg}.msg"), name)
+        except (ImportError, AttributeError):
+            _CLASSES[full] = None
+    return _CLASSES[full]
+
+
+def _message_class(type_name: str):
     return message_class(type_name)
 
 

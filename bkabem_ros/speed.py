@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import csv
 import math
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -213,7 +212,7 @@ def add_parser(sub, add_case=None):
 
 
 def main(args) -> int:
-    from .cli import fail
+    from .cli_base import fail
 
     from .ros_env import check_names
 
@@ -279,9 +278,3 @@ def main(args) -> int:
         if rclpy.ok():
             rclpy.shutdown()
     return 0
-
-
-if __name__ == "__main__":  # pragma: no cover
-    from bkabem_ros.main import main as _main
-
-    sys.exit(_main(["speed", *sys.argv[1:]]))
