@@ -7,8 +7,9 @@ about half of a fleet process's CPU (bench/profile_fleet.py). Most of that messa
 the frame, machine id, location, quantity, unit, channel names and sample rate. :class:`WaveformEncoder` encodes
 that part once per stream; each chunk then writes only the stamp, the first sample index, the shaft speed and the
 samples (one ``float32`` conversion) behind it, then the chunk's ``ground_truth`` (bkabem_msgs 0.2.0), encoded by
-:class:`TruthEncoder` (rclpy's serialiser on a small template, once per chunk for the 4 streams). ``Publisher.publish`` accepts the bytes as they are (rclpy hands
-them to ``rmw_publish_serialized_message``); subscribers receive the same message as before.
+:class:`TruthEncoder` (rclpy's serialiser on a small template, once per chunk for the 4 streams).
+``Publisher.publish`` accepts the bytes as they are (rclpy hands them to ``rmw_publish_serialized_message``);
+subscribers receive the same message as before.
 
 The layout is the one Fast DDS's ``rmw_fastrtps`` writes for ROS 2 (plain CDR, XCDR version 1, little endian):
 a 4-byte encapsulation header ``00 01 00 00``, then the fields in order, each aligned to its own size counted from
