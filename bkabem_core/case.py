@@ -28,8 +28,9 @@ DEFAULT_CASE = "electric_motor_6010"
 SCHEMA_VERSION = 3
 
 
-class CaseError(ValueError):
-    """A case file is invalid. ``key`` is the dotted key at fault (or the file)."""
+class InputFileError(ValueError):
+    """An input file (case, scenario, data-set spec) is invalid: ``key`` is the dotted key at fault (or the file),
+    ``reason`` says why, ``source`` names the file. Each kind of file raises its own subclass."""
 
     def __init__(self, key: str, reason: str, source: str = ""):
         self.key = key
@@ -37,6 +38,20 @@ class CaseError(ValueError):
         self.source = source
         where = f"{source}: " if source else ""
         super().__init__(f"{where}{key}: {reason}")
+
+
+class CaseError(InputFileError):
+    """A case file is invalid. ``key`` is the dotted key at fault (or the file)."""
+
+
+def parse_toml(text: str, source: str, error: type[InputFileError]) -> dict:
+    """The tables of a TOML text; a syntax error or a too deep nesting raises ``error`` for the key ``toml``."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise error("toml", f"not valid TOML: {exc}", source) from None
+    except RecursionError:
+        raise error("toml", "nested too deeply (arrays or tables inside each other)", source) from None
 
 
 # --------------------------------------------------------------------------- schema
@@ -455,13 +470,7 @@ class Case:
 
     @classmethod
     def from_toml(cls, text: str, source: str = "") -> "Case":
-        try:
-            raw = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise CaseError("toml", f"not valid TOML: {exc}", source) from None
-        except RecursionError:
-            raise CaseError("toml", "nested too deeply (arrays or tables inside each other)", source) from None
-        return cls.from_dict(raw, source)
+        return cls.from_dict(parse_toml(text, source, CaseError), source)
 
     @classmethod
     def from_dict(cls, raw: dict, source: str = "") -> "Case":

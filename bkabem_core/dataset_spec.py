@@ -40,13 +40,12 @@ import hashlib
 import itertools
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .case import Case, CaseError
+from .case import Case, CaseError, InputFileError, parse_toml
 
 SCHEMA_VERSION = 1
 #: Version of the run files' layout and of the run hash; part of every run hash.
@@ -63,15 +62,8 @@ MAX_DURATION_S = 3600.0
 MAX_NOISE = {"noise_acc": 1e3, "noise_disp": 1e-2, "noise_vel": 1e5}
 
 
-class DatasetSpecError(ValueError):
+class DatasetSpecError(InputFileError):
     """A data-set spec is invalid. ``key`` is the dotted key at fault, ``reason`` says why."""
-
-    def __init__(self, key: str, reason: str, source: str = ""):
-        self.key = key
-        self.reason = reason
-        self.source = source
-        where = f"{source}: " if source else ""
-        super().__init__(f"{where}{key}: {reason}")
 
 
 # --------------------------------------------------------------------------- the run parameters
@@ -586,13 +578,7 @@ class DatasetSpec:
     # -- loading --
     @classmethod
     def from_toml(cls, text: str, source: str = "", base_dir: Path | None = None) -> "DatasetSpec":
-        try:
-            raw = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise DatasetSpecError("toml", f"not valid TOML: {exc}", source) from None
-        except RecursionError:
-            raise DatasetSpecError("toml", "nested too deeply", source) from None
-        return cls(raw, source, base_dir)
+        return cls(parse_toml(text, source, DatasetSpecError), source, base_dir)
 
     @classmethod
     def load(cls, name_or_path: str | Path) -> "DatasetSpec":

@@ -25,11 +25,10 @@ parameters. Bad input raises :class:`~bkabem_core.scenario.ScenarioError` naming
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .case import Case, CaseError
+from .case import Case, CaseError, parse_toml
 from .scenario import SCHEMA_VERSION, Scenario, ScenarioError, _number, _string, _table, read_scenario_text
 from .scenario_run import TIME_SCALE_RANGE
 
@@ -132,11 +131,7 @@ class FleetScenario:
 
     @classmethod
     def from_toml(cls, text: str, source: str = "", base_dir: Path | None = None) -> "FleetScenario":
-        try:
-            raw = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise ScenarioError("toml", f"not valid TOML: {exc}", source) from None
-        return cls(raw, source, base_dir)
+        return cls(parse_toml(text, source, ScenarioError), source, base_dir)
 
     @classmethod
     def load(cls, name_or_path: str | Path) -> "FleetScenario":

@@ -25,14 +25,13 @@ import copy
 import hashlib
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
-from .case import Case, CaseError
+from .case import Case, CaseError, InputFileError, parse_toml
 
 SCHEMA_VERSION = 1
 #: Most states a scenario may have (each one is a model to prepare; ~0.1-2 s each for a grown defect).
@@ -45,15 +44,8 @@ KIND_FREQUENCY = {"outer": "bpfo", "inner": "bpfi", "ball": "bsf"}
 _HOURS = 3600.0
 
 
-class ScenarioError(ValueError):
+class ScenarioError(InputFileError):
     """A scenario file is invalid. ``key`` is the dotted key at fault, ``reason`` says why."""
-
-    def __init__(self, key: str, reason: str, source: str = ""):
-        self.key = key
-        self.reason = reason
-        self.source = source
-        where = f"{source}: " if source else ""
-        super().__init__(f"{where}{key}: {reason}")
 
 
 # --------------------------------------------------------------------------- reading helpers
@@ -602,13 +594,7 @@ class Scenario:
 
     @classmethod
     def from_toml(cls, text: str, source: str = "", base_dir: Path | None = None) -> "Scenario":
-        try:
-            raw = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise ScenarioError("toml", f"not valid TOML: {exc}", source) from None
-        except RecursionError:
-            raise ScenarioError("toml", "nested too deeply", source) from None
-        return cls(raw, source, base_dir)
+        return cls(parse_toml(text, source, ScenarioError), source, base_dir)
 
     @classmethod
     def load(cls, name_or_path: str | Path) -> "Scenario":

@@ -536,3 +536,19 @@ def test_synth_cli_writes_the_ground_truth_of_every_chunk(tmp_path):
     assert meta["states_ground_truth"][-1]["defects"][1]["name"] == "nde_outer"
     np.testing.assert_allclose(d["speed_hz"][::N][1:], [speed_of_timeline(_toml(GROWTH), 2 * CHUNK * j)
                                                         for j in range(1, n_chunks)], rtol=1e-6)
+
+
+def test_every_input_file_kind_refuses_a_too_deep_nesting_with_one_line():
+    """Case, scenario, fleet scenario and data-set spec read TOML through one reader (case.parse_toml): a nesting
+    too deep for the parser is the key ``toml`` of each file kind's own error, not a RecursionError."""
+    from bkabem_core.case import Case, CaseError
+    from bkabem_core.dataset_spec import DatasetSpec, DatasetSpecError
+    from bkabem_core.fleet_scenario import FleetScenario
+    from bkabem_core.scenario import Scenario, ScenarioError
+
+    deep = "x = " + "[" * 5000 + "]" * 5000 + "\n"
+    for load, error in [(Case.from_toml, CaseError), (Scenario.from_toml, ScenarioError),
+                        (FleetScenario.from_toml, ScenarioError), (DatasetSpec.from_toml, DatasetSpecError)]:
+        with pytest.raises(error) as info:
+            load(deep, "deep.toml")
+        assert info.value.key == "toml" and "nested too deeply" in info.value.reason
