@@ -286,7 +286,7 @@ class RunFile:
         n = samples.shape[1]
         if self._state[0] != state or len(self._state[1]) != n:
             self._state = (state, pa.array(np.full(n, state, dtype=np.int16)))
-        x = np.ascontiguousarray(samples)              # one copy (the synthesiser's chunk is sample-major)
+        x = np.ascontiguousarray(samples)              # the synthesiser's chunk is sample-major: one copy
         cols = [pa.array(x[i]) for i in range(x.shape[0])]
         cols.append(pa.array(np.asarray(speed_hz, dtype=np.float32)))
         cols.append(self._state[1])
@@ -365,8 +365,8 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
     try:
         out = RunFile(tmp, names, synth.units, synth.dtype, compression)
         for chunk, speed, truth in chunks:
-            x = chunk.samples
-            if not np.all(np.isfinite(x)):
+            x = np.ascontiguousarray(chunk.samples)      # channel-major: the columns (one copy of the chunk)
+            if not np.isfinite(x).all():
                 raise ValueError(f"run {run.run_id}: samples {chunk.first_sample_index}..: not finite")
             state = 0 if truth is None else int(truth["state_index"])
             if not segs or segs[-1].state != state:
