@@ -123,7 +123,7 @@ def bench_kind(kind: str, cname: str, seconds: float, runs: int, repeat: int, co
 
 def _kept_chunks(run) -> dict:
     synth, chunks, _ = dataset_render._chunks(run)
-    kept = [(np.array(c.samples), np.asarray(speed), 0) for c, speed, _t in chunks]
+    kept = [(np.array(c.samples), speed if np.ndim(speed) == 0 else np.array(speed), 0) for c, speed, _t in chunks]
     return {"chunks": kept, "names": list(synth.channel_names), "units": list(synth.units), "dtype": synth.dtype,
             "seconds": run.params["duration_s"]}
 

@@ -141,7 +141,9 @@ def _profile(p: dict) -> SpeedProfile | None:
 
 
 def _chunks(run: Run):
-    """``(synth, iterator of (chunk, per-sample speed [Hz], ground truth or None), model seconds)``."""
+    """``(synth, iterator of (chunk, shaft speed [Hz], ground truth or None), model seconds)``; the speed is one
+    float where it is constant over the chunk (every chunk of a constant-speed run: no per-sample array to make,
+    cast and reduce), else per sample (n,)."""
     p = run.params
     fs, seconds = p["sample_rate_hz"], p["duration_s"]
     t0 = time.perf_counter()
@@ -159,20 +161,21 @@ def _chunks(run: Run):
         def it():
             for chunk, truth in sr.chunks(seconds):
                 m = chunk.n_samples
-                speed = chunk.shaft_speed_hz + (chunk.shaft_speed_end_hz - chunk.shaft_speed_hz) * (np.arange(m) / m)
-                yield chunk, speed, truth
+                f0, f1 = chunk.shaft_speed_hz, chunk.shaft_speed_end_hz
+                yield chunk, (float(f0) if f0 == f1 else f0 + (f1 - f0) * (np.arange(m) / m)), truth
         return sr.synth, it(), model_s
     case = Case(name=run.case_raw["case"]["name"], source="dataset run", raw=run.case_raw)
     model = pool().get(case)
     synth = _synth_for(model, p)
     # at a constant speed the line amplitudes are constant: knots at the run's ends only (the default 0.1 s knots
     # cost a spectrum and a table each, ~10-20 % of an inner-race run); a profile keeps the default knots
-    synth.knot_s = max(KNOT_S, p["duration_s"]) if np.ptp(profile.speeds_hz) == 0 else KNOT_S
+    constant = float(profile.speeds_hz[0]) if np.ptp(profile.speeds_hz) == 0 else None
+    synth.knot_s = max(KNOT_S, p["duration_s"]) if constant is not None else KNOT_S
     model_s = time.perf_counter() - t0
 
     def it():
         for chunk in synth.render(profile, seconds):
-            yield chunk, profile.speed_hz(chunk.time_s), None
+            yield chunk, (constant if constant is not None else profile.speed_hz(chunk.time_s)), None
     return synth, it(), model_s
 
 
@@ -277,19 +280,25 @@ class RunFile:
         codecs.update(speed_hz=aux, state=aux)
         self._writer = pq.ParquetWriter(str(path), self.schema, compression=codecs, write_statistics=False,
                                         use_dictionary=False)
-        self._state = (None, None)              # (state, its column) of the last chunk: reused while it holds
+        self._const: dict = {}                  # constant columns of the last chunks, reused while they hold
 
-    def write(self, samples: np.ndarray, speed_hz: np.ndarray, state: int) -> None:
-        """One chunk: ``samples`` (C, n) in the channels' units, ``speed_hz`` (n,) [Hz], ``state`` (the scenario
-        state of every sample)."""
+    def _constant(self, name: str, value, n: int, dtype):
+        key = (value, n)
+        col = self._const.get(name)
+        if col is None or col[0] != key:
+            col = self._const[name] = (key, self._pa.array(np.full(n, value, dtype=dtype)))
+        return col[1]
+
+    def write(self, samples: np.ndarray, speed_hz, state: int) -> None:
+        """One chunk: ``samples`` (C, n) in the channels' units, ``speed_hz`` [Hz] per sample (n,) or one float
+        for the chunk, ``state`` (the scenario state of every sample)."""
         pa = self._pa
         n = samples.shape[1]
-        if self._state[0] != state or len(self._state[1]) != n:
-            self._state = (state, pa.array(np.full(n, state, dtype=np.int16)))
         x = np.ascontiguousarray(samples)              # the synthesiser's chunk is sample-major: one copy
         cols = [pa.array(x[i]) for i in range(x.shape[0])]
-        cols.append(pa.array(np.asarray(speed_hz, dtype=np.float32)))
-        cols.append(self._state[1])
+        cols.append(self._constant("speed_hz", float(speed_hz), n, np.float32) if np.ndim(speed_hz) == 0
+                    else pa.array(np.asarray(speed_hz, dtype=np.float32)))
+        cols.append(self._constant("state", int(state), n, np.int16))
         self._writer.write_batch(pa.RecordBatch.from_arrays(cols, schema=self.schema))
 
     def close(self, metadata: dict) -> None:
@@ -317,18 +326,25 @@ class _Segment:
         self.state, self.first, self.truth = state, first, truth
         self.n, self.total, self.lo, self.hi = 0, 0.0, math.inf, -math.inf
 
-    def add(self, speed: np.ndarray) -> None:
-        if speed.size:
-            self.n += speed.size
+    def add(self, speed, n: int) -> None:
+        """``n`` samples at ``speed`` [Hz]: one float, or per sample (n,)."""
+        if n <= 0:
+            return
+        self.n += n
+        if np.ndim(speed) == 0:
+            v = float(speed)
+            self.total += v * n
+            self.lo, self.hi = min(self.lo, v), max(self.hi, v)
+        else:
             self.total += float(np.sum(speed, dtype=float))
             self.lo = min(self.lo, float(np.min(speed)))
             self.hi = max(self.hi, float(np.max(speed)))
 
     def speeds(self) -> tuple[float, float, float]:
-        """(mean, min, max) [Hz] (0 for an empty segment)."""
+        """(mean, min, max) [Hz] (0 for an empty segment; a constant speed exactly)."""
         if not self.n:
             return 0.0, 0.0, 0.0
-        return self.total / self.n, self.lo, self.hi
+        return (self.lo if self.lo == self.hi else self.total / self.n), self.lo, self.hi
 
 
 # --------------------------------------------------------------------------- rendering a run
@@ -371,7 +387,7 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
             state = 0 if truth is None else int(truth["state_index"])
             if not segs or segs[-1].state != state:
                 segs.append(_Segment(state, chunk.first_sample_index, truth))
-            segs[-1].add(speed)
+            segs[-1].add(speed, chunk.n_samples)
             out.write(x, speed, state)
             for s in open_sinks:
                 s.write(chunk, truth)
