@@ -141,7 +141,9 @@ def _profile(p: dict) -> SpeedProfile | None:
 
 
 def _chunks(run: Run):
-    """``(synth, iterator of (chunk, per-sample speed [Hz], ground truth or None), model seconds)``."""
+    """``(synth, iterator of (chunk, shaft speed [Hz], ground truth or None), model seconds)``; the speed is one
+    float where it is constant over the chunk (every chunk of a constant-speed run: no per-sample array to make,
+    cast and reduce), else per sample (n,)."""
     p = run.params
     fs, seconds = p["sample_rate_hz"], p["duration_s"]
     t0 = time.perf_counter()
@@ -159,20 +161,21 @@ def _chunks(run: Run):
         def it():
             for chunk, truth in sr.chunks(seconds):
                 m = chunk.n_samples
-                speed = chunk.shaft_speed_hz + (chunk.shaft_speed_end_hz - chunk.shaft_speed_hz) * (np.arange(m) / m)
-                yield chunk, speed, truth
+                f0, f1 = chunk.shaft_speed_hz, chunk.shaft_speed_end_hz
+                yield chunk, (float(f0) if f0 == f1 else f0 + (f1 - f0) * (np.arange(m) / m)), truth
         return sr.synth, it(), model_s
     case = Case(name=run.case_raw["case"]["name"], source="dataset run", raw=run.case_raw)
     model = pool().get(case)
     synth = _synth_for(model, p)
     # at a constant speed the line amplitudes are constant: knots at the run's ends only (the default 0.1 s knots
     # cost a spectrum and a table each, ~10-20 % of an inner-race run); a profile keeps the default knots
-    synth.knot_s = max(KNOT_S, p["duration_s"]) if np.ptp(profile.speeds_hz) == 0 else KNOT_S
+    constant = float(profile.speeds_hz[0]) if np.ptp(profile.speeds_hz) == 0 else None
+    synth.knot_s = max(KNOT_S, p["duration_s"]) if constant is not None else KNOT_S
     model_s = time.perf_counter() - t0
 
     def it():
         for chunk in synth.render(profile, seconds):
-            yield chunk, profile.speed_hz(chunk.time_s), None
+            yield chunk, (constant if constant is not None else profile.speed_hz(chunk.time_s)), None
     return synth, it(), model_s
 
 
@@ -188,21 +191,21 @@ def _fault_label(defects: list[dict]) -> tuple[str, str, str]:
     return kinds, bearings, full
 
 
-def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: np.ndarray, mult,
+def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tuple, mult,
               synth: Synthesizer, file: str) -> dict:
     """One row of the labels table: the segment of ``run`` from sample ``first`` (``n`` samples) in the machine
-    state of ground truth ``gt`` (docs/datasets.md, "Labels")."""
+    state of ground truth ``gt`` (docs/datasets.md, "Labels"); ``speeds`` = the segment's shaft speed (mean, min,
+    max) [Hz]."""
     p = run.params
     fs = p["sample_rate_hz"]
-    mean = float(np.mean(speeds)) if speeds.size else 0.0
+    mean, lo, hi = speeds
     gt = add_frequencies(gt, mean)
     fault, fbear, full = _fault_label(gt["defects"])
     row = {"run_id": run.run_id, "run_index": run.index, "run_hash": run.run_hash, "file": file,
            "segment": segment, "first_sample": int(first), "n_samples": int(n), "start_time_s": first / fs,
            "duration_s": n / fs, "fault": fault, "fault_bearing": fbear, "faults": full,
            "healthy": bool(gt["healthy"]), "n_defects": len(gt["defects"]),
-           "speed_hz_mean": mean, "speed_hz_min": float(np.min(speeds)) if speeds.size else 0.0,
-           "speed_hz_max": float(np.max(speeds)) if speeds.size else 0.0,
+           "speed_hz_mean": mean, "speed_hz_min": lo, "speed_hz_max": hi,
            "profile": p["profile"] if p["profile"] is not None else
            (f"constant:{p['speed_hz']:g}" if p["speed_hz"] is not None else "scenario"),
            "load_factor": float(gt.get("load_factor", p["load_factor"] if p["load_factor"] is not None else 1.0)),
@@ -236,6 +239,114 @@ def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: np.n
     return row
 
 
+# --------------------------------------------------------------------------- the waveform file
+#: Codec of the ``speed_hz`` and ``state`` columns when the spec asks for none: they are constant (a grid run) or
+#: nearly so, and snappy (every Parquet reader's default codec) shrinks them to almost nothing for less CPU than
+#: the dictionary encoding they had (BENCHMARKS.md "Data sets": ~2 ms of ~6 ms per 10-s run of 4 channels).
+AUX_CODEC = "snappy"
+
+
+class RunFile:
+    """The Parquet file of one run (module docstring), written chunk by chunk: one row group per chunk.
+
+    Encodings (measured, BENCHMARKS.md "Data sets"): the channels PLAIN, without statistics or dictionary (noisy
+    float32: a dictionary or min/max only cost time, and no codec shrinks them by more than ~8 %), in the spec's
+    codec; ``speed_hz`` and ``state`` PLAIN under :data:`AUX_CODEC` (or the spec's codec when it names one).
+
+    Parameters
+    ----------
+    path : Path
+        Where to write (the run's temporary name).
+    names, units : list of str
+        The channels and their units (field metadata ``unit``).
+    dtype : numpy dtype
+        float32 or float64 samples.
+    compression : str
+        The spec's ``output.compression`` (``none``, ``snappy``, ``zstd``, ``lz4``).
+    """
+
+    def __init__(self, path: Path, names: list, units: list, dtype, compression: str = "none"):
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        self._pa = pa
+        dt = pa.float32() if np.dtype(dtype) == np.float32 else pa.float64()
+        self.names = list(names)
+        self.schema = pa.schema([pa.field(n, dt, nullable=False, metadata={"unit": u}) for n, u in zip(names, units)]
+                                + [pa.field("speed_hz", pa.float32(), nullable=False, metadata={"unit": "Hz"}),
+                                   pa.field("state", pa.int16(), nullable=False)])
+        aux = AUX_CODEC if compression == "none" else compression
+        codecs = {n: compression for n in self.names}
+        codecs.update(speed_hz=aux, state=aux)
+        self._writer = pq.ParquetWriter(str(path), self.schema, compression=codecs, write_statistics=False,
+                                        use_dictionary=False)
+        self._const: dict = {}                  # constant columns of the last chunks, reused while they hold
+
+    def _constant(self, name: str, value, n: int, dtype):
+        key = (value, n)
+        col = self._const.get(name)
+        if col is None or col[0] != key:
+            col = self._const[name] = (key, self._pa.array(np.full(n, value, dtype=dtype)))
+        return col[1]
+
+    def write(self, samples: np.ndarray, speed_hz, state: int) -> None:
+        """One chunk: ``samples`` (C, n) in the channels' units, ``speed_hz`` [Hz] per sample (n,) or one float
+        for the chunk, ``state`` (the scenario state of every sample)."""
+        pa = self._pa
+        n = samples.shape[1]
+        x = np.ascontiguousarray(samples)              # the synthesiser's chunk is sample-major: one copy
+        cols = [pa.array(x[i]) for i in range(x.shape[0])]
+        cols.append(self._constant("speed_hz", float(speed_hz), n, np.float32) if np.ndim(speed_hz) == 0
+                    else pa.array(np.asarray(speed_hz, dtype=np.float32)))
+        cols.append(self._constant("state", int(state), n, np.int16))
+        self._writer.write_batch(pa.RecordBatch.from_arrays(cols, schema=self.schema))
+
+    def close(self, metadata: dict) -> None:
+        """Add the key-value ``metadata`` ({key: str}) and write the footer."""
+        w, self._writer = self._writer, None
+        w.add_key_value_metadata(metadata)
+        w.close()
+
+    def abort(self) -> None:
+        w, self._writer = self._writer, None
+        if w is not None:
+            try:
+                w.close()
+            except Exception:  # noqa: BLE001 - already failing
+                pass
+
+
+class _Segment:
+    """A stretch of a run in one machine state: its first sample, ground truth and shaft-speed statistics, kept
+    as running sums (a long run holds no per-sample copy of its speed)."""
+
+    __slots__ = ("state", "first", "truth", "n", "total", "lo", "hi")
+
+    def __init__(self, state: int, first: int, truth):
+        self.state, self.first, self.truth = state, first, truth
+        self.n, self.total, self.lo, self.hi = 0, 0.0, math.inf, -math.inf
+
+    def add(self, speed, n: int) -> None:
+        """``n`` samples at ``speed`` [Hz]: one float, or per sample (n,)."""
+        if n <= 0:
+            return
+        self.n += n
+        if np.ndim(speed) == 0:
+            v = float(speed)
+            self.total += v * n
+            self.lo, self.hi = min(self.lo, v), max(self.hi, v)
+        else:
+            self.total += float(np.sum(speed, dtype=float))
+            self.lo = min(self.lo, float(np.min(speed)))
+            self.hi = max(self.hi, float(np.max(speed)))
+
+    def speeds(self) -> tuple[float, float, float]:
+        """(mean, min, max) [Hz] (0 for an empty segment; a constant speed exactly)."""
+        if not self.n:
+            return 0.0, 0.0, 0.0
+        return (self.lo if self.lo == self.hi else self.total / self.n), self.lo, self.hi
+
+
 # --------------------------------------------------------------------------- rendering a run
 def _load_sink(name: str):
     mod, _, attr = name.partition(":")
@@ -254,9 +365,6 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
     in its thread while the caller renders the next run (the fsync and the rename wait for the disk: ~1/3 of a
     healthy machine's run, measured); the result then has ``"pending"``, and the run is finished only once
     :meth:`Finisher.wait` has returned."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
     final = run_path(out_dir, run)
     final.parent.mkdir(parents=True, exist_ok=True)
     tmp = temp_path(final)
@@ -265,43 +373,33 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
     p = run.params
     fs = synth.sample_rate_hz
     n_total = int(round(p["duration_s"] * fs))
-    dt = pa.float32() if np.dtype(synth.dtype) == np.float32 else pa.float64()
     names = list(synth.channel_names)
-    schema = pa.schema([pa.field(n, dt, nullable=False, metadata={"unit": u}) for n, u in zip(names, synth.units)]
-                       + [pa.field("speed_hz", pa.float32(), nullable=False, metadata={"unit": "Hz"}),
-                          pa.field("state", pa.int16(), nullable=False)])
     mult = synth.model.fault_multipliers
     open_sinks = [_load_sink(s)(run, final.with_suffix(""), synth) for s in sinks]
-    segs: list[list] = []            # [state, first sample, truth, speed parts]
-    writer = None
+    segs: list[_Segment] = []
+    out = None
     try:
-        # channels PLAIN (noisy float32: a dictionary or statistics only cost time); speed and state dictionary
-        # + RLE encoded: constant in a grid run, they shrink to nothing (-1/3 of the bytes of 4 channels)
-        writer = pq.ParquetWriter(str(tmp), schema, compression=compression, write_statistics=False,
-                                  use_dictionary=["speed_hz", "state"])
+        out = RunFile(tmp, names, synth.units, synth.dtype, compression)
         for chunk, speed, truth in chunks:
-            x = chunk.samples
-            if not np.all(np.isfinite(x)):
+            x = np.ascontiguousarray(chunk.samples)      # channel-major: the columns (one copy of the chunk)
+            if not np.isfinite(x).all():
                 raise ValueError(f"run {run.run_id}: samples {chunk.first_sample_index}..: not finite")
             state = 0 if truth is None else int(truth["state_index"])
-            if not segs or segs[-1][0] != state:
-                segs.append([state, chunk.first_sample_index, truth, []])
-            segs[-1][3].append(speed)
-            cols = [pa.array(np.ascontiguousarray(x[i])) for i in range(x.shape[0])]
-            cols.append(pa.array(np.asarray(speed, dtype=np.float32)))
-            cols.append(pa.array(np.full(chunk.n_samples, state, dtype=np.int16)))
-            writer.write_batch(pa.RecordBatch.from_arrays(cols, schema=schema))
+            if not segs or segs[-1].state != state:
+                segs.append(_Segment(state, chunk.first_sample_index, truth))
+            segs[-1].add(speed, chunk.n_samples)
+            out.write(x, speed, state)
             for s in open_sinks:
                 s.write(chunk, truth)
         rows = []
         rel = f"{RUNS_DIR}/{final.name}"
-        for k, (state, first, truth, parts) in enumerate(segs):
-            end = segs[k + 1][1] if k + 1 < len(segs) else n_total
+        for k, seg in enumerate(segs):
+            end = segs[k + 1].first if k + 1 < len(segs) else n_total
+            truth = seg.truth
             if truth is None:                       # a grid run: the case alone (one state, no scenario)
                 alone = Scenario.of_case(synth.model.case)
-                truth = alone.ground_truth(alone.states[0], first / fs)
-            gt = dict(truth)
-            rows.append(label_row(run, gt, k, first, end - first, np.concatenate(parts), mult, synth, rel))
+                truth = alone.ground_truth(alone.states[0], seg.first / fs)
+            rows.append(label_row(run, dict(truth), k, seg.first, end - seg.first, seg.speeds(), mult, synth, rel))
         meta = {"run_id": run.run_id, "run_hash": run.run_hash, "run_index": run.index, "params": run.params,
                 "machine_hash": run.case_hash, "sample_rate_hz": fs, "n_samples": n_total,
                 "channel_names": names, "units": list(synth.units),
@@ -309,9 +407,8 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
                 "labels": rows}
         text = json.dumps(meta, default=str)            # insertion order: the labels' column order
         rows = json.loads(text)["labels"]                # what a resumed run reads back: the same types and order
-        writer.add_key_value_metadata({META_KEY.decode(): text})
-        writer.close()
-        writer = None
+        done_file, out = out, None
+        done_file.close({META_KEY.decode(): text})
         size = tmp.stat().st_size
         done_sinks, open_sinks = open_sinks, []
         if finish is None:
@@ -321,11 +418,8 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
     except BaseException:
         for s in open_sinks:
             s.abort()
-        if writer is not None:
-            try:
-                writer.close()
-            except Exception:  # noqa: BLE001 - already failing
-                pass
+        if out is not None:
+            out.abort()
         try:
             tmp.unlink()
         except OSError:
@@ -408,4 +502,4 @@ def check_run_file(path: Path, run: Run) -> tuple[list | None, str]:
     return meta["labels"], ""
 
 
-__all__ = ["Finisher", "render_run", "check_run_file", "run_path", "temp_path", "commit", "label_row", "parse_fault", "pool"]
+__all__ = ["Finisher", "RunFile", "render_run", "check_run_file", "run_path", "temp_path", "commit", "label_row", "parse_fault", "pool"]

@@ -285,7 +285,8 @@ class DatasetSpec:
     base_case : Case
     runs : list of Run
     compression : str
-        Parquet codec of the waveform files.
+        Parquet codec of the waveform files' channel columns (``speed_hz`` and ``state`` take snappy under
+        ``"none"``: :class:`bkabem_core.dataset_render.RunFile`).
     mcap : bool
         Also write an MCAP recording per run.
     spec_hash : str

@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 from scipy import signal as sps
@@ -149,6 +150,27 @@ def test_labels_match_the_spec_and_the_ground_truth(kinds):
         assert np.all(t.column("speed_hz").to_numpy() == np.float32(speed))
         x = t.column("de_vertical_acceleration").to_numpy()
         assert x.dtype == np.float32 and np.all(np.isfinite(x)) and x.std() > 0
+
+
+def test_run_file_layout_as_documented(kinds):
+    """docs/datasets.md "A run's Parquet file": plain float32 / int16 columns (no dictionary type for a reader to
+    meet), one row group per 1-s chunk; the channels PLAIN and uncompressed (the spec's codec "none"), without
+    statistics; speed and state under snappy, which keeps them small."""
+    spec, out = kinds
+    row = read_labels(out).to_pylist()[2]                                  # outer race, 15 Hz
+    f = pq.ParquetFile(out / row["file"])
+    types = {fl.name: fl.type for fl in f.schema_arrow}
+    assert set(types.values()) == {pa.float32(), pa.int16()} and types["state"] == pa.int16()
+    md = f.metadata
+    assert md.num_row_groups == 2 and md.row_group(0).num_rows == int(FS)
+    for i in range(md.num_columns):
+        c = md.row_group(0).column(i)
+        assert "RLE_DICTIONARY" not in c.encodings and "PLAIN" in c.encodings, c
+        if c.path_in_schema in ("speed_hz", "state"):
+            assert c.compression == "SNAPPY" and c.total_compressed_size < 0.1 * c.total_uncompressed_size, c
+        else:
+            assert c.compression == "UNCOMPRESSED" and not c.is_stats_set, c
+    assert f.read(columns=["state"]).column(0).to_numpy().max() == 0
 
 
 # --------------------------------------------------------------------------- envelope analysis
