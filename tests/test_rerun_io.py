@@ -529,8 +529,48 @@ def test_health_panel_and_ground_truth_trend_follow_the_messages(tmp_path):
     for loc, own, other in (("de", "outer-race defect, DE bearing 6010, 2.00 mm x 40 um at -90 deg", "ball 2"),
                             ("nde", "ball 2 defect, NDE bearing 6010, 1.00 mm x 20 um", "outer-race")):
         text = _column(ents[f"/{loc}/health"]["batches"], "TextDocument:text")[-1][0]
-        assert f"**Ground truth**: {own}" in text, text
-        assert other not in text.split("**Ground truth**")[1].split("\n")[0]
+        L = loc.upper()
+        assert f"**Ground truth, {L} bearing**: {own}" in text, text
+        assert other not in text.split(f"**Ground truth, {L} bearing**")[1].split("\n")[0]
+        assert other in text.split("**Elsewhere in the machine**")[1].split("\n")[0]
         assert "machine **faulty**: 2 defect(s)" in text
         assert f"scenario view_test: state {last_state.index} ({last_state.label}) since" in text
         assert "labels: purpose=view, site=lab" in text
+
+
+def test_health_text_says_what_is_in_this_bearing_and_what_is_elsewhere():
+    """A panel's ground-truth line names only its own bearing's defects; the other bearing's
+    defects are on their own line, so an NDE panel never reads "no defect ... (outer-race
+    defect, DE bearing ...)"."""
+    from bkabem_ros import fault_lines, health
+
+    de = fault_lines.Defect("outer", "de", 4e-3, 100e-6, -math.pi / 2, "6010", "de_outer_spall")
+    nde = fault_lines.Defect("ball", "nde", 1e-3, 20e-6, 0.0, "6010", "nde_ball", ball=2)
+    faulty = fault_lines.Truth(available=True, defects=(de,), healthy=False)
+
+    def panel(loc, defects, truth):
+        return health.health_text(loc, {}, list(defects), {}, "ISO 10816-3 group 2, rigid", 1.0, truth)
+
+    def para(text, head):
+        """The paragraph after ``head`` ("" if there is none)."""
+        return text.split(head, 1)[1].split("\n")[0] if head in text else ""
+
+    text = panel("nde", [de], faulty)
+    own = para(text, "**Ground truth, NDE bearing**: ")
+    assert own == "no defect in this bearing", text
+    assert para(text, "**Elsewhere in the machine**: ") == "outer-race defect, DE bearing 6010, 4.00 mm x 100 um at -90 deg"
+    assert "(" not in own and "DE" not in own
+    # the faulty bearing: its own defect, nothing elsewhere
+    text = panel("de", [de], faulty)
+    assert para(text, "**Ground truth, DE bearing**: ") == "outer-race defect, DE bearing 6010, 4.00 mm x 100 um at -90 deg"
+    assert "Elsewhere" not in text
+    # a defect in each bearing: each panel its own first, the other's on the elsewhere line
+    both = fault_lines.Truth(available=True, defects=(de, nde), healthy=False)
+    for loc, mine, theirs in (("de", de, nde), ("nde", nde, de)):
+        text = panel(loc, [de, nde], both)
+        assert para(text, f"**Ground truth, {loc.upper()} bearing**: ") == fault_lines.describe_defect(mine)
+        assert para(text, "**Elsewhere in the machine**: ") == fault_lines.describe_defect(theirs)
+    # a healthy machine: no defect, no elsewhere line; before any message: says so
+    text = panel("nde", [], fault_lines.Truth(available=True))
+    assert para(text, "**Ground truth, NDE bearing**: ") == "no defect in this bearing" and "Elsewhere" not in text
+    assert para(panel("de", [], None), "**Ground truth, DE bearing**: ") == "no fault-frequency message yet"
