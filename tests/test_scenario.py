@@ -538,6 +538,25 @@ def test_synth_cli_writes_the_ground_truth_of_every_chunk(tmp_path):
                                                         for j in range(1, n_chunks)], rtol=1e-6)
 
 
+@pytest.mark.parametrize("rate", ["100", "600"])
+def test_synth_cli_too_low_a_rate_for_the_scenario_names_rate(tmp_path, rate):
+    """The scenario's own speed puts its lines above the Nyquist frequency of ``--rate``: at the first chunk
+    (100 Hz) or once the dent's lines appear mid-run (600 Hz: the healthy machine's highest line is ~250 Hz, the
+    dented one's ~7 kHz). One line naming the option the user typed (not the library's ``speed_hz``), exit 2, no
+    file left."""
+    src = tmp_path / "growth.toml"
+    src.write_text(GROWTH)
+    out = tmp_path / "r.npz"
+    r = subprocess.run([sys.executable, "-m", "bkabem_ros", "synth", "--scenario", str(src), "--time-scale", "2",
+                        "--rate", rate, "--out", str(out)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+    assert lines[0].startswith(f"bkabem synth: error: --rate: sample rate {rate} Hz is below twice"), lines[0]
+    assert "speed_hz" not in lines[0] and "--band-limit taper" in lines[0]
+    assert not out.exists()
+
+
 def test_every_input_file_kind_refuses_a_too_deep_nesting_with_one_line():
     """Case, scenario, fleet scenario and data-set spec read TOML through one reader (case.parse_toml): a nesting
     too deep for the parser is the key ``toml`` of each file kind's own error, not a RecursionError."""
