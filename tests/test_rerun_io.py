@@ -24,6 +24,7 @@ import pytest  # noqa: E402
 
 from bkabem_ros import mcap_io, msgs, rerun_io  # noqa: E402
 from bkabem_ros.rerun_viewer import listening_addresses as _listening  # noqa: E402
+from scenario_files import defect, scenario_toml  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 T0 = 1_700_000_000_000_000_000
@@ -444,35 +445,11 @@ def test_each_plot_has_one_unit_and_the_health_panel_says_what_is_not_drawn(tmp_
     assert "markers (below the zero line of the spectra): 1x 25.0 Hz grey" in text
 
 
-TWO_DEFECTS = """
-[scenario]
-name = "view_test"
-schema_version = 1
-case = "motor_6010_healthy"
-duration_s = 10.0
-size_step = 0.5
-
-[labels]
-purpose = "view"
-
-[[defects]]
-name = "de_outer"
-bearing = "de"
-race = "outer"
-angle_deg = -90.0
-time_s = [1.0, 5.0]
-length_m = [0.5e-3, 2.0e-3]
-depth_m = [10e-6, 40e-6]
-
-[[defects]]
-name = "nde_ball"
-bearing = "nde"
-race = "ball"
-ball = 2
-time_s = [3.0]
-length_m = [1.0e-3]
-depth_m = [20e-6]
-"""
+TWO_DEFECTS = scenario_toml(
+    "view_test", duration_s=10.0, size_step=0.5, labels={"purpose": "view"},
+    defects=[defect("de_outer", "de", "outer", angle_deg=-90.0, time_s=[1.0, 5.0], length_m=[0.5e-3, 2.0e-3],
+                    depth_m=[10e-6, 40e-6]),
+             defect("nde_ball", "nde", "ball", ball=2, time_s=[3.0], length_m=[1.0e-3], depth_m=[20e-6])])
 
 
 def test_health_panel_and_ground_truth_trend_follow_the_messages(tmp_path):

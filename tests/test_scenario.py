@@ -21,109 +21,20 @@ from bkabem_core.scenario import MAX_STATES, Scenario, ScenarioError, embedded_s
 from bkabem_core.scenario_models import ModelHelper, ModelPool
 from bkabem_core.scenario_run import InlineModels, ScenarioClock, ScenarioDriver, ScenarioRun
 from bkabem_core.synth import Synthesizer
+from scenario_files import check_truth, defect, scenario_toml, speed_of_timeline, truth_of_timeline
+from scenario_files import parse as _toml
 
 FS = 12800.0
 CHUNK = 0.1
 N = int(FS * CHUNK)
 
-GROWTH = """
-[scenario]
-name = "test_growth"
-schema_version = 1
-case = "motor_6010_healthy"
-duration_s = 6.0
-size_step = 0.25
-
-[labels]
-purpose = "test"
-
-[speed]
-time_s = [0.0, 3.0, 6.0]
-speed_hz = [20.0, 30.0, 25.0]
-
-[[defects]]
-name = "de_outer"
-bearing = "de"
-race = "outer"
-angle_deg = -90.0
-growth = "exponential"
-time_s = [1.0, 2.5, 4.0]
-length_m = [0.3e-3, 1.0e-3, 2.0e-3]
-depth_m = [8e-6, 25e-6, 50e-6]
-
-[[defects]]
-name = "nde_outer"
-bearing = "nde"
-race = "outer"
-angle_deg = -90.0
-time_s = [3.0, 5.0]
-length_m = [1.0e-3, 1.5e-3]
-depth_m = [20e-6, 40e-6]
-"""
-
-
-# --------------------------------------------------------------------------- an independent timeline
-def _toml(text):
-    import tomllib
-
-    return tomllib.loads(text)
-
-
-def truth_of_timeline(raw: dict, t: float) -> dict:
-    """The defects of a scenario file at scenario time ``t`` [s], evaluated here from the file alone: present from
-    their first time, linear or geometric between the points, held after the last one."""
-    out = {}
-    for d in raw.get("defects", []):
-        times = np.asarray(d["time_s"], float)
-        if t < times[0]:
-            continue
-        size = []
-        for key in ("length_m", "depth_m"):
-            v = np.asarray(d[key], float)
-            if t >= times[-1]:
-                size.append(v[-1])
-                continue
-            i = int(np.searchsorted(times, t, side="right") - 1)
-            s = (t - times[i]) / (times[i + 1] - times[i])
-            if d.get("growth", "linear") == "exponential":
-                size.append(v[i] * (v[i + 1] / v[i]) ** s)
-            else:
-                size.append(v[i] + (v[i + 1] - v[i]) * s)
-        out[d["name"]] = {"bearing": d["bearing"], "race": d["race"], "length_m": size[0], "depth_m": size[1],
-                          "angle_rad": math.radians(d.get("angle_deg", 0.0))}
-    return out
-
-
-def speed_of_timeline(raw: dict, t: float) -> float:
-    return float(np.interp(t, raw["speed"]["time_s"], raw["speed"]["speed_hz"]))
-
-
-def check_truth(raw: dict, gt: dict, t: float, step: float, speed_hz: float, exact: bool = True) -> None:
-    """A chunk's ground truth against the file: the defects of the timeline at the state's start (which lies
-    before t), their kinds, places and sizes; with ``exact`` (the state in effect is the one due: models made
-    when needed) the same defects as the timeline at t, each within a size step of its size at t; the fault
-    frequencies at the chunk's speed; healthy; the labels."""
-    assert gt["scenario_time_s"] == pytest.approx(t, abs=1e-6)
-    start = gt["state_start_s"]
-    assert start <= t + 1e-6
-    have = {d["name"]: d for d in gt["defects"]}
-    now = truth_of_timeline(raw, t)
-    at_start = truth_of_timeline(raw, start)
-    assert set(have) == set(at_start), (start, set(have), set(at_start))
-    if exact:
-        assert set(have) == set(now), (t, set(have), set(now))
-    for name, d in have.items():
-        ref = at_start[name]
-        for k in ("bearing", "race"):
-            assert d[k] == ref[k]
-        assert d["angle_rad"] == pytest.approx(ref["angle_rad"])
-        assert d["length_m"] == pytest.approx(ref["length_m"], rel=1e-9)
-        assert d["depth_m"] == pytest.approx(ref["depth_m"], rel=1e-9)
-        if exact:                      # quantised: within a step (plus the growth over one chunk) of the timeline
-            assert abs(d["length_m"] / now[name]["length_m"] - 1) <= 1.6 * step
-        assert d["strike_frequency_hz"] == pytest.approx(d["strike_multiplier"] * speed_hz)
-    assert gt["healthy"] == (not any(d["depth_m"] > 0 for d in have.values()))
-    assert gt["labels"] == raw.get("labels", {})
+GROWTH = scenario_toml(
+    "test_growth", duration_s=6.0, size_step=0.25, labels={"purpose": "test"},
+    speed=([0.0, 3.0, 6.0], [20.0, 30.0, 25.0]),
+    defects=[defect("de_outer", "de", "outer", angle_deg=-90.0, growth="exponential", time_s=[1.0, 2.5, 4.0],
+                    length_m=[0.3e-3, 1.0e-3, 2.0e-3], depth_m=[8e-6, 25e-6, 50e-6]),
+             defect("nde_outer", "nde", "outer", angle_deg=-90.0, time_s=[3.0, 5.0], length_m=[1.0e-3, 1.5e-3],
+                    depth_m=[20e-6, 40e-6])])
 
 
 # --------------------------------------------------------------------------- fixtures
@@ -325,15 +236,10 @@ def test_at_constant_speed_the_change_is_exactly_a_blend_of_the_two_streams(pool
 def test_continuity_when_an_inner_race_dent_is_added(pool):
     """An inner-race dent (another line set: BPFI with shaft-order sidebands, ~350 lines) appears in the NDE bearing:
     the same continuity as for a growing dent (at a constant speed: exactly the blend of the two streams)."""
-    text = GROWTH.replace("speed_hz = [20.0, 30.0, 25.0]", "speed_hz = [25.0, 25.0, 25.0]").split("[[defects]]")[0] + """
-[[defects]]
-name = "nde_inner"
-bearing = "nde"
-race = "inner"
-time_s = [0.4]
-length_m = [1.0e-3]
-depth_m = [30e-6]
-"""
+    text = scenario_toml("test_growth", duration_s=6.0, size_step=0.25, labels={"purpose": "test"},
+                         speed=([0.0, 3.0, 6.0], [25.0, 25.0, 25.0]),
+                         defects=[defect("nde_inner", "nde", "inner", time_s=[0.4], length_m=[1.0e-3],
+                                         depth_m=[30e-6])])
     sc = Scenario.from_toml(text, "inner.toml")
     opts = dict(slip=0.01, seed=5, band_limit="taper", features=False)
     run = ScenarioRun(sc, sample_rate_hz=FS, chunk_s=CHUNK, pool=pool, **opts)
@@ -467,9 +373,9 @@ BAD = [
     (GROWTH.replace('race = "outer"\nangle_deg = -90.0\ngrowth', 'race = "cage"\nangle_deg = -90.0\ngrowth'),
      "defects[0].race"),
     (GROWTH.replace("time_s = [1.0, 2.5, 4.0]", "time_s = [1.0, 2.5, 40.0]"), "defects[0].time_s[2]"),
-    (GROWTH.replace("length_m = [0.3e-3, 1.0e-3, 2.0e-3]", "length_m = [0.3e-3, 1.0e-3]"), "defects[0].length_m"),
-    (GROWTH.replace("depth_m = [8e-6, 25e-6, 50e-6]", "depth_m = [0.0, 25e-6, 50e-6]"), "defects[0].depth_m"),
-    (GROWTH.replace("length_m = [0.3e-3, 1.0e-3, 2.0e-3]", "length_m = [0.3e-3, 1.0e-3, 20e-3]"),
+    (GROWTH.replace("length_m = [0.0003, 0.001, 0.002]", "length_m = [0.0003, 0.001]"), "defects[0].length_m"),
+    (GROWTH.replace("depth_m = [8e-06, 2.5e-05, 5e-05]", "depth_m = [0.0, 2.5e-05, 5e-05]"), "defects[0].depth_m"),
+    (GROWTH.replace("length_m = [0.0003, 0.001, 0.002]", "length_m = [0.0003, 0.001, 0.02]"),
      "defects[0].length_m"),
     (GROWTH.replace('name = "nde_outer"', 'name = "de_outer"'), "defects[1].name"),
     (GROWTH.replace('race = "outer"\nangle_deg = -90.0\ntime_s = [3.0', 'race = "ball"\nangle_deg = -90.0\ntime_s = [3.0'),
