@@ -31,7 +31,7 @@ import numpy as np
 
 from .rerun_io import TIMELINE, rerun_binary
 
-__all__ = ["HeadlessViewer", "ViewStats", "listening_addresses", "main", "view_statistics"]
+__all__ = ["HeadlessViewer", "ViewStats", "listening_addresses", "locate", "main", "tab_strip", "view_statistics"]
 
 #: Window size of the headless viewer (logical points) for the screenshots.
 WINDOW_SIZE = (1920, 1080)
@@ -106,6 +106,57 @@ def view_statistics(png: bytes, name: str = "") -> ViewStats:
     ink = np.abs(flat - bg).max(axis=1) > 24
     chroma = (flat.max(axis=1) - flat.min(axis=1)) > 60
     return ViewStats(name, float(ink.mean()), float(chroma.mean()), int(np.unique(codes[ink]).size), w, h)
+
+
+def locate(full: np.ndarray, view: np.ndarray) -> tuple[int, int] | None:
+    """Top-left (x, y) [px] of a view's screenshot ``view`` inside the window's screenshot ``full`` (both RGB
+    arrays of the same frame state: the viewer draws a view the same in both), or None."""
+    h, w, _ = view.shape
+    rows = [np.ascontiguousarray(full[y]).tobytes() for y in range(full.shape[0])]
+    for r in sorted({h // 2, h // 3, 2 * h // 3, h - 1}):
+        needle = np.ascontiguousarray(view[r]).tobytes()
+        for y, hay in enumerate(rows):
+            i = hay.find(needle)
+            while i >= 0:
+                x, y0 = i // 3, y - r
+                if i % 3 == 0 and 0 <= y0 <= full.shape[0] - h and np.mean(full[y0:y0 + h, x:x + w] != view) < 1e-3:
+                    return x, y0
+                i = hay.find(needle, i + 1)
+    return None
+
+
+#: A view's tab strip lies in the rows [y - 24, y - 4) above the view's top y (1 pixel per point).
+_STRIP_ROWS = (24, 4)
+_INK, _ACTIVE = 60, 160          # grey levels: inactive titles are drawn at ~127, the active one at ~255
+
+
+def _runs(mask: np.ndarray, min_gap: int) -> list[tuple[int, int]]:
+    """(first, last) columns of the runs of ``mask``, runs closer than ``min_gap`` merged."""
+    xs = np.flatnonzero(mask)
+    out: list[list[int]] = []
+    for x in xs:
+        if out and x - out[-1][1] < min_gap:
+            out[-1][1] = int(x)
+        else:
+            out.append([int(x), int(x)])
+    return [(a, b) for a, b in out]
+
+
+def tab_strip(full: np.ndarray, x: int, y: int, w: int) -> dict:
+    """What the tab strip above a view at (x, y), ``w`` wide, shows: ``tabs``, the (first, last) columns of each
+    tab (icon and title; tabs are 18 px apart, words 5-7 px); ``active``, the indices of the tabs drawn white
+    (the tab whose view is shown); ``overflow``, ink where the tab row's overflow arrow is drawn (the tabs do
+    not fit: some titles are cut or hidden). The last :data:`~bkabem_ros.rerun_blueprint.TAB_BAR_END_PX` hold
+    the arrow and the help, visibility and maximise icons."""
+    from .rerun_blueprint import TAB_BAR_END_PX  # noqa: PLC0415
+
+    strip = full[max(y - _STRIP_ROWS[0], 0):y - _STRIP_ROWS[1], x:x + w].max(axis=2)
+    end = w - TAB_BAR_END_PX
+    ink = (strip > _INK).any(axis=0)
+    bright = (strip > _ACTIVE).any(axis=0)
+    tabs = _runs(ink[:end], 12)
+    active = [i for i, (a, b) in enumerate(tabs) if bright[a:b + 1].sum() > 20]
+    return {"tabs": tabs, "active": active, "overflow": bool(ink[end:w - 70].any())}
 
 
 @dataclass
@@ -257,6 +308,55 @@ class HeadlessViewer:
         if n > 1:
             self.show_tab(0)
         return out
+
+    def rows(self) -> list[dict]:
+        """The layout's rows: every tab container and every view outside one, each with ``path``, ``names``
+        (its views' titles, in tab order) and ``ids`` (view ids)."""
+        bp = self.client.get_blueprint().blueprint
+        names = {p.rsplit("/", 1)[-1]: v["ViewBlueprint"]["display_name"] for p, v in bp.items()
+                 if "ViewBlueprint" in v}
+        out, in_tabs = [], set()
+        for path, value in bp.items():
+            c = value.get("ContainerBlueprint")
+            if c and c.get("container_kind") == "Tabs":
+                ids = [q.rsplit("/", 1)[-1] for q in c.get("contents", [])]
+                in_tabs |= set(ids)
+                out.append({"path": path, "ids": ids, "names": [names[i] for i in ids]})
+        out += [{"path": f"/view/{i}", "ids": [i], "names": [n]} for i, n in names.items() if i not in in_tabs]
+        return out
+
+    def title_problems(self, tabs=None) -> list[str]:
+        """Checks, tab by tab (:meth:`show_tab` 0, 1, ..., or the indices ``tabs``), that every row of the layout shows all its tab
+        titles without the overflow arrow, and the one title drawn white at the index of the view shown: a
+        title the user reads is the plot under it. Returns what is wrong ([] when nothing); the first tabs
+        are active again afterwards. Views are found by their own screenshots in the window's."""
+        rows = self.rows()
+        n_tabs = max(len(r["ids"]) for r in rows)
+        where = {}                                     # row path -> (x, y, w) of its (shared) view area
+        problems = []
+        for k in (range(n_tabs) if tabs is None else tabs):
+            self.show_tab(k)
+            self.client.take_screenshot()
+            full = _pixels(self.screenshot(settle=2))
+            for r in rows:
+                shown = min(k, len(r["ids"]) - 1)
+                if r["path"] not in where:
+                    vp = _pixels(self.client.take_screenshot(r["ids"][shown]))
+                    at = locate(full, vp)
+                    if at is None:
+                        problems.append(f"{r['names'][shown]}: not found in the window")
+                        continue
+                    where[r["path"]] = (*at, vp.shape[1])
+                s = tab_strip(full, *where[r["path"]])
+                what = f"{' | '.join(r['names'])} (tab {shown} shown)"
+                if s["overflow"]:
+                    problems.append(f"{what}: the tab row overflows (arrow shown)")
+                if len(s["tabs"]) != len(r["ids"]):
+                    problems.append(f"{what}: {len(s['tabs'])} titles visible, not {len(r['ids'])}")
+                if s["active"] != [shown]:
+                    problems.append(f"{what}: white title at {s['active']}, not at {shown}")
+        self.show_tab(0)
+        return problems
 
     def errors(self) -> list[str]:
         """WARN/ERROR lines of the viewer's log other than the software-rasteriser notice."""

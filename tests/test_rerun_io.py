@@ -22,7 +22,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from bkabem_ros import mcap_io, msgs, rerun_io  # noqa: E402
+from bkabem_ros import mcap_io, msgs, rerun_blueprint, rerun_io  # noqa: E402
 from bkabem_ros.rerun_viewer import listening_addresses as _listening  # noqa: E402
 from scenario_files import defect, scenario_toml  # noqa: E402
 
@@ -237,7 +237,20 @@ def test_blueprint_in_file_has_de_and_nde_side_by_side(tmp_path):
             views[cols["ViewBlueprint:display_name"][0]] = (p, cols)
     # every view of the layout, named with its unit
     assert set(views) == set(view_names())
-    assert "DE displacement [µm]" in views and "NDE envelope spectrum [m/s²] vs frequency [Hz]" in views
+    assert "DE displacement [µm]" in views and "NDE envelope spectrum [m/s²] vs Hz" in views
+    # no tab row holds more views than fit: every title in full in a bearing's column of the screenshots' window
+    # (1920 px: 954 px per column), the last TAB_BAR_END_PX left to the viewer's icons (the viewer test looks)
+    tab_kind = ContainerKind.Tabs.value
+    by_path = {str(vp).strip("/"): n for n, (vp, _c) in views.items()}
+    tab_rows = [[by_path[str(q).strip("/")] for q in d["ContainerBlueprint:contents"]]
+                for d in containers.values() if d["ContainerBlueprint:container_kind"][0] == tab_kind]
+    assert sorted(map(sorted, tab_rows)) == sorted(map(sorted, rerun_blueprint.tab_rows()))
+    assert len(tab_rows) == 8
+    for row in tab_rows:
+        assert 2 <= len(row) <= rerun_blueprint.MAX_TABS, row
+        assert rerun_blueprint.tab_row_width_px(row) <= 954 - rerun_blueprint.TAB_BAR_END_PX, row
+    # the ground truth is the first tab of its row: in view as the recording opens
+    assert any(row[0].endswith("ground truth: defect depth [µm]") for row in tab_rows)
     named = {d["ContainerBlueprint:display_name"][0]: p for p, d in containers.items()
              if d.get("ContainerBlueprint:display_name")}
     assert {"DE", "NDE"} <= set(named)
@@ -249,8 +262,8 @@ def test_blueprint_in_file_has_de_and_nde_side_by_side(tmp_path):
     # waveforms: the last second before the cursor; trends: the whole run (no range set)
     ranges = {p.split("/")[2]: c["VisibleTimeRanges:ranges"][0]["range"] for p, c in cols_by_path.items()
               if "VisibleTimeRanges:ranges" in c}
-    wave_ids = {views[n][0].split("/")[2] for n in views if n.endswith("acceleration [m/s²]")
-                or n.endswith("displacement [µm]")}
+    wave_ids = {views[n][0].split("/")[2] for loc in ("de", "nde")
+                for _g, n, kind, _o in rerun_blueprint._views(loc, ("acceleration", "displacement")) if kind == "wave"}
     assert set(ranges) == wave_ids and len(wave_ids) == 4
     assert all(r == {"start": -1_000_000_000, "end": 0} for r in ranges.values())
     # bar charts have no legend (it would show entity paths); the marker key is in the health panel
