@@ -43,8 +43,9 @@ _WAVEFORM_WINDOW_S = 1.0
 
 #: The tab rows of a bearing's column, top to bottom (the health panel is the last row, no tabs).
 _TAB_GROUPS = ("waveforms", "spectra", "condition", "levels")
-#: Heights of the column's rows: the tab rows, then the health panel.
-_ROW_SHARES = (2.6, 2.7, 2.8, 2.6, 2.6)
+#: Heights of the column's rows: the tab rows, then the health panel (the condition row tall enough for the
+#: ISO legend's five entries at 1080 px).
+_ROW_SHARES = (2.2, 2.4, 3.1, 2.9, 2.6)
 #: At most this many views share a tab row: with the titles of :func:`_views`, every title of a row is
 #: visible in a bearing's column at the screenshot window size (1920 x 1080: half the window per column).
 MAX_TABS = 3
@@ -134,6 +135,6 @@ def blueprint(locations=("de", "nde"), quantities=("acceleration", "displacement
         rrb.TimeSeriesView(origin="/fault_frequencies", name="fault frequencies [Hz]", plot_legend=legend),
         name="machine")
     return rrb.Blueprint(
-        rrb.Vertical(rrb.Horizontal(*columns), machine, row_shares=[sum(_ROW_SHARES), 2.6]),
+        rrb.Vertical(rrb.Horizontal(*columns), machine, row_shares=[sum(_ROW_SHARES), 2.4]),
         rrb.TimePanel(state="collapsed", timeline=TIMELINE, play_state="following"),
         collapse_panels=True)

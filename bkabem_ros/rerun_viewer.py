@@ -2,7 +2,8 @@
 errors, take screenshots of the whole window and of each view (rerun-sdk 0.41).
 
     python -m bkabem_ros.rerun_viewer recordings/demo.rrd [--out out/viewer] [--at 12 --at 29.5]
-    python -m bkabem_ros.rerun_viewer --docs docs/img     # = make screenshots: demo, then docs/img/rerun_*.png
+    python -m bkabem_ros.rerun_viewer --docs docs/img     # = make screenshots: demo and a scenario run,
+                                                          #   then docs/img/rerun_*.png
 
 The viewer is the ``rerun`` binary of the wheel started as ``rerun --headless --bind 127.0.0.1``
 (no window, no GPU: it renders with Mesa's software Vulkan driver, lavapipe, which
@@ -19,10 +20,13 @@ from __future__ import annotations
 import argparse
 import io
 import os
+import random
+import signal
 import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -388,10 +392,52 @@ class HeadlessViewer:
 #: blueprint's default (the latest data), tab index, what it shows).
 DOC_SHOTS = (
     ("rerun_default.png", None, 0, "as the demo recording opens: the end of the run (50 Hz hold)"),
-    ("rerun_runup.png", 12.0, 1, "t = 12 s of the run-up (30 Hz), second tabs: displacement, order spectra, "
-                                 "block min/max and RMS"),
-    ("rerun_trends.png", None, 2, "third tabs: order spectra of the displacement, peak-to-peak trends"),
+    ("rerun_runup.png", 12.0, 1, "t = 12 s of the run-up (30 Hz), second tabs: displacement, line spectrum of the "
+                                 "acceleration, kurtosis and crest factor, acceleration per block"),
+    ("rerun_trends.png", None, 2, "third tabs: line spectrum of the displacement, peak-to-peak trends"),
 )
+#: The screenshot of docs/scenarios.md: a node running the embedded run to failure at x3600 from 1.9 h for
+#: ~13 s (12 h of scenario time), as it opens (first tabs: the ground truth's depth trend in view).
+SCENARIO_SHOT = ("rerun_scenario.png", "de_outer_run_to_failure", 3600.0, 6840.0, 13.0)
+
+
+def scenario_recording(rrd, scenario: str = SCENARIO_SHOT[1], time_scale: float = SCENARIO_SHOT[2],
+                       start_s: float = SCENARIO_SHOT[3], seconds: float = SCENARIO_SHOT[4]) -> Path:
+    """Run ``bkabem node --scenario`` for ``seconds`` of wall time (after its first chunk) and save its
+    ``.rrd`` (on this host only, a random ROS domain; the node's own defaults otherwise as in
+    tests/test_rerun_viewer.py)."""
+    rrd = Path(rrd)
+    rrd.parent.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, ROS_DOMAIN_ID=str(random.SystemRandom().randrange(1, 100)),
+               ROS_LOG_DIR=tempfile.mkdtemp(prefix="bkabem_ros_log_"), PYTHONUNBUFFERED="1")
+    env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    cmd = [sys.executable, "-m", "bkabem_ros", "node", "--namespace", f"/shot{os.getpid()}", "--sample-rate",
+           "12800", "--scenario", scenario, "--time-scale", f"{time_scale:g}", "--rerun-save", str(rrd),
+           "--ros-args", "-p", f"scenario_start:={start_s:g}", "-p", "spectrum_rate:=4.0",
+           "-p", "noise.acceleration:=0.05", "-p", "slip:=0.01"]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            start_new_session=True)
+    started, lines = threading.Event(), []
+
+    def read():
+        for line in proc.stdout:
+            lines.append(line)
+            if "streaming from t0" in line:
+                started.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    try:
+        if not started.wait(120):
+            raise RuntimeError("scenario node did not stream within 120 s: " + "".join(lines[-20:]))
+        time.sleep(seconds)
+        proc.send_signal(signal.SIGINT)
+        if proc.wait(timeout=60) != 0:
+            raise RuntimeError(f"scenario node exited with {proc.returncode}: " + "".join(lines[-20:]))
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, 9)
+            proc.wait()
+    return rrd
 
 
 def _save_png(png: bytes, path: Path) -> None:
@@ -402,23 +448,15 @@ def _save_png(png: bytes, path: Path) -> None:
     Image.open(io.BytesIO(png)).convert("RGB").save(path, optimize=True)
 
 
-def make_doc_screenshots(out_dir, rrd=None) -> list[Path]:
-    """Screenshots of the demo recording for the docs (:data:`DOC_SHOTS`). Without ``rrd`` the
-    demo's ROS part runs first (``out/screenshots/demo.rrd``, the same run as ``make demo``)."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    if rrd is None:
-        from .demo import run_demo  # noqa: PLC0415
-
-        r = run_demo("out/screenshots", record=False)
-        if r.errors:
-            raise RuntimeError(f"demo failed: {r.errors}")
-        rrd = r.rrd
+def _shoot(rrd, shots, out: Path) -> list[Path]:
     written = []
     with HeadlessViewer() as v:
         v.open(rrd)
         time.sleep(max(0.0, 8.0 - (time.monotonic() - v.started)))   # the start-up toasts fade
-        for name, at, tab, _what in DOC_SHOTS:
+        problems = v.title_problems()
+        if problems:
+            raise RuntimeError("tab titles: " + "; ".join(problems))
+        for name, at, tab, _what in shots:
             v.show_tab(tab)
             if at is not None:
                 v.set_time(at)
@@ -432,6 +470,26 @@ def make_doc_screenshots(out_dir, rrd=None) -> list[Path]:
         if bad:
             raise RuntimeError("viewer reported: " + "; ".join(bad))
     return written
+
+
+def make_doc_screenshots(out_dir, rrd=None, scenario_rrd=None) -> list[Path]:
+    """Screenshots for the docs: of the demo recording (:data:`DOC_SHOTS`; without ``rrd`` the demo's ROS
+    part runs first, ``out/screenshots/demo.rrd``, the same run as ``make demo``) and of a scenario
+    (:data:`SCENARIO_SHOT`; without ``scenario_rrd`` a node runs it, ``out/screenshots/scenario.rrd``). Each
+    recording is first checked with :meth:`HeadlessViewer.title_problems` (every tab title visible)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if rrd is None:
+        from .demo import run_demo  # noqa: PLC0415
+
+        r = run_demo("out/screenshots", record=False)
+        if r.errors:
+            raise RuntimeError(f"demo failed: {r.errors}")
+        rrd = r.rrd
+    written = _shoot(rrd, DOC_SHOTS, out)
+    if scenario_rrd is None:
+        scenario_rrd = scenario_recording("out/screenshots/scenario.rrd")
+    return written + _shoot(scenario_rrd, [(SCENARIO_SHOT[0], None, 0, "")], out)
 
 
 def main(argv=None) -> int:
