@@ -8,6 +8,7 @@ No ROS here (tests/test_node_scenario.py runs the node).
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 import time
@@ -477,3 +478,46 @@ def test_every_input_file_kind_refuses_a_too_deep_nesting_with_one_line():
         with pytest.raises(error) as info:
             load(deep, "deep.toml")
         assert info.value.key == "toml" and "nested too deeply" in info.value.reason
+
+
+def test_every_input_file_kind_finds_an_embedded_name_or_a_path_the_same_way(tmp_path):
+    """Case, scenario, fleet scenario and data-set spec resolve "embedded name or path" with one function
+    (case.read_input_text): the same errors, each for its own key and error class - an unknown name lists the
+    embedded ones, a missing file, a file that is not UTF-8 (key ``toml``), an empty name - and a bare name that
+    is a file here is read as that file."""
+    from bkabem_core.case import Case, CaseError, embedded_cases
+    from bkabem_core.dataset_spec import DatasetSpec, DatasetSpecError, embedded_specs
+    from bkabem_core.fleet_scenario import FleetScenario
+
+    binary = tmp_path / "latin1.toml"
+    binary.write_bytes(b"name = '\xe9'\n")
+    kinds = [(Case.load, CaseError, "case", "case", embedded_cases()),
+             (Scenario.load, ScenarioError, "scenario", "scenario", embedded_scenarios()),
+             (FleetScenario.load, ScenarioError, "scenario", "scenario", embedded_scenarios()),
+             (DatasetSpec.load, DatasetSpecError, "spec", "data-set spec", embedded_specs())]
+    for load, error, key, what, names in kinds:
+        assert names
+        with pytest.raises(error) as info:
+            load("no_such_thing")
+        assert info.value.key == key and info.value.reason == (
+            f"no embedded {what} named 'no_such_thing' (available: {', '.join(names)})")
+        with pytest.raises(error) as info:
+            load(tmp_path / "missing.toml")
+        assert info.value.key == key and info.value.reason == f"file not found: {tmp_path / 'missing.toml'}"
+        with pytest.raises(error) as info:
+            load(binary)
+        assert info.value.key == "toml" and info.value.reason.startswith("not a UTF-8 text file (byte 8:")
+        assert info.value.source == str(binary)
+        with pytest.raises(error) as info:
+            load("  ")
+        assert info.value.key == key and info.value.reason == "empty name"
+    # a bare name that names a file in the working directory is that file, not an embedded one
+    here = tmp_path / "growth"
+    here.write_text(GROWTH)
+    cwd = os.getcwd()
+    try:
+        os.chdir(tmp_path)
+        sc = Scenario.load("growth")
+    finally:
+        os.chdir(cwd)
+    assert sc.name == "test_growth" and sc.source == "growth"
