@@ -330,10 +330,11 @@ class HeadlessViewer:
         return out
 
     def title_problems(self, tabs=None) -> list[str]:
-        """Checks, tab by tab (:meth:`show_tab` 0, 1, ..., or the indices ``tabs``), that every row of the layout shows all its tab
-        titles without the overflow arrow, and the one title drawn white at the index of the view shown: a
-        title the user reads is the plot under it. Returns what is wrong ([] when nothing); the first tabs
-        are active again afterwards. Views are found by their own screenshots in the window's."""
+        """Checks, tab by tab (:meth:`show_tab` 0, 1, ..., or the indices ``tabs``), that every row of the
+        layout shows all its tab titles without the overflow arrow, and the one title drawn white at the index
+        of the view shown: a title the user reads is the plot under it. Returns what is wrong ([] when
+        nothing); the first tabs are active again afterwards. Views are found by their own screenshots in the
+        window's (:func:`locate`), their titles in the strip above them (:func:`tab_strip`)."""
         rows = self.rows()
         n_tabs = max(len(r["ids"]) for r in rows)
         where = {}                                     # row path -> (x, y, w) of its (shared) view area

@@ -545,14 +545,15 @@ def test_health_text_says_what_is_in_this_bearing_and_what_is_elsewhere():
         """The paragraph after ``head`` ("" if there is none)."""
         return text.split(head, 1)[1].split("\n")[0] if head in text else ""
 
+    de_text = "outer-race defect, DE bearing 6010, 4.00 mm x 100 um at -90 deg"
     text = panel("nde", [de], faulty)
     own = para(text, "**Ground truth, NDE bearing**: ")
     assert own == "no defect in this bearing", text
-    assert para(text, "**Elsewhere in the machine**: ") == "outer-race defect, DE bearing 6010, 4.00 mm x 100 um at -90 deg"
+    assert para(text, "**Elsewhere in the machine**: ") == de_text
     assert "(" not in own and "DE" not in own
     # the faulty bearing: its own defect, nothing elsewhere
     text = panel("de", [de], faulty)
-    assert para(text, "**Ground truth, DE bearing**: ") == "outer-race defect, DE bearing 6010, 4.00 mm x 100 um at -90 deg"
+    assert para(text, "**Ground truth, DE bearing**: ") == de_text
     assert "Elsewhere" not in text
     # a defect in each bearing: each panel its own first, the other's on the elsewhere line
     both = fault_lines.Truth(available=True, defects=(de, nde), healthy=False)
