@@ -47,7 +47,8 @@ _TAB_GROUPS = ("waveforms", "spectra", "condition", "levels")
 #: ISO legend's five entries at 1080 px).
 _ROW_SHARES = (2.2, 2.4, 3.1, 2.9, 2.6)
 #: At most this many views share a tab row: with the titles of :func:`_views`, every title of a row is
-#: visible in a bearing's column at the screenshot window size (1920 x 1080: half the window per column).
+#: visible in a bearing's column at the screenshot window size (1920 x 1080: half the window per column) and
+#: down to a 1600 px wide window. Spectra have their abscissa in Hz, trends in time.
 MAX_TABS = 3
 #: Width of a tab title in the viewer at 1 pixel per point (rerun 0.41, Inter 12.5 pt), measured on
 #: the screenshots: ~6.2 px per character (6.6 with margin), a 14-px icon and 6 px before the text, 18 px
@@ -69,16 +70,16 @@ def _views(loc: str, quantities):
     for q in quantities:
         unit = DISPLAY_UNITS[q][0]
         out.append(("waveforms", f"{L} {q} [{unit}]", "wave", f"/{loc}/{q}"))
-    out.append(("spectra", f"{L} envelope spectrum [m/s²] vs Hz", "bars", f"/{loc}/envelope"))
+    out.append(("spectra", f"{L} envelope spectrum [m/s²]", "bars", f"/{loc}/envelope"))
     for q in quantities:
         unit = DISPLAY_UNITS[q][0]
-        out.append(("spectra", f"{L} spectrum: {q} [{unit}] vs Hz", "bars", f"/{loc}/spectrum/{q}"))
+        out.append(("spectra", f"{L} spectrum: {q} [{unit}]", "bars", f"/{loc}/spectrum/{q}"))
     out.append(("condition", f"{L} ISO velocity RMS 10-1000 Hz [mm/s]", "trend", f"/{loc}/iso_velocity"))
     out.append(("condition", f"{L} kurtosis and crest factor [-]", "trend", f"/{loc}/trend/impulsiveness"))
-    out.append(("levels", f"{L} ground truth: defect depth [µm]", "trend", f"/{loc}/trend/ground_truth"))
+    out.append(("levels", f"{L} ground truth: depth [µm]", "trend", f"/{loc}/trend/ground_truth"))
     out.append(("levels", f"{L} acceleration per block [m/s²]", "trend", f"/{loc}/overview/acceleration"))
     if "displacement" in quantities:
-        out.append(("levels", f"{L} displacement peak-to-peak [µm]", "trend", f"/{loc}/trend/displacement"))
+        out.append(("levels", f"{L} displacement p-p [µm]", "trend", f"/{loc}/trend/displacement"))
     out.append(("health", f"{L} health", "text", f"/{loc}/health"))
     return out
 

@@ -132,9 +132,10 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
     """A real node runs the embedded run to failure (de_outer_run_to_failure) at x3600 from 1.9 h for ~13 s (12 h
     of scenario time) and saves its .rrd; in the viewer the DE ground-truth trend climbs in steps (the red
     outer-race series spans most of the plot's height), the NDE one is the green 'no defect' line at 0, the health
-    panels have their text, and nothing reports an error. At the screenshots' window size every tab row shows all
-    its titles and the white one is the view shown (:meth:`HeadlessViewer.title_problems`), which reports the
-    review's layout (five trends in one row: the ground truth's tab hidden, another tab's title over its plot).
+    panels have their text, and nothing reports an error. At the screenshots' window size (and at 1600 x 900)
+    every tab row shows all its titles and the white one is the view shown (:meth:`HeadlessViewer.title_problems`),
+    which reports the review's layout (five trends in one row: the ground truth's tab hidden, another tab's title
+    over its plot).
     Screenshots: ``rtf_trends.png``, ``rtf_de_truth.png`` in the test's folder (``make screenshots`` makes
     docs/img/rerun_scenario.png the same way)."""
     import signal
@@ -165,8 +166,8 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
         full = v.screenshot(settle=2)                       # the first tabs: the ground truth is in view
         _save_png(full, tmp_path / "rtf_trends.png")
         views = {w.name: w for w in v.views()}
-        de = views["DE ground truth: defect depth [µm]"]
-        nde = views["NDE ground truth: defect depth [µm]"]
+        de = views["DE ground truth: depth [µm]"]
+        nde = views["NDE ground truth: depth [µm]"]
         assert de.reports == [] and nde.reports == []
         de_png = v.screenshot(de.view_id, settle=2)
         _save_png(de_png, tmp_path / "rtf_de_truth.png")
@@ -204,3 +205,6 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
         for L in ("DE", "NDE"):
             row = [p for p in problems if p.startswith(f"{L} ISO velocity")]
             assert any("overflows" in p for p in row) and any("white title at [], not at 4" in p for p in row), problems
+    with HeadlessViewer(window_size=(1600, 900)) as v:        # a laptop's window: the titles still fit
+        v.open(rrd)
+        assert v.title_problems() == []
