@@ -172,6 +172,9 @@ def _check_entities(ents: dict[str, dict]) -> None:
     mm = np.array(_column(ents["/de/overview/acceleration"]["batches"], "Scalars:scalars"))
     np.testing.assert_allclose(mm[:, 0], 1.0, rtol=1e-3)                      # vertical max
     np.testing.assert_allclose(mm[:, 1], -1.0, rtol=1e-3)                     # vertical min
+    # a channel's max and min share one legend entry: 4 entries in the view, not 6 (the row's height holds ~5)
+    assert _static(ents, "/de/overview/acceleration", "SeriesLines:names") == [
+        ["vertical min/max [m/s²]"] * 2 + ["horizontal min/max [m/s²]"] * 2]
     pp = np.array(_column(ents["/nde/trend/displacement"]["batches"], "Scalars:scalars"))
     np.testing.assert_allclose(pp, [[1.0, 0.5]] * BLOCKS, rtol=1e-3)          # 0.5 µm sine: 1 µm p-p
     speed = [v[0] for v in _column(ents["/speed/shaft_hz"]["batches"], "Scalars:scalars")]
