@@ -18,7 +18,7 @@ help:
 	@echo "make demo    - install everything into $(VENV) and run the main job on the embedded case"
 	@echo "make test    - install everything into $(VENV) and run the tests"
 	@echo "make bench   - run the benchmarks (results: BENCHMARKS.md)"
-	@echo "make screenshots - run the demo and regenerate the Rerun viewer screenshots in docs/img"
+	@echo "make screenshots - run the demo and a scenario node, regenerate the Rerun viewer screenshots in docs/img"
 
 $(BIN)/python:
 	$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "bkabem needs CPython 3.11 (ROS 2 Kilted wheels are cp311)"'

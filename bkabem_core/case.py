@@ -40,6 +40,44 @@ class InputFileError(ValueError):
         super().__init__(f"{where}{key}: {reason}")
 
 
+def embedded_names(folder: str) -> list[str]:
+    """Names of the TOML files shipped in the package folder ``folder`` (``cases``, ``scenarios``, ``datasets``)."""
+    try:
+        files = resources.files("bkabem_core").joinpath(folder).iterdir()
+    except FileNotFoundError:
+        return []
+    return sorted(p.name[:-5] for p in files if p.name.endswith(".toml"))
+
+
+def read_input_text(name_or_path: str | Path, folder: str, what: str, key: str,
+                    error: type[InputFileError]) -> tuple[str, str, Path | None]:
+    """(text, source, base directory) of an input file: the embedded ``<folder>/<name>.toml`` when
+    ``name_or_path`` is a bare name (no ``.toml`` suffix, no ``/``, no such file here), else the file at that
+    path (UTF-8). ``source`` is ``"embedded:<name>"`` or the path; the base directory (for paths inside the
+    file) is None for an embedded file. Errors are ``error`` for ``key`` ("no embedded <what> named ...",
+    "file not found", "cannot read") or for ``toml`` (not UTF-8); an empty name is refused."""
+    s = str(name_or_path)
+    if not s.strip():
+        raise error(key, "empty name")
+    if not s.endswith(".toml") and "/" not in s and not Path(s).exists():
+        try:
+            text = resources.files("bkabem_core").joinpath(folder, f"{s}.toml").read_text()
+        except FileNotFoundError:
+            raise error(key, f"no embedded {what} named {s!r} (available: "
+                             f"{', '.join(embedded_names(folder))})") from None
+        return text, f"embedded:{s}", None
+    p = Path(s)
+    if not p.is_file():
+        raise error(key, f"file not found: {p}")
+    try:
+        text = p.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise error("toml", f"not a UTF-8 text file (byte {exc.start}: {exc.reason})", str(p)) from None
+    except OSError as exc:
+        raise error(key, f"cannot read {p}: {exc.strerror}") from None
+    return text, str(p), p.parent
+
+
 class CaseError(InputFileError):
     """A case file is invalid. ``key`` is the dotted key at fault (or the file)."""
 
@@ -450,23 +488,8 @@ class Case:
         """Load the embedded case ``name`` (default ``electric_motor_6010``) or a TOML file by path."""
         if name_or_path is None:
             name_or_path = DEFAULT_CASE
-        s = str(name_or_path)
-        if not s.endswith(".toml") and "/" not in s and not Path(s).exists():
-            try:
-                text = resources.files("bkabem_core").joinpath("cases", f"{s}.toml").read_text()
-            except FileNotFoundError:
-                raise CaseError("case", f"no embedded case named {s!r} (available: {', '.join(embedded_cases())})")
-            return cls.from_toml(text, source=f"embedded:{s}")
-        p = Path(s)
-        if not p.is_file():
-            raise CaseError("case", f"file not found: {p}")
-        try:
-            text = p.read_bytes().decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise CaseError("toml", f"not a UTF-8 text file (byte {exc.start}: {exc.reason})", str(p)) from None
-        except OSError as exc:
-            raise CaseError("case", f"cannot read {p}: {exc.strerror}") from None
-        return cls.from_toml(text, source=str(p))
+        text, source, _base = read_input_text(name_or_path, "cases", "case", "case", CaseError)
+        return cls.from_toml(text, source=source)
 
     @classmethod
     def from_toml(cls, text: str, source: str = "") -> "Case":
@@ -658,5 +681,4 @@ class Case:
 
 def embedded_cases() -> list[str]:
     """Names of the cases shipped inside the package."""
-    return sorted(p.name[:-5] for p in resources.files("bkabem_core").joinpath("cases").iterdir()
-                  if p.name.endswith(".toml"))
+    return embedded_names("cases")

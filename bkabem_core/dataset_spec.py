@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .case import Case, CaseError, InputFileError, parse_toml
+from .case import Case, CaseError, InputFileError, parse_toml, read_input_text
 
 SCHEMA_VERSION = 1
 #: Version of the run files' layout and of the run hash; part of every run hash.
@@ -585,28 +585,8 @@ class DatasetSpec:
     def load(cls, name_or_path: str | Path) -> "DatasetSpec":
         """An embedded spec (:func:`embedded_specs`) by name, or a TOML file by path (relative case, scenario paths
         inside it are relative to the file)."""
-        from importlib import resources
-
-        s = str(name_or_path)
-        if not s.strip():
-            raise DatasetSpecError("spec", "empty name")
-        if not s.endswith(".toml") and "/" not in s and not Path(s).exists():
-            try:
-                text = resources.files("bkabem_core").joinpath("datasets", f"{s}.toml").read_text()
-            except FileNotFoundError:
-                raise DatasetSpecError("spec", f"no embedded data-set spec named {s!r} (available: "
-                                       f"{', '.join(embedded_specs())})") from None
-            return cls.from_toml(text, f"embedded:{s}")
-        p = Path(s)
-        if not p.is_file():
-            raise DatasetSpecError("spec", f"file not found: {p}")
-        try:
-            text = p.read_bytes().decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise DatasetSpecError("toml", f"not a UTF-8 text file (byte {exc.start}: {exc.reason})", str(p)) from None
-        except OSError as exc:
-            raise DatasetSpecError("spec", f"cannot read {p}: {exc.strerror}") from None
-        return cls.from_toml(text, str(p), p.parent)
+        text, source, base = read_input_text(name_or_path, "datasets", "data-set spec", "spec", DatasetSpecError)
+        return cls.from_toml(text, source, base)
 
     def summary(self) -> dict:
         """For the manifest: name, source, sampling, seed, hashes, the number of runs."""

@@ -26,12 +26,11 @@ import hashlib
 import json
 import math
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
-from .case import Case, CaseError, InputFileError, parse_toml
+from .case import Case, CaseError, InputFileError, embedded_names, parse_toml, read_input_text
 
 SCHEMA_VERSION = 1
 #: Most states a scenario may have (each one is a model to prepare; ~0.1-2 s each for a grown defect).
@@ -606,26 +605,7 @@ class Scenario:
 
 def read_scenario_text(name_or_path: str | Path) -> tuple[str, str, Path | None]:
     """(text, source, base directory) of an embedded scenario or a file; ScenarioError if neither."""
-    s = str(name_or_path)
-    if not s.strip():
-        raise ScenarioError("scenario", "empty name")
-    if not s.endswith(".toml") and "/" not in s and not Path(s).exists():
-        try:
-            text = resources.files("bkabem_core").joinpath("scenarios", f"{s}.toml").read_text()
-        except FileNotFoundError:
-            raise ScenarioError("scenario", f"no embedded scenario named {s!r} (available: "
-                                f"{', '.join(embedded_scenarios())})") from None
-        return text, f"embedded:{s}", None
-    p = Path(s)
-    if not p.is_file():
-        raise ScenarioError("scenario", f"file not found: {p}")
-    try:
-        text = p.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ScenarioError("toml", f"not a UTF-8 text file (byte {exc.start}: {exc.reason})", str(p)) from None
-    except OSError as exc:
-        raise ScenarioError("scenario", f"cannot read {p}: {exc.strerror}") from None
-    return text, str(p), p.parent
+    return read_input_text(name_or_path, "scenarios", "scenario", "scenario", ScenarioError)
 
 
 def _with_end(state: ScenarioState, end_s: float) -> ScenarioState:
@@ -647,8 +627,4 @@ def add_frequencies(gt: dict, speed_hz: float | None) -> dict:
 
 def embedded_scenarios() -> list[str]:
     """Names of the scenarios shipped inside the package (machine and fleet scenarios)."""
-    try:
-        files = resources.files("bkabem_core").joinpath("scenarios").iterdir()
-    except FileNotFoundError:
-        return []
-    return sorted(p.name[:-5] for p in files if p.name.endswith(".toml"))
+    return embedded_names("scenarios")

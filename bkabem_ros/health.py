@@ -14,7 +14,7 @@ import numpy as np
 
 from . import condition, fault_lines
 
-__all__ = ["envelope_finding", "health_text"]
+__all__ = ["bearing_truth", "envelope_finding", "health_text"]
 
 
 def envelope_finding(f, env, lines: dict[str, float], names: list[str]) -> str:
@@ -48,10 +48,36 @@ def envelope_finding(f, env, lines: dict[str, float], names: list[str]) -> str:
             f"({ch})")
 
 
+def bearing_truth(loc: str, defects: list, truth: "fault_lines.Truth | None" = None) -> tuple[str, str]:
+    """The ground truth of one bearing for its panel, as two texts: what is in *this* bearing
+    (its defects, or "no defect in this bearing"), and the defects of the other bearings ("" if
+    none), so that a panel never names another bearing's defect as its own.
+
+    Parameters
+    ----------
+    loc : str
+        "de" or "nde".
+    defects : list of fault_lines.Defect
+        Every defect of the machine the last fault-frequency message states.
+    truth : fault_lines.Truth, optional
+        The message's ground truth: tells "no defect" (a 0.2.0 message) from "not stated yet".
+    """
+    here = [d for d in defects if d.bearing == loc]
+    other = [d for d in defects if d.bearing != loc]
+    if here:
+        own = "; ".join(fault_lines.describe_defect(d) for d in here)
+    elif defects or (truth is not None and truth.available):
+        own = "no defect in this bearing"
+    else:
+        own = "no fault-frequency message yet"
+    return own, "; ".join(fault_lines.describe_defect(d) for d in other)
+
+
 def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], iso_zones: str,
                 window_s: float, truth: "fault_lines.Truth | None" = None) -> str:
-    """Markdown of one bearing's health panel: verdicts first (ISO zone, ground truth,
-    envelope finding), then the numbers they rest on and the marker key.
+    """Markdown of one bearing's health panel: verdicts first (ISO zone, this bearing's ground
+    truth, envelope finding), then the defects of the other bearing (:func:`bearing_truth`), the
+    machine-wide ground truth, the numbers the verdicts rest on and the marker key.
 
     Parameters
     ----------
@@ -83,21 +109,17 @@ def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], i
                    f"({iso_zones}: A/B {limits[0]:g}, B/C {limits[1]:g}, C/D {limits[2]:g} mm/s)")
     else:
         out.append(f"**{L} bearing**: no full {window_s:g} s of acceleration yet")
-    here = [d for d in defects if d.bearing == loc]
-    if here:
-        text = "; ".join(fault_lines.describe_defect(d) for d in here)
-    elif defects:
-        text = "no defect in this bearing (" + "; ".join(fault_lines.describe_defect(d) for d in defects) + ")"
-    elif truth is not None and truth.available:
-        text = "no defect in this bearing"
-    else:
-        text = "no fault-frequency message yet"
-    out += ["", f"**Ground truth**: {text}"]
+    own, elsewhere = bearing_truth(loc, defects, truth)
+    out += ["", f"**Ground truth, {L} bearing**: {own}"]
+    if "iso" in h:
+        b = h["band"]
+        out += ["", f"**Envelope** ({b[0] / 1e3:g}-{b[1] / 1e3:g} kHz band): {h['finding']}"]
+    if elsewhere:
+        out += ["", f"**Elsewhere in the machine**: {elsewhere}"]
+    out.append("")                    # one list: the machine's ground truth, then the numbers
     if truth is not None:
         out += [f"- {line}" for line in fault_lines.describe_truth(truth)]
     if "iso" in h:
-        b = h["band"]
-        out += ["", f"**Envelope** ({b[0] / 1e3:g}-{b[1] / 1e3:g} kHz band): {h['finding']}", ""]
         per = ", ".join(f"{ch} {v:.2f} mm/s ({z})" for ch, v, z in zip(names, h["iso"], h["zone"]))
         out.append(f"- velocity RMS 10-1000 Hz, last {h['window_s']:g} s: {per}")
 
@@ -124,4 +146,4 @@ def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], i
         key = ", ".join(f"{name} {lines[name]:.1f} Hz {fault_lines.LINE_COLOR_NAMES[name]}"
                         + (" (x1-3)" if name in excited else "") for name in fault_lines.LINES if name in lines)
         out.append(f"- markers (below the zero line of the spectra): {key}")
-    return "\n".join(out)
+    return "\n".join(out).rstrip()

@@ -4,17 +4,21 @@ The recording on ROS 2 / MCAP is SI. The viewer shows engineers' units, named in
 series: acceleration m/s², displacement µm (as a proximity probe is read), velocity mm/s
 (:data:`DISPLAY_UNITS`). :mod:`bkabem_ros.rerun_io` scales on logging.
 
-Layout (:func:`blueprint`), DE left, NDE right, each column:
+Layout (:func:`blueprint`), DE left, NDE right, each column (at most :data:`MAX_TABS` tabs per
+row, so that every tab title shows in full and the title in white is the plot below it):
 
 1. waveforms (tabs per quantity): the last ``window_s`` (1 s) before the time cursor, every
    sample, min/max aggregated when zoomed out, so impact peaks keep their height;
-2. spectra (tabs): envelope spectrum of the band-passed acceleration, order spectra of the
-   model (acceleration, displacement), fault-frequency markers;
-3. trends over the whole run (tabs): ISO velocity RMS with the zone limits, the acceleration per
-   block (min/max envelope and RMS: the overview that loads fast, ten points per second),
-   displacement peak-to-peak, kurtosis and crest factor, the ground truth's defect depths (a
-   scenario's growing defects; a 0 "no defect" line for a healthy bearing);
-4. the health panel: ISO zone, impulsiveness, what the envelope spectrum shows, the ground truth;
+2. spectra (tabs; abscissa in Hz): envelope spectrum of the band-passed acceleration, the
+   model's line spectra (orders of BPFO: acceleration, displacement), fault-frequency markers;
+3. condition trends over the whole run (tabs): ISO velocity RMS with the zone limits, kurtosis
+   and crest factor;
+4. ground truth and levels over the whole run (tabs): the ground truth's defect depths (first:
+   a scenario's growing defects; a 0 "no defect" line for a healthy bearing), the acceleration
+   per block (min/max envelope and RMS: the overview that loads fast, ten points per second),
+   displacement peak-to-peak;
+5. the health panel: ISO zone, the ground truth of this bearing, what the envelope spectrum
+   shows, the other bearing's defects, the machine;
 
 and across the bottom shaft speed and fault frequencies over the whole run, each on its own
 axis. The recording opens following its latest data (the end of a file), paused there once
@@ -23,7 +27,8 @@ the user scrubs, so every view has data from the start.
 
 from __future__ import annotations
 
-__all__ = ["DISPLAY_UNITS", "TIMELINE", "blueprint", "view_names"]
+__all__ = ["DISPLAY_UNITS", "MAX_TABS", "TAB_BAR_END_PX", "TIMELINE", "blueprint", "tab_row_width_px", "tab_rows",
+           "view_names"]
 
 TIMELINE = "sample_time"
 
@@ -36,28 +41,58 @@ DISPLAY_UNITS = {
 
 _WAVEFORM_WINDOW_S = 1.0
 
+#: The tab rows of a bearing's column, top to bottom (the health panel is the last row, no tabs).
+_TAB_GROUPS = ("waveforms", "spectra", "condition", "levels")
+#: Heights of the column's rows: the tab rows, then the health panel (the condition row tall enough for the
+#: ISO legend's five entries at 1080 px).
+_ROW_SHARES = (2.2, 2.4, 3.1, 2.9, 2.6)
+#: At most this many views share a tab row: with the titles of :func:`_views`, every title of a row is
+#: visible in a bearing's column at the screenshot window size (1920 x 1080: half the window per column) and
+#: down to a 1600 px wide window. Spectra have their abscissa in Hz, trends in time.
+MAX_TABS = 3
+#: Width of a tab title in the viewer at 1 pixel per point (rerun 0.41, Inter 12.5 pt), measured on
+#: the screenshots: ~6.2 px per character (6.6 with margin), a 14-px icon and 6 px before the text, 18 px
+#: between tabs; the help, visibility and maximise icons and the overflow arrow take the last 110 px.
+TITLE_PX_PER_CHAR = 6.6
+TAB_ICON_PX, TAB_GAP_PX, TAB_BAR_END_PX = 20, 18, 110
+
+
+def tab_row_width_px(names) -> float:
+    """Estimated width [px] of a tab row holding the views ``names`` (see :data:`TITLE_PX_PER_CHAR`)."""
+    return sum(TAB_ICON_PX + TITLE_PX_PER_CHAR * len(n) for n in names) + TAB_GAP_PX * (len(names) - 1)
+
 
 def _views(loc: str, quantities):
-    """(group, name, kind, origin, extra) of one bearing's views, in layout order."""
+    """(group, name, kind, origin) of one bearing's views, in layout order. Each group is one row of the
+    bearing's column: a tab row (:data:`MAX_TABS` at most) or, for the health panel, a single view."""
     L = loc.upper()
     out = []
     for q in quantities:
         unit = DISPLAY_UNITS[q][0]
         out.append(("waveforms", f"{L} {q} [{unit}]", "wave", f"/{loc}/{q}"))
-    out.append(("spectra", f"{L} envelope spectrum [m/s²] vs frequency [Hz]", "bars", f"/{loc}/envelope"))
+    out.append(("spectra", f"{L} envelope spectrum [m/s²]", "bars", f"/{loc}/envelope"))
     for q in quantities:
         unit = DISPLAY_UNITS[q][0]
-        out.append(("spectra", f"{L} order spectrum, {q} [{unit}] vs frequency [Hz]", "bars",
-                    f"/{loc}/spectrum/{q}"))
-    out.append(("trends", f"{L} ISO velocity RMS 10-1000 Hz [mm/s], zone limits", "trend", f"/{loc}/iso_velocity"))
-    out.append(("trends", f"{L} acceleration per block: min/max and RMS [m/s²]", "trend",
-                f"/{loc}/overview/acceleration"))
+        out.append(("spectra", f"{L} spectrum: {q} [{unit}]", "bars", f"/{loc}/spectrum/{q}"))
+    out.append(("condition", f"{L} ISO velocity RMS 10-1000 Hz [mm/s]", "trend", f"/{loc}/iso_velocity"))
+    out.append(("condition", f"{L} kurtosis and crest factor [-]", "trend", f"/{loc}/trend/impulsiveness"))
+    out.append(("levels", f"{L} ground truth: depth [µm]", "trend", f"/{loc}/trend/ground_truth"))
+    out.append(("levels", f"{L} acceleration per block [m/s²]", "trend", f"/{loc}/overview/acceleration"))
     if "displacement" in quantities:
-        out.append(("trends", f"{L} displacement peak-to-peak [µm]", "trend", f"/{loc}/trend/displacement"))
-    out.append(("trends", f"{L} kurtosis and crest factor [-]", "trend", f"/{loc}/trend/impulsiveness"))
-    out.append(("trends", f"{L} ground truth: defect depth [µm]", "trend", f"/{loc}/trend/ground_truth"))
+        out.append(("levels", f"{L} displacement p-p [µm]", "trend", f"/{loc}/trend/displacement"))
     out.append(("health", f"{L} health", "text", f"/{loc}/health"))
     return out
+
+
+def tab_rows(locations=("de", "nde"), quantities=("acceleration", "displacement")) -> list[list[str]]:
+    """The view names of every tab row of :func:`blueprint`, in layout order (tests check that each fits)."""
+    rows = []
+    for loc in locations:
+        groups: dict[str, list[str]] = {}
+        for group, name, _kind, _origin in _views(loc, quantities):
+            groups.setdefault(group, []).append(name)
+        rows += [names for group, names in groups.items() if group in _TAB_GROUPS]
+    return rows
 
 
 def view_names(locations=("de", "nde"), quantities=("acceleration", "displacement")) -> list[str]:
@@ -94,16 +129,13 @@ def blueprint(locations=("de", "nde"), quantities=("acceleration", "displacement
         for group, name, kind, origin in _views(loc, quantities):
             groups.setdefault(group, []).append(make(kind, name, origin))
         L = loc.upper()
-        parts = [rrb.Tabs(*groups["waveforms"], name=f"{L} waveforms"),
-                 rrb.Tabs(*groups["spectra"], name=f"{L} spectra"),
-                 rrb.Tabs(*groups["trends"], name=f"{L} trends"),
-                 groups["health"][0]]
-        columns.append(rrb.Vertical(*parts, row_shares=[3, 3.2, 3.6, 2], name=L))
+        parts = [rrb.Tabs(*groups[g], name=f"{L} {g}") for g in _TAB_GROUPS] + [groups["health"][0]]
+        columns.append(rrb.Vertical(*parts, row_shares=list(_ROW_SHARES), name=L))
     machine = rrb.Horizontal(
         rrb.TimeSeriesView(origin="/speed", name="shaft speed [Hz]", plot_legend=trend_legend),
         rrb.TimeSeriesView(origin="/fault_frequencies", name="fault frequencies [Hz]", plot_legend=legend),
         name="machine")
     return rrb.Blueprint(
-        rrb.Vertical(rrb.Horizontal(*columns), machine, row_shares=[10.8, 3.2]),
+        rrb.Vertical(rrb.Horizontal(*columns), machine, row_shares=[sum(_ROW_SHARES), 2.4]),
         rrb.TimePanel(state="collapsed", timeline=TIMELINE, play_state="following"),
         collapse_panels=True)

@@ -402,7 +402,9 @@ class RerunLogger:
                 self._scalars(tr, hi - lo, stamp)
             else:                       # the whole-run overview: block min/max and RMS
                 ov = f"/{loc}/overview/{q}"
-                self._series(ov, [f"{ch} {m} [{unit}]" for ch in names for m in ("max", "min")],
+                # a channel's max and min share one name: the viewer gives them one legend entry (6 entries did not
+                # fit the row's height, the last ones were cut)
+                self._series(ov, [f"{ch} min/max [{unit}]" for ch in names for _m in ("max", "min")],
                              [self._color(ch, c, light=True) for c, ch in enumerate(names) for _ in range(2)],
                              widths=[1.0] * 2 * len(names))
                 self._scalars(ov, np.column_stack([hi, lo]).reshape(-1), stamp)

@@ -2,7 +2,8 @@
 errors, take screenshots of the whole window and of each view (rerun-sdk 0.41).
 
     python -m bkabem_ros.rerun_viewer recordings/demo.rrd [--out out/viewer] [--at 12 --at 29.5]
-    python -m bkabem_ros.rerun_viewer --docs docs/img     # = make screenshots: demo, then docs/img/rerun_*.png
+    python -m bkabem_ros.rerun_viewer --docs docs/img     # = make screenshots: demo and a scenario run,
+                                                          #   then docs/img/rerun_*.png
 
 The viewer is the ``rerun`` binary of the wheel started as ``rerun --headless --bind 127.0.0.1``
 (no window, no GPU: it renders with Mesa's software Vulkan driver, lavapipe, which
@@ -19,10 +20,13 @@ from __future__ import annotations
 import argparse
 import io
 import os
+import random
+import signal
 import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,7 +35,7 @@ import numpy as np
 
 from .rerun_io import TIMELINE, rerun_binary
 
-__all__ = ["HeadlessViewer", "ViewStats", "listening_addresses", "main", "view_statistics"]
+__all__ = ["HeadlessViewer", "ViewStats", "listening_addresses", "locate", "main", "tab_strip", "view_statistics"]
 
 #: Window size of the headless viewer (logical points) for the screenshots.
 WINDOW_SIZE = (1920, 1080)
@@ -106,6 +110,57 @@ def view_statistics(png: bytes, name: str = "") -> ViewStats:
     ink = np.abs(flat - bg).max(axis=1) > 24
     chroma = (flat.max(axis=1) - flat.min(axis=1)) > 60
     return ViewStats(name, float(ink.mean()), float(chroma.mean()), int(np.unique(codes[ink]).size), w, h)
+
+
+def locate(full: np.ndarray, view: np.ndarray) -> tuple[int, int] | None:
+    """Top-left (x, y) [px] of a view's screenshot ``view`` inside the window's screenshot ``full`` (both RGB
+    arrays of the same frame state: the viewer draws a view the same in both), or None."""
+    h, w, _ = view.shape
+    rows = [np.ascontiguousarray(full[y]).tobytes() for y in range(full.shape[0])]
+    for r in sorted({h // 2, h // 3, 2 * h // 3, h - 1}):
+        needle = np.ascontiguousarray(view[r]).tobytes()
+        for y, hay in enumerate(rows):
+            i = hay.find(needle)
+            while i >= 0:
+                x, y0 = i // 3, y - r
+                if i % 3 == 0 and 0 <= y0 <= full.shape[0] - h and np.mean(full[y0:y0 + h, x:x + w] != view) < 1e-3:
+                    return x, y0
+                i = hay.find(needle, i + 1)
+    return None
+
+
+#: A view's tab strip lies in the rows [y - 24, y - 4) above the view's top y (1 pixel per point).
+_STRIP_ROWS = (24, 4)
+_INK, _ACTIVE = 60, 160          # grey levels: inactive titles are drawn at ~127, the active one at ~255
+
+
+def _runs(mask: np.ndarray, min_gap: int) -> list[tuple[int, int]]:
+    """(first, last) columns of the runs of ``mask``, runs closer than ``min_gap`` merged."""
+    xs = np.flatnonzero(mask)
+    out: list[list[int]] = []
+    for x in xs:
+        if out and x - out[-1][1] < min_gap:
+            out[-1][1] = int(x)
+        else:
+            out.append([int(x), int(x)])
+    return [(a, b) for a, b in out]
+
+
+def tab_strip(full: np.ndarray, x: int, y: int, w: int) -> dict:
+    """What the tab strip above a view at (x, y), ``w`` wide, shows: ``tabs``, the (first, last) columns of each
+    tab (icon and title; tabs are 18 px apart, words 5-7 px); ``active``, the indices of the tabs drawn white
+    (the tab whose view is shown); ``overflow``, ink where the tab row's overflow arrow is drawn (the tabs do
+    not fit: some titles are cut or hidden). The last :data:`~bkabem_ros.rerun_blueprint.TAB_BAR_END_PX` hold
+    the arrow and the help, visibility and maximise icons."""
+    from .rerun_blueprint import TAB_BAR_END_PX  # noqa: PLC0415
+
+    strip = full[max(y - _STRIP_ROWS[0], 0):y - _STRIP_ROWS[1], x:x + w].max(axis=2)
+    end = w - TAB_BAR_END_PX
+    ink = (strip > _INK).any(axis=0)
+    bright = (strip > _ACTIVE).any(axis=0)
+    tabs = _runs(ink[:end], 12)
+    active = [i for i, (a, b) in enumerate(tabs) if bright[a:b + 1].sum() > 20]
+    return {"tabs": tabs, "active": active, "overflow": bool(ink[end:w - 70].any())}
 
 
 @dataclass
@@ -258,6 +313,56 @@ class HeadlessViewer:
             self.show_tab(0)
         return out
 
+    def rows(self) -> list[dict]:
+        """The layout's rows: every tab container and every view outside one, each with ``path``, ``names``
+        (its views' titles, in tab order) and ``ids`` (view ids)."""
+        bp = self.client.get_blueprint().blueprint
+        names = {p.rsplit("/", 1)[-1]: v["ViewBlueprint"]["display_name"] for p, v in bp.items()
+                 if "ViewBlueprint" in v}
+        out, in_tabs = [], set()
+        for path, value in bp.items():
+            c = value.get("ContainerBlueprint")
+            if c and c.get("container_kind") == "Tabs":
+                ids = [q.rsplit("/", 1)[-1] for q in c.get("contents", [])]
+                in_tabs |= set(ids)
+                out.append({"path": path, "ids": ids, "names": [names[i] for i in ids]})
+        out += [{"path": f"/view/{i}", "ids": [i], "names": [n]} for i, n in names.items() if i not in in_tabs]
+        return out
+
+    def title_problems(self, tabs=None) -> list[str]:
+        """Checks, tab by tab (:meth:`show_tab` 0, 1, ..., or the indices ``tabs``), that every row of the
+        layout shows all its tab titles without the overflow arrow, and the one title drawn white at the index
+        of the view shown: a title the user reads is the plot under it. Returns what is wrong ([] when
+        nothing); the first tabs are active again afterwards. Views are found by their own screenshots in the
+        window's (:func:`locate`), their titles in the strip above them (:func:`tab_strip`)."""
+        rows = self.rows()
+        n_tabs = max(len(r["ids"]) for r in rows)
+        where = {}                                     # row path -> (x, y, w) of its (shared) view area
+        problems = []
+        for k in (range(n_tabs) if tabs is None else tabs):
+            self.show_tab(k)
+            self.client.take_screenshot()
+            full = _pixels(self.screenshot(settle=2))
+            for r in rows:
+                shown = min(k, len(r["ids"]) - 1)
+                if r["path"] not in where:
+                    vp = _pixels(self.client.take_screenshot(r["ids"][shown]))
+                    at = locate(full, vp)
+                    if at is None:
+                        problems.append(f"{r['names'][shown]}: not found in the window")
+                        continue
+                    where[r["path"]] = (*at, vp.shape[1])
+                s = tab_strip(full, *where[r["path"]])
+                what = f"{' | '.join(r['names'])} (tab {shown} shown)"
+                if s["overflow"]:
+                    problems.append(f"{what}: the tab row overflows (arrow shown)")
+                if len(s["tabs"]) != len(r["ids"]):
+                    problems.append(f"{what}: {len(s['tabs'])} titles visible, not {len(r['ids'])}")
+                if s["active"] != [shown]:
+                    problems.append(f"{what}: white title at {s['active']}, not at {shown}")
+        self.show_tab(0)
+        return problems
+
     def errors(self) -> list[str]:
         """WARN/ERROR lines of the viewer's log other than the software-rasteriser notice."""
         return [f"{e.level} {e.target}: {e.message}" for e in self.client.get_logs()
@@ -288,10 +393,52 @@ class HeadlessViewer:
 #: blueprint's default (the latest data), tab index, what it shows).
 DOC_SHOTS = (
     ("rerun_default.png", None, 0, "as the demo recording opens: the end of the run (50 Hz hold)"),
-    ("rerun_runup.png", 12.0, 1, "t = 12 s of the run-up (30 Hz), second tabs: displacement, order spectra, "
-                                 "block min/max and RMS"),
-    ("rerun_trends.png", None, 2, "third tabs: order spectra of the displacement, peak-to-peak trends"),
+    ("rerun_runup.png", 12.0, 1, "t = 12 s of the run-up (30 Hz), second tabs: displacement, line spectrum of the "
+                                 "acceleration, kurtosis and crest factor, acceleration per block"),
+    ("rerun_trends.png", None, 2, "third tabs: line spectrum of the displacement, peak-to-peak trends"),
 )
+#: The screenshot of docs/scenarios.md: a node running the embedded run to failure at x3600 from 1.9 h for
+#: ~13 s (12 h of scenario time), as it opens (first tabs: the ground truth's depth trend in view).
+SCENARIO_SHOT = ("rerun_scenario.png", "de_outer_run_to_failure", 3600.0, 6840.0, 13.0)
+
+
+def scenario_recording(rrd, scenario: str = SCENARIO_SHOT[1], time_scale: float = SCENARIO_SHOT[2],
+                       start_s: float = SCENARIO_SHOT[3], seconds: float = SCENARIO_SHOT[4]) -> Path:
+    """Run ``bkabem node --scenario`` for ``seconds`` of wall time (after its first chunk) and save its
+    ``.rrd`` (on this host only, a random ROS domain; the node's own defaults otherwise as in
+    tests/test_rerun_viewer.py)."""
+    rrd = Path(rrd)
+    rrd.parent.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, ROS_DOMAIN_ID=str(random.SystemRandom().randrange(1, 100)),
+               ROS_LOG_DIR=tempfile.mkdtemp(prefix="bkabem_ros_log_"), PYTHONUNBUFFERED="1")
+    env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    cmd = [sys.executable, "-m", "bkabem_ros", "node", "--namespace", f"/shot{os.getpid()}", "--sample-rate",
+           "12800", "--scenario", scenario, "--time-scale", f"{time_scale:g}", "--rerun-save", str(rrd),
+           "--ros-args", "-p", f"scenario_start:={start_s:g}", "-p", "spectrum_rate:=4.0",
+           "-p", "noise.acceleration:=0.05", "-p", "slip:=0.01"]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            start_new_session=True)
+    started, lines = threading.Event(), []
+
+    def read():
+        for line in proc.stdout:
+            lines.append(line)
+            if "streaming from t0" in line:
+                started.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    try:
+        if not started.wait(120):
+            raise RuntimeError("scenario node did not stream within 120 s: " + "".join(lines[-20:]))
+        time.sleep(seconds)
+        proc.send_signal(signal.SIGINT)
+        if proc.wait(timeout=60) != 0:
+            raise RuntimeError(f"scenario node exited with {proc.returncode}: " + "".join(lines[-20:]))
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, 9)
+            proc.wait()
+    return rrd
 
 
 def _save_png(png: bytes, path: Path) -> None:
@@ -302,23 +449,15 @@ def _save_png(png: bytes, path: Path) -> None:
     Image.open(io.BytesIO(png)).convert("RGB").save(path, optimize=True)
 
 
-def make_doc_screenshots(out_dir, rrd=None) -> list[Path]:
-    """Screenshots of the demo recording for the docs (:data:`DOC_SHOTS`). Without ``rrd`` the
-    demo's ROS part runs first (``out/screenshots/demo.rrd``, the same run as ``make demo``)."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    if rrd is None:
-        from .demo import run_demo  # noqa: PLC0415
-
-        r = run_demo("out/screenshots", record=False)
-        if r.errors:
-            raise RuntimeError(f"demo failed: {r.errors}")
-        rrd = r.rrd
+def _shoot(rrd, shots, out: Path) -> list[Path]:
     written = []
     with HeadlessViewer() as v:
         v.open(rrd)
         time.sleep(max(0.0, 8.0 - (time.monotonic() - v.started)))   # the start-up toasts fade
-        for name, at, tab, _what in DOC_SHOTS:
+        problems = v.title_problems()
+        if problems:
+            raise RuntimeError("tab titles: " + "; ".join(problems))
+        for name, at, tab, _what in shots:
             v.show_tab(tab)
             if at is not None:
                 v.set_time(at)
@@ -332,6 +471,26 @@ def make_doc_screenshots(out_dir, rrd=None) -> list[Path]:
         if bad:
             raise RuntimeError("viewer reported: " + "; ".join(bad))
     return written
+
+
+def make_doc_screenshots(out_dir, rrd=None, scenario_rrd=None) -> list[Path]:
+    """Screenshots for the docs: of the demo recording (:data:`DOC_SHOTS`; without ``rrd`` the demo's ROS
+    part runs first, ``out/screenshots/demo.rrd``, the same run as ``make demo``) and of a scenario
+    (:data:`SCENARIO_SHOT`; without ``scenario_rrd`` a node runs it, ``out/screenshots/scenario.rrd``). Each
+    recording is first checked with :meth:`HeadlessViewer.title_problems` (every tab title visible)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if rrd is None:
+        from .demo import run_demo  # noqa: PLC0415
+
+        r = run_demo("out/screenshots", record=False)
+        if r.errors:
+            raise RuntimeError(f"demo failed: {r.errors}")
+        rrd = r.rrd
+    written = _shoot(rrd, DOC_SHOTS, out)
+    if scenario_rrd is None:
+        scenario_rrd = scenario_recording("out/screenshots/scenario.rrd")
+    return written + _shoot(scenario_rrd, [(SCENARIO_SHOT[0], None, 0, "")], out)
 
 
 def main(argv=None) -> int:

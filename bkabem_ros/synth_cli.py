@@ -160,11 +160,15 @@ def _noise_options(args) -> list[str]:
 
 
 def _rename(err: SynthError) -> SynthError:
-    """Library argument names -> CLI option names."""
+    """Library argument names -> CLI option names (a speed above what the sample rate can carry: ``--rate``)."""
     names = {"sample_rate_hz": "--rate", "chunk_s": "--chunk", "seconds": "--seconds", "slip": "--slip",
              "seed": "--seed", "max_order": "--max-order", "quantities": "--quantities", "snr_db": "--snr-db",
              "band_limit": "--band-limit"}
     arg = err.argument
+    if arg in ("speed_hz", "initial_speed_hz") and "below twice" in err.reason:
+        # a chunk's speed (from --profile or the scenario's [speed]) puts a kept line above the Nyquist frequency of
+        # the sample rate: the rate the user typed is what to change (or the band limit)
+        arg = "sample_rate_hz"
     if arg in names:
         return SynthError(names[arg], err.reason + (" (try --band-limit taper or --max-order)"
                                                     if "Nyquist" in err.reason or "twice" in err.reason else ""))

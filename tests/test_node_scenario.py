@@ -21,38 +21,19 @@ import pytest
 import rclpy  # noqa: F401  (fail, do not skip, when ROS is missing)
 
 from ros_helpers import Listener, Proc, bkabem_cmd, unique_namespace
-from test_scenario import _toml, check_truth, speed_of_timeline
+from scenario_files import check_truth, defect, scenario_toml, speed_of_timeline
+from scenario_files import parse as _toml
 
 FS = 6400.0
 CHUNK = 0.1
 N = int(FS * CHUNK)
 NOISE_RMS = 0.01            # m/s^2 over 0..fs/2
 
-NODE_SCENARIO = """
-[scenario]
-name = "node_test"
-schema_version = 1
-case = "motor_6010_healthy"
-duration_s = 60.0
-size_step = 0.3
-
-[labels]
-bench = "loopback"
-
-[speed]
-time_s = [0.0, 30.0, 60.0]
-speed_hz = [20.0, 28.0, 24.0]
-
-[[defects]]
-name = "de_outer"
-bearing = "de"
-race = "outer"
-angle_deg = -90.0
-growth = "exponential"
-time_s = [7.0, 19.0]
-length_m = [0.3e-3, 1.5e-3]
-depth_m = [8e-6, 40e-6]
-"""
+NODE_SCENARIO = scenario_toml(
+    "node_test", duration_s=60.0, size_step=0.3, labels={"bench": "loopback"},
+    speed=([0.0, 30.0, 60.0], [20.0, 28.0, 24.0]),
+    defects=[defect("de_outer", "de", "outer", angle_deg=-90.0, growth="exponential", time_s=[7.0, 19.0],
+                    length_m=[0.3e-3, 1.5e-3], depth_m=[8e-6, 40e-6])])
 
 
 def _gt(msg) -> dict:
@@ -247,25 +228,9 @@ def test_a_slow_model_never_makes_a_chunk_late_and_the_truth_says_what_is_in_the
     fs, chunk = 25600.0, 0.1
     n = int(fs * chunk)
     src = tmp_path / "inner.toml"
-    src.write_text("""
-[scenario]
-name = "inner_appears"
-schema_version = 1
-case = "motor_6010_healthy"
-duration_s = 600.0
-
-[speed]
-time_s = [0.0]
-speed_hz = [25.0]
-
-[[defects]]
-name = "nde_inner"
-bearing = "nde"
-race = "inner"
-time_s = [1.0]
-length_m = [1.0e-3]
-depth_m = [30e-6]
-""")
+    src.write_text(scenario_toml("inner_appears", duration_s=600.0, speed=([0.0], [25.0]),
+                                 defects=[defect("nde_inner", "nde", "inner", time_s=[1.0], length_m=[1.0e-3],
+                                                 depth_m=[30e-6])]))
     ns = unique_namespace("slow")
     lis = Listener("slow_listener")
     topic = f"{ns}/vibration/nde/acceleration"
@@ -342,30 +307,11 @@ def test_fleet_mixed_scenario_gives_every_machine_its_defects_and_labels():
             assert d["fault_frequency"] == {"outer": "bpfo", "inner": "bpfi", "ball": "bsf"}[kind]
 
 
-DET_SCENARIO = """
-[scenario]
-name = "det_test"
-schema_version = 1
-case = "motor_6010_healthy"
-duration_s = 300.0
-size_step = 1.0
-
-[labels]
-purpose = "determinism"
-
-[speed]
-time_s = [0.0, 300.0]
-speed_hz = [22.0, 28.0]
-
-[[defects]]
-name = "de_outer"
-bearing = "de"
-race = "outer"
-angle_deg = -90.0
-time_s = [100.0, 220.0]
-length_m = [0.5e-3, 2.0e-3]
-depth_m = [10e-6, 40e-6]
-"""
+DET_SCENARIO = scenario_toml(
+    "det_test", duration_s=300.0, size_step=1.0, labels={"purpose": "determinism"},
+    speed=([0.0, 300.0], [22.0, 28.0]),
+    defects=[defect("de_outer", "de", "outer", angle_deg=-90.0, time_s=[100.0, 220.0], length_m=[0.5e-3, 2.0e-3],
+                    depth_m=[10e-6, 40e-6])])
 # scenario s per stream s: the dent appears 10 s into the stream, new states at 14 s and 22 s (states that last
 # longer than the driver's look-ahead, ~1.5 x its estimate of a preparation: none is skipped on a loaded machine)
 DET_SCALE = 10.0

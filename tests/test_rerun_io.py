@@ -22,8 +22,9 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from bkabem_ros import mcap_io, msgs, rerun_io  # noqa: E402
+from bkabem_ros import mcap_io, msgs, rerun_blueprint, rerun_io  # noqa: E402
 from bkabem_ros.rerun_viewer import listening_addresses as _listening  # noqa: E402
+from scenario_files import defect, scenario_toml  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 T0 = 1_700_000_000_000_000_000
@@ -171,6 +172,9 @@ def _check_entities(ents: dict[str, dict]) -> None:
     mm = np.array(_column(ents["/de/overview/acceleration"]["batches"], "Scalars:scalars"))
     np.testing.assert_allclose(mm[:, 0], 1.0, rtol=1e-3)                      # vertical max
     np.testing.assert_allclose(mm[:, 1], -1.0, rtol=1e-3)                     # vertical min
+    # a channel's max and min share one legend entry: 4 entries in the view, not 6 (the row's height holds ~5)
+    assert _static(ents, "/de/overview/acceleration", "SeriesLines:names") == [
+        ["vertical min/max [m/s²]"] * 2 + ["horizontal min/max [m/s²]"] * 2]
     pp = np.array(_column(ents["/nde/trend/displacement"]["batches"], "Scalars:scalars"))
     np.testing.assert_allclose(pp, [[1.0, 0.5]] * BLOCKS, rtol=1e-3)          # 0.5 µm sine: 1 µm p-p
     speed = [v[0] for v in _column(ents["/speed/shaft_hz"]["batches"], "Scalars:scalars")]
@@ -236,7 +240,20 @@ def test_blueprint_in_file_has_de_and_nde_side_by_side(tmp_path):
             views[cols["ViewBlueprint:display_name"][0]] = (p, cols)
     # every view of the layout, named with its unit
     assert set(views) == set(view_names())
-    assert "DE displacement [µm]" in views and "NDE envelope spectrum [m/s²] vs frequency [Hz]" in views
+    assert "DE displacement [µm]" in views and "NDE envelope spectrum [m/s²]" in views
+    # no tab row holds more views than fit: every title in full in a bearing's column of the screenshots' window
+    # (1920 px: 954 px per column), the last TAB_BAR_END_PX left to the viewer's icons (the viewer test looks)
+    tab_kind = ContainerKind.Tabs.value
+    by_path = {str(vp).strip("/"): n for n, (vp, _c) in views.items()}
+    tab_rows = [[by_path[str(q).strip("/")] for q in d["ContainerBlueprint:contents"]]
+                for d in containers.values() if d["ContainerBlueprint:container_kind"][0] == tab_kind]
+    assert sorted(map(sorted, tab_rows)) == sorted(map(sorted, rerun_blueprint.tab_rows()))
+    assert len(tab_rows) == 8
+    for row in tab_rows:
+        assert 2 <= len(row) <= rerun_blueprint.MAX_TABS, row
+        assert rerun_blueprint.tab_row_width_px(row) <= 954 - rerun_blueprint.TAB_BAR_END_PX, row
+    # the ground truth is the first tab of its row: in view as the recording opens
+    assert any(row[0].endswith("ground truth: depth [µm]") for row in tab_rows)
     named = {d["ContainerBlueprint:display_name"][0]: p for p, d in containers.items()
              if d.get("ContainerBlueprint:display_name")}
     assert {"DE", "NDE"} <= set(named)
@@ -248,8 +265,8 @@ def test_blueprint_in_file_has_de_and_nde_side_by_side(tmp_path):
     # waveforms: the last second before the cursor; trends: the whole run (no range set)
     ranges = {p.split("/")[2]: c["VisibleTimeRanges:ranges"][0]["range"] for p, c in cols_by_path.items()
               if "VisibleTimeRanges:ranges" in c}
-    wave_ids = {views[n][0].split("/")[2] for n in views if n.endswith("acceleration [m/s²]")
-                or n.endswith("displacement [µm]")}
+    wave_ids = {views[n][0].split("/")[2] for loc in ("de", "nde")
+                for _g, n, kind, _o in rerun_blueprint._views(loc, ("acceleration", "displacement")) if kind == "wave"}
     assert set(ranges) == wave_ids and len(wave_ids) == 4
     assert all(r == {"start": -1_000_000_000, "end": 0} for r in ranges.values())
     # bar charts have no legend (it would show entity paths); the marker key is in the health panel
@@ -444,35 +461,11 @@ def test_each_plot_has_one_unit_and_the_health_panel_says_what_is_not_drawn(tmp_
     assert "markers (below the zero line of the spectra): 1x 25.0 Hz grey" in text
 
 
-TWO_DEFECTS = """
-[scenario]
-name = "view_test"
-schema_version = 1
-case = "motor_6010_healthy"
-duration_s = 10.0
-size_step = 0.5
-
-[labels]
-purpose = "view"
-
-[[defects]]
-name = "de_outer"
-bearing = "de"
-race = "outer"
-angle_deg = -90.0
-time_s = [1.0, 5.0]
-length_m = [0.5e-3, 2.0e-3]
-depth_m = [10e-6, 40e-6]
-
-[[defects]]
-name = "nde_ball"
-bearing = "nde"
-race = "ball"
-ball = 2
-time_s = [3.0]
-length_m = [1.0e-3]
-depth_m = [20e-6]
-"""
+TWO_DEFECTS = scenario_toml(
+    "view_test", duration_s=10.0, size_step=0.5, labels={"purpose": "view"},
+    defects=[defect("de_outer", "de", "outer", angle_deg=-90.0, time_s=[1.0, 5.0], length_m=[0.5e-3, 2.0e-3],
+                    depth_m=[10e-6, 40e-6]),
+             defect("nde_ball", "nde", "ball", ball=2, time_s=[3.0], length_m=[1.0e-3], depth_m=[20e-6])])
 
 
 def test_health_panel_and_ground_truth_trend_follow_the_messages(tmp_path):
@@ -529,8 +522,49 @@ def test_health_panel_and_ground_truth_trend_follow_the_messages(tmp_path):
     for loc, own, other in (("de", "outer-race defect, DE bearing 6010, 2.00 mm x 40 um at -90 deg", "ball 2"),
                             ("nde", "ball 2 defect, NDE bearing 6010, 1.00 mm x 20 um", "outer-race")):
         text = _column(ents[f"/{loc}/health"]["batches"], "TextDocument:text")[-1][0]
-        assert f"**Ground truth**: {own}" in text, text
-        assert other not in text.split("**Ground truth**")[1].split("\n")[0]
+        L = loc.upper()
+        assert f"**Ground truth, {L} bearing**: {own}" in text, text
+        assert other not in text.split(f"**Ground truth, {L} bearing**")[1].split("\n")[0]
+        assert other in text.split("**Elsewhere in the machine**")[1].split("\n")[0]
         assert "machine **faulty**: 2 defect(s)" in text
         assert f"scenario view_test: state {last_state.index} ({last_state.label}) since" in text
         assert "labels: purpose=view, site=lab" in text
+
+
+def test_health_text_says_what_is_in_this_bearing_and_what_is_elsewhere():
+    """A panel's ground-truth line names only its own bearing's defects; the other bearing's
+    defects are on their own line, so an NDE panel never reads "no defect ... (outer-race
+    defect, DE bearing ...)"."""
+    from bkabem_ros import fault_lines, health
+
+    de = fault_lines.Defect("outer", "de", 4e-3, 100e-6, -math.pi / 2, "6010", "de_outer_spall")
+    nde = fault_lines.Defect("ball", "nde", 1e-3, 20e-6, 0.0, "6010", "nde_ball", ball=2)
+    faulty = fault_lines.Truth(available=True, defects=(de,), healthy=False)
+
+    def panel(loc, defects, truth):
+        return health.health_text(loc, {}, list(defects), {}, "ISO 10816-3 group 2, rigid", 1.0, truth)
+
+    def para(text, head):
+        """The paragraph after ``head`` ("" if there is none)."""
+        return text.split(head, 1)[1].split("\n")[0] if head in text else ""
+
+    de_text = "outer-race defect, DE bearing 6010, 4.00 mm x 100 um at -90 deg"
+    text = panel("nde", [de], faulty)
+    own = para(text, "**Ground truth, NDE bearing**: ")
+    assert own == "no defect in this bearing", text
+    assert para(text, "**Elsewhere in the machine**: ") == de_text
+    assert "(" not in own and "DE" not in own
+    # the faulty bearing: its own defect, nothing elsewhere
+    text = panel("de", [de], faulty)
+    assert para(text, "**Ground truth, DE bearing**: ") == de_text
+    assert "Elsewhere" not in text
+    # a defect in each bearing: each panel its own first, the other's on the elsewhere line
+    both = fault_lines.Truth(available=True, defects=(de, nde), healthy=False)
+    for loc, mine, theirs in (("de", de, nde), ("nde", nde, de)):
+        text = panel(loc, [de, nde], both)
+        assert para(text, f"**Ground truth, {loc.upper()} bearing**: ") == fault_lines.describe_defect(mine)
+        assert para(text, "**Elsewhere in the machine**: ") == fault_lines.describe_defect(theirs)
+    # a healthy machine: no defect, no elsewhere line; before any message: says so
+    text = panel("nde", [], fault_lines.Truth(available=True))
+    assert para(text, "**Ground truth, NDE bearing**: ") == "no defect in this bearing" and "Elsewhere" not in text
+    assert para(panel("de", [], None), "**Ground truth, DE bearing**: ") == "no fault-frequency message yet"

@@ -132,8 +132,12 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
     """A real node runs the embedded run to failure (de_outer_run_to_failure) at x3600 from 1.9 h for ~13 s (12 h
     of scenario time) and saves its .rrd; in the viewer the DE ground-truth trend climbs in steps (the red
     outer-race series spans most of the plot's height), the NDE one is the green 'no defect' line at 0, the health
-    panels have their text, and nothing reports an error. Screenshots: ``rtf_trends.png``, ``rtf_de_truth.png``
-    in the test's folder (docs/img/rerun_scenario.png is one of them)."""
+    panels have their text, and nothing reports an error. At the screenshots' window size (and at 1600 x 900)
+    every tab row shows all its titles and the white one is the view shown (:meth:`HeadlessViewer.title_problems`),
+    which reports the review's layout (five trends in one row: the ground truth's tab hidden, another tab's title
+    over its plot).
+    Screenshots: ``rtf_trends.png``, ``rtf_de_truth.png`` in the test's folder (``make screenshots`` makes
+    docs/img/rerun_scenario.png the same way)."""
     import signal
     import time
 
@@ -154,15 +158,16 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
         assert node.stop(signal.SIGINT, timeout=60) == 0, node.text[-3000:]
     finally:
         node.kill()
-    with HeadlessViewer(window_size=(1280, 800)) as v:
+    with HeadlessViewer() as v:                             # the screenshots' window size, 1920 x 1080
         v.open(rrd)
-        v.show_tab(4)                                       # the trends group's last tab: the ground truth
-        v.client.take_screenshot()
-        full = v.screenshot(settle=2)
+        time.sleep(max(0.0, 8.0 - (time.monotonic() - v.started)))   # the start-up toasts fade
+        # every tab row shows all its titles, and the white one is the plot under it, for every tab
+        assert v.title_problems() == []
+        full = v.screenshot(settle=2)                       # the first tabs: the ground truth is in view
         _save_png(full, tmp_path / "rtf_trends.png")
         views = {w.name: w for w in v.views()}
-        de = views["DE ground truth: defect depth [µm]"]
-        nde = views["NDE ground truth: defect depth [µm]"]
+        de = views["DE ground truth: depth [µm]"]
+        nde = views["NDE ground truth: depth [µm]"]
         assert de.reports == [] and nde.reports == []
         de_png = v.screenshot(de.view_id, settle=2)
         _save_png(de_png, tmp_path / "rtf_de_truth.png")
@@ -184,3 +189,22 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
         for name in ("DE health", "NDE health"):
             assert view_statistics(v.screenshot(views[name].view_id, settle=2), name).ink > 0.01
         assert v.errors() == []
+        # the check can fail: the review's layout, the trends in one tab row of five, the ground truth last
+        bp = v.client.get_blueprint().blueprint
+        by_name = {c["ContainerBlueprint"].get("display_name"): (p, c["ContainerBlueprint"]) for p, c in bp.items()
+                   if "ContainerBlueprint" in c}
+        for L in ("DE", "NDE"):
+            (cp, cond), (lp, levels) = by_name[f"{L} condition"], by_name[f"{L} levels"]
+            cond["contents"] = cond["contents"] + levels["contents"][1:] + levels["contents"][:1]
+            column = by_name[L][1]
+            i = column["contents"].index(lp)
+            del column["contents"][i], column["row_shares"][i]
+            del bp[lp]
+        v.client.set_blueprint(bp, of="recording")
+        problems = v.title_problems(tabs=[4])
+        for L in ("DE", "NDE"):
+            row = [p for p in problems if p.startswith(f"{L} ISO velocity")]
+            assert any("overflows" in p for p in row) and any("white title at [], not at 4" in p for p in row), problems
+    with HeadlessViewer(window_size=(1600, 900)) as v:        # a laptop's window: the titles still fit
+        v.open(rrd)
+        assert v.title_problems() == []

@@ -8,6 +8,7 @@ No ROS here (tests/test_node_scenario.py runs the node).
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 import time
@@ -21,109 +22,20 @@ from bkabem_core.scenario import MAX_STATES, Scenario, ScenarioError, embedded_s
 from bkabem_core.scenario_models import ModelHelper, ModelPool
 from bkabem_core.scenario_run import InlineModels, ScenarioClock, ScenarioDriver, ScenarioRun
 from bkabem_core.synth import Synthesizer
+from scenario_files import check_truth, defect, scenario_toml, speed_of_timeline, truth_of_timeline
+from scenario_files import parse as _toml
 
 FS = 12800.0
 CHUNK = 0.1
 N = int(FS * CHUNK)
 
-GROWTH = """
-[scenario]
-name = "test_growth"
-schema_version = 1
-case = "motor_6010_healthy"
-duration_s = 6.0
-size_step = 0.25
-
-[labels]
-purpose = "test"
-
-[speed]
-time_s = [0.0, 3.0, 6.0]
-speed_hz = [20.0, 30.0, 25.0]
-
-[[defects]]
-name = "de_outer"
-bearing = "de"
-race = "outer"
-angle_deg = -90.0
-growth = "exponential"
-time_s = [1.0, 2.5, 4.0]
-length_m = [0.3e-3, 1.0e-3, 2.0e-3]
-depth_m = [8e-6, 25e-6, 50e-6]
-
-[[defects]]
-name = "nde_outer"
-bearing = "nde"
-race = "outer"
-angle_deg = -90.0
-time_s = [3.0, 5.0]
-length_m = [1.0e-3, 1.5e-3]
-depth_m = [20e-6, 40e-6]
-"""
-
-
-# --------------------------------------------------------------------------- an independent timeline
-def _toml(text):
-    import tomllib
-
-    return tomllib.loads(text)
-
-
-def truth_of_timeline(raw: dict, t: float) -> dict:
-    """The defects of a scenario file at scenario time ``t`` [s], evaluated here from the file alone: present from
-    their first time, linear or geometric between the points, held after the last one."""
-    out = {}
-    for d in raw.get("defects", []):
-        times = np.asarray(d["time_s"], float)
-        if t < times[0]:
-            continue
-        size = []
-        for key in ("length_m", "depth_m"):
-            v = np.asarray(d[key], float)
-            if t >= times[-1]:
-                size.append(v[-1])
-                continue
-            i = int(np.searchsorted(times, t, side="right") - 1)
-            s = (t - times[i]) / (times[i + 1] - times[i])
-            if d.get("growth", "linear") == "exponential":
-                size.append(v[i] * (v[i + 1] / v[i]) ** s)
-            else:
-                size.append(v[i] + (v[i + 1] - v[i]) * s)
-        out[d["name"]] = {"bearing": d["bearing"], "race": d["race"], "length_m": size[0], "depth_m": size[1],
-                          "angle_rad": math.radians(d.get("angle_deg", 0.0))}
-    return out
-
-
-def speed_of_timeline(raw: dict, t: float) -> float:
-    return float(np.interp(t, raw["speed"]["time_s"], raw["speed"]["speed_hz"]))
-
-
-def check_truth(raw: dict, gt: dict, t: float, step: float, speed_hz: float, exact: bool = True) -> None:
-    """A chunk's ground truth against the file: the defects of the timeline at the state's start (which lies
-    before t), their kinds, places and sizes; with ``exact`` (the state in effect is the one due: models made
-    when needed) the same defects as the timeline at t, each within a size step of its size at t; the fault
-    frequencies at the chunk's speed; healthy; the labels."""
-    assert gt["scenario_time_s"] == pytest.approx(t, abs=1e-6)
-    start = gt["state_start_s"]
-    assert start <= t + 1e-6
-    have = {d["name"]: d for d in gt["defects"]}
-    now = truth_of_timeline(raw, t)
-    at_start = truth_of_timeline(raw, start)
-    assert set(have) == set(at_start), (start, set(have), set(at_start))
-    if exact:
-        assert set(have) == set(now), (t, set(have), set(now))
-    for name, d in have.items():
-        ref = at_start[name]
-        for k in ("bearing", "race"):
-            assert d[k] == ref[k]
-        assert d["angle_rad"] == pytest.approx(ref["angle_rad"])
-        assert d["length_m"] == pytest.approx(ref["length_m"], rel=1e-9)
-        assert d["depth_m"] == pytest.approx(ref["depth_m"], rel=1e-9)
-        if exact:                      # quantised: within a step (plus the growth over one chunk) of the timeline
-            assert abs(d["length_m"] / now[name]["length_m"] - 1) <= 1.6 * step
-        assert d["strike_frequency_hz"] == pytest.approx(d["strike_multiplier"] * speed_hz)
-    assert gt["healthy"] == (not any(d["depth_m"] > 0 for d in have.values()))
-    assert gt["labels"] == raw.get("labels", {})
+GROWTH = scenario_toml(
+    "test_growth", duration_s=6.0, size_step=0.25, labels={"purpose": "test"},
+    speed=([0.0, 3.0, 6.0], [20.0, 30.0, 25.0]),
+    defects=[defect("de_outer", "de", "outer", angle_deg=-90.0, growth="exponential", time_s=[1.0, 2.5, 4.0],
+                    length_m=[0.3e-3, 1.0e-3, 2.0e-3], depth_m=[8e-6, 25e-6, 50e-6]),
+             defect("nde_outer", "nde", "outer", angle_deg=-90.0, time_s=[3.0, 5.0], length_m=[1.0e-3, 1.5e-3],
+                    depth_m=[20e-6, 40e-6])])
 
 
 # --------------------------------------------------------------------------- fixtures
@@ -325,15 +237,10 @@ def test_at_constant_speed_the_change_is_exactly_a_blend_of_the_two_streams(pool
 def test_continuity_when_an_inner_race_dent_is_added(pool):
     """An inner-race dent (another line set: BPFI with shaft-order sidebands, ~350 lines) appears in the NDE bearing:
     the same continuity as for a growing dent (at a constant speed: exactly the blend of the two streams)."""
-    text = GROWTH.replace("speed_hz = [20.0, 30.0, 25.0]", "speed_hz = [25.0, 25.0, 25.0]").split("[[defects]]")[0] + """
-[[defects]]
-name = "nde_inner"
-bearing = "nde"
-race = "inner"
-time_s = [0.4]
-length_m = [1.0e-3]
-depth_m = [30e-6]
-"""
+    text = scenario_toml("test_growth", duration_s=6.0, size_step=0.25, labels={"purpose": "test"},
+                         speed=([0.0, 3.0, 6.0], [25.0, 25.0, 25.0]),
+                         defects=[defect("nde_inner", "nde", "inner", time_s=[0.4], length_m=[1.0e-3],
+                                         depth_m=[30e-6])])
     sc = Scenario.from_toml(text, "inner.toml")
     opts = dict(slip=0.01, seed=5, band_limit="taper", features=False)
     run = ScenarioRun(sc, sample_rate_hz=FS, chunk_s=CHUNK, pool=pool, **opts)
@@ -467,9 +374,9 @@ BAD = [
     (GROWTH.replace('race = "outer"\nangle_deg = -90.0\ngrowth', 'race = "cage"\nangle_deg = -90.0\ngrowth'),
      "defects[0].race"),
     (GROWTH.replace("time_s = [1.0, 2.5, 4.0]", "time_s = [1.0, 2.5, 40.0]"), "defects[0].time_s[2]"),
-    (GROWTH.replace("length_m = [0.3e-3, 1.0e-3, 2.0e-3]", "length_m = [0.3e-3, 1.0e-3]"), "defects[0].length_m"),
-    (GROWTH.replace("depth_m = [8e-6, 25e-6, 50e-6]", "depth_m = [0.0, 25e-6, 50e-6]"), "defects[0].depth_m"),
-    (GROWTH.replace("length_m = [0.3e-3, 1.0e-3, 2.0e-3]", "length_m = [0.3e-3, 1.0e-3, 20e-3]"),
+    (GROWTH.replace("length_m = [0.0003, 0.001, 0.002]", "length_m = [0.0003, 0.001]"), "defects[0].length_m"),
+    (GROWTH.replace("depth_m = [8e-06, 2.5e-05, 5e-05]", "depth_m = [0.0, 2.5e-05, 5e-05]"), "defects[0].depth_m"),
+    (GROWTH.replace("length_m = [0.0003, 0.001, 0.002]", "length_m = [0.0003, 0.001, 0.02]"),
      "defects[0].length_m"),
     (GROWTH.replace('name = "nde_outer"', 'name = "de_outer"'), "defects[1].name"),
     (GROWTH.replace('race = "outer"\nangle_deg = -90.0\ntime_s = [3.0', 'race = "ball"\nangle_deg = -90.0\ntime_s = [3.0'),
@@ -538,6 +445,25 @@ def test_synth_cli_writes_the_ground_truth_of_every_chunk(tmp_path):
                                                         for j in range(1, n_chunks)], rtol=1e-6)
 
 
+@pytest.mark.parametrize("rate", ["100", "600"])
+def test_synth_cli_too_low_a_rate_for_the_scenario_names_rate(tmp_path, rate):
+    """The scenario's own speed puts its lines above the Nyquist frequency of ``--rate``: at the first chunk
+    (100 Hz) or once the dent's lines appear mid-run (600 Hz: the healthy machine's highest line is ~250 Hz, the
+    dented one's ~7 kHz). One line naming the option the user typed (not the library's ``speed_hz``), exit 2, no
+    file left."""
+    src = tmp_path / "growth.toml"
+    src.write_text(GROWTH)
+    out = tmp_path / "r.npz"
+    r = subprocess.run([sys.executable, "-m", "bkabem_ros", "synth", "--scenario", str(src), "--time-scale", "2",
+                        "--rate", rate, "--out", str(out)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+    assert lines[0].startswith(f"bkabem synth: error: --rate: sample rate {rate} Hz is below twice"), lines[0]
+    assert "speed_hz" not in lines[0] and "--band-limit taper" in lines[0]
+    assert not out.exists()
+
+
 def test_every_input_file_kind_refuses_a_too_deep_nesting_with_one_line():
     """Case, scenario, fleet scenario and data-set spec read TOML through one reader (case.parse_toml): a nesting
     too deep for the parser is the key ``toml`` of each file kind's own error, not a RecursionError."""
@@ -552,3 +478,46 @@ def test_every_input_file_kind_refuses_a_too_deep_nesting_with_one_line():
         with pytest.raises(error) as info:
             load(deep, "deep.toml")
         assert info.value.key == "toml" and "nested too deeply" in info.value.reason
+
+
+def test_every_input_file_kind_finds_an_embedded_name_or_a_path_the_same_way(tmp_path):
+    """Case, scenario, fleet scenario and data-set spec resolve "embedded name or path" with one function
+    (case.read_input_text): the same errors, each for its own key and error class - an unknown name lists the
+    embedded ones, a missing file, a file that is not UTF-8 (key ``toml``), an empty name - and a bare name that
+    is a file here is read as that file."""
+    from bkabem_core.case import Case, CaseError, embedded_cases
+    from bkabem_core.dataset_spec import DatasetSpec, DatasetSpecError, embedded_specs
+    from bkabem_core.fleet_scenario import FleetScenario
+
+    binary = tmp_path / "latin1.toml"
+    binary.write_bytes(b"name = '\xe9'\n")
+    kinds = [(Case.load, CaseError, "case", "case", embedded_cases()),
+             (Scenario.load, ScenarioError, "scenario", "scenario", embedded_scenarios()),
+             (FleetScenario.load, ScenarioError, "scenario", "scenario", embedded_scenarios()),
+             (DatasetSpec.load, DatasetSpecError, "spec", "data-set spec", embedded_specs())]
+    for load, error, key, what, names in kinds:
+        assert names
+        with pytest.raises(error) as info:
+            load("no_such_thing")
+        assert info.value.key == key and info.value.reason == (
+            f"no embedded {what} named 'no_such_thing' (available: {', '.join(names)})")
+        with pytest.raises(error) as info:
+            load(tmp_path / "missing.toml")
+        assert info.value.key == key and info.value.reason == f"file not found: {tmp_path / 'missing.toml'}"
+        with pytest.raises(error) as info:
+            load(binary)
+        assert info.value.key == "toml" and info.value.reason.startswith("not a UTF-8 text file (byte 8:")
+        assert info.value.source == str(binary)
+        with pytest.raises(error) as info:
+            load("  ")
+        assert info.value.key == key and info.value.reason == "empty name"
+    # a bare name that names a file in the working directory is that file, not an embedded one
+    here = tmp_path / "growth"
+    here.write_text(GROWTH)
+    cwd = os.getcwd()
+    try:
+        os.chdir(tmp_path)
+        sc = Scenario.load("growth")
+    finally:
+        os.chdir(cwd)
+    assert sc.name == "test_growth" and sc.source == "growth"
