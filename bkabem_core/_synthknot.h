@@ -78,14 +78,64 @@
 #define KNOT_CLONES
 #endif
 
-static KNOT_CLONES void knot_stages8(int64_t N, double *re, double *im, const double *tw)
+/* Butterfly of 8 channels on rows held in locals (the compiler keeps them in vector registers). */
+#define KNOT_B8(AR, AI, BR, BI, WR, WI)                                                                             \
+    do {                                                                                                            \
+        for (int c = 0; c < 8; ++c) {                                                                               \
+            const double tr = BR[c] * (WR) - BI[c] * (WI), ti = BR[c] * (WI) + BI[c] * (WR);                        \
+            const double a_ = AR[c], e_ = AI[c];                                                                    \
+            AR[c] = a_ + tr, AI[c] = e_ + ti;                                                                       \
+            BR[c] = a_ - tr, BI[c] = e_ - ti;                                                                       \
+        }                                                                                                           \
+    } while (0)
+
+/* KNOT_STAGES for C = 8: each group's four rows loaded into locals, its four butterflies, stored back. */
+static KNOT_CLONES void knot_stages8(int64_t N, double *restrict re, double *restrict im, const double *restrict tw)
 {
-    KNOT_STAGES(8);
+    int lg = 0;
+    while (((int64_t)1 << lg) < N) ++lg;
+    int64_t len = 2;
+    if (lg & 1) {
+        for (int64_t s = 0; s < N; s += 2) {
+            double R0[8], I0[8], R1[8], I1[8];
+            memcpy(R0, re + 8 * s, 64), memcpy(I0, im + 8 * s, 64);
+            memcpy(R1, re + 8 * s + 8, 64), memcpy(I1, im + 8 * s + 8, 64);
+            KNOT_B8(R0, I0, R1, I1, tw[0], tw[1]);
+            memcpy(re + 8 * s, R0, 64), memcpy(im + 8 * s, I0, 64);
+            memcpy(re + 8 * s + 8, R1, 64), memcpy(im + 8 * s + 8, I1, 64);
+        }
+        len = 4;
+    }
+    for (; len <= N; len <<= 2) {
+        const int64_t h = len >> 1, st1 = N / len, st2 = st1 >> 1;
+        for (int64_t s = 0; s < N; s += 2 * len)
+            for (int64_t k = 0; k < h; ++k) {
+                const int64_t o0 = 8 * (s + k), o1 = o0 + 8 * h, o2 = o0 + 8 * len, o3 = o2 + 8 * h;
+                double R0[8], I0[8], R1[8], I1[8], R2[8], I2[8], R3[8], I3[8];
+                memcpy(R0, re + o0, 64), memcpy(I0, im + o0, 64), memcpy(R1, re + o1, 64), memcpy(I1, im + o1, 64);
+                memcpy(R2, re + o2, 64), memcpy(I2, im + o2, 64), memcpy(R3, re + o3, 64), memcpy(I3, im + o3, 64);
+                const double w1r = tw[2 * k * st1], w1i = tw[2 * k * st1 + 1];
+                KNOT_B8(R0, I0, R1, I1, w1r, w1i);
+                KNOT_B8(R2, I2, R3, I3, w1r, w1i);
+                KNOT_B8(R0, I0, R2, I2, tw[2 * k * st2], tw[2 * k * st2 + 1]);
+                KNOT_B8(R1, I1, R3, I3, tw[2 * (k + h) * st2], tw[2 * (k + h) * st2 + 1]);
+                memcpy(re + o0, R0, 64), memcpy(im + o0, I0, 64), memcpy(re + o1, R1, 64), memcpy(im + o1, I1, 64);
+                memcpy(re + o2, R2, 64), memcpy(im + o2, I2, 64), memcpy(re + o3, R3, 64), memcpy(im + o3, I3, 64);
+            }
+    }
 }
 
 static CLONES void knot_stages(int64_t N, int64_t C, double *re, double *im, const double *tw)
 {
     KNOT_STAGES(C);
+}
+
+/* The padded float table (n + 3) x C of a plane: row r holds row (r - 1) mod n. */
+static CLONES void knot_store(int64_t n, int64_t C, const double *restrict src, float *restrict dst)
+{
+    for (int64_t c = 0; c < C; ++c) dst[c] = (float)src[(n - 1) * C + c];
+    for (int64_t i = 0; i < n * C; ++i) dst[C + i] = (float)src[i];
+    for (int64_t i = 0; i < 2 * C; ++i) dst[(n + 1) * C + i] = (float)src[i];
 }
 
 /* ------------------------------------------------------------------------------------------------ plans */
@@ -321,14 +371,9 @@ static int lines_knot(const KnotPlan *p, int64_t U, double *x, double f, double 
         }
         if (C == 8) knot_stages8(n, re, im, p->tw + p->tw_off[fam]);
         else knot_stages(n, C, re, im, p->tw + p->tw_off[fam]);
-        float *tr = table + p->out_off[fam], *ti = tr + (n + 3) * C;
-        const int car = p->carrier[fam] != 0;
-        for (int64_t r = 0; r < n + 3; ++r) {
-            const int64_t src = (r - 1 + n) % n;
-            for (int64_t c = 0; c < C; ++c) tr[r * C + c] = (float)re[src * C + c];
-            if (car)
-                for (int64_t c = 0; c < C; ++c) ti[r * C + c] = (float)im[src * C + c];
-        }
+        float *tr = table + p->out_off[fam];
+        knot_store(n, C, re, tr);
+        if (p->carrier[fam]) knot_store(n, C, im, tr + (n + 3) * C);
     }
     return 0;
 }

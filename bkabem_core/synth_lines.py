@@ -443,6 +443,7 @@ class LineSetPath:
         self.orders = np.asarray(model.orders, dtype=int)[keep]
         self.coefficients = lines.coefficients[keep]
         self._nu, self._mu = nu[keep], mu[keep]
+        self._nu_top = float(self._nu.max()) if self._nu.size and not np.any(self._mu) else None
         self.bpfo_per_hz = float(model.bpfo_per_hz)
         self.n_balls = int(model.case.bearing_geometry().n_balls)
         self.fault_multipliers = model.fault_multipliers
@@ -484,6 +485,13 @@ class LineSetPath:
         self._chan_scale = scale.astype(float)
         self._scratch: dict = {}
         self._gt_base = self._ground_truth_base()
+
+    def _top_line_hz(self, f: float) -> float:
+        """Highest line frequency [Hz] at shaft speed f [Hz], max(nu f + mu): without fixed parts (mu = 0) and f >= 0
+        the same float as max(nu) f (rounding is monotonic), without a pass over the lines."""
+        if self._nu_top is not None and f >= 0.0:
+            return self._nu_top * f
+        return float(np.max(self._nu * f + self._mu))
 
     def _line_spectrum_at(self, f: float) -> np.ndarray:
         """Displacement combinations (K, U) [m] of every line at speed f [Hz]: the speed-locked lines from the
