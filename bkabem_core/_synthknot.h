@@ -15,8 +15,9 @@
  * a_r b_i + a_i b_r); one factor of every product here has a zero part, so numpy's fused multiply-adds round alike),
  * and the tables are synth_family_tables' FFT (_synthlines.h) with the same butterflies in the same order, only laid
  * out for speed: real and imaginary parts in separate planes (8 channels are one or two vectors), the input scattered
- * straight to its bit-reversed row, and two radix-2 stages per pass over the table (a group of 4 rows takes its 4
- * butterflies of both stages while in registers): the same samples, ~2-3x faster.
+ * straight to its bit-reversed row, each butterfly's rows in locals (vector registers), and with AVX-512 two radix-2
+ * stages per pass over the table (a group of 4 rows takes its 4 butterflies of both stages in registers): the same
+ * tables, ~2x faster than synth_family_tables.
  *
  * lines_render (per segment): the fixed-point phase of every family and its carrier at the segment's first sample
  * (synth_lines.LineSetPath._phase_args: the same double operations, Python's round() is rint here), the slip
@@ -72,12 +73,6 @@
         }                                                                                                           \
     } while (0)
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
-#define KNOT_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define KNOT_CLONES
-#endif
-
 /* Butterfly of 8 channels on rows held in locals (the compiler keeps them in vector registers). */
 #define KNOT_B8(AR, AI, BR, BI, WR, WI)                                                                             \
     do {                                                                                                            \
@@ -89,20 +84,56 @@
         }                                                                                                           \
     } while (0)
 
-/* KNOT_STAGES for C = 8: each group's four rows loaded into locals, its four butterflies, stored back. */
-static KNOT_CLONES void knot_stages8(int64_t N, double *restrict re, double *restrict im, const double *restrict tw)
+/* KNOT_STAGES for C = 8 stage by stage, each butterfly on 4-lane vectors (4 channels of a row's plane; AVX2: 8
+ * registers; locals copied through memory would stall store forwarding). */
+static CLONES void knot_stages8_r2(int64_t N, double *restrict re, double *restrict im, const double *restrict tw)
+{
+    for (int64_t len = 2; len <= N; len <<= 1) {
+        const int64_t h = len >> 1, st = N / len;
+        for (int64_t s = 0; s < N; s += len)
+            for (int64_t k = 0; k < h; ++k) {
+                const double wr = tw[2 * k * st], wi = tw[2 * k * st + 1];
+                for (int64_t half = 0; half < 8; half += 4) {
+                    const int64_t o0 = 8 * (s + k) + half, o1 = o0 + 8 * h;
+                    v4d ar, ai, br, bi;
+                    memcpy(&ar, re + o0, 32), memcpy(&ai, im + o0, 32), memcpy(&br, re + o1, 32);
+                    memcpy(&bi, im + o1, 32);
+                    const v4d tr = br * wr - bi * wi, ti = br * wi + bi * wr;
+                    const v4d a0 = ar + tr, a1 = ai + ti, b0 = ar - tr, b1 = ai - ti;
+                    memcpy(re + o0, &a0, 32), memcpy(im + o0, &a1, 32), memcpy(re + o1, &b0, 32);
+                    memcpy(im + o1, &b1, 32);
+                }
+            }
+    }
+}
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+#define HAVE_KNOT_AVX512 (isa_cap >= 2 && HAVE_AVX512)
+/* KNOT_STAGES for C = 8 with AVX-512 (32 vector registers): two stages per pass, each group's four rows loaded into
+ * locals (16 registers), its four butterflies, stored back. (With AVX2's 16 registers this spills: 3x slower.) */
+typedef double knot_v8d __attribute__((vector_size(64)));
+#define KNOT_V8_BFLY(AR, AI, BR, BI, WR, WI)                                                                        \
+    do {                                                                                                            \
+        const knot_v8d tr_ = BR * (WR) - BI * (WI), ti_ = BR * (WI) + BI * (WR);                                    \
+        const knot_v8d a_ = AR, e_ = AI;                                                                            \
+        AR = a_ + tr_, AI = e_ + ti_, BR = a_ - tr_, BI = e_ - ti_;                                                 \
+    } while (0)
+
+static NOINLINE __attribute__((target("avx512f"))) void knot_stages8_avx512(int64_t N, double *restrict re,
+                                                                            double *restrict im,
+                                                                            const double *restrict tw)
 {
     int lg = 0;
     while (((int64_t)1 << lg) < N) ++lg;
     int64_t len = 2;
     if (lg & 1) {
         for (int64_t s = 0; s < N; s += 2) {
-            double R0[8], I0[8], R1[8], I1[8];
-            memcpy(R0, re + 8 * s, 64), memcpy(I0, im + 8 * s, 64);
-            memcpy(R1, re + 8 * s + 8, 64), memcpy(I1, im + 8 * s + 8, 64);
-            KNOT_B8(R0, I0, R1, I1, tw[0], tw[1]);
-            memcpy(re + 8 * s, R0, 64), memcpy(im + 8 * s, I0, 64);
-            memcpy(re + 8 * s + 8, R1, 64), memcpy(im + 8 * s + 8, I1, 64);
+            knot_v8d R0, I0, R1, I1;
+            memcpy(&R0, re + 8 * s, 64), memcpy(&I0, im + 8 * s, 64);
+            memcpy(&R1, re + 8 * s + 8, 64), memcpy(&I1, im + 8 * s + 8, 64);
+            KNOT_V8_BFLY(R0, I0, R1, I1, tw[0], tw[1]);
+            memcpy(re + 8 * s, &R0, 64), memcpy(im + 8 * s, &I0, 64);
+            memcpy(re + 8 * s + 8, &R1, 64), memcpy(im + 8 * s + 8, &I1, 64);
         }
         len = 4;
     }
@@ -111,19 +142,25 @@ static KNOT_CLONES void knot_stages8(int64_t N, double *restrict re, double *res
         for (int64_t s = 0; s < N; s += 2 * len)
             for (int64_t k = 0; k < h; ++k) {
                 const int64_t o0 = 8 * (s + k), o1 = o0 + 8 * h, o2 = o0 + 8 * len, o3 = o2 + 8 * h;
-                double R0[8], I0[8], R1[8], I1[8], R2[8], I2[8], R3[8], I3[8];
-                memcpy(R0, re + o0, 64), memcpy(I0, im + o0, 64), memcpy(R1, re + o1, 64), memcpy(I1, im + o1, 64);
-                memcpy(R2, re + o2, 64), memcpy(I2, im + o2, 64), memcpy(R3, re + o3, 64), memcpy(I3, im + o3, 64);
+                knot_v8d R0, I0, R1, I1, R2, I2, R3, I3;
+                memcpy(&R0, re + o0, 64), memcpy(&I0, im + o0, 64), memcpy(&R1, re + o1, 64);
+                memcpy(&I1, im + o1, 64), memcpy(&R2, re + o2, 64), memcpy(&I2, im + o2, 64);
+                memcpy(&R3, re + o3, 64), memcpy(&I3, im + o3, 64);
                 const double w1r = tw[2 * k * st1], w1i = tw[2 * k * st1 + 1];
-                KNOT_B8(R0, I0, R1, I1, w1r, w1i);
-                KNOT_B8(R2, I2, R3, I3, w1r, w1i);
-                KNOT_B8(R0, I0, R2, I2, tw[2 * k * st2], tw[2 * k * st2 + 1]);
-                KNOT_B8(R1, I1, R3, I3, tw[2 * (k + h) * st2], tw[2 * (k + h) * st2 + 1]);
-                memcpy(re + o0, R0, 64), memcpy(im + o0, I0, 64), memcpy(re + o1, R1, 64), memcpy(im + o1, I1, 64);
-                memcpy(re + o2, R2, 64), memcpy(im + o2, I2, 64), memcpy(re + o3, R3, 64), memcpy(im + o3, I3, 64);
+                KNOT_V8_BFLY(R0, I0, R1, I1, w1r, w1i);
+                KNOT_V8_BFLY(R2, I2, R3, I3, w1r, w1i);
+                KNOT_V8_BFLY(R0, I0, R2, I2, tw[2 * k * st2], tw[2 * k * st2 + 1]);
+                KNOT_V8_BFLY(R1, I1, R3, I3, tw[2 * (k + h) * st2], tw[2 * (k + h) * st2 + 1]);
+                memcpy(re + o0, &R0, 64), memcpy(im + o0, &I0, 64), memcpy(re + o1, &R1, 64);
+                memcpy(im + o1, &I1, 64), memcpy(re + o2, &R2, 64), memcpy(im + o2, &I2, 64);
+                memcpy(re + o3, &R3, 64), memcpy(im + o3, &I3, 64);
             }
     }
 }
+#else
+#define HAVE_KNOT_AVX512 0
+static void knot_stages8_avx512(int64_t N, double *re, double *im, const double *tw) { (void)N, (void)re, (void)im, (void)tw; }
+#endif
 
 static CLONES void knot_stages(int64_t N, int64_t C, double *re, double *im, const double *tw)
 {
@@ -313,12 +350,24 @@ fail:
 /* y, v_iso, tables of one knot (see the top). x L x U complex (scaled in place by spow, L, if given), f [Hz],
  * fade, taper (L, or NULL), y L x C complex, viso L x 8 [Re of the 4 ISO rows | Im], table the families' tables,
  * work >= 2 max_n C doubles. */
-static int lines_knot(const KnotPlan *p, int64_t U, double *x, double f, double fade, const double *taper,
-                      const double *spow, double *y, double *viso, float *table, double *work)
+#define KNOT_CHANNELS(CC)                                                                                           \
+    for (int64_t c = 0; c < (CC); ++c) {                                                                            \
+        double fr, fi;                                              /* powers[p].T * (scale * fade) [* taper] */    \
+        const int64_t q = pw[c];                                                                                    \
+        CMUL(pr[q], pi[q], sc[c], 0.0, fr, fi);                                                                     \
+        if (taper != NULL) CMUL(fr, fi, taper[k], 0.0, fr, fi);                                                     \
+        const int64_t u = ci[c];                                                                                    \
+        CMUL(xk[2 * u], xk[2 * u + 1], fr, fi, yk[2 * c], yk[2 * c + 1]);                                           \
+    }
+
+static NOINLINE CLONES void lines_knot(const KnotPlan *p, int64_t U, double *x, double f, double fade,
+                                       const double *taper, const double *spow, double *y, double *viso,
+                                       float *table, double *work)
 {
     const int64_t L = p->L, C = p->C;
     double sc[LINES_MAX_C];
-    for (int64_t c = 0; c < C; ++c) sc[c] = p->scale[c] * fade;
+    int64_t pw[LINES_MAX_C], ci[LINES_MAX_C];
+    for (int64_t c = 0; c < C; ++c) sc[c] = p->scale[c] * fade, pw[c] = p->power[c], ci[c] = p->cindex[c];
     for (int64_t k = 0; k < L; ++k) {
         double *xk = x + 2 * k * U;
         if (spow != NULL)                                           /* x *= (f ** speed_power)[:, None] */
@@ -332,14 +381,9 @@ static int lines_knot(const KnotPlan *p, int64_t U, double *x, double f, double 
         pr[0] = 1.0, pi[0] = 0.0;
         CMUL(0.0, 1.0, w, 0.0, pr[1], pi[1]);
         CMUL(pr[1], pi[1], pr[1], pi[1], pr[2], pi[2]);
-        for (int64_t c = 0; c < C; ++c) {
-            double fr, fi;                                          /* powers[p].T * (scale * fade) [* taper] */
-            const int64_t q = p->power[c];
-            CMUL(pr[q], pi[q], sc[c], 0.0, fr, fi);
-            if (taper != NULL) CMUL(fr, fi, taper[k], 0.0, fr, fi);
-            const int64_t u = p->cindex[c];
-            CMUL(xk[2 * u], xk[2 * u + 1], fr, fi, y[2 * (k * C + c)], y[2 * (k * C + c) + 1]);
-        }
+        double *yk = y + 2 * k * C;
+        if (C == 8) KNOT_CHANNELS(8)
+        else KNOT_CHANNELS(C)
         /* housing velocity [mm/s]: x[:, iso] * (1j * w * 1e3 * weights) */
         double vr, vi;
         CMUL(0.0, 1.0, w, 0.0, vr, vi);
@@ -369,13 +413,13 @@ static int lines_knot(const KnotPlan *p, int64_t U, double *x, double f, double 
                 im[r * C + c] += conj * g * yl[2 * c + 1];
             }
         }
-        if (C == 8) knot_stages8(n, re, im, p->tw + p->tw_off[fam]);
+        if (C == 8 && HAVE_KNOT_AVX512) knot_stages8_avx512(n, re, im, p->tw + p->tw_off[fam]);
+        else if (C == 8) knot_stages8_r2(n, re, im, p->tw + p->tw_off[fam]);
         else knot_stages(n, C, re, im, p->tw + p->tw_off[fam]);
         float *tr = table + p->out_off[fam];
         knot_store(n, C, re, tr);
         if (p->carrier[fam]) knot_store(n, C, im, tr + (n + 3) * C);
     }
-    return 0;
 }
 
 PyDoc_STRVAR(py_lines_knot_doc, "lines_knot(plan, x, f, fade, taper, spow, y, viso, table, work): see "
