@@ -538,6 +538,15 @@ class LineSetPath:
     def _general_method(self) -> str:
         return "modal" if self._cells is not None else "exact"
 
+    def _kept_through_chain(self, x: np.ndarray, f: float) -> np.ndarray:
+        """The kept lines of x (``max_order``) through the measurement chain (each line's complex gain at f [Hz])."""
+        if self._keep_some:
+            x = x[self._keep]
+        if self._chain:
+            x = x * chain_gains(self._nu * f + self._mu, self._housing_cols, self.accelerometer, self.anti_alias,
+                                x.shape[1])
+        return x
+
     def _line_amplitudes(self, f: float) -> "_Amplitudes":
         """Channel amplitudes and the families' tables at speed f [Hz] (any line set): with the C line-set kernels
         one call (:meth:`synth_lineknots.LineKnots.knot`: the numbers of :meth:`_line_amplitudes_numpy`)."""
@@ -547,11 +556,7 @@ class LineSetPath:
         if spow is not None and (self._keep_some or self._chain):
             x *= spow[:, None]                                # (before the selection and the sensor chain)
             spow = None
-        if self._keep_some:
-            x = x[self._keep]
-        if self._chain:
-            x = x * chain_gains(self._nu * f + self._mu, self._housing_cols, self.accelerometer, self.anti_alias,
-                                x.shape[1])
+        x = self._kept_through_chain(x, f)
         fade, taper = self._order_weights(f)
         y, v_iso, buf = self._line_knots.knot(x, f, fade, taper, spow)
         return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=self._ones, table=None,
@@ -560,12 +565,7 @@ class LineSetPath:
 
     def _line_amplitudes_numpy(self, f: float) -> "_Amplitudes":
         """:meth:`_line_amplitudes` in numpy (float64 samples, or the C kernels not built)."""
-        x = self._line_spectrum_at(f)
-        if self._keep_some:
-            x = x[self._keep]
-        if self._chain:
-            x = x * chain_gains(self._nu * f + self._mu, self._housing_cols, self.accelerometer, self.anti_alias,
-                                x.shape[1])
+        x = self._kept_through_chain(self._line_spectrum_at(f), f)
         fade, taper = self._order_weights(f)
         w = TWO_PI * (self._nu * f + self._mu)                               # (K,) [rad/s]
         iw = 1j * w
