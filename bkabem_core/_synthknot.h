@@ -49,45 +49,34 @@
  * pairs rows (s + k, s + k + L/2) with tw[k N / L]; stages L and 2 L are done together per group of four rows
  * {s + k, + L/2, + L, + 3 L/2} (k < L/2): both butterflies of stage L, then both of stage 2 L (twiddles k and
  * k + L/2 of it): every row sees the same operations in the same order as stage by stage. */
-#define KNOT_STAGES(CC)                                                                                             \
-    do {                                                                                                            \
-        int64_t len = 2;                                                                                            \
-        int lg = 0;                                                                                                 \
-        while (((int64_t)1 << lg) < N) ++lg;                                                                        \
-        if (lg & 1) {                                                                                               \
-            for (int64_t s = 0; s < N; s += 2)                                                                      \
-                KNOT_BFLY(CC, re + s * (CC), im + s * (CC), re + (s + 1) * (CC), im + (s + 1) * (CC), tw[0], tw[1]); \
-            len = 4;                                                                                                \
-        }                                                                                                           \
-        for (; len <= N; len <<= 2) {                                                                               \
-            const int64_t h = len >> 1, st1 = N / len, st2 = st1 >> 1;                                              \
-            for (int64_t s = 0; s < N; s += 2 * len)                                                                \
-                for (int64_t k = 0; k < h; ++k) {                                                                   \
-                    double *r0 = re + (s + k) * (CC), *i0 = im + (s + k) * (CC);                                   \
-                    double *r1 = r0 + h * (CC), *i1 = i0 + h * (CC);                                                \
-                    double *r2 = r0 + len * (CC), *i2 = i0 + len * (CC);                                            \
-                    double *r3 = r2 + h * (CC), *i3 = i2 + h * (CC);                                                \
-                    const double w1r = tw[2 * k * st1], w1i = tw[2 * k * st1 + 1];                                \
-                    KNOT_BFLY(CC, r0, i0, r1, i1, w1r, w1i);                                                        \
-                    KNOT_BFLY(CC, r2, i2, r3, i3, w1r, w1i);                                                        \
-                    KNOT_BFLY(CC, r0, i0, r2, i2, tw[2 * k * st2], tw[2 * k * st2 + 1]);                            \
-                    KNOT_BFLY(CC, r1, i1, r3, i3, tw[2 * (k + h) * st2], tw[2 * (k + h) * st2 + 1]);                \
-                }                                                                                                   \
-        }                                                                                                           \
-    } while (0)
+static CLONES void knot_stages(int64_t N, int64_t C, double *re, double *im, const double *tw)
+{
+    int64_t len = 2;
+    int lg = 0;
+    while (((int64_t)1 << lg) < N) ++lg;
+    if (lg & 1) {
+        for (int64_t s = 0; s < N; s += 2)
+            KNOT_BFLY(C, re + s * C, im + s * C, re + (s + 1) * C, im + (s + 1) * C, tw[0], tw[1]);
+        len = 4;
+    }
+    for (; len <= N; len <<= 2) {
+        const int64_t h = len >> 1, st1 = N / len, st2 = st1 >> 1;
+        for (int64_t s = 0; s < N; s += 2 * len)
+            for (int64_t k = 0; k < h; ++k) {
+                double *r0 = re + (s + k) * C, *i0 = im + (s + k) * C;
+                double *r1 = r0 + h * C, *i1 = i0 + h * C;
+                double *r2 = r0 + len * C, *i2 = i0 + len * C;
+                double *r3 = r2 + h * C, *i3 = i2 + h * C;
+                const double w1r = tw[2 * k * st1], w1i = tw[2 * k * st1 + 1];
+                KNOT_BFLY(C, r0, i0, r1, i1, w1r, w1i);
+                KNOT_BFLY(C, r2, i2, r3, i3, w1r, w1i);
+                KNOT_BFLY(C, r0, i0, r2, i2, tw[2 * k * st2], tw[2 * k * st2 + 1]);
+                KNOT_BFLY(C, r1, i1, r3, i3, tw[2 * (k + h) * st2], tw[2 * (k + h) * st2 + 1]);
+            }
+    }
+}
 
-/* Butterfly of 8 channels on rows held in locals (the compiler keeps them in vector registers). */
-#define KNOT_B8(AR, AI, BR, BI, WR, WI)                                                                             \
-    do {                                                                                                            \
-        for (int c = 0; c < 8; ++c) {                                                                               \
-            const double tr = BR[c] * (WR) - BI[c] * (WI), ti = BR[c] * (WI) + BI[c] * (WR);                        \
-            const double a_ = AR[c], e_ = AI[c];                                                                    \
-            AR[c] = a_ + tr, AI[c] = e_ + ti;                                                                       \
-            BR[c] = a_ - tr, BI[c] = e_ - ti;                                                                       \
-        }                                                                                                           \
-    } while (0)
-
-/* KNOT_STAGES for C = 8 stage by stage, each butterfly on 4-lane vectors (4 channels of a row's plane; AVX2: 8
+/* knot_stages for C = 8 stage by stage, each butterfly on 4-lane vectors (4 channels of a row's plane; AVX2: 8
  * registers; locals copied through memory would stall store forwarding). */
 static CLONES void knot_stages8_r2(int64_t N, double *restrict re, double *restrict im, const double *restrict tw,
                                   uint8_t *restrict nz)
@@ -115,7 +104,7 @@ static CLONES void knot_stages8_r2(int64_t N, double *restrict re, double *restr
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
 #define HAVE_KNOT_AVX512 (isa_cap >= 2 && HAVE_AVX512)
-/* KNOT_STAGES for C = 8 with AVX-512 (32 vector registers): two stages per pass, each group's four rows loaded into
+/* knot_stages for C = 8 with AVX-512 (32 vector registers): two stages per pass, each group's four rows loaded into
  * locals (16 registers), its four butterflies, stored back. (With AVX2's 16 registers this spills: 3x slower.) */
 typedef double knot_v8d __attribute__((vector_size(64)));
 #define KNOT_V8_BFLY(AR, AI, BR, BI, WR, WI)                                                                        \
@@ -177,10 +166,6 @@ static void knot_stages8_avx512(int64_t N, double *re, double *im, const double 
 }
 #endif
 
-static CLONES void knot_stages(int64_t N, int64_t C, double *re, double *im, const double *tw)
-{
-    KNOT_STAGES(C);
-}
 
 /* The padded float table (n + 3) x C of a plane: row r holds row (r - 1) mod n. */
 static CLONES void knot_store(int64_t n, int64_t C, const double *restrict src, float *restrict dst)
