@@ -595,10 +595,11 @@ class LineSetPath:
         """What :meth:`_segment_lines_fused` needs of the families, made once per line set and slip setting: per
         phase (each family's, then its carrier's) the constants of :meth:`_phase_args` (rate / BPFO, fixed, rate,
         rate / 2), and the slip-offset row of each family's phase and carrier (-1: none) over the distinct slip
-        factors ``kappas``, handed to C once (``segments``: :class:`synth_lineknots.LineSegments`)."""
+        factors ``kappas``, handed to C once (``segments``: :class:`synth_lineknots.LineSegments`). The plan holds
+        its families, so that another line set cannot take their id while it is cached (a model swap)."""
         key = (id(fams), self._slip_walk is not None)
         cached = self._scratch.get("fused")
-        if cached is not None and cached["key"] == key:
+        if cached is not None and cached["key"] == key and cached["families"] is fams:
             return cached
         walk = self._slip_walk
         kappas: list = []
@@ -618,7 +619,7 @@ class LineSetPath:
             phases.append((f.rate_q / bpfo, f.fixed_q, f.rate_q, 0.5 * f.rate_q) if f.carrier else None)
         wp = np.array([row(f.kappa_p) for f in ff], dtype=np.int64)
         wq = np.array([row(f.kappa_q) if f.carrier else -1 for f in ff], dtype=np.int64)
-        plan = {"key": key, "kappas": tuple(kappas), "phases": phases, "wp": wp, "wq": wq,
+        plan = {"key": key, "families": fams, "kappas": tuple(kappas), "phases": phases, "wp": wp, "wq": wq,
                 "segments": LineSegments(fams.plan, phases, kappas, wp, wq, self.sample_rate_hz)}
         self._scratch["fused"] = plan
         return plan
