@@ -1339,6 +1339,8 @@ static int log2_table(Py_ssize_t n)
     return l;
 }
 
+#include "_synthknot.h"
+
 PyDoc_STRVAR(py_segment_doc, "segment(phase0, dphase0, ddphase, warp, table_a, table_b, xi0, blend_scale, out, acc, "
                              "off, exact): see synth_kernel.segment");
 
@@ -1590,6 +1592,7 @@ done:
 
 static PyMethodDef methods[] = {
     {"segment", (PyCFunction)(void (*)(void))py_segment, METH_FASTCALL, py_segment_doc},
+    SYNTHKNOT_METHODS
     {"knot_table", (PyCFunction)(void (*)(void))py_knot_table, METH_FASTCALL, py_knot_table_doc},
     {"band_rms", (PyCFunction)(void (*)(void))py_band_rms, METH_FASTCALL, py_band_rms_doc},
     {"features", (PyCFunction)(void (*)(void))py_features, METH_FASTCALL, py_features_doc},

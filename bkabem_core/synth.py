@@ -265,7 +265,7 @@ class Synthesizer(LineSetPath, FloorPath, NoisePath):
     def _top_hz(self, f: float) -> float:
         """Highest line frequency [Hz] at shaft speed f [Hz]."""
         if self._general:
-            return float(np.max(self._nu * f + self._mu))
+            return self._top_line_hz(f)
         return self.highest_order * self.bpfo_per_hz * f
 
     @property

@@ -37,9 +37,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import synth_kernel
+from . import synth_kernel, synth_lineknots
 from .harmonic import DIRECTIONS, LOCATIONS, TWO_PI, BkaBem
 from .sensors import chain_gains
+from .synth_lineknots import LineKnots, LineSegments, band_rms_lines
 from .synth_profile import SynthError
 
 PASS = float(synth_kernel.PASS_UNITS)
@@ -442,6 +443,7 @@ class LineSetPath:
         self.orders = np.asarray(model.orders, dtype=int)[keep]
         self.coefficients = lines.coefficients[keep]
         self._nu, self._mu = nu[keep], mu[keep]
+        self._nu_top = float(self._nu.max()) if self._nu.size and not np.any(self._mu) else None
         self.bpfo_per_hz = float(model.bpfo_per_hz)
         self.n_balls = int(model.case.bearing_geometry().n_balls)
         self.fault_multipliers = model.fault_multipliers
@@ -449,13 +451,13 @@ class LineSetPath:
         self._families = LineFamilies(self.coefficients, lines.rates_per_hz, lines.line_hz, self.n_balls,
                                       self.bpfo_per_hz, self._table_size_arg)
         c = len(self.channels)
-        # the C line-set kernels (float32): every family's tables by one FFT each into one buffer per knot, and one
-        # pass per segment over all families with noise and features fused (_synthlines.h)
-        self._lines_fused = synth_kernel.LINES_AVAILABLE and self.dtype == np.float32 and c <= 64 \
+        # the C line-set kernels (float32): per knot one call from the spectrum to every family's tables (an FFT
+        # each, into one buffer), per segment one pass over all families with noise and features fused
+        # (_synthknot.h, _synthlines.h; synth_lineknots)
+        self._lines_fused = synth_lineknots.AVAILABLE and self.dtype == np.float32 and c <= 64 \
             and len(self._families) <= 64
         plan = self._families.plan
         plan["out_off"] = plan["off_t"] = np.ascontiguousarray(plan["row_off"] * c)
-        self._lines_work = np.empty(2 * plan["max_n"] * c) if self._lines_fused else None
         self.table_size = max(f.table_size for f in self._families.families)
         # (cos, sin) of a carrier's phase: one line each, a 64-point spline table (pre-emphasised: exact line)
         n = 64
@@ -474,16 +476,35 @@ class LineSetPath:
         self._dc = (comb @ dc8)[index] * (power == 0)
         self._dc_off = np.ascontiguousarray(self._dc, dtype=np.float64)
         self._dc32 = np.ascontiguousarray(self._dc, dtype=np.float32)
+        self._line_knots = LineKnots(plan, self._nu, self._mu, index, power, scale, iso, comb.shape[0]) \
+            if self._lines_fused else None
+        self._speed_scaled = bool(np.any(model._speed_power != 0.0))
+        self._ones = np.ones(len(self._nu))
         self._chan_power = power.astype(float)
         self._power_index = power.astype(np.int64)
         self._chan_scale = scale.astype(float)
         self._scratch: dict = {}
         self._gt_base = self._ground_truth_base()
 
+    def _top_line_hz(self, f: float) -> float:
+        """Highest line frequency [Hz] at shaft speed f [Hz], max(nu f + mu): without fixed parts (mu = 0) and f >= 0
+        the same float as max(nu) f (rounding is monotonic), without a pass over the lines."""
+        if self._nu_top is not None and f >= 0.0:
+            return self._nu_top * f
+        return float(np.max(self._nu * f + self._mu))
+
     def _line_spectrum_at(self, f: float) -> np.ndarray:
         """Displacement combinations (K, U) [m] of every line at speed f [Hz]: the speed-locked lines from the
         model's speed cells (as the order path's modal spectrum, checked against the exact response once; the
         exact response per knot if the check fails or ``spectrum="exact"``), the others by their dense solve."""
+        x, spow = self._line_spectrum_raw(f)
+        if spow is not None:
+            x *= spow[:, None]
+        return x
+
+    def _line_spectrum_raw(self, f: float):
+        """(x, spow): :meth:`_line_spectrum_at` before the lines' speed powers, and those (``f ** p`` (K,), None
+        if x has them or they are all 0). x is the speed cells' own array where they hold every line in order."""
         m = self._model
         if self._spectrum_kind != "exact" and self._cells is None and self._modal_failed is None:
             cells = m.order_modal_form(self._comb).speed_cells()
@@ -492,15 +513,16 @@ class LineSetPath:
             if err >= 1e-5:
                 self._cells, self._modal_failed = None, f"error {err:.1e}"
         if self._cells is None:
-            return np.ascontiguousarray(self._exact(f))
+            return np.ascontiguousarray(self._exact(f)), None
         li, fi = m._locked_idx, m._fixed_idx
-        x = np.empty((len(m.lines), self._comb.shape[0]), complex)
-        x[li] = self._cells(f)
-        if fi.size:
-            x[fi] = m._fixed_lines(f) @ self._comb.T
-        if np.any(m._speed_power != 0.0):
-            x *= (f ** m._speed_power)[:, None]
-        return x
+        if fi.size or li.size != len(m.lines) or li[-1] != li.size - 1:
+            x = np.empty((len(m.lines), self._comb.shape[0]), complex)
+            x[li] = self._cells(f)
+            if fi.size:
+                x[fi] = m._fixed_lines(f) @ self._comb.T
+        else:
+            x = self._cells(f)                                # every line locked, in order (sorted indices)
+        return x, (f ** m._speed_power if self._speed_scaled else None)
 
     def _line_check(self, f: float) -> float:
         """Largest error of the speed cells relative to the largest amplitude per combination, vs the exact one."""
@@ -516,14 +538,34 @@ class LineSetPath:
     def _general_method(self) -> str:
         return "modal" if self._cells is not None else "exact"
 
-    def _line_amplitudes(self, f: float) -> "_Amplitudes":
-        """Channel amplitudes and the families' tables at speed f [Hz] (any line set)."""
-        x = self._line_spectrum_at(f)
+    def _kept_through_chain(self, x: np.ndarray, f: float) -> np.ndarray:
+        """The kept lines of x (``max_order``) through the measurement chain (each line's complex gain at f [Hz])."""
         if self._keep_some:
             x = x[self._keep]
         if self._chain:
             x = x * chain_gains(self._nu * f + self._mu, self._housing_cols, self.accelerometer, self.anti_alias,
                                 x.shape[1])
+        return x
+
+    def _line_amplitudes(self, f: float) -> "_Amplitudes":
+        """Channel amplitudes and the families' tables at speed f [Hz] (any line set): with the C line-set kernels
+        one call (:meth:`synth_lineknots.LineKnots.knot`: the numbers of :meth:`_line_amplitudes_numpy`)."""
+        if self._line_knots is None:
+            return self._line_amplitudes_numpy(f)
+        x, spow = self._line_spectrum_raw(f)
+        if spow is not None and (self._keep_some or self._chain):
+            x *= spow[:, None]                                # (before the selection and the sensor chain)
+            spow = None
+        x = self._kept_through_chain(x, f)
+        fade, taper = self._order_weights(f)
+        y, v_iso, buf = self._line_knots.knot(x, f, fade, taper, spow)
+        return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=self._ones, table=None,
+                           v_iso=v_iso, ftables=None, families=self._families, dc=self._dc.copy(), fbuf=buf,
+                           dc32=self._dc32)
+
+    def _line_amplitudes_numpy(self, f: float) -> "_Amplitudes":
+        """:meth:`_line_amplitudes` in numpy (float64 samples, or the C kernels not built)."""
+        x = self._kept_through_chain(self._line_spectrum_at(f), f)
         fade, taper = self._order_weights(f)
         w = TWO_PI * (self._nu * f + self._mu)                               # (K,) [rad/s]
         iw = 1j * w
@@ -532,13 +574,6 @@ class LineSetPath:
         if taper is not None:
             fac = fac * taper[:, None]
         y = x[:, self._cindex] * fac
-        if self._lines_fused:
-            fam = self._families
-            buf = np.empty(fam.plan["rows"] * y.shape[1], dtype=np.float32)
-            synth_kernel.family_tables(y, fam.plan, buf, self._lines_work)
-            return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=np.ones(y.shape[0]),
-                               table=None, ftables=None, families=fam, dc=self._dc.copy(), fbuf=buf,
-                               dc32=self._dc32)
         tables = self._families.tables(y, self.dtype)
         return _Amplitudes(f=f, x=x, fade=fade, taper=taper, y_emphasised=y, emphasis=np.ones(y.shape[0]),
                            table=None, ftables=tables, families=self._families, dc=self._dc.copy())
@@ -560,10 +595,11 @@ class LineSetPath:
         """What :meth:`_segment_lines_fused` needs of the families, made once per line set and slip setting: per
         phase (each family's, then its carrier's) the constants of :meth:`_phase_args` (rate / BPFO, fixed, rate,
         rate / 2), and the slip-offset row of each family's phase and carrier (-1: none) over the distinct slip
-        factors ``kappas``."""
+        factors ``kappas``, handed to C once (``segments``: :class:`synth_lineknots.LineSegments`). The plan holds
+        its families, so that another line set cannot take their id while it is cached (a model swap)."""
         key = (id(fams), self._slip_walk is not None)
         cached = self._scratch.get("fused")
-        if cached is not None and cached["key"] == key:
+        if cached is not None and cached["key"] == key and cached["families"] is fams:
             return cached
         walk = self._slip_walk
         kappas: list = []
@@ -583,48 +619,19 @@ class LineSetPath:
             phases.append((f.rate_q / bpfo, f.fixed_q, f.rate_q, 0.5 * f.rate_q) if f.carrier else None)
         wp = np.array([row(f.kappa_p) for f in ff], dtype=np.int64)
         wq = np.array([row(f.kappa_q) if f.carrier else -1 for f in ff], dtype=np.int64)
-        plan = {"key": key, "kappas": tuple(kappas), "phases": phases, "wp": wp, "wq": wq}
+        plan = {"key": key, "families": fams, "kappas": tuple(kappas), "phases": phases, "wp": wp, "wq": wq,
+                "segments": LineSegments(fams.plan, phases, kappas, wp, wq, self.sample_rate_hz)}
         self._scratch["fused"] = plan
         return plan
 
     def _segment_lines_fused(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc, noise) -> None:
-        """:meth:`_segment_lines` by the C line-set kernel: every family (its phase and carrier in exact fixed
-        point, their slip offsets) in one pass, the static part, the noise and the features of the block fused.
-        The phases are :meth:`_phase_args` inlined with its constants from :meth:`_fused_plan` (the same floating
-        operations in the same order: the same integers)."""
-        m = hi - lo
-        fs, bpfo = self.sample_rate_hz, self.bpfo_per_hz
-        j = lo - a.x
-        ua = a.u_int + a.u_frac
-        fams = a.amp.families
-        plan = self._fused_plan(fams)
-        length = b.x - a.x
-        af, dfa, fsl, xs = a.f, b.f - a.f, fs * length, a.x / fs
-        jj = j * (j - 1) // 2
-        mask = (1 << 64) - 1
-        vals = []
-        for ph in plan["phases"]:
-            if ph is None:
-                vals += (0, 0, 0)
-                continue
-            r_b, fixed, rate, half = ph
-            t = r_b * ua + fixed * xs
-            t0 = t - math.floor(t)
-            c1 = (rate * af + fixed) / fs
-            c2 = half * dfa / fsl
-            d0 = round((c1 + c2) * PASS)
-            dd = round(2.0 * c2 * PASS)
-            vals += ((round(t0 * PASS) + j * d0 + dd * jj) & mask, (d0 + j * dd) & mask, dd & mask)
-        ph = np.array(vals, dtype=np.uint64)
-        warp = None
-        if plan["kappas"]:
-            c1u = bpfo / fs * a.f
-            c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
-            warp = np.ascontiguousarray(self._slip_walk.warp_fixed(a.u_int, j, m, c1u, c2u, a.u_frac,
-                                                                   plan["kappas"]))
+        """:meth:`_segment_lines` by the C line-set kernel, one call (:meth:`synth_lineknots.LineSegments.segment`):
+        every family (its phase and carrier in exact fixed point, :meth:`_phase_args`' integers, and their slip
+        offsets) in one pass, the static part, the noise and the features of the block fused."""
         tb = None if b.amp is a.amp else b.amp.fbuf
-        synth_kernel.lines_segment(m, ph, fams.plan, a.amp.fbuf, tb, warp, plan["wp"], plan["wq"],
-                                   a.amp.dc32, float(j), 65536.0 / length, out, acc, self._dc_off, noise)
+        self._fused_plan(a.amp.families)["segments"].segment(hi - lo, lo - a.x, a, b, self._slip_walk,
+                                                              self.bpfo_per_hz, a.amp.fbuf, tb, out, acc,
+                                                              self._dc_off, a.amp.dc32, noise)
 
     def _segment_lines(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc=None, noise=None) -> bool:
         """Samples [lo, hi) between knots a and b of any line set: every family's table(s) through the sample loop
@@ -702,6 +709,11 @@ class LineSetPath:
         band = (freq >= ISO_BAND_HZ[0]) & (freq <= ISO_BAND_HZ[1])
         if a.amp.families is not b.amp.families:                   # just swapped from another model
             a = b
+        if b.amp.fbuf is not None:                                 # the C knots' velocities (L, 8): Re | Im
+            va, vb = a.amp.v_iso, b.amp.v_iso
+            r = band_rms_lines(vb if va.shape != vb.shape else va, vb, self._nu, self._mu, f, ISO_BAND_HZ, s)
+            return {"de": {"vertical": r[0], "horizontal": r[1], "overall": max(r[0], r[1])},
+                    "nde": {"vertical": r[2], "horizontal": r[3], "overall": max(r[2], r[3])}}
 
         def vel(amp):
             if amp.v_iso is None:                                   # once per knot speed

@@ -92,16 +92,21 @@ class _SlipWalk:
         ``u = (c2 xi + c1) xi + u_frac``, speed >= 0 so u is monotonic), ``rint(frac(kappa W(u)) 2^52) 2^10``: the
         Hermite warp of :meth:`warp` (Horner form per pass interval) and the fixed-point conversion in one C pass
         for all factors (:func:`synth_kernel.slip_warp`, vectorised: ~5 us per 0.1-s chunk)."""
+        w, jw0 = self.window(u_int, j0, m, c1, c2, u_frac)
+        kap = list(kappas)
+        rows = []
+        for i in range(0, len(kap), 8):                  # the C kernel takes up to 8 factors per pass
+            rows.extend(synth_kernel.slip_warp(m, j0, c1, c2, u_frac, w, jw0, kap[i:i + 8]))
+        return rows
+
+    def window(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float):
+        """(W values, pass of the first) that :meth:`warp_fixed`'s samples need (the walk from one pass before
+        the first sample's to two after the last's)."""
         u_lo = u_frac + (c2 * j0 + c1) * j0
         xe = float(j0 + m - 1)
         u_hi = (c2 * xe + c1) * xe + u_frac
         j_lo, j_hi = int(math.floor(min(u_lo, u_hi))), int(math.floor(max(u_lo, u_hi)))
-        w = self.values(u_int + j_lo - 1, u_int + j_hi + 2)
-        kap = list(kappas)
-        rows = []
-        for i in range(0, len(kap), 8):                  # the C kernel takes up to 8 factors per pass
-            rows.extend(synth_kernel.slip_warp(m, j0, c1, c2, u_frac, w, j_lo - 1, kap[i:i + 8]))
-        return rows
+        return self.values(u_int + j_lo - 1, u_int + j_hi + 2), j_lo - 1
 
 
 def noise_key(seed: int) -> int:
