@@ -606,6 +606,11 @@ static void noise_add_block_##SUF(const int C, int nb, const NoiseArgs *na, int6
                                   const T *restrict extra)                                                          \
 {                                                                                                                   \
     const T *sig = sizeof(T) == 4 ? (const T *)(const void *)na->sigma_f : (const T *)(const void *)na->sigma_d;   \
+    if (sig != NULL && sizeof(T) == 4 && C == 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) {  /* fused, no buffer */     \
+        noise_add8_avx2(na->key, n, nb, (const float *)(const void *)sig, (float *)(void *)x,                      \
+                        (const float *)(const void *)extra);                                                        \
+        return;                                                                                                     \
+    }                                                                                                               \
     if (sig != NULL) {                                                                                              \
         float Z[BLOCK * NOISE_MAX_C];                                                                               \
         if (C == 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill8_avx2(na->key, n, nb, Z);                        \
