@@ -4,10 +4,10 @@
  * Why: a noisy 0.1-s chunk of 8 channels at 51.2 kHz needs 40 960 normal numbers. A scalar ziggurat (~4 ns a
  * number) took ~160-200 us per chunk; the branch-free Box-Muller that replaced it (8 lanes of logf, sqrt, sinf, cosf
  * polynomials) ~1 ns a number, ~40 us per chunk, still the largest kernel of a noisy run. Here the normals come
- * from a ziggurat whose common case is 8 lanes wide: a table look-up (two AVX2 gathers from 1-KB tables that stay
- * in L1), one multiply and one compare per normal, ~0.2 ns; the rare lanes outside their layer's rectangle (1.5 %)
- * are finished one by one. They are made per block of samples while the block is in L1 and added before the
- * features of the block are accumulated.
+ * from a ziggurat whose common case is 8 lanes wide: a table look-up (eight 64-bit loads from an 8-KB table that
+ * stays in L1: AVX2's gathers cost more on AMD Zen 4), one multiply and one compare per normal; the rare lanes
+ * outside their layer's rectangle (0.43 %) are finished one by one. The normals of a block are made while the
+ * block is in L1 and added (sigma z) in the same pass, before the features of the block are accumulated.
  *
  * Stream. Sample n (absolute sample index of the run) belongs to noise block b = n / NOISE_BLOCK (256 samples).
  * Block b has its own xoshiro256++ generators (Blackman & Vigna 2018), NOISE_LANES = 4 of them, seeded from
@@ -18,11 +18,12 @@
  * bits, and here the low bits of each half pick the layer.)
  *
  * Normals: the ziggurat of Marsaglia & Tsang (2000, "The ziggurat method for generating random variables") with
- * 256 layers of equal area V under f(x) = exp(-x^2 / 2) (R = 3.6541528853610088, V = 4.92867323399e-3; x_0 =
- * V / f(R) the base strip's width, x_1 = R, x_{i+1} from V = x_i (f(x_{i+1}) - f(x_i)), x_256 = 0), in Doornik's
- * (2005) form with the layer and the uniform from different bits of one word w (32 bits):
- *     i = w & 255,   U = (2 j + 1) 2^-24 with j = (int32) w >> 8   (U in (-1, 1), symmetric, exact in float)
- *     fast:  |U| < r_i = x_{i+1} / x_i (float)   ->   z = U x_i (float)              (98.5 % of the words)
+ * 1024 layers of equal area V under f(x) = exp(-x^2 / 2) (R = 4.038849846109505 closes them; V = R f(R) +
+ * sqrt(pi/2) erfc(R / sqrt 2); x_0 = V / f(R) the base strip's width, x_1 = R, x_{i+1} from V = x_i (f(x_{i+1}) -
+ * f(x_i)), x_1024 = 0), in Doornik's (2005) form with the layer and the uniform from different bits of one word w
+ * (32 bits):
+ *     i = w & 1023,   U = (2 j + 1) 2^-22 with j = (int32) w >> 10   (U in (-1, 1), symmetric, exact in float)
+ *     fast:  |U| < r_i = x_{i+1} / x_i (float)   ->   z = U x_i (float)              (99.57 % of the words)
  * and otherwise, in double, with uniforms from a second stream seeded by the sample and channel alone
  * (h = mix64(key ^ mix64(64 n + c ^ salt)), then splitmix64: so the value still depends on (key, n, c) only, any
  * chunking or segment split gives the same noise):
@@ -30,12 +31,15 @@
  *                                  z = +-(R + a) with the sign of U;
  *     i > 0 (the wedge): x = U x_i, accepted if f(x_{i+1}) + u (f(x_i) - f(x_{i+1})) < f(x), z = x;
  *     rejected: the next word of the second stream (its top 32 bits) starts again from the fast test.
- * Exact: the law is the normal's up to the 24-bit grid of U in each layer (x_i 2^-23: finer than float32's ulp
- * near x_i) and the float rounding of r_i (a sliver of relative width 2^-24 on the layer's edge). The AVX2 code and
- * the scalar code take the same operations, so they give the same bits (tested; and against a numpy transcription,
- * synth_kernel.noise_reference).
+ * Exact: the law is the normal's up to the 22-bit grid of U in each layer (steps of x_i 2^-21: 2e-6 at the base
+ * edge, 4x float32's ulp there; far below what any record of sensor noise resolves) and the float rounding of r_i
+ * (a sliver of relative width 2^-24 on a layer's edge). 1024 layers and not Marsaglia's 128 or 256: the rare
+ * lanes cost ~25 ns each (log, exp, the second stream's seed), 1.5 % of them (256 layers) made the generator no
+ * faster than the Box-Muller it replaced; the table's size does not matter to loads from L1. The AVX2 code and the
+ * scalar code take the same operations, so they give the same bits (tested; and against a numpy transcription,
+ * synth_noise.noise_reference).
  *
- * Cost: ~0.25 ns a normal with AVX2 (xoshiro ~0.05 ns, the gathers most of the rest) + the rare lanes ~15 ns each.
+ * Cost: ~0.7 ns a normal with AVX2 here (Zen 4; the table loads most of it), with the rare lanes; Box-Muller ~1 ns.
  */
 #ifndef BKABEM_SYNTHNOISE_H
 #define BKABEM_SYNTHNOISE_H
