@@ -25,30 +25,60 @@
 
 /* The broadband floor (synth_floor.py) of m samples from absolute sample n0 into out (m x C, written): grains q of G
  * (grain g, frame, offset: samples [g S, g S + 2 S) read frame `frame` from `offset` under the sine window win),
- * frames F x L x C. Each sample is 0 + w_1 f_1 + w_2 f_2 in the grains' order (synth_floor_render, the per-block
- * render of the line-set kernel and the numpy fallback round alike). */
-static CLONES void floor_block_f32(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const float *frames,
-                                   const float *win, int64_t G, const int64_t *grains, float *out)
+ * frames F x L x C int16 times scale[c] per channel. Each sample is (0 + w_1 f_1 + w_2 f_2) scale in the grains'
+ * order, f the int16 taps as float (synth_floor_render, the per-block render of the line-set kernel and the numpy
+ * fallback round alike). Why int16: 4 frames of 2^13 x 8 are 512 KB and stay in L2 (the float32 frames of 2^15
+ * were 4 MB and made this the largest kernel of a noisy chunk, bound by memory). */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+/* o[i][c] += w[i] (float) src[i][c] for 8 channels: one 128-bit load of the 8 int16 taps, widened (the vectoriser's
+ * own code for the loop below shuffled the window's broadcast and the taps through ~10 permutes a sample). */
+static NOINLINE __attribute__((target("avx2"))) void floor_run8_avx2(int64_t run, const int16_t *restrict src,
+                                                                     const float *restrict w, float *restrict o)
+{
+    for (int64_t i = 0; i < run; ++i) {
+        const __m256 f = _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128((const __m128i *)(src + 8 * i))));
+        _mm256_storeu_ps(o + 8 * i, _mm256_add_ps(_mm256_loadu_ps(o + 8 * i),
+                                                  _mm256_mul_ps(_mm256_broadcast_ss(w + i), f)));
+    }
+}
+#define FLOOR8_AVX2 (isa_cap >= 1 && __builtin_cpu_supports("avx2"))
+#else
+#define FLOOR8_AVX2 0
+static void floor_run8_avx2(int64_t run, const int16_t *src, const float *w, float *o) { (void)run, (void)src, (void)w, (void)o; }
+#endif
+
+static CLONES void floor_block_f32(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const int16_t *frames,
+                                   const float *scale, const float *win, int64_t G, const int64_t *grains,
+                                   float *out)
 {
     memset(out, 0, sizeof(float) * (size_t)(m * C));
     for (int64_t q = 0; q < G; ++q) {
         const int64_t g = grains[3 * q], fr = grains[3 * q + 1], off = grains[3 * q + 2];
-        const float *F = frames + fr * L * C;
+        const int16_t *F = frames + fr * L * C;
         int64_t lo = g * S > n0 ? g * S : n0, hi = g * S + 2 * S < n0 + m ? g * S + 2 * S : n0 + m;
         while (lo < hi) {                                  /* runs that do not wrap around the frame */
             const int64_t t0 = lo - g * S, src0 = (t0 + off) % L;
             const int64_t run = hi - lo < L - src0 ? hi - lo : L - src0;
-            const float *restrict src = F + src0 * C, *restrict w = win + t0;
+            const int16_t *restrict src = F + src0 * C;
+            const float *restrict w = win + t0;
             float *restrict o = out + (lo - n0) * C;
-            if (C == 8)
+            if (C == 8 && FLOOR8_AVX2)
+                floor_run8_avx2(run, src, w, o);
+            else if (C == 8)
                 for (int64_t i = 0; i < run; ++i)
-                    for (int c = 0; c < 8; ++c) o[8 * i + c] += w[i] * src[8 * i + c];
+                    for (int c = 0; c < 8; ++c) o[8 * i + c] += w[i] * (float)src[8 * i + c];
             else
                 for (int64_t i = 0; i < run; ++i)
-                    for (int64_t c = 0; c < C; ++c) o[i * C + c] += w[i] * src[i * C + c];
+                    for (int64_t c = 0; c < C; ++c) o[i * C + c] += w[i] * (float)src[i * C + c];
             lo += run;
         }
     }
+    if (C == 8)
+        for (int64_t i = 0; i < m; ++i)
+            for (int c = 0; c < 8; ++c) out[8 * i + c] *= scale[c];
+    else
+        for (int64_t i = 0; i < m; ++i)
+            for (int64_t c = 0; c < C; ++c) out[i * C + c] *= scale[c];
 }
 
 /* In-place inverse FFT (sign +, unscaled) of x (N x C complex as re/im pairs, row-major: x[2 (n C + c)] = Re),
@@ -310,8 +340,8 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
         if (noise) {
             const float *extra = na->extra != NULL ? (const float *)na->extra + k0 * C : NULL;
             if (na->frames != NULL) {                     /* the floor of this block, rendered while in L1 */
-                floor_block_f32(nbl, C, na->n0 + k0, na->half, na->frame_length, na->frames, na->win, na->n_grains,
-                                na->grains, flr);
+                floor_block_f32(nbl, C, na->n0 + k0, na->half, na->frame_length, na->frames, na->floor_scale, na->win,
+                                na->n_grains, na->grains, flr);
                 extra = flr;
             }
             noise_add_block_f32((int)C, nb, na, na->n0 + k0, blk, extra);
@@ -326,16 +356,17 @@ int synth_lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *pha
                             const int64_t *carrier, const int64_t *off_t, const float *ta, const float *tb,
                             const int64_t *warp, const int64_t *wp, const int64_t *wq, const float *dc, double xi0,
                             double blend_scale, float *out, double *acc, const double *off, uint64_t noise_key,
-                            int64_t noise_n0, const float *sigma, const float *extra, const float *frames,
+                            int64_t noise_n0, const float *sigma, const float *extra, const int16_t *frames,
                             const float *win, int64_t n_grains, const int64_t *grains, int64_t half,
-                            int64_t frame_length)
+                            int64_t frame_length, const float *floor_scale)
 {
     if (m < 0 || (acc != NULL && off == NULL) || F < 0 || F > 64) return -1;
     for (int64_t f = 0; f < F; ++f)                      /* a slip row needs the offsets (else: out of bounds) */
         if (warp == NULL && (wp[f] >= 0 || wq[f] >= 0)) return -1;
-    if (frames != NULL && (extra != NULL || win == NULL || grains == NULL || n_grains < 0 || half < 1
-                           || frame_length < 2 * half)) return -1;
-    NoiseArgs na = {noise_key, noise_n0, sigma, NULL, extra, frames, win, grains, n_grains, half, frame_length};
+    if (frames != NULL && (extra != NULL || win == NULL || grains == NULL || floor_scale == NULL || n_grains < 0
+                           || half < 1 || frame_length < 2 * half)) return -1;
+    NoiseArgs na = {noise_key, noise_n0, sigma, NULL, extra, frames, win, grains, n_grains, half, frame_length,
+                    floor_scale};
     return lines_segment_f32(m, C, F, phases, lg, carrier, off_t, ta, tb, warp, wp, wq, dc, xi0, blend_scale, out,
                              acc, off, sigma != NULL || extra != NULL || frames != NULL ? &na : NULL);
 }

@@ -305,10 +305,11 @@ typedef struct {
     const double *sigma_d;
     const void *extra;            /* optional m x C block (out's dtype) added too, row 0 = the call's sample 0: the
                                    * broadband floor (synth_floor.py) */
-    const float *frames;          /* or (float32, the line-set kernel) the floor itself, rendered per block from its */
-    const float *win;             /* frames (F x L x C), sine window (2 S) and grains (G x 3: grain, frame, offset), */
-    const int64_t *grains;        /* as synth_floor_render: no m x C buffer written and read back */
-    int64_t n_grains, half, frame_length;
+    const int16_t *frames;        /* or (float32, the line-set kernel) the floor itself, rendered per block from its */
+    const float *win;             /* frames (F x L x C int16), sine window (2 S), grains (G x 3: grain, frame, */
+    const int64_t *grains;        /* offset) and scale per channel, as synth_floor_render: no m x C buffer written */
+    int64_t n_grains, half, frame_length;   /* and read back */
+    const float *floor_scale;
 } NoiseArgs;
 
 /* Samples of the next block: up to BLOCK, and with noise up to the next absolute multiple of BLOCK. */
@@ -958,14 +959,15 @@ int synth_noise_fill(uint64_t key, int64_t n0, int64_t n, int64_t C, int avx2, f
 }
 
 /* The broadband floor of samples n0 .. n0 + m - 1 (synth_floor.py): overlapping grains g of 2 S samples from g S,
- * each a circular window into one of the precomputed shaped-noise frames (L x C float32 each, in frames),
+ * each a circular window into one of the precomputed shaped-noise frames (L x C int16 each, in frames, times
+ * scale[c]),
  * weighted by the sine window w(t) = sin(pi t / 2 S) (win: 2 S values), so that the two grains over any sample have
  * w^2 + w^2 = 1. G grains given as (g, frame index, offset) in grains[3 G]. out: m x C float32, written. */
-CLONES int synth_floor_render(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const float *frames,
-                       const float *win, int64_t G, const int64_t *grains, float *out)
+CLONES int synth_floor_render(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const int16_t *frames,
+                              const float *win, int64_t G, const int64_t *grains, float *out, const float *scale)
 {
-    if (m < 0 || C < 1 || S < 1 || L < 2 * S / 2 || G < 0) return -1;
-    floor_block_f32(m, C, n0, S, L, frames, win, G, grains, out);
+    if (m < 0 || C < 1 || S < 1 || L < 2 * S / 2 || G < 0 || scale == NULL) return -1;
+    floor_block_f32(m, C, n0, S, L, frames, scale, win, G, grains, out);
     return 0;
 }
 

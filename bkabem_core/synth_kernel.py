@@ -178,9 +178,9 @@ def _load():
     fns["family_tables"] = ft
     ls = lib.synth_lines_segment_f32
     ls.argtypes = [i64, i64, i64] + [ptr] * 10 + [ctypes.c_double, ctypes.c_double, ptr, ptr, ptr,
-                                                  ctypes.c_uint64, i64, ptr, ptr, ptr, ptr, i64, ptr, i64, i64]
+                                                  ctypes.c_uint64, i64, ptr, ptr, ptr, ptr, i64, ptr, i64, i64, ptr]
     fr = lib.synth_floor_render
-    fr.argtypes = [i64, i64, i64, i64, i64, ptr, ptr, i64, ptr, ptr]
+    fr.argtypes = [i64, i64, i64, i64, i64, ptr, ptr, i64, ptr, ptr, ptr]
     fr.restype = ctypes.c_int
     fns["floor_render"] = fr
     ls.restype = ctypes.c_int
@@ -433,16 +433,16 @@ def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, wa
     phase ``wp`` and carrier ``wq`` (-1: none), ``dc`` (C,) float32 static part, ``out`` (m, C) written; ``acc``/
     ``off`` the features, ``noise`` (key, n0, sigma float32[, extra]) as :func:`segment`; ``extra`` an (m, C)
     float32 block added with the noise, or the broadband floor itself as :meth:`synth_floor.BroadbandFloor.source`
-    ``(frames, window, grains, half)``, rendered per block inside the pass (the same samples as
+    ``(frames, window, grains, half, scale)``, rendered per block inside the pass (the same samples as
     :func:`floor_render`, without the chunk-sized buffer)."""
     C = out.shape[1]
     key, n0, sigma, *extra = noise if noise is not None else (0, 0, None)
     extra = extra[0] if extra else None
-    floor = (0, 0, 0, 0, 1, 2)
+    floor = (0, 0, 0, 0, 1, 2, 0)
     if isinstance(extra, tuple):
-        frames, window, grains, half = extra
+        frames, window, grains, half, scale = extra
         floor = (_ptr(frames, "frames"), _ptr(window, "window"), len(grains), _ptr(grains, "grains"), int(half),
-                 frames.shape[1])
+                 frames.shape[1], _ptr(scale, "scale"))
         extra = None
     fixed = plan.get("_addresses")
     if fixed is None:                               # the plan's arrays do not change: their addresses once
@@ -458,15 +458,17 @@ def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, wa
 
 
 def floor_render(n0: int, m: int, half: int, frames: np.ndarray, window: np.ndarray, grains: np.ndarray,
-                 out: np.ndarray) -> None:
+                 out: np.ndarray, scale: np.ndarray) -> None:
     """The broadband floor at absolute samples ``n0 .. n0 + m - 1`` into ``out`` (m, C) float32: grains (G, 3)
-    int64 (grain index g, frame, offset) over frames (F, L, C) float32, sine window (2 half,) (``synth_floor.py``),
-    in C when built, else in numpy."""
+    int64 (grain index g, frame, offset) over frames (F, L, C) int16 times ``scale`` (C,) float32 per channel, sine
+    window (2 half,) (``synth_floor.py``), in C when built, else in numpy (the same operations)."""
+    if frames.dtype != np.int16 or scale.dtype != np.float32 or scale.shape != (frames.shape[2],):
+        raise ValueError("floor_render: frames must be int16 (F, L, C) and scale float32 (C,)")
     fn = _FNS.get("floor_render") if _FNS is not None else None
     n_l, c = frames.shape[1], frames.shape[2]
     if fn is not None:
         if fn(int(m), c, int(n0), int(half), n_l, frames.ctypes.data, window.ctypes.data, len(grains),
-              grains.ctypes.data, _ptr(out, "out")):
+              grains.ctypes.data, _ptr(out, "out"), scale.ctypes.data):
             raise ValueError("synth_floor_render rejected its arguments")
         return
     out[...] = 0.0
@@ -474,7 +476,8 @@ def floor_render(n0: int, m: int, half: int, frames: np.ndarray, window: np.ndar
         lo, hi = max(g * half, n0), min(g * half + 2 * half, n0 + m)
         if hi > lo:
             t = np.arange(lo - g * half, hi - g * half)
-            out[lo - n0:hi - n0] += window[t][:, None] * frames[fr][(t + off) % n_l]
+            out[lo - n0:hi - n0] += window[t][:, None] * frames[fr][(t + off) % n_l].astype(np.float32)
+    out *= scale
 
 
 def carrier_mix(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:
