@@ -277,6 +277,8 @@ static void lines_family8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint
 }
 #endif
 
+#include "_synthrows.h"
+
 static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
                                     const int64_t *carrier, const int64_t *off_t, const float *ta, const float *tb,
                                     const int64_t *warp, const int64_t *wp, const int64_t *wq, const float *dc,
@@ -294,6 +296,9 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
         if (lg[f] < 6 || lg[f] > 16) return -1;
     }
     const int noise = na != NULL;
+    const int fast = C == 8 && isa_cap >= 1 && HAVE_LINES8 && HAVE_GROUP8;
+    int gstart[65], gmember[64];
+    const int n_groups = fast ? lines_groups(F, phases, lg, wp, gstart, gmember) : 0;
     for (int64_t k0 = 0, nbl; k0 < m; k0 += nbl) {
         nbl = block_length(noise, m - k0, noise ? na->n0 + k0 : 0);
         const int nb = (int)nbl;
@@ -304,12 +309,33 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             for (int j = 0; j < nb; ++j)
                 for (int c = 0; c < C; ++c) blk[(int64_t)j * C + c] = dc[c];
         const int blend = tb != NULL;
-        const int fast = C == 8 && isa_cap >= 1 && HAVE_LINES8;
+        for (int q = 0; q < n_groups; ++q) {                       /* the fast path: groups of one phase */
+            const int nf = gstart[q + 1] - gstart[q], *mem = gmember + gstart[q];
+            const int64_t f0 = mem[0];
+            float CQg[GROUP_MAX][BLOCK], SQg[GROUP_MAX][BLOCK];
+            const float *A[GROUP_MAX], *Bt[GROUP_MAX];
+            int64_t NTg[GROUP_MAX];
+            int carg[GROUP_MAX];
+            for (int k = 0; k < nf; ++k) {
+                const int64_t f = mem[k];
+                A[k] = ta + off_t[f], Bt[k] = blend ? tb + off_t[f] : NULL;
+                NTg[k] = ((int64_t)1 << lg[f]) * C + 3 * C;
+                carg[k] = (int)carrier[f];
+                if (carg[k])
+                    carrier8_avx2(nb, &st[f][2], &st[f][3], phases[6 * f + 5], wq[f] >= 0 ? warp + wq[f] * m + k0 : NULL,
+                                  CQg[k], SQg[k]);
+            }
+            lines_group8_fma(nb, k0, &st[f0][0], &st[f0][1], phases[6 * f0 + 2],
+                             wp[f0] >= 0 ? warp + wp[f0] * m + k0 : NULL, 62 - (int)lg[f0],
+                             ((uint64_t)1 << lg[f0]) - 1, xi0, blend_scale, nf, A, blend ? Bt : NULL, NTg, carg, CQg,
+                             SQg, blk);
+            for (int k = 1; k < nf; ++k) st[mem[k]][0] = st[f0][0], st[mem[k]][1] = st[f0][1];
+        }
         if (blend && !fast) {
             float *restrict swp = sw;
             for (int j = 0; j < nb; ++j) swp[j] = (float)blend_weight(((double)(k0 + j) + xi0) * blend_scale);
         }
-        for (int64_t f = 0; f < F; ++f) {
+        for (int64_t f = 0; f < (fast ? 0 : F); ++f) {          /* the generic path: one family at a time */
             const int fb = 62 - (int)lg[f];
             const uint64_t mask = ((uint64_t)1 << lg[f]) - 1;
             const int64_t *w = wp[f] >= 0 ? warp + wp[f] * m + k0 : NULL;
