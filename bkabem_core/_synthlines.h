@@ -19,6 +19,8 @@
  * carrier family cos and sin of its carrier phase (+ slip) from 24 bits of the turn: octant, then Cephes' sinf /
  * cosf polynomials on [0, pi/4] (error ~1e-7), so x += cos(2 pi phi_q) Re G - sin(2 pi phi_q) Im G; then the
  * static part, the noise and the features of the block. Float32, any C (the channel loops are unrolled for C = 8).
+ * With 8 channels and AVX2 + FMA, families of one phase share the rows and weights and the carriers' cos / sin are
+ * 8 samples at a time (_synthrows.h).
  */
 #ifndef BKABEM_SYNTHLINES_H
 #define BKABEM_SYNTHLINES_H
@@ -217,64 +219,9 @@ static inline void carrier_cos_sin(uint64_t v, float *co, float *si)
 #define LINES_MAX_C 64
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
-/* One family's block for 8 float32 channels with AVX2 + FMA: rows, weights and blend weights from prologue8_fma
- * (the order path's, so a family's phase rounds as there), the table rows and the carrier mix in 256-bit vectors,
- * added to the block accumulator blk. */
-static NOINLINE FMA_TARGET void lines_family8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd,
-                                                 const int64_t *w, int fb, uint64_t mask, double xi0,
-                                                 double blend_scale, const float *A, const float *B, int64_t NT,
-                                                 int car, const float *CQ, const float *SQ, float *blk)
-{
-    int32_t idx[BLOCK];
-    float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK];
-    const int blend = B != NULL;
-    if (w != NULL) {
-        if (blend) prologue8_fma(1, 1, nb, k0, u, d, dd, w, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
-        else prologue8_fma(1, 0, nb, k0, u, d, dd, w, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
-    } else {
-        if (blend) prologue8_fma(0, 1, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
-        else prologue8_fma(0, 0, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
-    }
-#define LINES_TAP(T, r, w0, w1, w2, w3)                                                                            \
-    _mm256_fmadd_ps(w3, _mm256_loadu_ps((T) + (r) + 24),                                                            \
-                    _mm256_fmadd_ps(w2, _mm256_loadu_ps((T) + (r) + 16),                                            \
-                                    _mm256_fmadd_ps(w1, _mm256_loadu_ps((T) + (r) + 8),                             \
-                                                    _mm256_mul_ps(w0, _mm256_loadu_ps((T) + (r))))))
-    for (int j = 0; j < nb; ++j) {
-        const int64_t r = (int64_t)idx[j] * 8;
-        const __m256 w0 = _mm256_broadcast_ss(W0 + j), w1 = _mm256_broadcast_ss(W1 + j);
-        const __m256 w2 = _mm256_broadcast_ss(W2 + j), w3 = _mm256_broadcast_ss(W3 + j);
-        __m256 v = LINES_TAP(A, r, w0, w1, w2, w3);
-        if (blend) {
-            const __m256 s = _mm256_broadcast_ss(sw + j);
-            v = _mm256_fmadd_ps(s, _mm256_sub_ps(LINES_TAP(B, r, w0, w1, w2, w3), v), v);
-        }
-        __m256 o = _mm256_loadu_ps(blk + 8 * j);
-        if (!car) {
-            _mm256_storeu_ps(blk + 8 * j, _mm256_add_ps(o, v));
-            continue;
-        }
-        __m256 g = LINES_TAP(A + NT, r, w0, w1, w2, w3);
-        if (blend) {
-            const __m256 s = _mm256_broadcast_ss(sw + j);
-            g = _mm256_fmadd_ps(s, _mm256_sub_ps(LINES_TAP(B + NT, r, w0, w1, w2, w3), g), g);
-        }
-        o = _mm256_fmadd_ps(_mm256_broadcast_ss(CQ + j), v, o);
-        o = _mm256_fnmadd_ps(_mm256_broadcast_ss(SQ + j), g, o);
-        _mm256_storeu_ps(blk + 8 * j, o);
-    }
-#undef LINES_TAP
-}
 #define HAVE_LINES8 HAVE_FMA_PATH
 #else
 #define HAVE_LINES8 0
-static void lines_family8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd, const int64_t *w, int fb,
-                              uint64_t mask, double xi0, double blend_scale, const float *A, const float *B,
-                              int64_t NT, int car, const float *CQ, const float *SQ, float *blk)
-{
-    (void)nb, (void)k0, (void)u, (void)d, (void)dd, (void)w, (void)fb, (void)mask, (void)xi0, (void)blend_scale;
-    (void)A, (void)B, (void)NT, (void)car, (void)CQ, (void)SQ, (void)blk;
-}
 #endif
 
 #include "_synthrows.h"
@@ -340,7 +287,7 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             const uint64_t mask = ((uint64_t)1 << lg[f]) - 1;
             const int64_t *w = wp[f] >= 0 ? warp + wp[f] * m + k0 : NULL;
             const int car = (int)carrier[f];
-            if (!fast) {
+            {
                 if (w) phase_block(1, nb, &st[f][0], &st[f][1], phases[6 * f + 2], w, fb, mask, idx, frac);
                 else phase_block(0, nb, &st[f][0], &st[f][1], phases[6 * f + 2], NULL, fb, mask, idx, frac);
                 WEIGHT_BLOCK(float)
@@ -357,10 +304,7 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             }
             const int64_t NT = ((int64_t)1 << lg[f]) * C + 3 * C;        /* floats of one table */
             const float *A = ta + off_t[f], *B = blend ? tb + off_t[f] : NULL;
-            if (fast)
-                lines_family8_fma(nb, k0, &st[f][0], &st[f][1], phases[6 * f + 2], w, fb, mask, xi0, blend_scale, A,
-                                  B, NT, car, CQ, SQ, blk);
-            else if (C == 8) LINES_ROWS(8);
+            if (C == 8) LINES_ROWS(8);
             else LINES_ROWS(C);
         }
         if (noise) {
