@@ -32,27 +32,56 @@
  * fallback round alike). Why int16: 4 frames of 2^13 x 8 are 512 KB and stay in L2 (the float32 frames of 2^15
  * were 4 MB and made this the largest kernel of a noisy chunk, bound by memory). */
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
-/* o[i][c] += w[i] (float) src[i][c] for 8 channels: one 128-bit load of the 8 int16 taps, widened (the vectoriser's
- * own code for the loop below shuffled the window's broadcast and the taps through ~10 permutes a sample). */
-static NOINLINE __attribute__((target("avx2"))) void floor_run8_avx2(int64_t run, const int16_t *restrict src,
-                                                                     const float *restrict w, float *restrict o)
+/* The floor of m samples from n0 for 8 channels with AVX2, both grains of a sample in one pass: out = (w_1 f_1 +
+ * w_2 f_2) scale, the older grain first (floor_block_f32's value: 0 + a is a), each int16 tap one 128-bit load,
+ * widened; no zeroing pass, no second pass over out, no scale pass. Pieces between grain borders and frame ends
+ * (where a source wraps) have two contiguous sources. Needs the grains of floor(n0 / S) - 1 .. consecutive from
+ * grains[0]; returns 0 if they are not (then the generic loop runs). */
+static NOINLINE __attribute__((target("avx2"))) int floor_pair8_avx2(int64_t m, int64_t n0, int64_t S, int64_t L,
+                                                                     const int16_t *frames, const float *scale,
+                                                                     const float *win, int64_t G,
+                                                                     const int64_t *grains, float *out)
 {
-    for (int64_t i = 0; i < run; ++i) {
-        const __m256 f = _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128((const __m128i *)(src + 8 * i))));
-        _mm256_storeu_ps(o + 8 * i, _mm256_add_ps(_mm256_loadu_ps(o + 8 * i),
-                                                  _mm256_mul_ps(_mm256_broadcast_ss(w + i), f)));
+    const __m256 sc = _mm256_loadu_ps(scale);
+    for (int64_t lo = n0; lo < n0 + m;) {
+        const int64_t g2 = lo / S, g1 = g2 - 1, q1 = g1 - grains[0];
+        if (q1 < 0 || q1 + 1 >= G || grains[3 * q1] != g1 || grains[3 * q1 + 3] != g2) return 0;
+        const int64_t t1 = lo - g1 * S, t2 = lo - g2 * S;
+        const int64_t s1 = (t1 + grains[3 * q1 + 2]) % L, s2 = (t2 + grains[3 * q1 + 5]) % L;
+        int64_t run = n0 + m - lo;
+        if (run > (g2 + 1) * S - lo) run = (g2 + 1) * S - lo;          /* the next grain border */
+        if (run > L - s1) run = L - s1;
+        if (run > L - s2) run = L - s2;
+        const int16_t *f1 = frames + (grains[3 * q1 + 1] * L + s1) * 8, *f2 = frames + (grains[3 * q1 + 4] * L + s2) * 8;
+        const float *w1 = win + t1, *w2 = win + t2;
+        float *o = out + (lo - n0) * 8;
+        for (int64_t i = 0; i < run; ++i) {
+            const __m256 a = _mm256_mul_ps(_mm256_broadcast_ss(w1 + i),
+                                           _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128((const __m128i *)(f1 + 8 * i)))));
+            const __m256 b = _mm256_mul_ps(_mm256_broadcast_ss(w2 + i),
+                                           _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128((const __m128i *)(f2 + 8 * i)))));
+            _mm256_storeu_ps(o + 8 * i, _mm256_mul_ps(_mm256_add_ps(a, b), sc));
+        }
+        lo += run;
     }
+    return 1;
 }
 #define FLOOR8_AVX2 (isa_cap >= 1 && __builtin_cpu_supports("avx2"))
 #else
 #define FLOOR8_AVX2 0
-static void floor_run8_avx2(int64_t run, const int16_t *src, const float *w, float *o) { (void)run, (void)src, (void)w, (void)o; }
+static int floor_pair8_avx2(int64_t m, int64_t n0, int64_t S, int64_t L, const int16_t *frames, const float *scale,
+                            const float *win, int64_t G, const int64_t *grains, float *out)
+{
+    (void)m, (void)n0, (void)S, (void)L, (void)frames, (void)scale, (void)win, (void)G, (void)grains, (void)out;
+    return 0;
+}
 #endif
 
 static CLONES void floor_block_f32(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const int16_t *frames,
                                    const float *scale, const float *win, int64_t G, const int64_t *grains,
                                    float *out)
 {
+    if (C == 8 && FLOOR8_AVX2 && G > 0 && floor_pair8_avx2(m, n0, S, L, frames, scale, win, G, grains, out)) return;
     memset(out, 0, sizeof(float) * (size_t)(m * C));
     for (int64_t q = 0; q < G; ++q) {
         const int64_t g = grains[3 * q], fr = grains[3 * q + 1], off = grains[3 * q + 2];
@@ -64,9 +93,7 @@ static CLONES void floor_block_f32(int64_t m, int64_t C, int64_t n0, int64_t S, 
             const int16_t *restrict src = F + src0 * C;
             const float *restrict w = win + t0;
             float *restrict o = out + (lo - n0) * C;
-            if (C == 8 && FLOOR8_AVX2)
-                floor_run8_avx2(run, src, w, o);
-            else if (C == 8)
+            if (C == 8)
                 for (int64_t i = 0; i < run; ++i)
                     for (int c = 0; c < 8; ++c) o[8 * i + c] += w[i] * (float)src[8 * i + c];
             else
