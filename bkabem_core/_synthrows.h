@@ -29,17 +29,10 @@ static NOINLINE __attribute__((target("avx2"))) void carrier8_avx2(int nb, uint6
     uint64_t u = *pu, d = *pd;
     int j = 0;
     if (nb >= 8) {                           /* 24 bits of the turns' fractions, 8 phases at a time (prologue8_fma) */
-        const __m256i ddv = _mm256_set1_epi64x((int64_t)dd), m24 = _mm256_set1_epi64x(0xFFFFFF);
-        __m256i Ua = _mm256_set_epi64x((int64_t)(u + 3 * d + 3 * dd), (int64_t)(u + 2 * d + dd), (int64_t)(u + d),
-                                       (int64_t)u);
-        __m256i Da = _mm256_set_epi64x((int64_t)(d + 3 * dd), (int64_t)(d + 2 * dd), (int64_t)(d + dd), (int64_t)d);
-        __m256i Ub = _mm256_add_epi64(_mm256_add_epi64(Ua, _mm256_slli_epi64(Da, 2)),
-                                      _mm256_add_epi64(_mm256_slli_epi64(ddv, 2), _mm256_slli_epi64(ddv, 1)));
-        __m256i Db = _mm256_add_epi64(Da, _mm256_slli_epi64(ddv, 2));
-        const __m256i dd8 = _mm256_slli_epi64(ddv, 3);
-        const __m256i dd28 = _mm256_sub_epi64(_mm256_slli_epi64(ddv, 5), _mm256_slli_epi64(ddv, 2));
+        const __m256i m24 = _mm256_set1_epi64x(0xFFFFFF);
+        Phase8 ph = phase8_start(u, d, dd);
         for (; j + 8 <= nb; j += 8) {
-            __m256i va = Ua, vb = Ub;
+            __m256i va = ph.ua, vb = ph.ub;
             if (wc) {
                 va = _mm256_add_epi64(va, _mm256_loadu_si256((const __m256i *)(wc + j)));
                 vb = _mm256_add_epi64(vb, _mm256_loadu_si256((const __m256i *)(wc + j + 4)));
@@ -49,13 +42,10 @@ static NOINLINE __attribute__((target("avx2"))) void carrier8_avx2(int nb, uint6
             __m256i t = _mm256_castps_si256(_mm256_shuffle_ps(_mm256_castsi256_ps(va), _mm256_castsi256_ps(vb),
                                                               _MM_SHUFFLE(2, 0, 2, 0)));
             _mm256_storeu_si256((__m256i *)(q + j), _mm256_permute4x64_epi64(t, _MM_SHUFFLE(3, 1, 2, 0)));
-            Ua = _mm256_add_epi64(Ua, _mm256_add_epi64(_mm256_slli_epi64(Da, 3), dd28));
-            Ub = _mm256_add_epi64(Ub, _mm256_add_epi64(_mm256_slli_epi64(Db, 3), dd28));
-            Da = _mm256_add_epi64(Da, dd8);
-            Db = _mm256_add_epi64(Db, dd8);
+            phase8_next(&ph);
         }
-        u = (uint64_t)_mm256_extract_epi64(Ua, 0);
-        d = (uint64_t)_mm256_extract_epi64(Da, 0);
+        u = (uint64_t)_mm256_extract_epi64(ph.ua, 0);
+        d = (uint64_t)_mm256_extract_epi64(ph.da, 0);
     }
     for (; j < nb; ++j) {
         q[j] = (uint32_t)(((u + (wc ? (uint64_t)wc[j] : 0)) >> 38) & 0xFFFFFF);
