@@ -25,7 +25,7 @@
  *     i = w & 1023,   U = (2 j + 1) 2^-22 with j = (int32) w >> 10   (U in (-1, 1), symmetric, exact in float)
  *     fast:  |U| < r_i = x_{i+1} / x_i (float)   ->   z = U x_i (float)              (99.57 % of the words)
  * and otherwise, in double, with uniforms from a second stream seeded by the sample and channel alone
- * (h = mix64(key ^ mix64(64 n + c ^ salt)), then splitmix64: so the value still depends on (key, n, c) only, any
+ * (h = mix64(key ^ (64 n + c) salt), then splitmix64: so the value still depends on (key, n, c) only, any
  * chunking or segment split gives the same noise):
  *     i = 0 (base strip beyond R): the tail by Marsaglia's method, a = -ln(u1) / R, b = -ln(u2) until 2 b > a^2,
  *                                  z = +-(R + a) with the sign of U;
@@ -91,7 +91,7 @@ static inline void noise_step(uint64_t s[4][NOISE_LANES], uint64_t w[NOISE_LANES
 #define ZN_BITS 10                      /* layer bits of a word: 1024 layers, 22 bits of the uniform */
 #define ZN_LAYERS (1 << ZN_BITS)
 #define ZN_R 4.038849846109505          /* the base strip's edge (V follows from it: zn_init) */
-#define ZN_SALT UINT64_C(0xD1B54A32D192ED03)   /* separates the second stream's seeds from the blocks' */
+#define ZN_SALT UINT64_C(0xD1B54A32D192ED03)   /* odd: (64 n + c) ZN_SALT is one to one, then one mix64 */
 
 static double zn_x[ZN_LAYERS + 1], zn_f[ZN_LAYERS + 1];   /* layer edges x_i and f(x_i) */
 static float zn_xf[ZN_LAYERS], zn_rf[ZN_LAYERS];          /* the fast test's tables: x_i and x_{i+1} / x_i */
@@ -139,10 +139,10 @@ static inline int zn_fast(uint32_t w, float *z)
 /* The normal of absolute sample n, channel c whose word w failed the fast test (the header's slow cases). */
 static NOINLINE float zn_slow(uint64_t key, int64_t n, int c, uint32_t w)
 {
-    uint64_t h = noise_mix64(key ^ noise_mix64(((uint64_t)n * 64 + (uint64_t)c) ^ ZN_SALT));
-    for (;;) {
+    uint64_t h = noise_mix64(key ^ (((uint64_t)n * 64 + (uint64_t)c) * ZN_SALT));
+    for (int first = 1;; first = 0) {
         float z;
-        if (zn_fast(w, &z)) return z;
+        if (!first && zn_fast(w, &z)) return z;
         const int i = (int)(w & (ZN_LAYERS - 1));
         const double u = (double)(2 * ((int32_t)w >> ZN_BITS) + 1) * 0x1p-22;
         if (i == 0) {
@@ -228,20 +228,14 @@ static inline __attribute__((always_inline)) NOISE_TARGET __m256 zn_fast8(__m256
     return _mm256_mul_ps(u, x);
 }
 
-/* Sample n's 8 normals (word vector w) into z, the slow lanes finished one by one. */
-static inline __attribute__((always_inline)) NOISE_TARGET void zn_row8(uint64_t key, int64_t n, __m256i w, float *z)
+/* The slow lanes of sample n (words w, their fast values already in z) finished one by one. */
+static NOINLINE void zn_fix8(uint64_t key, int64_t n, const uint32_t *w, int bad, float *z)
 {
-    int bad;
-    _mm256_storeu_ps(z, zn_fast8(w, &bad));
-    if (__builtin_expect(bad != 0, 0)) {
-        uint32_t wk[8];
-        _mm256_storeu_si256((__m256i *)wk, w);
-        do {
-            const int k = __builtin_ctz((unsigned)bad);
-            z[k] = zn_slow(key, n, k, wk[k]);
-            bad &= bad - 1;
-        } while (bad);
-    }
+    do {
+        const int k = __builtin_ctz((unsigned)bad);
+        z[k] = zn_slow(key, n, k, w[k]);
+        bad &= bad - 1;
+    } while (bad);
 }
 
 /* The generators of the block of sample n, advanced to n (for C = 8: one step per sample). */
@@ -265,7 +259,25 @@ static NOINLINE NOISE_TARGET void noise_fill8_avx2(uint64_t key, int64_t n0, int
         if (cnt > nb - j) cnt = nb - j;
         __m256i s0, s1, s2, s3;
         NOISE_BLOCK_START(key, n, s0, s1, s2, s3);
-        for (int i = 0; i < cnt; ++i) zn_row8(key, n + i, noise_step_avx2(&s0, &s1, &s2, &s3), Z + 8 * (j + i));
+        /* the rare samples with a slow lane (3.4 %) are listed and finished after the loop: no call (and no
+         * spill of the generators' state) inside it */
+        int late[NOISE_BLOCK], n_late = 0;
+        uint32_t wl[NOISE_BLOCK][8];
+        for (int i = 0; i < cnt; ++i) {
+            const __m256i w = noise_step_avx2(&s0, &s1, &s2, &s3);
+            int bad;
+            _mm256_storeu_ps(Z + 8 * (j + i), zn_fast8(w, &bad));
+            if (__builtin_expect(bad != 0, 0)) {
+                _mm256_storeu_si256((__m256i *)wl[n_late], w);
+                late[n_late++] = i;
+            }
+        }
+        for (int q = 0; q < n_late; ++q) {
+            const int i = late[q];
+            int bad;
+            (void)zn_fast8(_mm256_loadu_si256((const __m256i *)wl[q]), &bad);
+            zn_fix8(key, n + i, wl[q], bad, Z + 8 * (j + i));
+        }
         j += cnt;
     }
 }
@@ -278,9 +290,27 @@ static NOINLINE NOISE_TARGET void noise_add8_avx2(uint64_t key, int64_t n0, int 
     __m256i s0, s1, s2, s3;
     NOISE_BLOCK_START(key, n0, s0, s1, s2, s3);
     const __m256 sig = _mm256_loadu_ps(sigma);
-    float z[8];
+    int late[NOISE_BLOCK], n_late = 0;                 /* samples with a slow lane: done after the loop */
+    uint32_t wl[NOISE_BLOCK][8];
     for (int i = 0; i < nb; ++i) {
-        zn_row8(key, n0 + i, noise_step_avx2(&s0, &s1, &s2, &s3), z);
+        const __m256i w = noise_step_avx2(&s0, &s1, &s2, &s3);
+        int bad;
+        const __m256 z = zn_fast8(w, &bad);
+        if (__builtin_expect(bad != 0, 0)) {
+            _mm256_storeu_si256((__m256i *)wl[n_late], w);
+            late[n_late++] = i;
+            continue;
+        }
+        __m256 v = _mm256_add_ps(_mm256_loadu_ps(x + 8 * i), _mm256_mul_ps(sig, z));
+        if (extra != NULL) v = _mm256_add_ps(v, _mm256_loadu_ps(extra + 8 * i));
+        _mm256_storeu_ps(x + 8 * i, v);
+    }
+    for (int q = 0; q < n_late; ++q) {
+        const int i = late[q];
+        int bad;
+        float z[8];
+        _mm256_storeu_ps(z, zn_fast8(_mm256_loadu_si256((const __m256i *)wl[q]), &bad));
+        zn_fix8(key, n0 + i, wl[q], bad, z);
         __m256 v = _mm256_add_ps(_mm256_loadu_ps(x + 8 * i), _mm256_mul_ps(sig, _mm256_loadu_ps(z)));
         if (extra != NULL) v = _mm256_add_ps(v, _mm256_loadu_ps(extra + 8 * i));
         _mm256_storeu_ps(x + 8 * i, v);

@@ -89,7 +89,7 @@ def _fast(w: np.ndarray):
 
 def _slow(key: int, n: int, c: int, w: int) -> np.float32:
     """The normal of sample n, channel c whose word w failed the fast test (``zn_slow``)."""
-    h = _mix((key & _MASK64) ^ _mix(((n * 64 + c) & _MASK64) ^ _SALT))
+    h = _mix((key & _MASK64) ^ ((n * 64 + c) * _SALT & _MASK64))
 
     def nxt():
         nonlocal h
@@ -99,10 +99,12 @@ def _slow(key: int, n: int, c: int, w: int) -> np.float32:
     def uniform():
         return ((nxt() >> 11) + 0.5) * 2.0 ** -53
 
+    first = True
     while True:
         z, ok = _fast(np.array([w], dtype=np.uint32))
-        if ok[0]:
+        if ok[0] and not first:
             return z[0]
+        first = False
         i = w & (LAYERS - 1)
         j = w - (1 << 32) if w >> 31 else w
         u = (2 * (j >> BITS) + 1) * 2.0 ** -22
