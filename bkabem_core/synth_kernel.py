@@ -375,7 +375,7 @@ def slip_warp_reference(m: int, j0: int, c1: float, c2: float, u_frac: float, w:
 def noise_fill(key: int, n0: int, n: int, n_channels: int, avx2: bool = True) -> np.ndarray:
     """(n, C) float32 standard normals of the noise stream ``key`` at absolute samples ``n0 .. n0 + n - 1``: what
     :func:`segment` adds with ``noise=(key, n0, sigma)`` (``_synthnoise.h``: xoshiro256++ lanes seeded per block of
-    256 samples, a 256-layer ziggurat; numpy: :func:`synth_noise.noise_reference`). ``avx2=False`` takes the scalar
+    256 samples, a 1024-layer ziggurat; numpy: :func:`synth_noise.noise_reference`). ``avx2=False`` takes the scalar
     code (the same bits). Raises RuntimeError if the kernel is not built."""
     if _FNS is None:
         raise RuntimeError("the C kernel (bkabem_core/_synthloop.c) is not built: run `pip install -e .`")
