@@ -755,7 +755,7 @@ CLONES int synth_noise_add_##SUF(int64_t n, int64_t C, T *x, uint64_t key, int64
 {                                                                                                                   \
     if (n < 0 || C < 1 || C > NOISE_MAX_C || (acc != NULL && off == NULL)) return -1;                              \
     NoiseArgs na = {key, n0, (const float *)(const void *)sigma, (const double *)(const void *)sigma, extra,\
-                   NULL, NULL, NULL, 0, 0, 0};      \
+                   NULL, NULL, NULL, 0, 0, 0, NULL};                                                        \
     for (int64_t k0 = 0, nb; k0 < n; k0 += nb) {                                                                    \
         nb = block_length(1, n - k0, n0 + k0);                                                                      \
         noise_add_block_##SUF((int)C, (int)nb, &na, n0 + k0, x + k0 * C, extra != NULL ? extra + k0 * C : NULL);   \
@@ -1381,7 +1381,7 @@ static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t na
     if (exact < 0) return NULL;
     Buf bo = {0}, ba = {0}, bb = {0}, bw = {0}, bacc = {0}, boff = {0}, bsig = {0}, bx = {0};
     PyObject *res = NULL;
-    NoiseArgs noise = {0, 0, NULL, NULL, NULL, NULL, NULL, NULL, 0, 0, 0};
+    NoiseArgs noise = {0, 0, NULL, NULL, NULL, NULL, NULL, NULL, 0, 0, 0, NULL};
     const int noisy = nargs == 16 && (args[14] != Py_None || args[15] != Py_None);
     if (noisy) {
         noise.key = (uint64_t)PyLong_AsUnsignedLongLongMask(args[12]);
