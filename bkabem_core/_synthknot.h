@@ -516,9 +516,10 @@ static PyObject *py_lines_render(PyObject *self, PyObject *const *args, Py_ssize
     const int64_t n0 = PyLong_AsLongLong(args[22]);
     if (PyErr_Occurred()) return NULL;
     Buf bta = {0}, btb = {0}, bw = {0}, bwarp = {0}, bo = {0}, bacc = {0}, boff = {0}, bdc = {0}, bsig = {0};
-    Buf bx = {0}, bfr = {0}, bwin = {0}, bgr = {0};
+    Buf bx = {0}, bfr = {0}, bwin = {0}, bgr = {0}, bsc = {0};
     PyObject *res = NULL;
-    const float *frames = NULL, *win = NULL, *extra = NULL;
+    const float *win = NULL, *extra = NULL, *floor_scale = NULL;
+    const int16_t *frames = NULL;
     const int64_t *grains = NULL;
     int64_t n_grains = 0, half = 1, frame_length = 2;
     if (!buf_take(args[9], &bta, "ta", "f", 1, 0) || !buf_take(args[17], &bo, "out", "f", 2, 1)
@@ -558,16 +559,19 @@ static PyObject *py_lines_render(PyObject *self, PyObject *const *args, Py_ssize
         }
     }
     PyObject *ex = args[24];
-    if (PyTuple_Check(ex)) {                                /* the floor's source: (frames, window, grains, half) */
-        if (PyTuple_GET_SIZE(ex) != 4 || !buf_take(PyTuple_GET_ITEM(ex, 0), &bfr, "frames", "f", 3, 0)
+    if (PyTuple_Check(ex)) {                   /* the floor's source: (frames int16, window, grains, half, scale) */
+        if (PyTuple_GET_SIZE(ex) != 5 || !buf_take(PyTuple_GET_ITEM(ex, 0), &bfr, "frames", "h", 3, 0)
             || !buf_take(PyTuple_GET_ITEM(ex, 1), &bwin, "window", "f", 1, 0)
-            || !buf_take(PyTuple_GET_ITEM(ex, 2), &bgr, "grains", "q", 2, 0))
+            || !buf_take(PyTuple_GET_ITEM(ex, 2), &bgr, "grains", "q", 2, 0)
+            || !buf_take(PyTuple_GET_ITEM(ex, 4), &bsc, "scale", "f", 1, 0))
             goto done;
         half = PyLong_AsLongLong(PyTuple_GET_ITEM(ex, 3));
         if (PyErr_Occurred()) goto done;
         frame_length = bfr.v.shape[1], n_grains = bgr.v.shape[0];
-        if (bfr.v.shape[2] != C || bgr.v.shape[1] != 3 || bwin.v.shape[0] < 2 * half || n0 < 0) {
-            PyErr_SetString(PyExc_ValueError, "lines_render: floor frames (F, L, C), window (2 half,), grains (G, 3)");
+        if (bfr.v.shape[2] != C || bgr.v.shape[1] != 3 || bwin.v.shape[0] < 2 * half || bsc.v.shape[0] != C
+            || n0 < 0) {
+            PyErr_SetString(PyExc_ValueError, "lines_render: floor frames (F, L, C) int16, window (2 half,), grains "
+                                              "(G, 3), scale (C,)");
             goto done;
         }
         for (int64_t g = 0; g < n_grains; ++g) {
@@ -577,7 +581,7 @@ static PyObject *py_lines_render(PyObject *self, PyObject *const *args, Py_ssize
                 goto done;
             }
         }
-        frames = bfr.v.buf, win = bwin.v.buf, grains = bgr.v.buf;
+        frames = bfr.v.buf, win = bwin.v.buf, grains = bgr.v.buf, floor_scale = bsc.v.buf;
     } else if (ex != Py_None) {
         if (!buf_take(ex, &bx, "extra", "f", 2, 0)) goto done;
         if (bx.v.shape[0] != m || bx.v.shape[1] != C) {
@@ -637,7 +641,7 @@ static PyObject *py_lines_render(PyObject *self, PyObject *const *args, Py_ssize
                                      btb.held ? btb.v.buf : NULL, warp, p->wp, p->wq, bdc.v.buf, (double)j,
                                      65536.0 / (double)length, bo.v.buf, bacc.held ? bacc.v.buf : NULL,
                                      boff.held ? boff.v.buf : NULL, key, n0, bsig.held ? bsig.v.buf : NULL, extra,
-                                     frames, win, n_grains, grains, half, frame_length);
+                                     frames, win, n_grains, grains, half, frame_length, floor_scale);
     Py_END_ALLOW_THREADS
     if (rc) {
         PyErr_SetString(PyExc_ValueError, "lines_render: the slip walk's values do not cover the segment, or the "
@@ -649,6 +653,7 @@ static PyObject *py_lines_render(PyObject *self, PyObject *const *args, Py_ssize
 done:
     buf_drop(&bta), buf_drop(&btb), buf_drop(&bw), buf_drop(&bwarp), buf_drop(&bo), buf_drop(&bacc);
     buf_drop(&boff), buf_drop(&bdc), buf_drop(&bsig), buf_drop(&bx), buf_drop(&bfr), buf_drop(&bwin), buf_drop(&bgr);
+    buf_drop(&bsc);
     return res;
 }
 

@@ -305,10 +305,11 @@ typedef struct {
     const double *sigma_d;
     const void *extra;            /* optional m x C block (out's dtype) added too, row 0 = the call's sample 0: the
                                    * broadband floor (synth_floor.py) */
-    const float *frames;          /* or (float32, the line-set kernel) the floor itself, rendered per block from its */
-    const float *win;             /* frames (F x L x C), sine window (2 S) and grains (G x 3: grain, frame, offset), */
-    const int64_t *grains;        /* as synth_floor_render: no m x C buffer written and read back */
-    int64_t n_grains, half, frame_length;
+    const int16_t *frames;        /* or (float32, the line-set kernel) the floor itself, rendered per block from its */
+    const float *win;             /* frames (F x L x C int16), sine window (2 S), grains (G x 3: grain, frame, */
+    const int64_t *grains;        /* offset) and scale per channel, as synth_floor_render: no m x C buffer written */
+    int64_t n_grains, half, frame_length;   /* and read back */
+    const float *floor_scale;
 } NoiseArgs;
 
 /* Samples of the next block: up to BLOCK, and with noise up to the next absolute multiple of BLOCK. */
@@ -337,6 +338,32 @@ static int segment_args_ok(int64_t m, int64_t C, int64_t N, int fb, const void *
 #include <immintrin.h>
 #define FMA_TARGET __attribute__((target("avx2,fma")))
 
+/* The phases of 8 consecutive samples j .. j+7 in two 4-lane uint64 vectors (ua: j .. j+3, ub: j+4 .. j+7) from the
+ * phase u and increment d of sample j, and their advance by 8 samples (U + 8 D + 28 dd, D + 8 dd): lane by lane
+ * the integers of u += d, d += dd (prologue8_fma, and the carriers of _synthrows.h). */
+typedef struct { __m256i ua, ub, da, db, dd8, dd28; } Phase8;
+static inline __attribute__((always_inline, target("avx2"))) Phase8 phase8_start(uint64_t u, uint64_t d, uint64_t dd)
+{
+    Phase8 p;
+    const __m256i ddv = _mm256_set1_epi64x((int64_t)dd);
+    p.ua = _mm256_set_epi64x((int64_t)(u + 3 * d + 3 * dd), (int64_t)(u + 2 * d + dd), (int64_t)(u + d), (int64_t)u);
+    p.da = _mm256_set_epi64x((int64_t)(d + 3 * dd), (int64_t)(d + 2 * dd), (int64_t)(d + dd), (int64_t)d);
+    /* samples 4..7: U + 4 D + 6 dd, D + 4 dd (lane by lane) */
+    p.ub = _mm256_add_epi64(_mm256_add_epi64(p.ua, _mm256_slli_epi64(p.da, 2)),
+                            _mm256_add_epi64(_mm256_slli_epi64(ddv, 2), _mm256_slli_epi64(ddv, 1)));
+    p.db = _mm256_add_epi64(p.da, _mm256_slli_epi64(ddv, 2));
+    p.dd8 = _mm256_slli_epi64(ddv, 3);
+    p.dd28 = _mm256_sub_epi64(_mm256_slli_epi64(ddv, 5), _mm256_slli_epi64(ddv, 2));
+    return p;
+}
+static inline __attribute__((always_inline, target("avx2"))) void phase8_next(Phase8 *p)
+{
+    p->ua = _mm256_add_epi64(p->ua, _mm256_add_epi64(_mm256_slli_epi64(p->da, 3), p->dd28));
+    p->ub = _mm256_add_epi64(p->ub, _mm256_add_epi64(_mm256_slli_epi64(p->db, 3), p->dd28));
+    p->da = _mm256_add_epi64(p->da, p->dd8);
+    p->db = _mm256_add_epi64(p->db, p->dd8);
+}
+
 /* The fast path (see the header): 8 float32 channels, one 256-bit vector per table row, fused multiply-adds. Phases,
  * weights and blend weights are those of the generic path (the same inline code, compiled for AVX2; no contraction,
  * so they round as there); the per-sample work is the same at every position of a block. */
@@ -354,16 +381,7 @@ static inline __attribute__((always_inline)) FMA_TARGET void prologue8_fma(
     int j = 0;
     if (nb >= 8) {
         const __m128i sh = _mm_cvtsi32_si128(fb - FRAC_BITS), sh24 = _mm_cvtsi32_si128(FRAC_BITS);
-        const __m256i ddv = _mm256_set1_epi64x((int64_t)dd);
-        __m256i Ua = _mm256_set_epi64x((int64_t)(u + 3 * d + 3 * dd), (int64_t)(u + 2 * d + dd), (int64_t)(u + d),
-                                       (int64_t)u);
-        __m256i Da = _mm256_set_epi64x((int64_t)(d + 3 * dd), (int64_t)(d + 2 * dd), (int64_t)(d + dd), (int64_t)d);
-        /* samples 4..7: U + 4 D + 6 dd, D + 4 dd (lane by lane) */
-        __m256i Ub = _mm256_add_epi64(_mm256_add_epi64(Ua, _mm256_slli_epi64(Da, 2)),
-                                      _mm256_add_epi64(_mm256_slli_epi64(ddv, 2), _mm256_slli_epi64(ddv, 1)));
-        __m256i Db = _mm256_add_epi64(Da, _mm256_slli_epi64(ddv, 2));
-        const __m256i dd8 = _mm256_slli_epi64(ddv, 3);
-        const __m256i dd28 = _mm256_sub_epi64(_mm256_slli_epi64(ddv, 5), _mm256_slli_epi64(ddv, 2));
+        Phase8 ph = phase8_start(u, d, dd);
         const __m256i idx_mask = _mm256_set1_epi32((int32_t)mask), frac_mask = _mm256_set1_epi32((int32_t)FRAC_MASK);
         const __m256 scale24 = _mm256_set1_ps(0x1p-24f), one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f);
         const __m256 half = _mm256_set1_ps(0.5f), sixth = _mm256_set1_ps((float)(1.0 / 6.0));
@@ -373,7 +391,7 @@ static inline __attribute__((always_inline)) FMA_TARGET void prologue8_fma(
         const __m256d x0 = _mm256_set1_pd(xi0);
         const __m256 level = _mm256_set1_ps((float)(1.0 / BLEND_LEVELS));
         for (; j + 8 <= nb; j += 8) {
-            __m256i va = Ua, vb = Ub;
+            __m256i va = ph.ua, vb = ph.ub;
             if (has_warp) {
                 va = _mm256_add_epi64(va, _mm256_loadu_si256((const __m256i *)(warp + j)));
                 vb = _mm256_add_epi64(vb, _mm256_loadu_si256((const __m256i *)(warp + j + 4)));
@@ -409,13 +427,10 @@ static inline __attribute__((always_inline)) FMA_TARGET void prologue8_fma(
                 const __m256i lv = _mm256_set_m128i(_mm256_cvttpd_epi32(xb), _mm256_cvttpd_epi32(xa));
                 _mm256_storeu_ps(sw + j, _mm256_mul_ps(_mm256_cvtepi32_ps(lv), level));
             }
-            Ua = _mm256_add_epi64(Ua, _mm256_add_epi64(_mm256_slli_epi64(Da, 3), dd28));
-            Ub = _mm256_add_epi64(Ub, _mm256_add_epi64(_mm256_slli_epi64(Db, 3), dd28));
-            Da = _mm256_add_epi64(Da, dd8);
-            Db = _mm256_add_epi64(Db, dd8);
+            phase8_next(&ph);
         }
-        u = (uint64_t)_mm256_extract_epi64(Ua, 0);
-        d = (uint64_t)_mm256_extract_epi64(Da, 0);
+        u = (uint64_t)_mm256_extract_epi64(ph.ua, 0);
+        d = (uint64_t)_mm256_extract_epi64(ph.da, 0);
     }
     for (; j < nb; ++j) {
         uint64_t v = u;
@@ -606,6 +621,11 @@ static void noise_add_block_##SUF(const int C, int nb, const NoiseArgs *na, int6
                                   const T *restrict extra)                                                          \
 {                                                                                                                   \
     const T *sig = sizeof(T) == 4 ? (const T *)(const void *)na->sigma_f : (const T *)(const void *)na->sigma_d;   \
+    if (sig != NULL && sizeof(T) == 4 && C == 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) {  /* fused, no buffer */     \
+        noise_add8_avx2(na->key, n, nb, (const float *)(const void *)sig, (float *)(void *)x,                      \
+                        (const float *)(const void *)extra);                                                        \
+        return;                                                                                                     \
+    }                                                                                                               \
     if (sig != NULL) {                                                                                              \
         float Z[BLOCK * NOISE_MAX_C];                                                                               \
         if (C == 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill8_avx2(na->key, n, nb, Z);                        \
@@ -735,7 +755,7 @@ CLONES int synth_noise_add_##SUF(int64_t n, int64_t C, T *x, uint64_t key, int64
 {                                                                                                                   \
     if (n < 0 || C < 1 || C > NOISE_MAX_C || (acc != NULL && off == NULL)) return -1;                              \
     NoiseArgs na = {key, n0, (const float *)(const void *)sigma, (const double *)(const void *)sigma, extra,\
-                   NULL, NULL, NULL, 0, 0, 0};      \
+                   NULL, NULL, NULL, 0, 0, 0, NULL};                                                        \
     for (int64_t k0 = 0, nb; k0 < n; k0 += nb) {                                                                    \
         nb = block_length(1, n - k0, n0 + k0);                                                                      \
         noise_add_block_##SUF((int)C, (int)nb, &na, n0 + k0, x + k0 * C, extra != NULL ? extra + k0 * C : NULL);   \
@@ -953,14 +973,15 @@ int synth_noise_fill(uint64_t key, int64_t n0, int64_t n, int64_t C, int avx2, f
 }
 
 /* The broadband floor of samples n0 .. n0 + m - 1 (synth_floor.py): overlapping grains g of 2 S samples from g S,
- * each a circular window into one of the precomputed shaped-noise frames (L x C float32 each, in frames),
+ * each a circular window into one of the precomputed shaped-noise frames (L x C int16 each, in frames, times
+ * scale[c]),
  * weighted by the sine window w(t) = sin(pi t / 2 S) (win: 2 S values), so that the two grains over any sample have
  * w^2 + w^2 = 1. G grains given as (g, frame index, offset) in grains[3 G]. out: m x C float32, written. */
-CLONES int synth_floor_render(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const float *frames,
-                       const float *win, int64_t G, const int64_t *grains, float *out)
+CLONES int synth_floor_render(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const int16_t *frames,
+                              const float *win, int64_t G, const int64_t *grains, float *out, const float *scale)
 {
-    if (m < 0 || C < 1 || S < 1 || L < 2 * S / 2 || G < 0) return -1;
-    floor_block_f32(m, C, n0, S, L, frames, win, G, grains, out);
+    if (m < 0 || C < 1 || S < 1 || L < 2 * S / 2 || G < 0 || scale == NULL) return -1;
+    floor_block_f32(m, C, n0, S, L, frames, scale, win, G, grains, out);
     return 0;
 }
 
@@ -1302,6 +1323,7 @@ static char buf_kind(const Py_buffer *v)
     if (f[0] == 'd' && f[1] == 0 && v->itemsize == 8) return 'd';
     if ((f[0] == 'q' || f[0] == 'l') && f[1] == 0 && v->itemsize == 8) return 'q';
     if (f[0] == 'Z' && f[1] == 'd' && f[2] == 0 && v->itemsize == 16) return 'Z';
+    if (f[0] == 'h' && f[1] == 0 && v->itemsize == 2) return 'h';
     return 0;
 }
 
@@ -1320,7 +1342,7 @@ static int buf_take(PyObject *o, Buf *b, const char *name, const char *kinds, in
     if (b->v.ndim != ndim || k == 0 || strchr(kinds, k) == NULL) {
         PyErr_Format(PyExc_ValueError, "%s must be a %d-d array of dtype %s (got %d-d, format %s)", name, ndim,
                      kinds[0] == 'f' ? "float32 or float64" : kinds[0] == 'd' ? "float64"
-                     : kinds[0] == 'q' ? "int64" : "complex128", b->v.ndim, b->v.format ? b->v.format : "B");
+                     : kinds[0] == 'q' ? "int64" : kinds[0] == 'h' ? "int16" : "complex128", b->v.ndim, b->v.format ? b->v.format : "B");
         return 0;
     }
     return 1;
@@ -1362,7 +1384,7 @@ static PyObject *py_segment(PyObject *self, PyObject *const *args, Py_ssize_t na
     if (exact < 0) return NULL;
     Buf bo = {0}, ba = {0}, bb = {0}, bw = {0}, bacc = {0}, boff = {0}, bsig = {0}, bx = {0};
     PyObject *res = NULL;
-    NoiseArgs noise = {0, 0, NULL, NULL, NULL, NULL, NULL, NULL, 0, 0, 0};
+    NoiseArgs noise = {0, 0, NULL, NULL, NULL, NULL, NULL, NULL, 0, 0, 0, NULL};
     const int noisy = nargs == 16 && (args[14] != Py_None || args[15] != Py_None);
     if (noisy) {
         noise.key = (uint64_t)PyLong_AsUnsignedLongLongMask(args[12]);

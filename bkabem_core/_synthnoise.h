@@ -1,35 +1,45 @@
 /*
  * Sensor noise of the synthesiser, generated inside the sample loop (included by _synthloop.c).
  *
- * Why: a noisy 0.1-s chunk of 8 channels at 51.2 kHz needs 40 960 normal numbers. The ziggurat of the previous
- * design (scalar, branchy, ~4 ns a number) took ~160-200 us per chunk, twice the rest of the synthesiser, and the
- * noise was added and its features taken in two more passes over the chunk. Here the normals come from a
- * branch-free generator that vectorises, are made per block of samples while the block is in L1, and are added
- * before the features of the block are accumulated.
+ * Why: a noisy 0.1-s chunk of 8 channels at 51.2 kHz needs 40 960 normal numbers. A scalar ziggurat (~4 ns a
+ * number) took ~160-200 us per chunk; the branch-free Box-Muller that replaced it (8 lanes of logf, sqrt, sinf, cosf
+ * polynomials) ~1 ns a number, ~40 us per chunk, still the largest kernel of a noisy run. Here the normals come
+ * from a ziggurat whose common case is 8 lanes wide: a table look-up (eight 64-bit loads from an 8-KB table that
+ * stays in L1: AVX2's gathers cost more on AMD Zen 4), one multiply and one compare per normal; the rare lanes
+ * outside their layer's rectangle (0.43 %) are finished one by one. The normals of a block are made while the
+ * block is in L1 and added (sigma z) in the same pass, before the features of the block are accumulated.
  *
  * Stream. Sample n (absolute sample index of the run) belongs to noise block b = n / NOISE_BLOCK (256 samples).
- * Block b has its own xoshiro256+ generators (Blackman & Vigna 2018), NOISE_LANES = 4 of them, seeded from
- * x = mix64(key ^ mix64(b + golden)) by 16 consecutive splitmix64 outputs (lane l word i = output 4 l + i), so a
- * value depends on (key, n, channel) only: any chunking, any segment split gives the same noise. One step of the
- * four generators makes four 64-bit words; a sample with C channels takes S = ceil(C / 8) steps (8 normals a step),
- * its channel c the normal 8 s + c' of step s = c / 8 ... in the order below.
+ * Block b has its own xoshiro256++ generators (Blackman & Vigna 2018), NOISE_LANES = 4 of them, seeded from
+ * x = mix64(key ^ mix64(b + golden)) by 16 consecutive splitmix64 outputs (lane l word i = output 4 l + i). One
+ * step of the four generators makes four 64-bit words = eight 32-bit words (32-bit word k = half k % 2 of lane
+ * k / 2, low half first: the words' order in memory); a sample with C channels takes S = ceil(C / 8) steps, its
+ * channel c the 32-bit word c % 8 of step c / 8. (xoshiro256++ and not 256+: the low bits of 256+ are weak linear
+ * bits, and here the low bits of each half pick the layer.)
  *
- * Normals (Box & Muller 1958, polar form of the Gaussian in two dimensions): from a word w,
- *     u = ((w >> 40) + 1) 2^-24 in (0, 1],   r = sqrt(-2 ln u)
- *     a = (w >> 16) & (2^24 - 1): bit 23 swap, bit 22 sign of the first, bit 21 sign of the second,
- *     x = (a & (2^21 - 1)) (pi/4) 2^-21 in [0, pi/4),   (c, s) = (cos x, sin x), swapped if the swap bit is set,
- *     z1 = +-r c, z2 = +-r s
- * i.e. an angle uniform on the circle from its octant (three random reflections of a uniform angle in [0, pi/4),
- * which the Gaussian's symmetry allows) and a radius with the Rayleigh law: two independent standard normals. The
- * 24-bit radius truncates the law at r = sqrt(2 ln 2^24) = 5.77 (a probability of 3.3e-8 beyond it for a pair), far
- * below what a float32 record of a few hours can show. Word w of lane l of step s gives channels 8 s + l (z1) and
- * 8 s + 4 + l (z2). ln, cos and sin are Cephes' single-precision polynomials (logf, sinf, cosf: relative error
- * ~1e-7 on these ranges), their Horner steps as fused multiply-adds (fmaf; 20 % of the generator's time), the
- * other operations separate, in the same order in the scalar and the AVX2 code, so both give the same bits (tested;
- * and against a numpy transcription, synth_kernel.noise_reference, to float rounding: numpy has no fused
- * multiply-add).
+ * Normals: the ziggurat of Marsaglia & Tsang (2000, "The ziggurat method for generating random variables") with
+ * 1024 layers of equal area V under f(x) = exp(-x^2 / 2) (R = 4.038849846109505 closes them; V = R f(R) +
+ * sqrt(pi/2) erfc(R / sqrt 2); x_0 = V / f(R) the base strip's width, x_1 = R, x_{i+1} from V = x_i (f(x_{i+1}) -
+ * f(x_i)), x_1024 = 0), in Doornik's (2005) form with the layer and the uniform from different bits of one word w
+ * (32 bits):
+ *     i = w & 1023,   U = (2 j + 1) 2^-22 with j = (int32) w >> 10   (U in (-1, 1), symmetric, exact in float)
+ *     fast:  |U| < r_i = x_{i+1} / x_i (float)   ->   z = U x_i (float)              (99.57 % of the words)
+ * and otherwise, in double, with uniforms from a second stream seeded by the sample and channel alone
+ * (h = mix64(key ^ (64 n + c) salt), then splitmix64: so the value still depends on (key, n, c) only, any
+ * chunking or segment split gives the same noise):
+ *     i = 0 (base strip beyond R): the tail by Marsaglia's method, a = -ln(u1) / R, b = -ln(u2) until 2 b > a^2,
+ *                                  z = +-(R + a) with the sign of U;
+ *     i > 0 (the wedge): x = U x_i, accepted if f(x_{i+1}) + u (f(x_i) - f(x_{i+1})) < f(x), z = x;
+ *     rejected: the next word of the second stream (its top 32 bits) starts again from the fast test.
+ * Exact: the law is the normal's up to the 22-bit grid of U in each layer (steps of x_i 2^-21: 2e-6 at the base
+ * edge, 4x float32's ulp there; far below what any record of sensor noise resolves) and the float rounding of r_i
+ * (a sliver of relative width 2^-24 on a layer's edge). 1024 layers and not Marsaglia's 128 or 256: the rare
+ * lanes cost ~25 ns each (log, exp, the second stream's seed), 1.5 % of them (256 layers) made the generator no
+ * faster than the Box-Muller it replaced; the table's size does not matter to loads from L1. The AVX2 code and the
+ * scalar code take the same operations, so they give the same bits (tested; and against a numpy transcription,
+ * synth_noise.noise_reference).
  *
- * Cost: ~1 ns a normal with AVX2 + FMA (8 lanes of Box-Muller; the xoshiro steps ~0.3 ns of it).
+ * Cost: ~0.7 ns a normal with AVX2 here (Zen 4; the table loads most of it), with the rare lanes; Box-Muller ~1 ns.
  */
 #ifndef BKABEM_SYNTHNOISE_H
 #define BKABEM_SYNTHNOISE_H
@@ -39,7 +49,7 @@
 #include <string.h>
 
 #define NOISE_BLOCK 256                 /* samples per seeded noise block (absolute sample index / 256) */
-#define NOISE_LANES 4                   /* xoshiro256+ generators per block, one 64-bit word each per step */
+#define NOISE_LANES 4                   /* xoshiro256++ generators per block, one 64-bit word each per step */
 #define NOISE_MAX_C 64                  /* channels a noisy call may have (the block buffer is on the stack) */
 
 static inline uint64_t noise_mix64(uint64_t z)
@@ -62,11 +72,11 @@ static inline void noise_seed(uint64_t key, uint64_t b, uint64_t s[4][NOISE_LANE
 
 static inline uint64_t noise_rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
 
-/* One step of the four xoshiro256+ generators: w[l] = s0 + s3 of lane l, then the state update. */
+/* One step of the four xoshiro256++ generators: w[l] = rotl(s0 + s3, 23) + s0 of lane l, then the state update. */
 static inline void noise_step(uint64_t s[4][NOISE_LANES], uint64_t w[NOISE_LANES])
 {
     for (int l = 0; l < NOISE_LANES; ++l) {
-        w[l] = s[0][l] + s[3][l];
+        w[l] = noise_rotl(s[0][l] + s[3][l], 23) + s[0][l];
         const uint64_t t = s[1][l] << 17;
         s[2][l] ^= s[0][l];
         s[3][l] ^= s[1][l];
@@ -77,70 +87,76 @@ static inline void noise_step(uint64_t s[4][NOISE_LANES], uint64_t w[NOISE_LANES
     }
 }
 
-/* Cephes logf for x in (0, 1] (normal floats), the operation order of the AVX2 code below. */
-static inline float noise_logf(float x)
+/* ------------------------------------------------------------------------------ the ziggurat (256 layers) */
+#define ZN_BITS 10                      /* layer bits of a word: 1024 layers, 22 bits of the uniform */
+#define ZN_LAYERS (1 << ZN_BITS)
+#define ZN_R 4.038849846109505          /* the base strip's edge (V follows from it: zn_init) */
+#define ZN_SALT UINT64_C(0xD1B54A32D192ED03)   /* odd: (64 n + c) ZN_SALT is one to one, then one mix64 */
+
+static double zn_x[ZN_LAYERS + 1], zn_f[ZN_LAYERS + 1];   /* layer edges x_i and f(x_i) */
+static float zn_xf[ZN_LAYERS], zn_rf[ZN_LAYERS];          /* the fast test's tables: x_i and x_{i+1} / x_i */
+static float zn_xr[2 * ZN_LAYERS];                        /* both, interleaved (x_i, r_i): one 64-bit load */
+
+#if defined(__GNUC__)
+__attribute__((constructor))           /* tables made when the library is loaded (no first-call race) */
+#endif
+static void zn_init(void)
 {
-    int32_t bits;
-    memcpy(&bits, &x, 4);
-    float e = (float)((bits >> 23) - 126);                              /* x = m 2^e, m in [0.5, 1) */
-    bits = (bits & 0x007FFFFF) | 0x3F000000;
-    float m;
-    memcpy(&m, &bits, 4);
-    if (m < 0.707106781186547524f) {                                    /* m in [sqrt(1/2), sqrt(2)) */
-        e = e - 1.0f;
-        m = m + m;
+    double f = exp(-0.5 * ZN_R * ZN_R);
+    const double v = ZN_R * f + sqrt(2.0 * atan(1.0)) * erfc(ZN_R / sqrt(2.0));   /* the layers' area */
+    zn_x[0] = v / f;
+    zn_x[1] = ZN_R;
+    zn_f[0] = f, zn_f[1] = f;
+    for (int i = 2; i < ZN_LAYERS; ++i) {
+        zn_x[i] = sqrt(-2.0 * log(v / zn_x[i - 1] + f));
+        f = zn_f[i] = exp(-0.5 * zn_x[i] * zn_x[i]);
     }
-    m = m - 1.0f;
-    const float z = m * m;
-    float y = 7.0376836292e-2f;
-    y = fmaf(y, m, -1.1514610310e-1f);
-    y = fmaf(y, m, 1.1676998740e-1f);
-    y = fmaf(y, m, -1.2420140846e-1f);
-    y = fmaf(y, m, 1.4249322787e-1f);
-    y = fmaf(y, m, -1.6668057665e-1f);
-    y = fmaf(y, m, 2.0000714765e-1f);
-    y = fmaf(y, m, -2.4999993993e-1f);
-    y = fmaf(y, m, 3.3333331174e-1f);
-    y = y * m;
-    y = y * z;
-    y = y + e * -2.12194440e-4f;
-    y = y - z * 0.5f;
-    return (m + y) + e * 0.693359375f;
+    zn_x[ZN_LAYERS] = 0.0, zn_f[ZN_LAYERS] = 1.0;
+    for (int i = 0; i < ZN_LAYERS; ++i) {
+        zn_xf[i] = (float)zn_x[i];
+        zn_rf[i] = (float)(zn_x[i + 1] / zn_x[i]);
+        zn_xr[2 * i] = zn_xf[i], zn_xr[2 * i + 1] = zn_rf[i];
+    }
 }
 
-/* z1, z2 of one word (the header's formula), scalar. */
-static inline void noise_pair(uint64_t w, float *z1, float *z2)
+static inline uint64_t zn_next(uint64_t *h)                /* splitmix64 */
 {
-    const float u = (float)(int32_t)((w >> 40) + 1) * 0x1p-24f;
-    const int32_t a = (int32_t)((w >> 16) & 0xFFFFFF);
-    const float x = (float)(a & 0x1FFFFF) * 3.74507028e-7f;           /* (pi/4) 2^-21 */
-    const float r = sqrtf(-2.0f * noise_logf(u));
-    const float q = x * x;
-    float sn = -1.9515295891e-4f;
-    sn = fmaf(sn, q, 8.3321608736e-3f);
-    sn = fmaf(sn, q, -1.6666654611e-1f);
-    sn = sn * q; sn = sn * x; sn = sn + x;
-    float cs = 2.443315711809948e-5f;
-    cs = fmaf(cs, q, -1.388731625493765e-3f);
-    cs = fmaf(cs, q, 4.166664568298827e-2f);
-    cs = cs * q; cs = cs * q; cs = cs - q * 0.5f; cs = cs + 1.0f;
-    const int swap = (a >> 23) & 1;                                     /* selects and sign flips without branches */
-    float c = swap ? sn : cs, s = swap ? cs : sn;
-    uint32_t cb, sb;
-    memcpy(&cb, &c, 4);
-    memcpy(&sb, &s, 4);
-    cb ^= ((uint32_t)a << 9) & UINT32_C(0x80000000);
-    sb ^= ((uint32_t)a << 10) & UINT32_C(0x80000000);
-    memcpy(&c, &cb, 4);
-    memcpy(&s, &sb, 4);
-    *z1 = r * c;
-    *z2 = r * s;
+    *h += UINT64_C(0x9E3779B97F4A7C15);
+    return noise_mix64(*h);
 }
 
-/* Normals of one step's four words into z[0 .. 7] (z[l] = z1 of lane l, z[4 + l] = z2). */
-static inline void noise_step_normals(const uint64_t w[NOISE_LANES], float z[8])
+static inline double zn_uniform(uint64_t *h) { return ((double)(int64_t)(zn_next(h) >> 11) + 0.5) * 0x1p-53; }
+
+/* The fast test of word w: 1 and z if |U| < r_i. */
+static inline int zn_fast(uint32_t w, float *z)
 {
-    for (int l = 0; l < NOISE_LANES; ++l) noise_pair(w[l], z + l, z + 4 + l);
+    const int i = (int)(w & (ZN_LAYERS - 1));
+    const float u = (float)(2 * ((int32_t)w >> ZN_BITS) + 1) * 0x1p-22f;
+    *z = u * zn_xf[i];
+    return fabsf(u) < zn_rf[i];
+}
+
+/* The normal of absolute sample n, channel c whose word w failed the fast test (the header's slow cases). */
+static NOINLINE float zn_slow(uint64_t key, int64_t n, int c, uint32_t w)
+{
+    uint64_t h = noise_mix64(key ^ (((uint64_t)n * 64 + (uint64_t)c) * ZN_SALT));
+    for (int first = 1;; first = 0) {
+        float z;
+        if (!first && zn_fast(w, &z)) return z;
+        const int i = (int)(w & (ZN_LAYERS - 1));
+        const double u = (double)(2 * ((int32_t)w >> ZN_BITS) + 1) * 0x1p-22;
+        if (i == 0) {
+            double a, b;
+            do {
+                a = -log(zn_uniform(&h)) / ZN_R;
+                b = -log(zn_uniform(&h));
+            } while (b + b < a * a);
+            return (float)(u < 0.0 ? -(ZN_R + a) : ZN_R + a);
+        }
+        const double x = u * zn_x[i];
+        if (zn_f[i + 1] + zn_uniform(&h) * (zn_f[i] - zn_f[i + 1]) < exp(-0.5 * x * x)) return (float)x;
+        w = (uint32_t)(zn_next(&h) >> 32);
+    }
 }
 
 /* Normals of samples n0 .. n0 + nb - 1 (absolute indices), C channels, into Z (nb x C, row-major), scalar. */
@@ -160,11 +176,13 @@ static void noise_fill_scalar(uint64_t key, int64_t n0, int nb, int C, float *Z)
         for (int i = 0; i < cnt; ++i) {
             float *row = Z + (int64_t)(j + i) * C;
             for (int st = 0; st < S; ++st) {
-                float z[8];
                 noise_step(s, w);
-                noise_step_normals(w, z);
-                const int c0 = 8 * st, cn = C - c0 < 8 ? C - c0 : 8;
-                memcpy(row + c0, z, sizeof(float) * (size_t)cn);
+                for (int k = 0; k < 8 && 8 * st + k < C; ++k) {
+                    const uint32_t wk = (uint32_t)(w[k / 2] >> (32 * (k % 2)));
+                    float z;
+                    if (!zn_fast(wk, &z)) z = zn_slow(key, n + i, 8 * st + k, wk);
+                    row[8 * st + k] = z;
+                }
             }
         }
         j += cnt;
@@ -176,18 +194,11 @@ static void noise_fill_scalar(uint64_t key, int64_t n0, int nb, int C, float *Z)
 #define NOISE_AVX2 1
 #define NOISE_TARGET __attribute__((target("avx2,fma")))
 
-/* 8 x int32 from the low halves of two vectors of 4 x 64 bits, in order (a0 a1 a2 a3 b0 b1 b2 b3). */
-static inline __attribute__((always_inline)) NOISE_TARGET __m256i noise_pack(__m256i a, __m256i b)
-{
-    const __m256i t = _mm256_castps_si256(_mm256_shuffle_ps(_mm256_castsi256_ps(a), _mm256_castsi256_ps(b),
-                                                            _MM_SHUFFLE(2, 0, 2, 0)));
-    return _mm256_permute4x64_epi64(t, _MM_SHUFFLE(3, 1, 2, 0));
-}
-
 static inline __attribute__((always_inline)) NOISE_TARGET __m256i noise_step_avx2(__m256i *s0, __m256i *s1,
                                                                                    __m256i *s2, __m256i *s3)
 {
-    const __m256i w = _mm256_add_epi64(*s0, *s3);
+    const __m256i p = _mm256_add_epi64(*s0, *s3);
+    const __m256i w = _mm256_add_epi64(_mm256_or_si256(_mm256_slli_epi64(p, 23), _mm256_srli_epi64(p, 41)), *s0);
     const __m256i t = _mm256_slli_epi64(*s1, 17);
     *s2 = _mm256_xor_si256(*s2, *s0);
     *s3 = _mm256_xor_si256(*s3, *s1);
@@ -198,68 +209,45 @@ static inline __attribute__((always_inline)) NOISE_TARGET __m256i noise_step_avx
     return w;
 }
 
-/* Box-Muller of two steps' words (wa: sample i, wb: sample i + 1), 8 lanes, the scalar operation order: the rows
- * of the two samples (8 channels each) into za, zb. */
-static inline __attribute__((always_inline)) NOISE_TARGET void noise_bm8(__m256i wa, __m256i wb, float *za,
-                                                                          float *zb)
+/* The fast test of 8 words (zn_fast lane by lane): the 8 values and a bit mask of the lanes that failed it. */
+static inline __attribute__((always_inline)) NOISE_TARGET __m256 zn_fast8(__m256i w, int *bad)
 {
-    const __m256i one = _mm256_set1_epi64x(1);
-    const __m256i ui = noise_pack(_mm256_add_epi64(_mm256_srli_epi64(wa, 40), one),
-                                  _mm256_add_epi64(_mm256_srli_epi64(wb, 40), one));
-    const __m256i m24 = _mm256_set1_epi64x(0xFFFFFF);
-    const __m256i a = noise_pack(_mm256_and_si256(_mm256_srli_epi64(wa, 16), m24),
-                                 _mm256_and_si256(_mm256_srli_epi64(wb, 16), m24));
-    const __m256 u = _mm256_mul_ps(_mm256_cvtepi32_ps(ui), _mm256_set1_ps(0x1p-24f));
-    /* ln u (noise_logf) */
-    __m256i bits = _mm256_castps_si256(u);
-    __m256 e = _mm256_cvtepi32_ps(_mm256_sub_epi32(_mm256_srai_epi32(bits, 23), _mm256_set1_epi32(126)));
-    bits = _mm256_or_si256(_mm256_and_si256(bits, _mm256_set1_epi32(0x007FFFFF)), _mm256_set1_epi32(0x3F000000));
-    __m256 m = _mm256_castsi256_ps(bits);
-    const __m256 lt = _mm256_cmp_ps(m, _mm256_set1_ps(0.707106781186547524f), _CMP_LT_OQ);
-    e = _mm256_blendv_ps(e, _mm256_sub_ps(e, _mm256_set1_ps(1.0f)), lt);
-    m = _mm256_blendv_ps(m, _mm256_add_ps(m, m), lt);
-    m = _mm256_sub_ps(m, _mm256_set1_ps(1.0f));
-    const __m256 z = _mm256_mul_ps(m, m);
-#define NOISE_HORNER(y, x, c) y = _mm256_fmadd_ps(y, x, _mm256_set1_ps(c))
-    __m256 y = _mm256_set1_ps(7.0376836292e-2f);
-    NOISE_HORNER(y, m, -1.1514610310e-1f);
-    NOISE_HORNER(y, m, 1.1676998740e-1f);
-    NOISE_HORNER(y, m, -1.2420140846e-1f);
-    NOISE_HORNER(y, m, 1.4249322787e-1f);
-    NOISE_HORNER(y, m, -1.6668057665e-1f);
-    NOISE_HORNER(y, m, 2.0000714765e-1f);
-    NOISE_HORNER(y, m, -2.4999993993e-1f);
-    NOISE_HORNER(y, m, 3.3333331174e-1f);
-    y = _mm256_mul_ps(y, m);
-    y = _mm256_mul_ps(y, z);
-    y = _mm256_add_ps(y, _mm256_mul_ps(e, _mm256_set1_ps(-2.12194440e-4f)));
-    y = _mm256_sub_ps(y, _mm256_mul_ps(z, _mm256_set1_ps(0.5f)));
-    const __m256 ln = _mm256_add_ps(_mm256_add_ps(m, y), _mm256_mul_ps(e, _mm256_set1_ps(0.693359375f)));
-    const __m256 r = _mm256_sqrt_ps(_mm256_mul_ps(_mm256_set1_ps(-2.0f), ln));
-    /* cos, sin of the octant angle */
-    const __m256 x = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(a, _mm256_set1_epi32(0x1FFFFF))),
-                                   _mm256_set1_ps(3.74507028e-7f));
-    const __m256 q = _mm256_mul_ps(x, x);
-    __m256 sn = _mm256_set1_ps(-1.9515295891e-4f);
-    NOISE_HORNER(sn, q, 8.3321608736e-3f);
-    NOISE_HORNER(sn, q, -1.6666654611e-1f);
-    sn = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(sn, q), x), x);
-    __m256 cs = _mm256_set1_ps(2.443315711809948e-5f);
-    NOISE_HORNER(cs, q, -1.388731625493765e-3f);
-    NOISE_HORNER(cs, q, 4.166664568298827e-2f);
-    cs = _mm256_mul_ps(_mm256_mul_ps(cs, q), q);
-    cs = _mm256_add_ps(_mm256_sub_ps(cs, _mm256_mul_ps(q, _mm256_set1_ps(0.5f))), _mm256_set1_ps(1.0f));
-#undef NOISE_HORNER
-    const __m256 swap = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(a, _mm256_set1_epi32(0x800000)),
-                                                               _mm256_set1_epi32(0x800000)));
-    __m256 c = _mm256_blendv_ps(cs, sn, swap), s = _mm256_blendv_ps(sn, cs, swap);
-    /* the sign bits 22 and 21 moved to bit 31 flip the sign (xor) */
-    c = _mm256_xor_ps(c, _mm256_castsi256_ps(_mm256_and_si256(_mm256_slli_epi32(a, 9), _mm256_set1_epi32(INT32_MIN))));
-    s = _mm256_xor_ps(s, _mm256_castsi256_ps(_mm256_and_si256(_mm256_slli_epi32(a, 10), _mm256_set1_epi32(INT32_MIN))));
-    const __m256 z1 = _mm256_mul_ps(r, c), z2 = _mm256_mul_ps(r, s);
-    _mm256_storeu_ps(za, _mm256_permute2f128_ps(z1, z2, 0x20));
-    _mm256_storeu_ps(zb, _mm256_permute2f128_ps(z1, z2, 0x31));
+    const __m256i i = _mm256_and_si256(w, _mm256_set1_epi32(ZN_LAYERS - 1));
+    const __m256i j = _mm256_add_epi32(_mm256_slli_epi32(_mm256_srai_epi32(w, ZN_BITS), 1), _mm256_set1_epi32(1));
+    const __m256 u = _mm256_mul_ps(_mm256_cvtepi32_ps(j), _mm256_set1_ps(0x1p-22f));
+    /* (x_i, r_i) of the lanes as 64-bit pairs by eight scalar loads (AVX2's gathers are slower on AMD Zen) */
+    uint32_t ix[8];
+    _mm256_storeu_si256((__m256i *)ix, i);
+    const long long *xr = (const long long *)(const void *)zn_xr;
+    const __m256 g0 = _mm256_castsi256_ps(_mm256_set_epi64x(xr[ix[3]], xr[ix[2]], xr[ix[1]], xr[ix[0]]));
+    const __m256 g1 = _mm256_castsi256_ps(_mm256_set_epi64x(xr[ix[7]], xr[ix[6]], xr[ix[5]], xr[ix[4]]));
+    const __m256 x = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0x88)), 0xD8));
+    const __m256 r = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0xDD)), 0xD8));
+    const __m256 au = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), u);
+    *bad = _mm256_movemask_ps(_mm256_cmp_ps(au, r, _CMP_NLT_UQ));
+    return _mm256_mul_ps(u, x);
 }
+
+/* The slow lanes of sample n (words w, their fast values already in z) finished one by one. */
+static NOINLINE void zn_fix8(uint64_t key, int64_t n, const uint32_t *w, int bad, float *z)
+{
+    do {
+        const int k = __builtin_ctz((unsigned)bad);
+        z[k] = zn_slow(key, n, k, w[k]);
+        bad &= bad - 1;
+    } while (bad);
+}
+
+/* The generators of the block of sample n, advanced to n (for C = 8: one step per sample). */
+#define NOISE_BLOCK_START(key, n, s0, s1, s2, s3)                                                                   \
+    do {                                                                                                            \
+        const int64_t b_ = (n) / NOISE_BLOCK;                                                                       \
+        uint64_t st_[4][NOISE_LANES];                                                                               \
+        noise_seed((key), (uint64_t)b_, st_);                                                                       \
+        s0 = _mm256_loadu_si256((const __m256i *)st_[0]), s1 = _mm256_loadu_si256((const __m256i *)st_[1]);         \
+        s2 = _mm256_loadu_si256((const __m256i *)st_[2]), s3 = _mm256_loadu_si256((const __m256i *)st_[3]);         \
+        for (int64_t k_ = b_ * NOISE_BLOCK; k_ < (n); ++k_) (void)noise_step_avx2(&s0, &s1, &s2, &s3);              \
+    } while (0)
 
 /* noise_fill_scalar for C = 8 with AVX2: the same bits. */
 static NOINLINE NOISE_TARGET void noise_fill8_avx2(uint64_t key, int64_t n0, int nb, float *Z)
@@ -267,33 +255,71 @@ static NOINLINE NOISE_TARGET void noise_fill8_avx2(uint64_t key, int64_t n0, int
     int j = 0;
     while (j < nb) {
         const int64_t n = n0 + j;
-        const int64_t b = n / NOISE_BLOCK;
-        const int first = (int)(n - b * NOISE_BLOCK);
-        int cnt = NOISE_BLOCK - first;
+        int cnt = NOISE_BLOCK - (int)(n % NOISE_BLOCK);
         if (cnt > nb - j) cnt = nb - j;
-        uint64_t st[4][NOISE_LANES];
-        noise_seed(key, (uint64_t)b, st);
-        __m256i s0 = _mm256_loadu_si256((const __m256i *)st[0]), s1 = _mm256_loadu_si256((const __m256i *)st[1]);
-        __m256i s2 = _mm256_loadu_si256((const __m256i *)st[2]), s3 = _mm256_loadu_si256((const __m256i *)st[3]);
-        for (int k = 0; k < first; ++k) (void)noise_step_avx2(&s0, &s1, &s2, &s3);
-        float *zr = Z + (int64_t)j * 8;
-        int i = 0;
-        for (; i + 2 <= cnt; i += 2) {
-            const __m256i wa = noise_step_avx2(&s0, &s1, &s2, &s3);
-            const __m256i wb = noise_step_avx2(&s0, &s1, &s2, &s3);
-            noise_bm8(wa, wb, zr + 8 * i, zr + 8 * i + 8);
+        __m256i s0, s1, s2, s3;
+        NOISE_BLOCK_START(key, n, s0, s1, s2, s3);
+        /* the rare samples with a slow lane (3.4 %) are listed and finished after the loop: no call (and no
+         * spill of the generators' state) inside it */
+        int late[NOISE_BLOCK], n_late = 0;
+        uint32_t wl[NOISE_BLOCK][8];
+        for (int i = 0; i < cnt; ++i) {
+            const __m256i w = noise_step_avx2(&s0, &s1, &s2, &s3);
+            int bad;
+            _mm256_storeu_ps(Z + 8 * (j + i), zn_fast8(w, &bad));
+            if (__builtin_expect(bad != 0, 0)) {
+                _mm256_storeu_si256((__m256i *)wl[n_late], w);
+                late[n_late++] = i;
+            }
         }
-        if (i < cnt) {
-            uint64_t w[NOISE_LANES];
-            _mm256_storeu_si256((__m256i *)w, noise_step_avx2(&s0, &s1, &s2, &s3));
-            noise_step_normals(w, zr + 8 * i);
+        for (int q = 0; q < n_late; ++q) {
+            const int i = late[q];
+            int bad;
+            (void)zn_fast8(_mm256_loadu_si256((const __m256i *)wl[q]), &bad);
+            zn_fix8(key, n + i, wl[q], bad, Z + 8 * (j + i));
         }
         j += cnt;
     }
 }
+
+/* x[i][c] = (x[i][c] + sigma[c] z[i][c]) (+ extra[i][c]) for 8 float32 channels, nb samples from absolute sample
+ * n0 within one noise block: the product, then the sums (noise_add_block's order), without a buffer of normals. */
+static NOINLINE NOISE_TARGET void noise_add8_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x,
+                                                  const float *extra)
+{
+    __m256i s0, s1, s2, s3;
+    NOISE_BLOCK_START(key, n0, s0, s1, s2, s3);
+    const __m256 sig = _mm256_loadu_ps(sigma);
+    int late[NOISE_BLOCK], n_late = 0;                 /* samples with a slow lane: done after the loop */
+    uint32_t wl[NOISE_BLOCK][8];
+    for (int i = 0; i < nb; ++i) {
+        const __m256i w = noise_step_avx2(&s0, &s1, &s2, &s3);
+        int bad;
+        const __m256 z = zn_fast8(w, &bad);
+        if (__builtin_expect(bad != 0, 0)) {
+            _mm256_storeu_si256((__m256i *)wl[n_late], w);
+            late[n_late++] = i;
+            continue;
+        }
+        __m256 v = _mm256_add_ps(_mm256_loadu_ps(x + 8 * i), _mm256_mul_ps(sig, z));
+        if (extra != NULL) v = _mm256_add_ps(v, _mm256_loadu_ps(extra + 8 * i));
+        _mm256_storeu_ps(x + 8 * i, v);
+    }
+    for (int q = 0; q < n_late; ++q) {
+        const int i = late[q];
+        int bad;
+        float z[8];
+        _mm256_storeu_ps(z, zn_fast8(_mm256_loadu_si256((const __m256i *)wl[q]), &bad));
+        zn_fix8(key, n0 + i, wl[q], bad, z);
+        __m256 v = _mm256_add_ps(_mm256_loadu_ps(x + 8 * i), _mm256_mul_ps(sig, _mm256_loadu_ps(z)));
+        if (extra != NULL) v = _mm256_add_ps(v, _mm256_loadu_ps(extra + 8 * i));
+        _mm256_storeu_ps(x + 8 * i, v);
+    }
+}
 #define HAVE_NOISE_AVX2 (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
 
-/* Any C <= 8 with AVX2: the 8 normals of each sample's step, the first C kept (the same bits as the scalar code). */
+/* Any C <= 8 with AVX2: the 8 normals of each sample's step, the first C kept (the same bits as the scalar code:
+ * a slow lane's value depends on its channel only, so computing the unused ones changes nothing). */
 static void noise_fill_narrow_avx2(uint64_t key, int64_t n0, int nb, int C, float *Z)
 {
     float Z8[NOISE_BLOCK * 8];
@@ -313,6 +339,10 @@ static void noise_fill8_avx2(uint64_t key, int64_t n0, int nb, float *Z)
 static void noise_fill_narrow_avx2(uint64_t key, int64_t n0, int nb, int C, float *Z)
 {
     noise_fill_scalar(key, n0, nb, C, Z);
+}
+static void noise_add8_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x, const float *extra)
+{
+    (void)key, (void)n0, (void)nb, (void)sigma, (void)x, (void)extra;
 }
 #endif
 

@@ -23,16 +23,27 @@ vertical, Table 1 of the paper): ~5e-8 m x 1.2e8 N/m ~ 6 N RMS spread over 0-25 
 fault-library cases use 0.01 N/sqrt(Hz) (a quiet, new bearing; docs/faults.md); it is a level to set per machine,
 not a law.
 
-Realisation (the synthesiser's fast path): ``N_FRAMES`` periodic frames of ``L = 2^FRAME_BITS`` samples, each an
-exact sample of the process (complex Gaussian line amplitudes on the FFT grid f_k = k fs / L with
-E|A_k|^2 = 2 S_F^2 fs / L per input, through the receptance, one inverse FFT per frame: ~0.3 s once per
-synthesiser), and the output is an overlap of *grains*: grain g covers samples [g S, g S + 2 S), S = L / 2, reading
-frame ``2 (g mod 2) + (h_g mod 2)`` from offset ``h_g / 2 mod L`` (``h_g`` a hash of seed and g) under the sine
-window ``sin(pi t / 2 S)``. Two grains overlap at every sample, from different frames (one even, one odd grain),
-and their windows' squares add to 1, so the floor is Gaussian with the PSD above, stationary (its spectrum smeared
-by the window, ~1.6 Hz at 51.2 kHz), not periodic, seeded and a function of the absolute sample index only (any
-chunking gives the same samples; continuous: each grain fades in and out from 0). Cost per sample: two taps of 8
-channels (``synth_kernel.floor_render``), added inside the sample loop with the noise.
+Realisation (the synthesiser's fast path): ``N_FRAMES`` periodic frames of ``L = 2^FRAME_BITS`` samples, each an exact
+sample of the process (complex Gaussian line amplitudes on the FFT grid f_k = k fs / L with E|A_k|^2 =
+2 S_F^2 fs / L per input, through the receptance, one inverse FFT per frame, once per synthesiser), and the output
+is an overlap of *grains*: grain g covers samples [g S, g S + 2 S), S = L / 2, reading frame
+``2 (g mod 2) + (h_g mod 2)`` from offset ``h_g / 2 mod L`` (``h_g`` a hash of seed and g) under the sine window
+``sin(pi t / 2 S)``. Two grains overlap at every sample, from different frames (one even, one odd grain), and their
+windows' squares add to 1, so the floor is Gaussian with the PSD above (smeared by the window, ~1.5 lines),
+stationary, not periodic, seeded and a function of the absolute sample index only (any chunking gives the same
+samples; continuous: each grain fades in and out from 0). Cost per sample: two taps of 8 channels
+(``synth_kernel.floor_render``), added inside the sample loop with the noise.
+
+Storage: int16 with one scale per channel (max |x| of the frames / 32767: quantisation ~-87 dB below the floor's
+RMS, white; >= 53 dB under the floor in every third-octave band from 200 Hz to 20 kHz; float16 would give 46 dB and
+loses displacements of ~1e-9 m to underflow): 4 x 2^15 x 8 x 2 B = 2 MB read at two taps a sample, half the bytes
+of the float32 frames, whose memory traffic made the floor the largest kernel of a noisy chunk (~45 us).
+Why not shorter frames (in L2): the frames' resolution would still be enough (fs / 2^13 = 6.25 Hz, against the
+narrowest half-power bandwidth 2 zeta f of the machine's in-band modes, 33 Hz for its 23-Hz shaft mode, 83 Hz and
+more for the ~1.5 % damped modes from 2.2 kHz), but the frames are the floor's only randomness: its long-run
+spectrum is the 4 frames' periodograms, N_FRAMES x L / 2 complex amplitudes per input, and a third-octave band holds
+L / 2^15 as many of them. With 2^13 the 250-Hz band of nde_horizontal_acceleration came out 1.13 dB off the FE
+receptance (test_floor: 1 dB; a spread of ~sqrt(2 / lines) in power), so the frames keep their 2^17 lines.
 
 Units: forces N, densities N/sqrt(Hz), frequencies Hz, samples in the channels' units.
 """
@@ -58,12 +69,9 @@ def _mix64(z: int) -> int:
     return z ^ (z >> 31)
 
 
-def receptance(model, frequency_hz: np.ndarray) -> np.ndarray:
-    """(F, 8, 4) complex receptance [m/N] of the output displacements (LOCATIONS x DIRECTIONS of
-    :mod:`bkabem_core.harmonic`) to a unit force pair across each bearing and direction (de vertical, de horizontal,
-    nde vertical, nde horizontal: +1 N on the rotor node, -1 N on the housing node) at ``frequency_hz`` [Hz], of the
-    machine at standstill: the model's reduced modal basis, ``(K + i w C - w^2 M) q = P f``, by its state-space
-    eigen-decomposition (one, then a pole-residue sum at every frequency)."""
+def _state_space(model):
+    """(poles (2m,), modal outputs (8, 2m), modal inputs (2m, 4)) of the machine at standstill (the reduced modal
+    basis, ``(K + i w C - w^2 M) q = P f``): one eigen-decomposition of its state matrix."""
     basis = model.basis
     m = basis.M.shape[0]
     minv = np.linalg.inv(basis.M)
@@ -74,11 +82,20 @@ def receptance(model, frequency_hz: np.ndarray) -> np.ndarray:
     b = np.zeros((2 * m, 4))
     b[m:] = minv @ basis.inputs[:, :4]
     lam, vec = np.linalg.eig(a)
-    right = np.linalg.solve(vec, b)                                  # (2m, 4) modal inputs
-    left = basis.outputs @ vec[:m]                                   # (8, 2m) modal outputs
+    return lam, basis.outputs @ vec[:m], np.linalg.solve(vec, b)
+
+
+def receptance(model, frequency_hz: np.ndarray, state_space=None) -> np.ndarray:
+    """(F, 8, 4) complex receptance [m/N] of the output displacements (LOCATIONS x DIRECTIONS of
+    :mod:`bkabem_core.harmonic`) to a unit force pair across each bearing and direction (de vertical, de horizontal,
+    nde vertical, nde horizontal: +1 N on the rotor node, -1 N on the housing node) at ``frequency_hz`` [Hz], of the
+    machine at standstill: a pole-residue sum at every frequency (``state_space``: :func:`_state_space`, made if
+    not given)."""
+    lam, left, right = _state_space(model) if state_space is None else state_space
+    m2 = lam.size
     s = 2j * np.pi * np.asarray(frequency_hz, dtype=float)
     g = 1.0 / (s[:, None] - lam[None, :])                           # (F, 2m)
-    res = (left[:, :, None] * right[None, :, :]).transpose(1, 0, 2).reshape(2 * m, -1)   # (2m, 8 x 4)
+    res = (left[:, :, None] * right[None, :, :]).transpose(1, 0, 2).reshape(m2, -1)   # (2m, 8 x 4)
     return (g @ res).reshape(s.size, 8, 4)
 
 
@@ -104,12 +121,13 @@ class BroadbandFloor:
                  sample_rate_hz: float, seed: int, accelerometer=None, anti_alias=None):
         self.density = float(density_n_rthz)
         self.sample_rate_hz = fs = float(sample_rate_hz)
+        ss = _state_space(model)
         n = 1 << FRAME_BITS
         self.frame_length = n
         self.half = n // 2
         k = np.arange(1, n // 2)
         f = k * fs / n
-        h = np.einsum("uo,foi->fui", combination, receptance(model, f))          # (F, U, 4) [m/N]
+        h = np.einsum("uo,foi->fui", combination, receptance(model, f, ss))      # (F, U, 4) [m/N]
         gains = chain_gains(f, housing_cols, accelerometer, anti_alias, combination.shape[0])
         if gains is not None:
             h = h * gains[:, :, None]
@@ -127,12 +145,17 @@ class BroadbandFloor:
             spec = np.zeros((n, c), complex)
             spec[1:n // 2] = np.einsum("fci,fi->fc", self.transfer, a)
             frames[i] = (np.fft.ifft(spec, axis=0).real * n).astype(np.float32)
-        self.frames = frames
+        top = np.abs(frames).max(axis=(0, 1))
+        #: per channel: frames = scale * the int16 frames (max |x| -> 32767; 1 for a channel without floor)
+        self.scale = np.where(top > 0, top / 32767.0, 1.0).astype(np.float32)
+        q = np.rint(frames.astype(np.float64) / self.scale.astype(np.float64))
+        self.frames = np.clip(q, -32767, 32767).astype(np.int16)              # (N_FRAMES, L, C)
         t = np.arange(2 * self.half)
         self.window = np.sin(np.pi * t / (2 * self.half)).astype(np.float32)
         self._key = _mix64(self.seed ^ _TAG)
         self._buf = np.empty((0, c), dtype=np.float32)
         self._rows: dict = {}
+        self._last_grains = None
 
     def psd(self) -> np.ndarray:
         """(F, C) one-sided PSD of the floor at :attr:`frequency_hz` [channel unit^2 / Hz]."""
@@ -149,21 +172,29 @@ class BroadbandFloor:
         return row
 
     def grains(self, n0: int, n: int) -> np.ndarray:
-        """(G, 3) int64 (grain, frame, offset) of the grains over samples [n0, n0 + n)."""
+        """(G, 3) int64 (grain, frame, offset) of the grains over samples [n0, n0 + n) (not to be modified: the last
+        range's array is kept and returned again, a grain spans ~3 chunks, so consecutive segments mostly ask for the
+        same grains)."""
         s = self.half
-        return np.array([self._grain(g) for g in range(n0 // s - 1, (n0 + n - 1) // s + 1)], dtype=np.int64)
+        g0, g1 = n0 // s - 1, (n0 + n - 1) // s + 1
+        last = self._last_grains
+        if last is not None and last[0] == g0 and last[1] == g1:
+            return last[2]
+        arr = np.array([self._grain(g) for g in range(g0, g1)], dtype=np.int64)
+        self._last_grains = (g0, g1, arr)
+        return arr
 
     def source(self, n0: int, n: int) -> tuple:
         """What the line-set kernel needs to render samples [n0, n0 + n) itself (``synth_kernel.lines_segment``):
-        (frames, window, grains, half)."""
-        return self.frames, self.window, self.grains(n0, n), self.half
+        (frames, window, grains, half, scale)."""
+        return self.frames, self.window, self.grains(n0, n), self.half, self.scale
 
     def render(self, n0: int, n: int) -> np.ndarray:
         """(n, C) float32 floor at absolute samples n0 .. n0 + n - 1 (a view of a buffer reused by the next call)."""
         if self._buf.shape[0] < n:
             self._buf = np.empty((n, self.frames.shape[2]), dtype=np.float32)
         out = self._buf[:n]
-        synth_kernel.floor_render(n0, n, self.half, self.frames, self.window, self.grains(n0, n), out)
+        synth_kernel.floor_render(n0, n, self.half, self.frames, self.window, self.grains(n0, n), out, self.scale)
         return out
 
 

@@ -62,6 +62,7 @@ import math
 import numpy as np
 
 from .synth_features import _moment_features
+from .synth_noise import noise_reference  # noqa: F401  (the numpy transcription of the noise, used below)
 
 #: Phase units of one ball pass.
 PASS_UNITS = 1 << 62
@@ -177,9 +178,9 @@ def _load():
     fns["family_tables"] = ft
     ls = lib.synth_lines_segment_f32
     ls.argtypes = [i64, i64, i64] + [ptr] * 10 + [ctypes.c_double, ctypes.c_double, ptr, ptr, ptr,
-                                                  ctypes.c_uint64, i64, ptr, ptr, ptr, ptr, i64, ptr, i64, i64]
+                                                  ctypes.c_uint64, i64, ptr, ptr, ptr, ptr, i64, ptr, i64, i64, ptr]
     fr = lib.synth_floor_render
-    fr.argtypes = [i64, i64, i64, i64, i64, ptr, ptr, i64, ptr, ptr]
+    fr.argtypes = [i64, i64, i64, i64, i64, ptr, ptr, i64, ptr, ptr, ptr]
     fr.restype = ctypes.c_int
     fns["floor_render"] = fr
     ls.restype = ctypes.c_int
@@ -373,9 +374,9 @@ def slip_warp_reference(m: int, j0: int, c1: float, c2: float, u_frac: float, w:
 # ----------------------------------------------------------------------------------------- sensor noise
 def noise_fill(key: int, n0: int, n: int, n_channels: int, avx2: bool = True) -> np.ndarray:
     """(n, C) float32 standard normals of the noise stream ``key`` at absolute samples ``n0 .. n0 + n - 1``: what
-    :func:`segment` adds with ``noise=(key, n0, sigma)`` (``_synthnoise.h``: xoshiro256+ lanes seeded per block of
-    256 samples, Box-Muller with single-precision polynomials). ``avx2=False`` takes the scalar code (the same
-    bits). Raises RuntimeError if the kernel is not built."""
+    :func:`segment` adds with ``noise=(key, n0, sigma)`` (``_synthnoise.h``: xoshiro256++ lanes seeded per block of
+    256 samples, a 1024-layer ziggurat; numpy: :func:`synth_noise.noise_reference`). ``avx2=False`` takes the scalar
+    code (the same bits). Raises RuntimeError if the kernel is not built."""
     if _FNS is None:
         raise RuntimeError("the C kernel (bkabem_core/_synthloop.c) is not built: run `pip install -e .`")
     out = np.empty((int(n), int(n_channels)), dtype=np.float32)
@@ -401,97 +402,6 @@ def noise_add(x: np.ndarray, key: int, n0: int, sigma, off=None, acc=None, extra
           0 if extra is None else extra.ctypes.data,
           0 if off is None else _ptr(off, "off"), 0 if acc is None else _ptr(acc, "acc")):
         raise ValueError(f"synth_noise_add rejected n={n}, C={c}")
-
-
-_U64 = np.uint64
-
-
-def _noise_words_reference(key: int, block: int, steps: int) -> np.ndarray:
-    """(steps, 4) uint64 words of the four xoshiro256+ lanes of noise block ``block`` (``_synthnoise.h``)."""
-    golden = _U64(0x9E3779B97F4A7C15)
-
-    def mix(z):
-        z = _U64(z)
-        z = (z ^ (z >> _U64(30))) * _U64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> _U64(27))) * _U64(0x94D049BB133111EB)
-        return z ^ (z >> _U64(31))
-
-    with np.errstate(over="ignore"):
-        x = mix(_U64(key & _MASK64) ^ mix(_U64(block) + golden))
-        st = np.zeros((4, 4), dtype=np.uint64)
-        for lane in range(4):
-            for i in range(4):
-                x = x + golden
-                st[i, lane] = mix(x)
-        s0, s1, s2, s3 = (st[i].copy() for i in range(4))
-        out = np.empty((steps, 4), dtype=np.uint64)
-        for k in range(steps):
-            out[k] = s0 + s3
-            t = s1 << _U64(17)
-            s2 ^= s0
-            s3 ^= s1
-            s1 ^= s2
-            s0 ^= s3
-            s2 ^= t
-            s3 = (s3 << _U64(45)) | (s3 >> _U64(19))
-    return out
-
-
-def _noise_pairs_reference(w: np.ndarray):
-    """(z1, z2) float32 of words ``w`` (uint64), the operations of ``noise_pair`` in float32 (its fused
-    multiply-adds through double: the same value except where double rounding differs, ~2^-29 of them)."""
-    f = np.float32
-    u = ((w >> _U64(40)) + _U64(1)).astype(np.int32).astype(f) * f(2.0 ** -24)
-    a = ((w >> _U64(16)) & _U64(0xFFFFFF)).astype(np.int32)
-    x = (a & 0x1FFFFF).astype(f) * f(3.74507028e-7)
-    bits = u.view(np.int32)
-    e = ((bits >> 23) - 126).astype(f)
-    m = ((bits & 0x007FFFFF) | 0x3F000000).view(f)
-    lt = m < f(0.707106781186547524)
-    e = np.where(lt, e - f(1.0), e)
-    m = np.where(lt, m + m, m)
-    m = m - f(1.0)
-    z = m * m
-    def fma(a, b, c):                               # float32 fused multiply-add via double (a b exact in double)
-        return (a.astype(np.float64) * b + np.float64(f(c))).astype(f)
-
-    y = np.full_like(m, f(7.0376836292e-2))
-    for c in (-1.1514610310e-1, 1.1676998740e-1, -1.2420140846e-1, 1.4249322787e-1, -1.6668057665e-1,
-              2.0000714765e-1, -2.4999993993e-1, 3.3333331174e-1):
-        y = fma(y, m, c)
-    y = (y * m) * z
-    y = y + e * f(-2.12194440e-4)
-    y = y - z * f(0.5)
-    ln = (m + y) + e * f(0.693359375)
-    r = np.sqrt(f(-2.0) * ln)
-    q = x * x
-    sn = fma(fma(np.full_like(q, f(-1.9515295891e-4)), q, 8.3321608736e-3), q, -1.6666654611e-1)
-    sn = (sn * q) * x + x
-    cs = fma(fma(np.full_like(q, f(2.443315711809948e-5)), q, -1.388731625493765e-3), q, 4.166664568298827e-2)
-    cs = ((cs * q) * q - q * f(0.5)) + f(1.0)
-    swap = (a & 0x800000) != 0
-    c, s = np.where(swap, sn, cs), np.where(swap, cs, sn)
-    c = np.where((a & 0x400000) != 0, -c, c)
-    s = np.where((a & 0x200000) != 0, -s, s)
-    return r * c, r * s
-
-
-def noise_reference(key: int, n0: int, n: int, n_channels: int) -> np.ndarray:
-    """:func:`noise_fill` in numpy (the test's transcription of ``_synthnoise.h``; slow: a Python loop over the
-    generator steps)."""
-    c = int(n_channels)
-    steps_per_sample = (c + 7) // 8
-    out = np.empty((int(n), c), dtype=np.float32)
-    j = 0
-    while j < n:
-        b, first = divmod(n0 + j, 256)
-        cnt = min(256 - first, n - j)
-        words = _noise_words_reference(key, b, (first + cnt) * steps_per_sample)[first * steps_per_sample:]
-        z1, z2 = _noise_pairs_reference(words)                        # (cnt * S, 4) each
-        z = np.concatenate([z1, z2], axis=1).reshape(cnt, steps_per_sample * 8)
-        out[j:j + cnt] = z[:, :c]
-        j += cnt
-    return out
 
 
 #: True if the line-set kernels (family tables by FFT, one call per segment over all families) are built.
@@ -523,16 +433,16 @@ def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, wa
     phase ``wp`` and carrier ``wq`` (-1: none), ``dc`` (C,) float32 static part, ``out`` (m, C) written; ``acc``/
     ``off`` the features, ``noise`` (key, n0, sigma float32[, extra]) as :func:`segment`; ``extra`` an (m, C)
     float32 block added with the noise, or the broadband floor itself as :meth:`synth_floor.BroadbandFloor.source`
-    ``(frames, window, grains, half)``, rendered per block inside the pass (the same samples as
+    ``(frames, window, grains, half, scale)``, rendered per block inside the pass (the same samples as
     :func:`floor_render`, without the chunk-sized buffer)."""
     C = out.shape[1]
     key, n0, sigma, *extra = noise if noise is not None else (0, 0, None)
     extra = extra[0] if extra else None
-    floor = (0, 0, 0, 0, 1, 2)
+    floor = (0, 0, 0, 0, 1, 2, 0)
     if isinstance(extra, tuple):
-        frames, window, grains, half = extra
+        frames, window, grains, half, scale = extra
         floor = (_ptr(frames, "frames"), _ptr(window, "window"), len(grains), _ptr(grains, "grains"), int(half),
-                 frames.shape[1])
+                 frames.shape[1], _ptr(scale, "scale"))
         extra = None
     fixed = plan.get("_addresses")
     if fixed is None:                               # the plan's arrays do not change: their addresses once
@@ -548,15 +458,17 @@ def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, wa
 
 
 def floor_render(n0: int, m: int, half: int, frames: np.ndarray, window: np.ndarray, grains: np.ndarray,
-                 out: np.ndarray) -> None:
+                 out: np.ndarray, scale: np.ndarray) -> None:
     """The broadband floor at absolute samples ``n0 .. n0 + m - 1`` into ``out`` (m, C) float32: grains (G, 3)
-    int64 (grain index g, frame, offset) over frames (F, L, C) float32, sine window (2 half,) (``synth_floor.py``),
-    in C when built, else in numpy."""
+    int64 (grain index g, frame, offset) over frames (F, L, C) int16 times ``scale`` (C,) float32 per channel, sine
+    window (2 half,) (``synth_floor.py``), in C when built, else in numpy (the same operations)."""
+    if frames.dtype != np.int16 or scale.dtype != np.float32 or scale.shape != (frames.shape[2],):
+        raise ValueError("floor_render: frames must be int16 (F, L, C) and scale float32 (C,)")
     fn = _FNS.get("floor_render") if _FNS is not None else None
     n_l, c = frames.shape[1], frames.shape[2]
     if fn is not None:
         if fn(int(m), c, int(n0), int(half), n_l, frames.ctypes.data, window.ctypes.data, len(grains),
-              grains.ctypes.data, _ptr(out, "out")):
+              grains.ctypes.data, _ptr(out, "out"), scale.ctypes.data):
             raise ValueError("synth_floor_render rejected its arguments")
         return
     out[...] = 0.0
@@ -564,7 +476,8 @@ def floor_render(n0: int, m: int, half: int, frames: np.ndarray, window: np.ndar
         lo, hi = max(g * half, n0), min(g * half + 2 * half, n0 + m)
         if hi > lo:
             t = np.arange(lo - g * half, hi - g * half)
-            out[lo - n0:hi - n0] += window[t][:, None] * frames[fr][(t + off) % n_l]
+            out[lo - n0:hi - n0] += window[t][:, None] * frames[fr][(t + off) % n_l].astype(np.float32)
+    out *= scale
 
 
 def carrier_mix(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:

@@ -106,3 +106,26 @@ def test_a_new_seed_after_reset_gives_the_new_seeds_floor(healthy):
     fresh = _run(healthy, 0.3, seed=9)[0]
     assert np.array_equal(reused, fresh)
     assert not np.array_equal(fresh, _run(healthy, 0.3, seed=5)[0])
+
+
+def test_int16_frames_and_the_c_render_equal_the_numpy_render(healthy, monkeypatch):
+    """The frames are int16 with a scale per channel (half the bytes of float32: the render is bound by memory);
+    their quantisation is below 1/32767 of each channel's largest value, and the C render (any split) equals the
+    numpy fallback's operations bit for bit."""
+    from bkabem_core import synth_kernel
+
+    s = Synthesizer(healthy, sample_rate_hz=FS, chunk_s=0.1, seed=5, features=False, broadband_floor=True)
+    fl = s._floor_source()
+    assert fl.frames.dtype == np.int16 and fl.scale.dtype == np.float32
+    assert np.abs(fl.frames).max(axis=(0, 1)).min() == 32767        # every channel uses the whole range
+    n0, n = 3 * fl.half - 1000, 9000                                 # across grain borders
+    c_out = fl.render(n0, n).copy()
+    parts = np.concatenate([fl.render(n0, 4001).copy(), fl.render(n0 + 4001, n - 4001).copy()])
+    np.testing.assert_array_equal(parts, c_out)
+    monkeypatch.setattr(synth_kernel, "_FNS", {k: v for k, v in synth_kernel._FNS.items() if k != "floor_render"})
+    ref = np.empty_like(c_out)
+    synth_kernel.floor_render(n0, n, fl.half, fl.frames, fl.window, fl.grains(n0, n), ref, fl.scale)
+    np.testing.assert_array_equal(c_out, ref)
+    rms = c_out.std(axis=0)
+    # two grains overlap: |w1 f1 + w2 f2| <= (w1 + w2) max|f| <= sqrt(2) max|f|
+    assert np.all(rms > 0) and np.all(np.abs(c_out).max(axis=0) <= 32767 * fl.scale * 1.4143)
