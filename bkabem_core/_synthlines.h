@@ -19,6 +19,8 @@
  * carrier family cos and sin of its carrier phase (+ slip) from 24 bits of the turn: octant, then Cephes' sinf /
  * cosf polynomials on [0, pi/4] (error ~1e-7), so x += cos(2 pi phi_q) Re G - sin(2 pi phi_q) Im G; then the
  * static part, the noise and the features of the block. Float32, any C (the channel loops are unrolled for C = 8).
+ * With 8 channels and AVX2 + FMA, families of one phase share the rows and weights and the carriers' cos / sin are
+ * 8 samples at a time (_synthrows.h).
  */
 #ifndef BKABEM_SYNTHLINES_H
 #define BKABEM_SYNTHLINES_H
@@ -30,27 +32,56 @@
  * fallback round alike). Why int16: 4 frames of 2^13 x 8 are 512 KB and stay in L2 (the float32 frames of 2^15
  * were 4 MB and made this the largest kernel of a noisy chunk, bound by memory). */
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
-/* o[i][c] += w[i] (float) src[i][c] for 8 channels: one 128-bit load of the 8 int16 taps, widened (the vectoriser's
- * own code for the loop below shuffled the window's broadcast and the taps through ~10 permutes a sample). */
-static NOINLINE __attribute__((target("avx2"))) void floor_run8_avx2(int64_t run, const int16_t *restrict src,
-                                                                     const float *restrict w, float *restrict o)
+/* The floor of m samples from n0 for 8 channels with AVX2, both grains of a sample in one pass: out = (w_1 f_1 +
+ * w_2 f_2) scale, the older grain first (floor_block_f32's value: 0 + a is a), each int16 tap one 128-bit load,
+ * widened; no zeroing pass, no second pass over out, no scale pass. Pieces between grain borders and frame ends
+ * (where a source wraps) have two contiguous sources. Needs the grains of floor(n0 / S) - 1 .. consecutive from
+ * grains[0]; returns 0 if they are not (then the generic loop runs). */
+static NOINLINE __attribute__((target("avx2"))) int floor_pair8_avx2(int64_t m, int64_t n0, int64_t S, int64_t L,
+                                                                     const int16_t *frames, const float *scale,
+                                                                     const float *win, int64_t G,
+                                                                     const int64_t *grains, float *out)
 {
-    for (int64_t i = 0; i < run; ++i) {
-        const __m256 f = _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128((const __m128i *)(src + 8 * i))));
-        _mm256_storeu_ps(o + 8 * i, _mm256_add_ps(_mm256_loadu_ps(o + 8 * i),
-                                                  _mm256_mul_ps(_mm256_broadcast_ss(w + i), f)));
+    const __m256 sc = _mm256_loadu_ps(scale);
+    for (int64_t lo = n0; lo < n0 + m;) {
+        const int64_t g2 = lo / S, g1 = g2 - 1, q1 = g1 - grains[0];
+        if (q1 < 0 || q1 + 1 >= G || grains[3 * q1] != g1 || grains[3 * q1 + 3] != g2) return 0;
+        const int64_t t1 = lo - g1 * S, t2 = lo - g2 * S;
+        const int64_t s1 = (t1 + grains[3 * q1 + 2]) % L, s2 = (t2 + grains[3 * q1 + 5]) % L;
+        int64_t run = n0 + m - lo;
+        if (run > (g2 + 1) * S - lo) run = (g2 + 1) * S - lo;          /* the next grain border */
+        if (run > L - s1) run = L - s1;
+        if (run > L - s2) run = L - s2;
+        const int16_t *f1 = frames + (grains[3 * q1 + 1] * L + s1) * 8, *f2 = frames + (grains[3 * q1 + 4] * L + s2) * 8;
+        const float *w1 = win + t1, *w2 = win + t2;
+        float *o = out + (lo - n0) * 8;
+        for (int64_t i = 0; i < run; ++i) {
+            const __m256 a = _mm256_mul_ps(_mm256_broadcast_ss(w1 + i),
+                                           _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128((const __m128i *)(f1 + 8 * i)))));
+            const __m256 b = _mm256_mul_ps(_mm256_broadcast_ss(w2 + i),
+                                           _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128((const __m128i *)(f2 + 8 * i)))));
+            _mm256_storeu_ps(o + 8 * i, _mm256_mul_ps(_mm256_add_ps(a, b), sc));
+        }
+        lo += run;
     }
+    return 1;
 }
 #define FLOOR8_AVX2 (isa_cap >= 1 && __builtin_cpu_supports("avx2"))
 #else
 #define FLOOR8_AVX2 0
-static void floor_run8_avx2(int64_t run, const int16_t *src, const float *w, float *o) { (void)run, (void)src, (void)w, (void)o; }
+static int floor_pair8_avx2(int64_t m, int64_t n0, int64_t S, int64_t L, const int16_t *frames, const float *scale,
+                            const float *win, int64_t G, const int64_t *grains, float *out)
+{
+    (void)m, (void)n0, (void)S, (void)L, (void)frames, (void)scale, (void)win, (void)G, (void)grains, (void)out;
+    return 0;
+}
 #endif
 
 static CLONES void floor_block_f32(int64_t m, int64_t C, int64_t n0, int64_t S, int64_t L, const int16_t *frames,
                                    const float *scale, const float *win, int64_t G, const int64_t *grains,
                                    float *out)
 {
+    if (C == 8 && FLOOR8_AVX2 && G > 0 && floor_pair8_avx2(m, n0, S, L, frames, scale, win, G, grains, out)) return;
     memset(out, 0, sizeof(float) * (size_t)(m * C));
     for (int64_t q = 0; q < G; ++q) {
         const int64_t g = grains[3 * q], fr = grains[3 * q + 1], off = grains[3 * q + 2];
@@ -62,9 +93,7 @@ static CLONES void floor_block_f32(int64_t m, int64_t C, int64_t n0, int64_t S, 
             const int16_t *restrict src = F + src0 * C;
             const float *restrict w = win + t0;
             float *restrict o = out + (lo - n0) * C;
-            if (C == 8 && FLOOR8_AVX2)
-                floor_run8_avx2(run, src, w, o);
-            else if (C == 8)
+            if (C == 8)
                 for (int64_t i = 0; i < run; ++i)
                     for (int c = 0; c < 8; ++c) o[8 * i + c] += w[i] * (float)src[8 * i + c];
             else
@@ -217,65 +246,12 @@ static inline void carrier_cos_sin(uint64_t v, float *co, float *si)
 #define LINES_MAX_C 64
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
-/* One family's block for 8 float32 channels with AVX2 + FMA: rows, weights and blend weights from prologue8_fma
- * (the order path's, so a family's phase rounds as there), the table rows and the carrier mix in 256-bit vectors,
- * added to the block accumulator blk. */
-static NOINLINE FMA_TARGET void lines_family8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd,
-                                                 const int64_t *w, int fb, uint64_t mask, double xi0,
-                                                 double blend_scale, const float *A, const float *B, int64_t NT,
-                                                 int car, const float *CQ, const float *SQ, float *blk)
-{
-    int32_t idx[BLOCK];
-    float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK];
-    const int blend = B != NULL;
-    if (w != NULL) {
-        if (blend) prologue8_fma(1, 1, nb, k0, u, d, dd, w, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
-        else prologue8_fma(1, 0, nb, k0, u, d, dd, w, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
-    } else {
-        if (blend) prologue8_fma(0, 1, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
-        else prologue8_fma(0, 0, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
-    }
-#define LINES_TAP(T, r, w0, w1, w2, w3)                                                                            \
-    _mm256_fmadd_ps(w3, _mm256_loadu_ps((T) + (r) + 24),                                                            \
-                    _mm256_fmadd_ps(w2, _mm256_loadu_ps((T) + (r) + 16),                                            \
-                                    _mm256_fmadd_ps(w1, _mm256_loadu_ps((T) + (r) + 8),                             \
-                                                    _mm256_mul_ps(w0, _mm256_loadu_ps((T) + (r))))))
-    for (int j = 0; j < nb; ++j) {
-        const int64_t r = (int64_t)idx[j] * 8;
-        const __m256 w0 = _mm256_broadcast_ss(W0 + j), w1 = _mm256_broadcast_ss(W1 + j);
-        const __m256 w2 = _mm256_broadcast_ss(W2 + j), w3 = _mm256_broadcast_ss(W3 + j);
-        __m256 v = LINES_TAP(A, r, w0, w1, w2, w3);
-        if (blend) {
-            const __m256 s = _mm256_broadcast_ss(sw + j);
-            v = _mm256_fmadd_ps(s, _mm256_sub_ps(LINES_TAP(B, r, w0, w1, w2, w3), v), v);
-        }
-        __m256 o = _mm256_loadu_ps(blk + 8 * j);
-        if (!car) {
-            _mm256_storeu_ps(blk + 8 * j, _mm256_add_ps(o, v));
-            continue;
-        }
-        __m256 g = LINES_TAP(A + NT, r, w0, w1, w2, w3);
-        if (blend) {
-            const __m256 s = _mm256_broadcast_ss(sw + j);
-            g = _mm256_fmadd_ps(s, _mm256_sub_ps(LINES_TAP(B + NT, r, w0, w1, w2, w3), g), g);
-        }
-        o = _mm256_fmadd_ps(_mm256_broadcast_ss(CQ + j), v, o);
-        o = _mm256_fnmadd_ps(_mm256_broadcast_ss(SQ + j), g, o);
-        _mm256_storeu_ps(blk + 8 * j, o);
-    }
-#undef LINES_TAP
-}
 #define HAVE_LINES8 HAVE_FMA_PATH
 #else
 #define HAVE_LINES8 0
-static void lines_family8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd, const int64_t *w, int fb,
-                              uint64_t mask, double xi0, double blend_scale, const float *A, const float *B,
-                              int64_t NT, int car, const float *CQ, const float *SQ, float *blk)
-{
-    (void)nb, (void)k0, (void)u, (void)d, (void)dd, (void)w, (void)fb, (void)mask, (void)xi0, (void)blend_scale;
-    (void)A, (void)B, (void)NT, (void)car, (void)CQ, (void)SQ, (void)blk;
-}
 #endif
+
+#include "_synthrows.h"
 
 static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
                                     const int64_t *carrier, const int64_t *off_t, const float *ta, const float *tb,
@@ -294,6 +270,9 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
         if (lg[f] < 6 || lg[f] > 16) return -1;
     }
     const int noise = na != NULL;
+    const int fast = C == 8 && isa_cap >= 1 && HAVE_LINES8 && HAVE_GROUP8;
+    int gstart[65], gmember[64];
+    const int n_groups = fast ? lines_groups(F, phases, lg, wp, gstart, gmember) : 0;
     for (int64_t k0 = 0, nbl; k0 < m; k0 += nbl) {
         nbl = block_length(noise, m - k0, noise ? na->n0 + k0 : 0);
         const int nb = (int)nbl;
@@ -304,17 +283,38 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             for (int j = 0; j < nb; ++j)
                 for (int c = 0; c < C; ++c) blk[(int64_t)j * C + c] = dc[c];
         const int blend = tb != NULL;
-        const int fast = C == 8 && isa_cap >= 1 && HAVE_LINES8;
+        for (int q = 0; q < n_groups; ++q) {                       /* the fast path: groups of one phase */
+            const int nf = gstart[q + 1] - gstart[q], *mem = gmember + gstart[q];
+            const int64_t f0 = mem[0];
+            float CQg[GROUP_MAX][BLOCK], SQg[GROUP_MAX][BLOCK];
+            const float *A[GROUP_MAX], *Bt[GROUP_MAX];
+            int64_t NTg[GROUP_MAX];
+            int carg[GROUP_MAX];
+            for (int k = 0; k < nf; ++k) {
+                const int64_t f = mem[k];
+                A[k] = ta + off_t[f], Bt[k] = blend ? tb + off_t[f] : NULL;
+                NTg[k] = ((int64_t)1 << lg[f]) * C + 3 * C;
+                carg[k] = (int)carrier[f];
+                if (carg[k])
+                    carrier8_avx2(nb, &st[f][2], &st[f][3], phases[6 * f + 5], wq[f] >= 0 ? warp + wq[f] * m + k0 : NULL,
+                                  CQg[k], SQg[k]);
+            }
+            lines_group8_fma(nb, k0, &st[f0][0], &st[f0][1], phases[6 * f0 + 2],
+                             wp[f0] >= 0 ? warp + wp[f0] * m + k0 : NULL, 62 - (int)lg[f0],
+                             ((uint64_t)1 << lg[f0]) - 1, xi0, blend_scale, nf, A, blend ? Bt : NULL, NTg, carg, CQg,
+                             SQg, blk);
+            for (int k = 1; k < nf; ++k) st[mem[k]][0] = st[f0][0], st[mem[k]][1] = st[f0][1];
+        }
         if (blend && !fast) {
             float *restrict swp = sw;
             for (int j = 0; j < nb; ++j) swp[j] = (float)blend_weight(((double)(k0 + j) + xi0) * blend_scale);
         }
-        for (int64_t f = 0; f < F; ++f) {
+        for (int64_t f = 0; f < (fast ? 0 : F); ++f) {          /* the generic path: one family at a time */
             const int fb = 62 - (int)lg[f];
             const uint64_t mask = ((uint64_t)1 << lg[f]) - 1;
             const int64_t *w = wp[f] >= 0 ? warp + wp[f] * m + k0 : NULL;
             const int car = (int)carrier[f];
-            if (!fast) {
+            {
                 if (w) phase_block(1, nb, &st[f][0], &st[f][1], phases[6 * f + 2], w, fb, mask, idx, frac);
                 else phase_block(0, nb, &st[f][0], &st[f][1], phases[6 * f + 2], NULL, fb, mask, idx, frac);
                 WEIGHT_BLOCK(float)
@@ -331,10 +331,7 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             }
             const int64_t NT = ((int64_t)1 << lg[f]) * C + 3 * C;        /* floats of one table */
             const float *A = ta + off_t[f], *B = blend ? tb + off_t[f] : NULL;
-            if (fast)
-                lines_family8_fma(nb, k0, &st[f][0], &st[f][1], phases[6 * f + 2], w, fb, mask, xi0, blend_scale, A,
-                                  B, NT, car, CQ, SQ, blk);
-            else if (C == 8) LINES_ROWS(8);
+            if (C == 8) LINES_ROWS(8);
             else LINES_ROWS(C);
         }
         if (noise) {

@@ -338,6 +338,32 @@ static int segment_args_ok(int64_t m, int64_t C, int64_t N, int fb, const void *
 #include <immintrin.h>
 #define FMA_TARGET __attribute__((target("avx2,fma")))
 
+/* The phases of 8 consecutive samples j .. j+7 in two 4-lane uint64 vectors (ua: j .. j+3, ub: j+4 .. j+7) from the
+ * phase u and increment d of sample j, and their advance by 8 samples (U + 8 D + 28 dd, D + 8 dd): lane by lane
+ * the integers of u += d, d += dd (prologue8_fma, and the carriers of _synthrows.h). */
+typedef struct { __m256i ua, ub, da, db, dd8, dd28; } Phase8;
+static inline __attribute__((always_inline, target("avx2"))) Phase8 phase8_start(uint64_t u, uint64_t d, uint64_t dd)
+{
+    Phase8 p;
+    const __m256i ddv = _mm256_set1_epi64x((int64_t)dd);
+    p.ua = _mm256_set_epi64x((int64_t)(u + 3 * d + 3 * dd), (int64_t)(u + 2 * d + dd), (int64_t)(u + d), (int64_t)u);
+    p.da = _mm256_set_epi64x((int64_t)(d + 3 * dd), (int64_t)(d + 2 * dd), (int64_t)(d + dd), (int64_t)d);
+    /* samples 4..7: U + 4 D + 6 dd, D + 4 dd (lane by lane) */
+    p.ub = _mm256_add_epi64(_mm256_add_epi64(p.ua, _mm256_slli_epi64(p.da, 2)),
+                            _mm256_add_epi64(_mm256_slli_epi64(ddv, 2), _mm256_slli_epi64(ddv, 1)));
+    p.db = _mm256_add_epi64(p.da, _mm256_slli_epi64(ddv, 2));
+    p.dd8 = _mm256_slli_epi64(ddv, 3);
+    p.dd28 = _mm256_sub_epi64(_mm256_slli_epi64(ddv, 5), _mm256_slli_epi64(ddv, 2));
+    return p;
+}
+static inline __attribute__((always_inline, target("avx2"))) void phase8_next(Phase8 *p)
+{
+    p->ua = _mm256_add_epi64(p->ua, _mm256_add_epi64(_mm256_slli_epi64(p->da, 3), p->dd28));
+    p->ub = _mm256_add_epi64(p->ub, _mm256_add_epi64(_mm256_slli_epi64(p->db, 3), p->dd28));
+    p->da = _mm256_add_epi64(p->da, p->dd8);
+    p->db = _mm256_add_epi64(p->db, p->dd8);
+}
+
 /* The fast path (see the header): 8 float32 channels, one 256-bit vector per table row, fused multiply-adds. Phases,
  * weights and blend weights are those of the generic path (the same inline code, compiled for AVX2; no contraction,
  * so they round as there); the per-sample work is the same at every position of a block. */
@@ -355,16 +381,7 @@ static inline __attribute__((always_inline)) FMA_TARGET void prologue8_fma(
     int j = 0;
     if (nb >= 8) {
         const __m128i sh = _mm_cvtsi32_si128(fb - FRAC_BITS), sh24 = _mm_cvtsi32_si128(FRAC_BITS);
-        const __m256i ddv = _mm256_set1_epi64x((int64_t)dd);
-        __m256i Ua = _mm256_set_epi64x((int64_t)(u + 3 * d + 3 * dd), (int64_t)(u + 2 * d + dd), (int64_t)(u + d),
-                                       (int64_t)u);
-        __m256i Da = _mm256_set_epi64x((int64_t)(d + 3 * dd), (int64_t)(d + 2 * dd), (int64_t)(d + dd), (int64_t)d);
-        /* samples 4..7: U + 4 D + 6 dd, D + 4 dd (lane by lane) */
-        __m256i Ub = _mm256_add_epi64(_mm256_add_epi64(Ua, _mm256_slli_epi64(Da, 2)),
-                                      _mm256_add_epi64(_mm256_slli_epi64(ddv, 2), _mm256_slli_epi64(ddv, 1)));
-        __m256i Db = _mm256_add_epi64(Da, _mm256_slli_epi64(ddv, 2));
-        const __m256i dd8 = _mm256_slli_epi64(ddv, 3);
-        const __m256i dd28 = _mm256_sub_epi64(_mm256_slli_epi64(ddv, 5), _mm256_slli_epi64(ddv, 2));
+        Phase8 ph = phase8_start(u, d, dd);
         const __m256i idx_mask = _mm256_set1_epi32((int32_t)mask), frac_mask = _mm256_set1_epi32((int32_t)FRAC_MASK);
         const __m256 scale24 = _mm256_set1_ps(0x1p-24f), one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f);
         const __m256 half = _mm256_set1_ps(0.5f), sixth = _mm256_set1_ps((float)(1.0 / 6.0));
@@ -374,7 +391,7 @@ static inline __attribute__((always_inline)) FMA_TARGET void prologue8_fma(
         const __m256d x0 = _mm256_set1_pd(xi0);
         const __m256 level = _mm256_set1_ps((float)(1.0 / BLEND_LEVELS));
         for (; j + 8 <= nb; j += 8) {
-            __m256i va = Ua, vb = Ub;
+            __m256i va = ph.ua, vb = ph.ub;
             if (has_warp) {
                 va = _mm256_add_epi64(va, _mm256_loadu_si256((const __m256i *)(warp + j)));
                 vb = _mm256_add_epi64(vb, _mm256_loadu_si256((const __m256i *)(warp + j + 4)));
@@ -410,13 +427,10 @@ static inline __attribute__((always_inline)) FMA_TARGET void prologue8_fma(
                 const __m256i lv = _mm256_set_m128i(_mm256_cvttpd_epi32(xb), _mm256_cvttpd_epi32(xa));
                 _mm256_storeu_ps(sw + j, _mm256_mul_ps(_mm256_cvtepi32_ps(lv), level));
             }
-            Ua = _mm256_add_epi64(Ua, _mm256_add_epi64(_mm256_slli_epi64(Da, 3), dd28));
-            Ub = _mm256_add_epi64(Ub, _mm256_add_epi64(_mm256_slli_epi64(Db, 3), dd28));
-            Da = _mm256_add_epi64(Da, dd8);
-            Db = _mm256_add_epi64(Db, dd8);
+            phase8_next(&ph);
         }
-        u = (uint64_t)_mm256_extract_epi64(Ua, 0);
-        d = (uint64_t)_mm256_extract_epi64(Da, 0);
+        u = (uint64_t)_mm256_extract_epi64(ph.ua, 0);
+        d = (uint64_t)_mm256_extract_epi64(ph.da, 0);
     }
     for (; j < nb; ++j) {
         uint64_t v = u;

@@ -258,6 +258,7 @@ class BroadbandFloor:
         self._key = _mix64(self.seed ^ _TAG)
         self._buf = np.empty((0, self.frames.shape[2]), dtype=np.float32)
         self._rows: dict = {}
+        self._last_grains = None
 
     def reseeded(self, seed: int) -> "BroadbandFloor":
         """The floor of these channels and level with another seed: this one's transfer and window (shared), new
@@ -286,9 +287,17 @@ class BroadbandFloor:
         return row
 
     def grains(self, n0: int, n: int) -> np.ndarray:
-        """(G, 3) int64 (grain, frame, offset) of the grains over samples [n0, n0 + n)."""
+        """(G, 3) int64 (grain, frame, offset) of the grains over samples [n0, n0 + n) (not to be modified: the last
+        range's array is kept and returned again, a grain spans ~3 chunks, so consecutive segments mostly ask for the
+        same grains)."""
         s = self.half
-        return np.array([self._grain(g) for g in range(n0 // s - 1, (n0 + n - 1) // s + 1)], dtype=np.int64)
+        g0, g1 = n0 // s - 1, (n0 + n - 1) // s + 1
+        last = self._last_grains
+        if last is not None and last[0] == g0 and last[1] == g1:
+            return last[2]
+        arr = np.array([self._grain(g) for g in range(g0, g1)], dtype=np.int64)
+        self._last_grains = (g0, g1, arr)
+        return arr
 
     def source(self, n0: int, n: int) -> tuple:
         """What the line-set kernel needs to render samples [n0, n0 + n) itself (``synth_kernel.lines_segment``):

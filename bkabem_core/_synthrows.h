@@ -1,0 +1,191 @@
+/*
+ * The rows of a line set's families for 8 float32 channels with AVX2 + FMA (included by _synthlines.h): families
+ * that share one phase are evaluated together, and the carriers' cos / sin are computed 8 samples at a time.
+ *
+ * Why: an inner-race line set has 6 carrier families on the one BPFI phase with one table size, a ball set 5 + 2 on
+ * the cage phase (spin carriers); one family at a time computed the same row indices and spline weights for each
+ * (prologue8_fma: ~5 operations a sample) and loaded and stored the block accumulator once per family, and the
+ * carriers' cos / sin were scalar (carrier_cos_sin: ~20 dependent operations a sample and family, ~100 us of a
+ * ball chunk). Here a group of families with the same phase (phase0, dphase0, ddphase), table size and slip row
+ * takes one prologue (rows, spline and blend weights into small arrays), then each family's taps over the block
+ * as lines_family8_fma did (fused multiply-adds). A group moves its families' contributions together, so the sum
+ * over families is in another order than the generic path's (float rounding, as the fast path's FMA already is).
+ *
+ * Carrier cos / sin (carrier8_avx2): carrier_cos_sin of _synthlines.h on 8 lanes, the same operations (separate
+ * multiplies and adds, octant from 24 bits of the turn, quadrant by swap and sign), so the same bits.
+ */
+#ifndef BKABEM_SYNTHROWS_H
+#define BKABEM_SYNTHROWS_H
+
+#define GROUP_MAX 8                             /* families per group (their carriers' cos / sin on the stack) */
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+/* cos and sin of the carrier phases u_j (+ wc[j]) of a block, u, d advanced to sample nb (carrier_cos_sin's bits). */
+static NOINLINE __attribute__((target("avx2"))) void carrier8_avx2(int nb, uint64_t *pu, uint64_t *pd, uint64_t dd,
+                                                                   const int64_t *restrict wc, float *restrict co,
+                                                                   float *restrict si)
+{
+    uint32_t q[BLOCK];
+    uint64_t u = *pu, d = *pd;
+    int j = 0;
+    if (nb >= 8) {                           /* 24 bits of the turns' fractions, 8 phases at a time (prologue8_fma) */
+        const __m256i m24 = _mm256_set1_epi64x(0xFFFFFF);
+        Phase8 ph = phase8_start(u, d, dd);
+        for (; j + 8 <= nb; j += 8) {
+            __m256i va = ph.ua, vb = ph.ub;
+            if (wc) {
+                va = _mm256_add_epi64(va, _mm256_loadu_si256((const __m256i *)(wc + j)));
+                vb = _mm256_add_epi64(vb, _mm256_loadu_si256((const __m256i *)(wc + j + 4)));
+            }
+            va = _mm256_and_si256(_mm256_srli_epi64(va, 38), m24);
+            vb = _mm256_and_si256(_mm256_srli_epi64(vb, 38), m24);
+            __m256i t = _mm256_castps_si256(_mm256_shuffle_ps(_mm256_castsi256_ps(va), _mm256_castsi256_ps(vb),
+                                                              _MM_SHUFFLE(2, 0, 2, 0)));
+            _mm256_storeu_si256((__m256i *)(q + j), _mm256_permute4x64_epi64(t, _MM_SHUFFLE(3, 1, 2, 0)));
+            phase8_next(&ph);
+        }
+        u = (uint64_t)_mm256_extract_epi64(ph.ua, 0);
+        d = (uint64_t)_mm256_extract_epi64(ph.da, 0);
+    }
+    for (; j < nb; ++j) {
+        q[j] = (uint32_t)(((u + (wc ? (uint64_t)wc[j] : 0)) >> 38) & 0xFFFFFF);
+        u += d, d += dd;
+    }
+    *pu = u, *pd = d;
+    j = 0;
+    const __m256i m21 = _mm256_set1_epi32(0x1FFFFF), one = _mm256_set1_epi32(1), full = _mm256_set1_epi32(0x200000);
+    const __m256i sign = _mm256_set1_epi32(INT32_MIN);
+    for (; j + 8 <= nb; j += 8) {
+        const __m256i qv = _mm256_loadu_si256((const __m256i *)(q + j));
+        const __m256i o = _mm256_srli_epi32(qv, 21), r = _mm256_and_si256(qv, m21);
+        const __m256i odd = _mm256_cmpeq_epi32(_mm256_and_si256(o, one), one);
+        const __m256i a = _mm256_blendv_epi8(r, _mm256_sub_epi32(full, r), odd);
+        const __m256 x = _mm256_mul_ps(_mm256_cvtepi32_ps(a), _mm256_set1_ps(3.74507028e-7f));
+        const __m256 z = _mm256_mul_ps(x, x);
+        __m256 sn = _mm256_set1_ps(-1.9515295891e-4f);
+        sn = _mm256_add_ps(_mm256_mul_ps(sn, z), _mm256_set1_ps(8.3321608736e-3f));
+        sn = _mm256_add_ps(_mm256_mul_ps(sn, z), _mm256_set1_ps(-1.6666654611e-1f));
+        sn = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(sn, z), x), x);
+        __m256 cs = _mm256_set1_ps(2.443315711809948e-5f);
+        cs = _mm256_add_ps(_mm256_mul_ps(cs, z), _mm256_set1_ps(-1.388731625493765e-3f));
+        cs = _mm256_add_ps(_mm256_mul_ps(cs, z), _mm256_set1_ps(4.166664568298827e-2f));
+        cs = _mm256_add_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_mul_ps(cs, z), z), _mm256_mul_ps(_mm256_set1_ps(0.5f), z)),
+                           _mm256_set1_ps(1.0f));
+        /* within the quadrant: (c, s) = odd octant ? (sn, cs) : (cs, sn); quadrant k = o >> 1 turns it by k pi/2:
+         * 0 (c, s), 1 (-s, c), 2 (-c, -s), 3 (s, -c): swap for odd k, cos negative for k = 1, 2, sin for k = 2, 3 */
+        const __m256 oddf = _mm256_castsi256_ps(odd);
+        const __m256 c = _mm256_blendv_ps(cs, sn, oddf), s = _mm256_blendv_ps(sn, cs, oddf);
+        const __m256i k = _mm256_srli_epi32(o, 1);
+        const __m256 kodd = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(k, one), one));
+        __m256 cv = _mm256_blendv_ps(c, s, kodd), sv = _mm256_blendv_ps(s, c, kodd);
+        const __m256i neg_c = _mm256_slli_epi32(_mm256_xor_si256(k, _mm256_srli_epi32(k, 1)), 31);
+        const __m256i neg_s = _mm256_slli_epi32(_mm256_srli_epi32(k, 1), 31);
+        cv = _mm256_xor_ps(cv, _mm256_castsi256_ps(_mm256_and_si256(neg_c, sign)));
+        sv = _mm256_xor_ps(sv, _mm256_castsi256_ps(_mm256_and_si256(neg_s, sign)));
+        _mm256_storeu_ps(co + j, cv);
+        _mm256_storeu_ps(si + j, sv);
+    }
+    for (; j < nb; ++j) carrier_cos_sin((uint64_t)q[j] << 38, co + j, si + j);
+}
+
+/* One group of nf families with one phase (u, d, dd, slip row w, table step fb / mask) for a block: rows and
+ * weights once (prologue8_fma), then per sample every family's taps (A[k], B[k] the knots' tables, NT[k] floats
+ * of one table, car[k] with its carrier's CQ[k], SQ[k]) added to the block accumulator blk in order k = 0 .. nf-1. */
+#define GROUP_TAP(T, r, w0, w1, w2, w3)                                                                             \
+    _mm256_fmadd_ps(w3, _mm256_loadu_ps((T) + (r) + 24),                                                            \
+                    _mm256_fmadd_ps(w2, _mm256_loadu_ps((T) + (r) + 16),                                            \
+                                    _mm256_fmadd_ps(w1, _mm256_loadu_ps((T) + (r) + 8),                             \
+                                                    _mm256_mul_ps(w0, _mm256_loadu_ps((T) + (r))))))
+static inline __attribute__((always_inline)) FMA_TARGET void group8_rows(
+    const int blend, const int car, int nb, const int32_t *restrict idx, const float *restrict W0,
+    const float *restrict W1, const float *restrict W2, const float *restrict W3, const float *restrict sw,
+    const float *restrict A, const float *restrict B, int64_t NT, const float *restrict CQ,
+    const float *restrict SQ, float *restrict blk)
+{
+    /* one family over the block (samples independent: the loop keeps many in flight; a loop over the families
+     * inside the sample loop chained every family's multiply-adds on one accumulator and ran ~1.5x slower) */
+    for (int j = 0; j < nb; ++j) {
+        const int64_t r = (int64_t)idx[j] * 8;
+        const __m256 w0 = _mm256_broadcast_ss(W0 + j), w1 = _mm256_broadcast_ss(W1 + j);
+        const __m256 w2 = _mm256_broadcast_ss(W2 + j), w3 = _mm256_broadcast_ss(W3 + j);
+        __m256 v = GROUP_TAP(A, r, w0, w1, w2, w3);
+        if (blend) v = _mm256_fmadd_ps(_mm256_broadcast_ss(sw + j), _mm256_sub_ps(GROUP_TAP(B, r, w0, w1, w2, w3), v), v);
+        __m256 o = _mm256_loadu_ps(blk + 8 * j);
+        if (!car) {
+            _mm256_storeu_ps(blk + 8 * j, _mm256_add_ps(o, v));
+            continue;
+        }
+        __m256 g = GROUP_TAP(A + NT, r, w0, w1, w2, w3);
+        if (blend)
+            g = _mm256_fmadd_ps(_mm256_broadcast_ss(sw + j), _mm256_sub_ps(GROUP_TAP(B + NT, r, w0, w1, w2, w3), g), g);
+        o = _mm256_fmadd_ps(_mm256_broadcast_ss(CQ + j), v, o);
+        o = _mm256_fnmadd_ps(_mm256_broadcast_ss(SQ + j), g, o);
+        _mm256_storeu_ps(blk + 8 * j, o);
+    }
+}
+#undef GROUP_TAP
+
+static NOINLINE FMA_TARGET void lines_group8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd,
+                                                const int64_t *w, int fb, uint64_t mask, double xi0,
+                                                double blend_scale, int nf, const float *const *A,
+                                                const float *const *B, const int64_t *NT, const int *car,
+                                                float (*CQ)[BLOCK], float (*SQ)[BLOCK], float *blk)
+{
+    int32_t idx[BLOCK];
+    float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK];
+    const int blend = B != NULL && B[0] != NULL;
+    if (w != NULL) {
+        if (blend) prologue8_fma(1, 1, nb, k0, u, d, dd, w, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+        else prologue8_fma(1, 0, nb, k0, u, d, dd, w, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+    } else {
+        if (blend) prologue8_fma(0, 1, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+        else prologue8_fma(0, 0, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
+    }
+    for (int k = 0; k < nf; ++k) {
+        if (blend && car[k]) group8_rows(1, 1, nb, idx, W0, W1, W2, W3, sw, A[k], B[k], NT[k], CQ[k], SQ[k], blk);
+        else if (blend) group8_rows(1, 0, nb, idx, W0, W1, W2, W3, sw, A[k], B[k], NT[k], NULL, NULL, blk);
+        else if (car[k]) group8_rows(0, 1, nb, idx, W0, W1, W2, W3, sw, A[k], NULL, NT[k], CQ[k], SQ[k], blk);
+        else group8_rows(0, 0, nb, idx, W0, W1, W2, W3, sw, A[k], NULL, NT[k], NULL, NULL, blk);
+    }
+}
+#define HAVE_GROUP8 HAVE_FMA_PATH
+#else
+#define HAVE_GROUP8 0
+static void carrier8_avx2(int nb, uint64_t *pu, uint64_t *pd, uint64_t dd, const int64_t *wc, float *co, float *si)
+{
+    (void)nb, (void)pu, (void)pd, (void)dd, (void)wc, (void)co, (void)si;
+}
+static void lines_group8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd, const int64_t *w, int fb,
+                             uint64_t mask, double xi0, double blend_scale, int nf, const float *const *A,
+                             const float *const *B, const int64_t *NT, const int *car, float (*CQ)[BLOCK],
+                             float (*SQ)[BLOCK], float *blk)
+{
+    (void)nb, (void)k0, (void)u, (void)d, (void)dd, (void)w, (void)fb, (void)mask, (void)xi0, (void)blend_scale;
+    (void)nf, (void)A, (void)B, (void)NT, (void)car, (void)CQ, (void)SQ, (void)blk;
+}
+#endif
+
+/* Groups of the families of a line set: families f and g are in one group if their phases (phase0, dphase0,
+ * ddphase), table sizes and slip rows are equal, at most GROUP_MAX a group; group q holds first[q] .. (its members
+ * in member[], in the families' order). Returns the number of groups. */
+static int lines_groups(int64_t F, const uint64_t *phases, const int64_t *lg, const int64_t *wp, int *start,
+                        int *member)
+{
+    int taken[64] = {0}, n = 0, p = 0;
+    for (int64_t f = 0; f < F; ++f) {
+        if (taken[f]) continue;
+        start[n++] = p;
+        int size = 0;
+        for (int64_t g = f; g < F && size < GROUP_MAX; ++g)
+            if (!taken[g] && lg[g] == lg[f] && wp[g] == wp[f] && phases[6 * g] == phases[6 * f]
+                && phases[6 * g + 1] == phases[6 * f + 1] && phases[6 * g + 2] == phases[6 * f + 2]) {
+                taken[g] = 1;
+                member[p++] = (int)g;
+                ++size;
+            }
+    }
+    start[n] = p;
+    return n;
+}
+
+#endif
