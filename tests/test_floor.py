@@ -181,3 +181,21 @@ def test_a_new_seed_makes_only_the_frames_and_they_are_the_definitions_bit_for_b
     q, scale = _frames_by_the_definition(fl)
     np.testing.assert_array_equal(fl.frames, q)
     np.testing.assert_array_equal(fl.scale, scale)
+
+
+def test_the_shared_transfer_goes_with_its_model():
+    """The process keeps a model's floor transfers (4-8 MB each) only while the model lives: a fleet or a data set
+    that moves on to other models does not hold the old ones' transfers."""
+    import gc
+
+    from bkabem_core.synth_floor import FloorTransfer
+
+    model = BkaBem(Case.load("motor_6010_healthy"))
+    s = Synthesizer(model, sample_rate_hz=25600.0, chunk_s=0.1, seed=3, features=False, broadband_floor=True,
+                    quantities=["acceleration"])
+    s._floor_source()
+    key = id(model)
+    assert len(FloorTransfer._shared[key]) == 1
+    del s, model
+    gc.collect()
+    assert key not in FloorTransfer._shared
