@@ -11,6 +11,8 @@ transfer     ``FloorTransfer``: standstill state space, receptance at the 2^14 -
              seed-independent, made once per model and channel set in the process
 frames       ``FloorTransfer.frames`` of a new seed: what ``Synthesizer.reset()`` with a data set's next seed costs
 whole floor  transfer + frames: what every new seed cost before the transfer was shared (the in-run reference)
+machines     ``--machines`` synthesisers of one model (8 channels, a seed each, as a fleet's machines), each with its
+             floor: wall time and traced memory per machine (run the same script of an older checkout to compare)
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import platform
 import statistics
 import sys
 import time
+import tracemalloc
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -58,9 +61,25 @@ def bench_set(model, quantities, repeat: int) -> dict:
     return {"channels": len(s.channels), "transfer_ms": 1e3 * t, "frames_ms": 1e3 * f, "whole_ms": 1e3 * (t + f)}
 
 
+def bench_machines(model, n: int) -> dict:
+    Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, seed=0, features=False)       # the model's bindings, once
+    tracemalloc.start()
+    t0 = time.perf_counter()
+    keep = []
+    for i in range(n):
+        s = Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, seed=100 + i, features=False)
+        s._floor_source()
+        keep.append(s)
+    wall = time.perf_counter() - t0
+    mem = tracemalloc.get_traced_memory()[0]
+    tracemalloc.stop()
+    return {"machines": n, "ms_each": 1e3 * wall / n, "mb_each": mem / 1e6 / n}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=7, help="seeds timed; medians are reported (default 7)")
+    ap.add_argument("--machines", type=int, default=12, help="synthesisers of one model made (default 12; 0: none)")
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
     model = BkaBem(Case.load("motor_6010_healthy"))
@@ -75,9 +94,13 @@ def main(argv=None) -> int:
             rows.append(r)
             print(f"| {name} | {r['transfer_ms']:.1f} | {r['frames_ms']:.1f} | {r['whole_ms']:.1f} | "
                   f"{r['whole_ms'] / r['frames_ms']:.1f} |", flush=True)
+        fleet = bench_machines(model, a.machines) if a.machines > 0 else None
+        if fleet:
+            print(f"\n{fleet['machines']} synthesisers of one model (8 channels, a seed each) with their floor: "
+                  f"{fleet['ms_each']:.0f} ms and {fleet['mb_each']:.1f} MB (traced) per machine")
         print(f"# load {os.getloadavg()[0]:.2f} at the end")
     if a.json:
-        Path(a.json).write_text(json.dumps({"rows": rows, "load": os.getloadavg()}, indent=1))
+        Path(a.json).write_text(json.dumps({"rows": rows, "machines": fleet, "load": os.getloadavg()}, indent=1))
     return 0
 
 
