@@ -362,8 +362,8 @@ class Synthesizer(LineSetPath, FloorPath, NoisePath):
         self._table_cache: OrderedDict = OrderedDict()
         self._slip_walk = _SlipWalk(self.slip, self.seed) if self.slip > 0 else None
         floor = getattr(self, "_floor", None)
-        if floor is not None and floor.seed != self.seed:   # a new seed (a data set's next run): a new floor
-            self._floor = None
+        if floor is not None and floor.seed != self.seed:   # a new seed (a data set's next run): its frames only
+            self._floor = floor.reseeded(self.seed)
 
     @property
     def next_sample_index(self) -> int:

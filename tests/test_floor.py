@@ -129,3 +129,73 @@ def test_int16_frames_and_the_c_render_equal_the_numpy_render(healthy, monkeypat
     rms = c_out.std(axis=0)
     # two grains overlap: |w1 f1 + w2 f2| <= (w1 + w2) max|f| <= sqrt(2) max|f|
     assert np.all(rms > 0) and np.all(np.abs(c_out).max(axis=0) <= 32767 * fl.scale * 1.4143)
+
+
+def _frames_by_the_definition(fl):
+    """The floor's int16 frames and scales as the module docstring defines them, by the first implementation: per
+    frame the seeded complex amplitudes through the transfer (einsum), the one-sided spectrum's complex inverse FFT
+    (real part), float32, then one scale per channel (max |x| / 32767) and rounding."""
+    from bkabem_core.synth_floor import _TAG, N_FRAMES
+
+    n, fs = fl.frame_length, fl.sample_rate_hz
+    t = fl.transfer
+    frames = np.empty((N_FRAMES, n, t.shape[1]), dtype=np.float32)
+    for i in range(N_FRAMES):
+        rng = np.random.default_rng(np.random.SeedSequence([fl.seed, _TAG, i]))
+        a = fl.density * np.sqrt(fs / n) * (rng.standard_normal((t.shape[0], 4))
+                                            + 1j * rng.standard_normal((t.shape[0], 4)))
+        spec = np.zeros((n, t.shape[1]), complex)
+        spec[1:n // 2] = np.einsum("fci,fi->fc", t, a)
+        frames[i] = (np.fft.ifft(spec, axis=0).real * n).astype(np.float32)
+    top = np.abs(frames).max(axis=(0, 1))
+    scale = np.where(top > 0, top / 32767.0, 1.0).astype(np.float32)
+    q = np.clip(np.rint(frames.astype(np.float64) / scale.astype(np.float64)), -32767, 32767).astype(np.int16)
+    return q, scale
+
+
+def test_a_new_seed_makes_only_the_frames_and_they_are_the_definitions_bit_for_bit(healthy):
+    """A new seed (``reset()``) reuses the seed-independent part: the transfer and window of the first floor, and
+    of any other synthesiser of that model and channel set (one per process); the frames made by the real inverse
+    FFT of the Hermitian half are those of the definition, bit for bit, so the samples of a seed do not depend on
+    whether its synthesiser is new or reused. Another rate is another transfer."""
+    s = Synthesizer(healthy, sample_rate_hz=FS, chunk_s=0.1, seed=5, features=False, broadband_floor=True)
+    first = s._floor_source()
+    s.seed = 9
+    s.reset()
+    again = s._floor_source()
+    assert again is not first and again.seed == 9 and again.path is first.path
+    other = Synthesizer(healthy, sample_rate_hz=FS, chunk_s=0.1, seed=9, features=False, broadband_floor=True)
+    fresh = other._floor_source()
+    assert fresh.path is first.path                        # shared by the process's synthesisers of the model
+    np.testing.assert_array_equal(again.frames, fresh.frames)
+    np.testing.assert_array_equal(again.scale, fresh.scale)
+    assert not np.array_equal(again.frames, first.frames)
+    for fl in (first, again):
+        q, scale = _frames_by_the_definition(fl)
+        np.testing.assert_array_equal(fl.scale, scale)
+        np.testing.assert_array_equal(fl.frames, q)
+    slow = Synthesizer(healthy, sample_rate_hz=25600.0, chunk_s=0.1, seed=9, features=False, broadband_floor=True,
+                       quantities=["acceleration"])
+    fl = slow._floor_source()
+    assert fl.path is not first.path and fl.frames.shape[2] == 4
+    q, scale = _frames_by_the_definition(fl)
+    np.testing.assert_array_equal(fl.frames, q)
+    np.testing.assert_array_equal(fl.scale, scale)
+
+
+def test_the_shared_transfer_goes_with_its_model():
+    """The process keeps a model's floor transfers (4-8 MB each) only while the model lives: a fleet or a data set
+    that moves on to other models does not hold the old ones' transfers."""
+    import gc
+
+    from bkabem_core.synth_floor import FloorTransfer
+
+    model = BkaBem(Case.load("motor_6010_healthy"))
+    s = Synthesizer(model, sample_rate_hz=25600.0, chunk_s=0.1, seed=3, features=False, broadband_floor=True,
+                    quantities=["acceleration"])
+    s._floor_source()
+    key = id(model)
+    assert len(FloorTransfer._shared[key]) == 1
+    del s, model
+    gc.collect()
+    assert key not in FloorTransfer._shared

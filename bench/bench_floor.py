@@ -1,0 +1,108 @@
+"""The broadband floor's set-up (issue 15): what a new seed costs, against what the whole floor costs.
+
+    flock /work/notes/bench.lock .venv/bin/python bench/bench_floor.py              # BENCHMARKS.md numbers
+    .venv/bin/python bench/bench_floor.py --repeat 3 --json out.json
+
+The fault library's healthy motor at 25.6 kHz with a stud accelerometer and the anti-alias filter, 4 channels
+(housing acceleration) and 8 (+ shaft-relative displacement), one core (BLAS on one thread), medians of
+``--repeat``:
+
+transfer     ``FloorTransfer``: standstill state space, receptance at the 2^14 - 1 lines, chain, transfer, window:
+             seed-independent, made once per model and channel set in the process
+frames       ``FloorTransfer.frames`` of a new seed: what ``Synthesizer.reset()`` with a data set's next seed costs
+whole floor  transfer + frames: what every new seed cost before the transfer was shared (the in-run reference)
+machines     ``--machines`` synthesisers of one model (8 channels, a seed each, as a fleet's machines), each with its
+             floor: wall time and traced memory per machine (run the same script of an older checkout to compare)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from threadpoolctl import threadpool_limits  # noqa: E402
+
+from bkabem_core.case import Case  # noqa: E402
+from bkabem_core.harmonic import BkaBem  # noqa: E402
+from bkabem_core.sensors import Accelerometer, AntiAliasFilter  # noqa: E402
+from bkabem_core.synth import Synthesizer  # noqa: E402
+from bkabem_core.synth_floor import FloorTransfer  # noqa: E402
+
+FS = 25600.0
+CHANNEL_SETS = {"acc4": ["acceleration"], "acc+disp8": ["acceleration", "displacement"]}
+
+
+def bench_set(model, quantities, repeat: int) -> dict:
+    s = Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, seed=1, features=False, quantities=quantities,
+                    accelerometer=Accelerometer.mounted("stud"), anti_alias=AntiAliasFilter.for_rate(FS))
+    args = (model, s._comb, s._cindex, s._power, s._scale, s._housing_cols, FS, s.accelerometer, s.anti_alias)
+    transfer, frames = [], []
+    for seed in range(repeat):
+        t0 = time.perf_counter()
+        path = FloorTransfer(*args)
+        t1 = time.perf_counter()
+        path.frames(s.floor_density, seed)
+        t2 = time.perf_counter()
+        transfer.append(t1 - t0)
+        frames.append(t2 - t1)
+    t, f = statistics.median(transfer), statistics.median(frames)
+    return {"channels": len(s.channels), "transfer_ms": 1e3 * t, "frames_ms": 1e3 * f, "whole_ms": 1e3 * (t + f)}
+
+
+def bench_machines(model, n: int) -> dict:
+    Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, seed=0, features=False)       # the model's bindings, once
+    tracemalloc.start()
+    t0 = time.perf_counter()
+    keep = []
+    for i in range(n):
+        s = Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, seed=100 + i, features=False)
+        s._floor_source()
+        keep.append(s)
+    wall = time.perf_counter() - t0
+    mem = tracemalloc.get_traced_memory()[0]
+    tracemalloc.stop()
+    return {"machines": n, "ms_each": 1e3 * wall / n, "mb_each": mem / 1e6 / n}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--repeat", type=int, default=7, help="seeds timed; medians are reported (default 7)")
+    ap.add_argument("--machines", type=int, default=12, help="synthesisers of one model made (default 12; 0: none)")
+    ap.add_argument("--json", default=None)
+    a = ap.parse_args(argv)
+    model = BkaBem(Case.load("motor_6010_healthy"))
+    rows = []
+    with threadpool_limits(limits=1, user_api="blas"):
+        print(f"# {platform.node()} {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+              f"load {os.getloadavg()[0]:.2f} at start; {FS:g} Hz, median of {a.repeat}")
+        print("| channels | transfer (once) [ms] | frames (per seed) [ms] | whole floor [ms] | whole / frames |")
+        print("|---|---:|---:|---:|---:|")
+        for name, quantities in CHANNEL_SETS.items():
+            r = dict(bench_set(model, quantities, a.repeat), set=name)
+            rows.append(r)
+            print(f"| {name} | {r['transfer_ms']:.1f} | {r['frames_ms']:.1f} | {r['whole_ms']:.1f} | "
+                  f"{r['whole_ms'] / r['frames_ms']:.1f} |", flush=True)
+        fleet = bench_machines(model, a.machines) if a.machines > 0 else None
+        if fleet:
+            print(f"\n{fleet['machines']} synthesisers of one model (8 channels, a seed each) with their floor: "
+                  f"{fleet['ms_each']:.0f} ms and {fleet['mb_each']:.1f} MB (traced) per machine")
+        print(f"# load {os.getloadavg()[0]:.2f} at the end")
+    if a.json:
+        Path(a.json).write_text(json.dumps({"rows": rows, "machines": fleet, "load": os.getloadavg()}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
