@@ -51,7 +51,7 @@ receptance (test_floor: 1 dB; a spread of ~sqrt(2 / lines) in power), so the fra
 
 A seed's frames (:meth:`FloorTransfer.frames`), float32 throughout: the amplitudes' normals come from the sensor
 noise's ziggurat (``_synthnoise.h``: 8 a line, the real then the imaginary parts of the four force pairs, stream
-:func:`frame_key` per seed and frame), multiplied by the complex64 transfer and summed over the pairs in one C pass
+:func:`frame_keys`, one per seed and frame), multiplied by the complex64 transfer and summed over the pairs in one C pass
 (``_synthfloor.h``), one float32 real inverse FFT (scipy.fft), then the scales and the int16 rounding in one C pass:
 ~2.5 ms a seed at 4 channels, ~4 ms at 8 (BENCHMARKS.md). Until issue 15f the normals were numpy's float64
 (``SeedSequence([seed, _TAG, frame])``) and the product, FFT and scale pass float64: ~11 and ~17 ms, a third of a
@@ -194,7 +194,7 @@ class FloorTransfer:
     def frames(self, density: float, seed: int) -> tuple:
         """(int16 frames (N_FRAMES, L, C), float32 scale per channel) of a floor of ``density`` [N/sqrt(Hz)] and
         ``seed`` (module docstring). Per frame i: the complex amplitudes of the four force pairs from the stream
-        :func:`frame_key` ``(seed, i)`` of the sensor noise's ziggurat, times the transfer and summed over the pairs
+        :func:`frame_keys` ``(seed)[i]`` of the sensor noise's ziggurat, times the transfer and summed over the pairs
         in one C pass into the Hermitian half of the spectrum (:func:`synth_kernel.floor_spectrum`, complex64), one
         float32 real inverse FFT; then one scale per channel and the int16 rounding in one C pass
         (:func:`synth_kernel.floor_quantise`)."""
@@ -206,17 +206,18 @@ class FloorTransfer:
         scale_a = 0.5 * (float(density) * math.sqrt(fs / n))
         frames = np.empty((N_FRAMES, n, c), dtype=np.float32)
         half = np.zeros((n // 2 + 1, c), np.complex64)
-        for i in range(N_FRAMES):
-            synth_kernel.floor_spectrum(frame_key(seed, i), by_input, scale_a, half[1:n // 2])
+        for i, key in enumerate(frame_keys(seed)):
+            synth_kernel.floor_spectrum(key, by_input, scale_a, half[1:n // 2])
             frames[i] = scipy.fft.irfft(half, n, axis=0, norm="forward")
         return synth_kernel.floor_quantise(frames)
 
 
-def frame_key(seed: int, i: int) -> int:
-    """The 64-bit key of the normals of frame ``i`` of a floor of ``seed`` (the sensor noise's generator,
-    ``_synthnoise.h``; another tag than the sensor noise's :func:`~bkabem_core.synth_random.noise_key`, so the two
-    streams are independent)."""
-    return int(np.random.SeedSequence([int(seed), _TAG, int(i)]).generate_state(1, np.uint64)[0])
+def frame_keys(seed: int) -> list:
+    """The 64-bit keys of the normals of the ``N_FRAMES`` frames of a floor of ``seed`` (the sensor noise's
+    generator, ``_synthnoise.h``): one ``SeedSequence([seed, _TAG])``, its first N_FRAMES words (another tag than
+    the sensor noise's :func:`~bkabem_core.synth_random.noise_key`, so the streams are independent; one sequence
+    and not one per frame: each costs ~0.15 ms)."""
+    return [int(k) for k in np.random.SeedSequence([int(seed), _TAG]).generate_state(N_FRAMES, np.uint64)]
 
 
 class BroadbandFloor:

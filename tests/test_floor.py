@@ -134,16 +134,16 @@ def test_int16_frames_and_the_c_render_equal_the_numpy_render(healthy, monkeypat
 def _frames_by_the_definition(fl):
     """The floor's frames as the module docstring defines them, in float64 by the first implementation's
     operations: per frame the complex amplitudes of the four force pairs (the frame's normals, taken from the
-    sensor noise's generator here: ``synth_kernel.noise_fill`` of ``frame_key``, 8 a line), through the transfer
+    sensor noise's generator here: ``synth_kernel.noise_fill`` of ``frame_keys``, 8 a line), through the transfer
     (einsum), the one-sided spectrum's complex inverse FFT (real part). Returns (N_FRAMES, L, C) float64."""
     from bkabem_core import synth_kernel
-    from bkabem_core.synth_floor import N_FRAMES, frame_key
+    from bkabem_core.synth_floor import N_FRAMES, frame_keys
 
     n, fs = fl.frame_length, fl.sample_rate_hz
     t = fl.transfer.astype(np.complex128)
     frames = np.empty((N_FRAMES, n, t.shape[1]))
     for i in range(N_FRAMES):
-        z = synth_kernel.noise_fill(frame_key(fl.seed, i), 0, t.shape[0], 8).astype(np.float64)
+        z = synth_kernel.noise_fill(frame_keys(fl.seed)[i], 0, t.shape[0], 8).astype(np.float64)
         a = fl.density * np.sqrt(fs / n) * (z[:, :4] + 1j * z[:, 4:])
         spec = np.zeros((n, t.shape[1]), complex)
         spec[1:n // 2] = np.einsum("fci,fi->fc", t, a)
