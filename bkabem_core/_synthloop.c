@@ -985,6 +985,8 @@ CLONES int synth_floor_render(int64_t m, int64_t C, int64_t n0, int64_t S, int64
     return 0;
 }
 
+#include "_synthfloor.h"          /* synth_floor_spectrum, synth_floor_quantise: a seed's frames */
+
 /* ------------------------------------------------------------------------------------------ sensor noise (ziggurat)
  * Standard normal numbers for the sensor noise, ~4x faster than numpy's generator here (which made noise the
  * largest cost of a noisy run). Stream: xoshiro256+ (Blackman & Vigna) seeded by splitmix64 from a 64-bit key (the

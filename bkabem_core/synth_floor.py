@@ -29,7 +29,7 @@ sample of the process (complex Gaussian line amplitudes on the FFT grid f_k = k 
 seed: :meth:`BroadbandFloor.reseeded`; the seed-independent part, state space, receptance, measurement chain,
 transfer and window, is a :class:`FloorTransfer` made once per model and channel set in the process and shared by
 every floor of them, so a data set's next run, a fleet's next machine or a scenario's next run pays its frames only,
-~12 ms at 4 channels and ~20 ms at 8 instead of ~80 and ~130 ms for the whole floor on the 2-core VM), and the output
+~2.5 ms at 4 channels and ~4 ms at 8 instead of ~80 and ~130 ms for the whole floor on the 2-core VM), and the output
 is an overlap of *grains*: grain g covers samples [g S, g S + 2 S), S = L / 2, reading frame
 ``2 (g mod 2) + (h_g mod 2)`` from offset ``h_g / 2 mod L`` (``h_g`` a hash of seed and g) under the sine window
 ``sin(pi t / 2 S)``. Two grains overlap at every sample, from different frames (one even, one odd grain), and their
@@ -48,6 +48,20 @@ more for the ~1.5 % damped modes from 2.2 kHz), but the frames are the floor's o
 spectrum is the 4 frames' periodograms, N_FRAMES x L / 2 complex amplitudes per input, and a third-octave band holds
 L / 2^15 as many of them. With 2^13 the 250-Hz band of nde_horizontal_acceleration came out 1.13 dB off the FE
 receptance (test_floor: 1 dB; a spread of ~sqrt(2 / lines) in power), so the frames keep their 2^17 lines.
+
+A seed's frames (:meth:`FloorTransfer.frames`), float32 throughout: the amplitudes' normals come from the sensor
+noise's ziggurat (``_synthnoise.h``: 8 a line, the real then the imaginary parts of the four force pairs, stream
+:func:`frame_keys`, one per seed and frame), multiplied by the complex64 transfer and summed over the pairs in one C pass
+(``_synthfloor.h``), one float32 real inverse FFT (scipy.fft), then the scales and the int16 rounding in one C pass:
+~2.5 ms a seed at 4 channels, ~4 ms at 8 (BENCHMARKS.md). Until issue 15f the normals were numpy's float64
+(``SeedSequence([seed, _TAG, frame])``) and the product, FFT and scale pass float64: ~11 and ~17 ms, a third of a
+data-set run's 35 ms. The change gives every seed other samples (other normals), but the same process: the
+normals are standard normal to the ziggurat's 22-bit grid (docstring of ``_synthnoise.h``), and float32's rounding
+of the transfer, product and FFT lies far below the int16 step (3e-5 of the frame's largest value) the frames are
+stored at anyway: against a float64 transcription of the definition with the same normals the stored frames are off
+by at most 0.504 of a step (0.5 is the rounding; RMS 0.289 = 1/sqrt(12), the quantisation alone; 4 and 8 channels,
+2 seeds). tests/test_floor.py holds them to that transcription (half a step plus float32 rounding), their
+periodogram to the PSD, and the floor's third-octave bands to the FE receptance.
 
 Units: forces N, densities N/sqrt(Hz), frequencies Hz, samples in the channels' units.
 """
@@ -113,7 +127,7 @@ class FloorTransfer:
     channel factor), and the grains' window. Made once per model and channel set (:meth:`shared`) and shared, read
     only, by every :class:`BroadbandFloor` of them, whatever its seed or level: a data set's runs (one seed each),
     a fleet's machines and a scenario's runs pay only their own frames (:meth:`frames`; ~1/6 of the whole floor).
-    Memory: (4, F, C) complex, 4 MB at 4 channels, once per process instead of once per synthesiser.
+    Memory: (4, F, C) complex64, 2 MB at 4 channels, once per process instead of once per synthesiser.
 
     Parameters: those of :class:`BroadbandFloor` without the density and seed.
     """
@@ -139,8 +153,9 @@ class FloorTransfer:
         iw = 2j * np.pi * f
         fac = np.stack([np.ones_like(iw), iw, iw * iw])[np.asarray(power, dtype=int)].T * np.asarray(scale)[None, :]
         transfer = h[:, np.asarray(cindex)] * fac[:, :, None]                  # (F, C, 4) channel per N
-        #: (4, F, C): per force pair, the transfer to every channel, contiguous (the frames' vector passes)
-        self.by_input = np.ascontiguousarray(transfer.transpose(2, 0, 1))
+        #: (4, F, C) complex64: per force pair, the transfer to every channel, contiguous (the frames' C pass;
+        #: float32 as the frames: its rounding, ~6e-8 relative, is far below the frames' own spread)
+        self.by_input = np.ascontiguousarray(transfer.transpose(2, 0, 1), dtype=np.complex64)
         self.frequency_hz = f
         t = np.arange(2 * self.half)
         self.window = np.sin(np.pi * t / (2 * self.half)).astype(np.float32)
@@ -179,10 +194,11 @@ class FloorTransfer:
 
     def frames(self, density: float, seed: int) -> tuple:
         """(int16 frames (N_FRAMES, L, C), float32 scale per channel) of a floor of ``density`` [N/sqrt(Hz)] and
-        ``seed`` (module docstring). Per frame: the seeded complex amplitudes of the four force pairs (float64
-        normals, real then imaginary parts), the transfer product as four vector passes into the Hermitian half of
-        the spectrum, one real inverse FFT (the one-sided spectrum's complex inverse FFT, real part, gave the same
-        float32 frames at ~5x the cost)."""
+        ``seed`` (module docstring). Per frame i: the complex amplitudes of the four force pairs from the stream
+        :func:`frame_keys` ``(seed)[i]`` of the sensor noise's ziggurat, times the transfer and summed over the pairs
+        in one C pass into the Hermitian half of the spectrum (:func:`synth_kernel.floor_spectrum`, complex64), one
+        float32 real inverse FFT; then one scale per channel and the int16 rounding in one C pass
+        (:func:`synth_kernel.floor_quantise`)."""
         n, fs = self.frame_length, self.sample_rate_hz
         by_input = self.by_input
         nf, c = by_input.shape[1], by_input.shape[2]
@@ -190,30 +206,19 @@ class FloorTransfer:
         # FFT of the half spectrum, X_0 + 2 Re sum_k X_k e^(i 2 pi k t / L), the real part of the one-sided sum
         scale_a = 0.5 * (float(density) * math.sqrt(fs / n))
         frames = np.empty((N_FRAMES, n, c), dtype=np.float32)
-        half = np.zeros((n // 2 + 1, c), complex)
-        tmp = np.empty((nf, c), complex)
-        for i in range(N_FRAMES):
-            rng = np.random.default_rng(np.random.SeedSequence([int(seed), _TAG, i]))
-            a = scale_a * (rng.standard_normal((nf, 4)) + 1j * rng.standard_normal((nf, 4)))
-            body = half[1:n // 2]
-            np.multiply(by_input[0], a[:, 0:1], out=body)
-            for j in range(1, 4):
-                body += np.multiply(by_input[j], a[:, j:j + 1], out=tmp)
+        half = np.zeros((n // 2 + 1, c), np.complex64)
+        for i, key in enumerate(frame_keys(seed)):
+            synth_kernel.floor_spectrum(key, by_input, scale_a, half[1:n // 2])
             frames[i] = scipy.fft.irfft(half, n, axis=0, norm="forward")
-        # max |x| per channel: rows of 64 samples x C (a reduction over rows of C values alone runs ~10x slower)
-        wide = frames.reshape(-1, 64 * c)
-        top = np.maximum(wide.max(axis=0).reshape(64, c).max(axis=0), -wide.min(axis=0).reshape(64, c).min(axis=0))
-        scale = np.where(top > 0, top / 32767.0, 1.0).astype(np.float32)
-        q = np.empty((n, c))
-        out = np.empty((N_FRAMES, n, c), dtype=np.int16)
-        s64 = scale.astype(np.float64)
-        for i in range(N_FRAMES):
-            q[...] = frames[i]                   # exact; then a float64 division (the mixed-type one is ~4x slower)
-            q /= s64
-            np.rint(q, out=q)
-            np.clip(q, -32767, 32767, out=q)
-            out[i] = q
-        return out, scale
+        return synth_kernel.floor_quantise(frames)
+
+
+def frame_keys(seed: int) -> list:
+    """The 64-bit keys of the normals of the ``N_FRAMES`` frames of a floor of ``seed`` (the sensor noise's
+    generator, ``_synthnoise.h``): one ``SeedSequence([seed, _TAG])``, its first N_FRAMES words (another tag than
+    the sensor noise's :func:`~bkabem_core.synth_random.noise_key`, so the streams are independent; one sequence
+    and not one per frame: each costs ~0.15 ms)."""
+    return [int(k) for k in np.random.SeedSequence([int(seed), _TAG]).generate_state(N_FRAMES, np.uint64)]
 
 
 class BroadbandFloor:
@@ -234,7 +239,7 @@ class BroadbandFloor:
     accelerometer, anti_alias : sensors or None
 
     The seed-independent part is the process's :meth:`FloorTransfer.shared` one; a floor of another seed is
-    :meth:`reseeded` (its frames only: ~12 ms instead of ~80 ms for the whole floor at 4 channels).
+    :meth:`reseeded` (its frames only: ~2.5 ms instead of ~80 ms for the whole floor at 4 channels).
     """
 
     def __init__(self, model, density_n_rthz: float, combination, cindex, power, scale, housing_cols,

@@ -183,6 +183,15 @@ def _load():
     fr.argtypes = [i64, i64, i64, i64, i64, ptr, ptr, i64, ptr, ptr, ptr]
     fr.restype = ctypes.c_int
     fns["floor_render"] = fr
+    fs_ = getattr(lib, "synth_floor_spectrum", None)
+    if fs_ is not None:
+        fs_.argtypes = [ctypes.c_uint64, i64, i64, ptr, ctypes.c_double, ptr, ctypes.c_int]
+        fs_.restype = ctypes.c_int
+        fns["floor_spectrum"] = fs_
+        fq = lib.synth_floor_quantise
+        fq.argtypes = [i64, i64, ptr, ptr, ptr]
+        fq.restype = ctypes.c_int
+        fns["floor_quantise"] = fq
     ls.restype = ctypes.c_int
     fns["lines_segment"] = ls
     nf = lib.synth_noise_fill
@@ -478,6 +487,54 @@ def floor_render(n0: int, m: int, half: int, frames: np.ndarray, window: np.ndar
             t = np.arange(lo - g * half, hi - g * half)
             out[lo - n0:hi - n0] += window[t][:, None] * frames[fr][(t + off) % n_l].astype(np.float32)
     out *= scale
+
+
+def floor_spectrum(key: int, by_input: np.ndarray, s: float, out: np.ndarray, avx2: bool = True) -> None:
+    """One frame's spectrum of the broadband floor into ``out`` (F, C) complex64: ``out[k] = sum_j by_input[j, k]
+    a_j(k)`` with the amplitudes ``a_j(k) = s (z[k, j] + i z[k, 4 + j])`` of the four force pairs, z the (F, 8)
+    standard normals of the stream ``key`` (:func:`noise_fill` at samples 0 .. F - 1: the sensor noise's ziggurat),
+    ``by_input`` (4, F, C) complex64 C-contiguous. In C when built (normals and product in one pass,
+    ``_synthfloor.h``), else numpy (:func:`synth_noise.noise_reference` and complex64 products: the same normals,
+    the products to float32 rounding). ``avx2=False``: the scalar generator (the same bits)."""
+    f, c = by_input.shape[1], by_input.shape[2]
+    if (by_input.dtype != np.complex64 or by_input.shape[0] != 4 or not by_input.flags.c_contiguous
+            or out.dtype != np.complex64 or out.shape != (f, c) or not out.flags.c_contiguous):
+        raise ValueError("floor_spectrum: by_input must be (4, F, C) and out (F, C), complex64 C-contiguous")
+    fn = _FNS.get("floor_spectrum") if _FNS is not None else None
+    if fn is not None:
+        if fn(int(key) & _MASK64, f, c, by_input.ctypes.data, float(s), out.ctypes.data, int(bool(avx2))):
+            raise ValueError("synth_floor_spectrum rejected its arguments")
+        return
+    z = noise_reference(int(key) & _MASK64, 0, f, 8) * np.float32(s)
+    a = np.empty((f, 4), np.complex64)
+    a.real, a.imag = z[:, :4], z[:, 4:]
+    np.multiply(by_input[0], a[:, 0:1], out=out)
+    for j in range(1, 4):
+        out += by_input[j] * a[:, j:j + 1]
+
+
+def floor_quantise(x: np.ndarray) -> tuple:
+    """(int16 q, float32 scale (C,)) of the float32 frames ``x`` (..., C) C-contiguous: ``scale = max |x| / 32767``
+    per channel over all frames (1 for an all-zero channel), ``q = clip(rint(x inv), -32767, 32767)`` in float32
+    with ``inv = 32767 / max`` (a product: |x inv - x / scale| < 0.002 of a step): in C when built (two passes),
+    else numpy (the same operations, bit for bit)."""
+    if x.dtype != np.float32 or not x.flags.c_contiguous:
+        raise ValueError("floor_quantise: x must be float32 C-contiguous")
+    c = x.shape[-1]
+    q = np.empty(x.shape, dtype=np.int16)
+    scale = np.empty(c, dtype=np.float32)
+    fn = _FNS.get("floor_quantise") if _FNS is not None else None
+    if fn is not None and c <= 64:
+        if fn(x.size // c, c, x.ctypes.data, q.ctypes.data, scale.ctypes.data):
+            raise ValueError("synth_floor_quantise rejected its arguments")
+        return q, scale
+    flat = x.reshape(-1, c)
+    top = np.abs(flat).max(axis=0)
+    t64 = top.astype(np.float64)
+    scale[...] = np.where(top > 0, t64 / 32767.0, 1.0)
+    inv = np.where(top > 0, 32767.0 / np.where(top > 0, t64, 1.0), 1.0).astype(np.float32)
+    q.reshape(-1, c)[...] = np.clip(np.rint(flat * inv), -32767, 32767)
+    return q, scale
 
 
 def carrier_mix(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:

@@ -132,32 +132,43 @@ def test_int16_frames_and_the_c_render_equal_the_numpy_render(healthy, monkeypat
 
 
 def _frames_by_the_definition(fl):
-    """The floor's int16 frames and scales as the module docstring defines them, by the first implementation: per
-    frame the seeded complex amplitudes through the transfer (einsum), the one-sided spectrum's complex inverse FFT
-    (real part), float32, then one scale per channel (max |x| / 32767) and rounding."""
-    from bkabem_core.synth_floor import _TAG, N_FRAMES
+    """The floor's frames as the module docstring defines them, in float64 by the first implementation's
+    operations: per frame the complex amplitudes of the four force pairs (the frame's normals, taken from the
+    sensor noise's generator here: ``synth_kernel.noise_fill`` of ``frame_keys``, 8 a line), through the transfer
+    (einsum), the one-sided spectrum's complex inverse FFT (real part). Returns (N_FRAMES, L, C) float64."""
+    from bkabem_core import synth_kernel
+    from bkabem_core.synth_floor import N_FRAMES, frame_keys
 
     n, fs = fl.frame_length, fl.sample_rate_hz
-    t = fl.transfer
-    frames = np.empty((N_FRAMES, n, t.shape[1]), dtype=np.float32)
+    t = fl.transfer.astype(np.complex128)
+    frames = np.empty((N_FRAMES, n, t.shape[1]))
     for i in range(N_FRAMES):
-        rng = np.random.default_rng(np.random.SeedSequence([fl.seed, _TAG, i]))
-        a = fl.density * np.sqrt(fs / n) * (rng.standard_normal((t.shape[0], 4))
-                                            + 1j * rng.standard_normal((t.shape[0], 4)))
+        z = synth_kernel.noise_fill(frame_keys(fl.seed)[i], 0, t.shape[0], 8).astype(np.float64)
+        a = fl.density * np.sqrt(fs / n) * (z[:, :4] + 1j * z[:, 4:])
         spec = np.zeros((n, t.shape[1]), complex)
         spec[1:n // 2] = np.einsum("fci,fi->fc", t, a)
-        frames[i] = (np.fft.ifft(spec, axis=0).real * n).astype(np.float32)
-    top = np.abs(frames).max(axis=(0, 1))
-    scale = np.where(top > 0, top / 32767.0, 1.0).astype(np.float32)
-    q = np.clip(np.rint(frames.astype(np.float64) / scale.astype(np.float64)), -32767, 32767).astype(np.int16)
-    return q, scale
+        frames[i] = np.fft.ifft(spec, axis=0).real * n
+    return frames
 
 
-def test_a_new_seed_makes_only_the_frames_and_they_are_the_definitions_bit_for_bit(healthy):
+def _assert_frames_are_the_definitions(fl):
+    """The int16 frames times their scales are the float64 definition's frames to the int16 step (half a step of
+    rounding) plus the float32 arithmetic of the C pass and the FFT (~1e-6 of the largest value); every channel
+    uses the whole int16 range."""
+    ref = _frames_by_the_definition(fl)
+    top = np.abs(ref).max(axis=(0, 1))
+    np.testing.assert_allclose(fl.scale, top / 32767.0, rtol=1e-5)
+    err = np.abs(fl.frames * fl.scale.astype(np.float64) - ref).max(axis=(0, 1))
+    assert np.all(err <= 0.5 * fl.scale + 2e-6 * top), (err / fl.scale)
+    assert np.all(np.abs(fl.frames).max(axis=(0, 1)) == 32767)
+
+
+def test_a_new_seed_makes_only_the_frames_and_they_are_the_definitions(healthy):
     """A new seed (``reset()``) reuses the seed-independent part: the transfer and window of the first floor, and
-    of any other synthesiser of that model and channel set (one per process); the frames made by the real inverse
-    FFT of the Hermitian half are those of the definition, bit for bit, so the samples of a seed do not depend on
-    whether its synthesiser is new or reused. Another rate is another transfer."""
+    of any other synthesiser of that model and channel set (one per process); the frames, made in float32 by the C
+    pass and scipy's real inverse FFT of the Hermitian half, are those of the float64 definition to the int16 step
+    and float32 rounding, and the same bits whether the synthesiser is new or reused. Another rate is another
+    transfer."""
     s = Synthesizer(healthy, sample_rate_hz=FS, chunk_s=0.1, seed=5, features=False, broadband_floor=True)
     first = s._floor_source()
     s.seed = 9
@@ -171,16 +182,63 @@ def test_a_new_seed_makes_only_the_frames_and_they_are_the_definitions_bit_for_b
     np.testing.assert_array_equal(again.scale, fresh.scale)
     assert not np.array_equal(again.frames, first.frames)
     for fl in (first, again):
-        q, scale = _frames_by_the_definition(fl)
-        np.testing.assert_array_equal(fl.scale, scale)
-        np.testing.assert_array_equal(fl.frames, q)
+        _assert_frames_are_the_definitions(fl)
     slow = Synthesizer(healthy, sample_rate_hz=25600.0, chunk_s=0.1, seed=9, features=False, broadband_floor=True,
                        quantities=["acceleration"])
     fl = slow._floor_source()
     assert fl.path is not first.path and fl.frames.shape[2] == 4
-    q, scale = _frames_by_the_definition(fl)
-    np.testing.assert_array_equal(fl.frames, q)
-    np.testing.assert_array_equal(fl.scale, scale)
+    _assert_frames_are_the_definitions(fl)
+
+
+def test_the_frames_periodogram_is_the_transfer(healthy):
+    """The frames are samples of the process: their periodogram, averaged over the four frames and bands of 256
+    lines, is the floor's PSD (``psd()``: S_F^2 sum |transfer|^2) within the spread of 4 x 256 exponential
+    ordinates (~3 %; 6 sigma: 20 %)."""
+    s = Synthesizer(healthy, sample_rate_hz=25600.0, chunk_s=0.1, seed=11, features=False, broadband_floor=True,
+                    quantities=["acceleration"])
+    fl = s._floor_source()
+    x = fl.frames * fl.scale.astype(np.float64)
+    n, fs = fl.frame_length, fl.sample_rate_hz
+    spec = np.fft.rfft(x, axis=1)[:, 1:n // 2]                          # (N_FRAMES, F, C)
+    pxx = (2.0 / (fs * n)) * np.mean(np.abs(spec) ** 2, axis=0)          # one-sided [unit^2/Hz]
+    want = fl.psd()
+    nb = (pxx.shape[0] // 256) * 256
+    got = pxx[:nb].reshape(-1, 256, pxx.shape[1]).mean(axis=1)
+    ref = want[:nb].reshape(-1, 256, want.shape[1]).mean(axis=1)
+    live = ref > 1e-6 * ref.max(axis=0)                                 # above the quantisation floor (~-87 dB)
+    ratio = got[live] / ref[live]
+    assert np.all(np.abs(ratio - 1.0) < 0.2), ratio.min()
+    assert abs(np.mean(ratio) - 1.0) < 0.02
+
+
+def test_the_frames_kernels_equal_their_numpy_fallbacks(healthy, monkeypatch):
+    """The C pass of a frame's spectrum (normals and transfer product) gives the numpy fallback's normals (bit for
+    bit: the scalar and the AVX2 generator too) and its products to float32 rounding; the int16 pass equals its
+    fallback bit for bit (a channel without floor: scale 1, zeros)."""
+    from bkabem_core import synth_kernel
+
+    s = Synthesizer(healthy, sample_rate_hz=25600.0, chunk_s=0.1, seed=3, features=False, broadband_floor=True,
+                    quantities=["acceleration"])
+    by_input = s._floor_source().path.by_input[:, :700]
+    by_input = np.ascontiguousarray(by_input)
+    c_out = np.empty(by_input.shape[1:], np.complex64)
+    scalar = np.empty_like(c_out)
+    synth_kernel.floor_spectrum(12345, by_input, 0.25, c_out)
+    synth_kernel.floor_spectrum(12345, by_input, 0.25, scalar, avx2=False)
+    np.testing.assert_array_equal(c_out, scalar)
+    x = np.random.default_rng(0).standard_normal((2, 4096, 3)).astype(np.float32)
+    x[0, 7, 1] = 0.0
+    x[:, :, 2] = 0.0                                                    # a channel without floor: scale 1
+    q, scale = synth_kernel.floor_quantise(x)
+    monkeypatch.setattr(synth_kernel, "_FNS", {k: v for k, v in synth_kernel._FNS.items()
+                                                if k not in ("floor_spectrum", "floor_quantise")})
+    ref = np.empty_like(c_out)
+    synth_kernel.floor_spectrum(12345, by_input, 0.25, ref)
+    np.testing.assert_allclose(c_out, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
+    q_ref, scale_ref = synth_kernel.floor_quantise(x)
+    np.testing.assert_array_equal(scale, scale_ref)
+    np.testing.assert_array_equal(q, q_ref)
+    assert scale[2] == 1.0 and not q[:, :, 2].any() and np.abs(q[:, :, :2]).max() == 32767
 
 
 def test_the_shared_transfer_goes_with_its_model():
