@@ -270,7 +270,7 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
         if (lg[f] < 6 || lg[f] > 16) return -1;
     }
     const int noise = na != NULL;
-    const int fast = C == 8 && isa_cap >= 1 && HAVE_LINES8 && HAVE_GROUP8;
+    const int fast = (C == 8 || C == 4) && isa_cap >= 1 && HAVE_LINES8 && HAVE_GROUP8;
     int gstart[65], gmember[64];
     const int n_groups = fast ? lines_groups(F, phases, lg, wp, gstart, gmember) : 0;
     for (int64_t k0 = 0, nbl; k0 < m; k0 += nbl) {
@@ -299,7 +299,7 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
                     carrier8_avx2(nb, &st[f][2], &st[f][3], phases[6 * f + 5], wq[f] >= 0 ? warp + wq[f] * m + k0 : NULL,
                                   CQg[k], SQg[k]);
             }
-            lines_group8_fma(nb, k0, &st[f0][0], &st[f0][1], phases[6 * f0 + 2],
+            lines_group8_fma((int)C, nb, k0, &st[f0][0], &st[f0][1], phases[6 * f0 + 2],
                              wp[f0] >= 0 ? warp + wp[f0] * m + k0 : NULL, 62 - (int)lg[f0],
                              ((uint64_t)1 << lg[f0]) - 1, xi0, blend_scale, nf, A, blend ? Bt : NULL, NTg, carg, CQg,
                              SQg, blk);
