@@ -46,9 +46,10 @@ def test_fast_generic_and_numpy_line_set_paths_agree(kind):
     assert np.all(np.abs(g - r) <= tol * top), (np.abs(g - r) / top).max()
 
 
-@pytest.mark.parametrize("kind", ["inner", "ball"])
+@pytest.mark.parametrize("kind", ["healthy", "inner", "ball"])
 def test_four_channel_fast_path_matches_eight_channels_and_generic(kind):
-    """4 channels (the data set's acc4) take the grouped rows in 128-bit lanes (group4_rows): their samples equal
+    """4 channels (the data set's acc4) take the grouped rows, the floor render and the knot stages in 128-bit /
+    4-lane vectors (group4_rows, floor_pair4_avx2, knot_stages4_r2): their samples (broadband floor on) equal
     the same channels of the 8-channel synthesiser (channels 0, 1, 4, 5: the accelerations) to float32 rounding,
     and, with noise, the generic C path's (cap 0) for the same 4 channels."""
     model = BkaBem(Case.load(f"motor_6010_{kind}"))
