@@ -102,6 +102,30 @@ static CLONES void knot_stages8_r2(int64_t N, double *restrict re, double *restr
     }
 }
 
+/* knot_stages8_r2 for C = 4 (acc4): one 4-lane vector per row's plane, the same operations per lane (the same bits
+ * as the 8-channel stages give their first 4 lanes), the rows that are still +0 skipped likewise. */
+static CLONES void knot_stages4_r2(int64_t N, double *restrict re, double *restrict im, const double *restrict tw,
+                                  uint8_t *restrict nz)
+{
+    for (int64_t len = 2; len <= N; len <<= 1) {
+        const int64_t h = len >> 1, st = N / len;
+        for (int64_t s = 0; s < N; s += len)
+            for (int64_t k = 0; k < h; ++k) {
+                if (!(nz[s + k] | nz[s + k + h])) continue;        /* both rows +0: they stay +0 */
+                nz[s + k] = nz[s + k + h] = 1;
+                const double wr = tw[2 * k * st], wi = tw[2 * k * st + 1];
+                const int64_t o0 = 4 * (s + k), o1 = o0 + 4 * h;
+                v4d ar, ai, br, bi;
+                memcpy(&ar, re + o0, 32), memcpy(&ai, im + o0, 32), memcpy(&br, re + o1, 32);
+                memcpy(&bi, im + o1, 32);
+                const v4d tr = br * wr - bi * wi, ti = br * wi + bi * wr;
+                const v4d a0 = ar + tr, a1 = ai + ti, b0 = ar - tr, b1 = ai - ti;
+                memcpy(re + o0, &a0, 32), memcpy(im + o0, &a1, 32), memcpy(re + o1, &b0, 32);
+                memcpy(im + o1, &b1, 32);
+            }
+    }
+}
+
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
 #define HAVE_KNOT_AVX512 (isa_cap >= 2 && HAVE_AVX512)
 /* knot_stages for C = 8 with AVX-512 (32 vector registers): two stages per pass, each group's four rows loaded into
@@ -417,6 +441,7 @@ static NOINLINE CLONES void lines_knot(const KnotPlan *p, int64_t U, double *x, 
         }
         if (C == 8 && HAVE_KNOT_AVX512) knot_stages8_avx512(n, re, im, p->tw + p->tw_off[fam], nz);
         else if (C == 8) knot_stages8_r2(n, re, im, p->tw + p->tw_off[fam], nz);
+        else if (C == 4) knot_stages4_r2(n, re, im, p->tw + p->tw_off[fam], nz);
         else knot_stages(n, C, re, im, p->tw + p->tw_off[fam]);
         float *tr = table + p->out_off[fam];
         knot_store(n, C, re, tr);

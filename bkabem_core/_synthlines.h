@@ -19,8 +19,8 @@
  * carrier family cos and sin of its carrier phase (+ slip) from 24 bits of the turn: octant, then Cephes' sinf /
  * cosf polynomials on [0, pi/4] (error ~1e-7), so x += cos(2 pi phi_q) Re G - sin(2 pi phi_q) Im G; then the
  * static part, the noise and the features of the block. Float32, any C (the channel loops are unrolled for C = 8).
- * With 8 channels and AVX2 + FMA, families of one phase share the rows and weights and the carriers' cos / sin are
- * 8 samples at a time (_synthrows.h).
+ * With 8 (or 4: 128-bit lanes, the same operations per lane) channels and AVX2 + FMA, families of one phase share
+ * the rows and weights and the carriers' cos / sin are 8 samples at a time (_synthrows.h).
  */
 #ifndef BKABEM_SYNTHLINES_H
 #define BKABEM_SYNTHLINES_H
@@ -66,10 +66,46 @@ static NOINLINE __attribute__((target("avx2"))) int floor_pair8_avx2(int64_t m, 
     }
     return 1;
 }
+/* floor_pair8_avx2 for 4 channels (acc4): the same operations per lane in 128-bit registers, so the same bits. */
+static NOINLINE __attribute__((target("avx2"))) int floor_pair4_avx2(int64_t m, int64_t n0, int64_t S, int64_t L,
+                                                                     const int16_t *frames, const float *scale,
+                                                                     const float *win, int64_t G,
+                                                                     const int64_t *grains, float *out)
+{
+    const __m128 sc = _mm_loadu_ps(scale);
+    for (int64_t lo = n0; lo < n0 + m;) {
+        const int64_t g2 = lo / S, g1 = g2 - 1, q1 = g1 - grains[0];
+        if (q1 < 0 || q1 + 1 >= G || grains[3 * q1] != g1 || grains[3 * q1 + 3] != g2) return 0;
+        const int64_t t1 = lo - g1 * S, t2 = lo - g2 * S;
+        const int64_t s1 = (t1 + grains[3 * q1 + 2]) % L, s2 = (t2 + grains[3 * q1 + 5]) % L;
+        int64_t run = n0 + m - lo;
+        if (run > (g2 + 1) * S - lo) run = (g2 + 1) * S - lo;          /* the next grain border */
+        if (run > L - s1) run = L - s1;
+        if (run > L - s2) run = L - s2;
+        const int16_t *f1 = frames + (grains[3 * q1 + 1] * L + s1) * 4, *f2 = frames + (grains[3 * q1 + 4] * L + s2) * 4;
+        const float *w1 = win + t1, *w2 = win + t2;
+        float *o = out + (lo - n0) * 4;
+        for (int64_t i = 0; i < run; ++i) {
+            const __m128 a = _mm_mul_ps(_mm_broadcast_ss(w1 + i),
+                                        _mm_cvtepi32_ps(_mm_cvtepi16_epi32(_mm_loadl_epi64((const __m128i *)(f1 + 4 * i)))));
+            const __m128 b = _mm_mul_ps(_mm_broadcast_ss(w2 + i),
+                                        _mm_cvtepi32_ps(_mm_cvtepi16_epi32(_mm_loadl_epi64((const __m128i *)(f2 + 4 * i)))));
+            _mm_storeu_ps(o + 4 * i, _mm_mul_ps(_mm_add_ps(a, b), sc));
+        }
+        lo += run;
+    }
+    return 1;
+}
 #define FLOOR8_AVX2 (isa_cap >= 1 && __builtin_cpu_supports("avx2"))
 #else
 #define FLOOR8_AVX2 0
 static int floor_pair8_avx2(int64_t m, int64_t n0, int64_t S, int64_t L, const int16_t *frames, const float *scale,
+                            const float *win, int64_t G, const int64_t *grains, float *out)
+{
+    (void)m, (void)n0, (void)S, (void)L, (void)frames, (void)scale, (void)win, (void)G, (void)grains, (void)out;
+    return 0;
+}
+static int floor_pair4_avx2(int64_t m, int64_t n0, int64_t S, int64_t L, const int16_t *frames, const float *scale,
                             const float *win, int64_t G, const int64_t *grains, float *out)
 {
     (void)m, (void)n0, (void)S, (void)L, (void)frames, (void)scale, (void)win, (void)G, (void)grains, (void)out;
@@ -82,6 +118,7 @@ static CLONES void floor_block_f32(int64_t m, int64_t C, int64_t n0, int64_t S, 
                                    float *out)
 {
     if (C == 8 && FLOOR8_AVX2 && G > 0 && floor_pair8_avx2(m, n0, S, L, frames, scale, win, G, grains, out)) return;
+    if (C == 4 && FLOOR8_AVX2 && G > 0 && floor_pair4_avx2(m, n0, S, L, frames, scale, win, G, grains, out)) return;
     memset(out, 0, sizeof(float) * (size_t)(m * C));
     for (int64_t q = 0; q < G; ++q) {
         const int64_t g = grains[3 * q], fr = grains[3 * q + 1], off = grains[3 * q + 2];
@@ -270,7 +307,7 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
         if (lg[f] < 6 || lg[f] > 16) return -1;
     }
     const int noise = na != NULL;
-    const int fast = C == 8 && isa_cap >= 1 && HAVE_LINES8 && HAVE_GROUP8;
+    const int fast = (C == 8 || C == 4) && isa_cap >= 1 && HAVE_LINES8 && HAVE_GROUP8;
     int gstart[65], gmember[64];
     const int n_groups = fast ? lines_groups(F, phases, lg, wp, gstart, gmember) : 0;
     for (int64_t k0 = 0, nbl; k0 < m; k0 += nbl) {
@@ -299,7 +336,7 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
                     carrier8_avx2(nb, &st[f][2], &st[f][3], phases[6 * f + 5], wq[f] >= 0 ? warp + wq[f] * m + k0 : NULL,
                                   CQg[k], SQg[k]);
             }
-            lines_group8_fma(nb, k0, &st[f0][0], &st[f0][1], phases[6 * f0 + 2],
+            lines_group8_fma((int)C, nb, k0, &st[f0][0], &st[f0][1], phases[6 * f0 + 2],
                              wp[f0] >= 0 ? warp + wp[f0] * m + k0 : NULL, 62 - (int)lg[f0],
                              ((uint64_t)1 << lg[f0]) - 1, xi0, blend_scale, nf, A, blend ? Bt : NULL, NTg, carg, CQg,
                              SQg, blk);

@@ -125,7 +125,40 @@ static inline __attribute__((always_inline)) FMA_TARGET void group8_rows(
 }
 #undef GROUP_TAP
 
-static NOINLINE FMA_TARGET void lines_group8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd,
+/* group8_rows for 4 float32 channels (C = 4, the acc4 set): the same operations per lane in 128-bit registers (FMA
+ * of the same operands in the same order), so each channel's value has the bits of the 8-lane rows' for it. */
+#define GROUP_TAP4(T, r, w0, w1, w2, w3)                                                                            \
+    _mm_fmadd_ps(w3, _mm_loadu_ps((T) + (r) + 12),                                                                  \
+                 _mm_fmadd_ps(w2, _mm_loadu_ps((T) + (r) + 8),                                                      \
+                              _mm_fmadd_ps(w1, _mm_loadu_ps((T) + (r) + 4), _mm_mul_ps(w0, _mm_loadu_ps((T) + (r))))))
+static inline __attribute__((always_inline)) FMA_TARGET void group4_rows(
+    const int blend, const int car, int nb, const int32_t *restrict idx, const float *restrict W0,
+    const float *restrict W1, const float *restrict W2, const float *restrict W3, const float *restrict sw,
+    const float *restrict A, const float *restrict B, int64_t NT, const float *restrict CQ,
+    const float *restrict SQ, float *restrict blk)
+{
+    for (int j = 0; j < nb; ++j) {
+        const int64_t r = (int64_t)idx[j] * 4;
+        const __m128 w0 = _mm_broadcast_ss(W0 + j), w1 = _mm_broadcast_ss(W1 + j);
+        const __m128 w2 = _mm_broadcast_ss(W2 + j), w3 = _mm_broadcast_ss(W3 + j);
+        __m128 v = GROUP_TAP4(A, r, w0, w1, w2, w3);
+        if (blend) v = _mm_fmadd_ps(_mm_broadcast_ss(sw + j), _mm_sub_ps(GROUP_TAP4(B, r, w0, w1, w2, w3), v), v);
+        __m128 o = _mm_loadu_ps(blk + 4 * j);
+        if (!car) {
+            _mm_storeu_ps(blk + 4 * j, _mm_add_ps(o, v));
+            continue;
+        }
+        __m128 g = GROUP_TAP4(A + NT, r, w0, w1, w2, w3);
+        if (blend) g = _mm_fmadd_ps(_mm_broadcast_ss(sw + j), _mm_sub_ps(GROUP_TAP4(B + NT, r, w0, w1, w2, w3), g), g);
+        o = _mm_fmadd_ps(_mm_broadcast_ss(CQ + j), v, o);
+        o = _mm_fnmadd_ps(_mm_broadcast_ss(SQ + j), g, o);
+        _mm_storeu_ps(blk + 4 * j, o);
+    }
+}
+#undef GROUP_TAP4
+
+static NOINLINE FMA_TARGET void lines_group8_fma(int lanes, int nb, int64_t k0, uint64_t *u, uint64_t *d,
+                                                uint64_t dd,
                                                 const int64_t *w, int fb, uint64_t mask, double xi0,
                                                 double blend_scale, int nf, const float *const *A,
                                                 const float *const *B, const int64_t *NT, const int *car,
@@ -141,6 +174,15 @@ static NOINLINE FMA_TARGET void lines_group8_fma(int nb, int64_t k0, uint64_t *u
         if (blend) prologue8_fma(0, 1, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
         else prologue8_fma(0, 0, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
     }
+    if (lanes == 4) {
+        for (int k = 0; k < nf; ++k) {
+            if (blend && car[k]) group4_rows(1, 1, nb, idx, W0, W1, W2, W3, sw, A[k], B[k], NT[k], CQ[k], SQ[k], blk);
+            else if (blend) group4_rows(1, 0, nb, idx, W0, W1, W2, W3, sw, A[k], B[k], NT[k], NULL, NULL, blk);
+            else if (car[k]) group4_rows(0, 1, nb, idx, W0, W1, W2, W3, sw, A[k], NULL, NT[k], CQ[k], SQ[k], blk);
+            else group4_rows(0, 0, nb, idx, W0, W1, W2, W3, sw, A[k], NULL, NT[k], NULL, NULL, blk);
+        }
+        return;
+    }
     for (int k = 0; k < nf; ++k) {
         if (blend && car[k]) group8_rows(1, 1, nb, idx, W0, W1, W2, W3, sw, A[k], B[k], NT[k], CQ[k], SQ[k], blk);
         else if (blend) group8_rows(1, 0, nb, idx, W0, W1, W2, W3, sw, A[k], B[k], NT[k], NULL, NULL, blk);
@@ -155,12 +197,13 @@ static void carrier8_avx2(int nb, uint64_t *pu, uint64_t *pd, uint64_t dd, const
 {
     (void)nb, (void)pu, (void)pd, (void)dd, (void)wc, (void)co, (void)si;
 }
-static void lines_group8_fma(int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd, const int64_t *w, int fb,
+static void lines_group8_fma(int lanes, int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd, const int64_t *w,
+                             int fb,
                              uint64_t mask, double xi0, double blend_scale, int nf, const float *const *A,
                              const float *const *B, const int64_t *NT, const int *car, float (*CQ)[BLOCK],
                              float (*SQ)[BLOCK], float *blk)
 {
-    (void)nb, (void)k0, (void)u, (void)d, (void)dd, (void)w, (void)fb, (void)mask, (void)xi0, (void)blend_scale;
+    (void)lanes, (void)nb, (void)k0, (void)u, (void)d, (void)dd, (void)w, (void)fb, (void)mask, (void)xi0, (void)blend_scale;
     (void)nf, (void)A, (void)B, (void)NT, (void)car, (void)CQ, (void)SQ, (void)blk;
 }
 #endif

@@ -44,3 +44,26 @@ def test_fast_generic_and_numpy_line_set_paths_agree(kind):
     tol = 64 * np.finfo(np.float32).eps
     assert np.all(np.abs(a - r) <= tol * top), (np.abs(a - r) / top).max()
     assert np.all(np.abs(g - r) <= tol * top), (np.abs(g - r) / top).max()
+
+
+@pytest.mark.parametrize("kind", ["healthy", "inner", "ball"])
+def test_four_channel_fast_path_matches_eight_channels_and_generic(kind):
+    """4 channels (the data set's acc4) take the grouped rows, the floor render and the knot stages in 128-bit /
+    4-lane vectors (group4_rows, floor_pair4_avx2, knot_stages4_r2): their samples (broadband floor on) equal
+    the same channels of the 8-channel synthesiser (channels 0, 1, 4, 5: the accelerations) to float32 rounding,
+    and, with noise, the generic C path's (cap 0) for the same 4 channels."""
+    model = BkaBem(Case.load(f"motor_6010_{kind}"))
+    kw = dict(sample_rate_hz=25600.0, chunk_s=0.05, slip=0.01, seed=3, features=False)
+    s8, s4 = Synthesizer(model, **kw), Synthesizer(model, quantities=("acceleration",), **kw)
+    assert s4._lines_fused and len(s4.channels) == 4
+    names8 = list(s8.channel_names)
+    cols = [names8.index(n) for n in s4.channel_names]
+    a8, a4 = _chunks(s8)[cols], _chunks(s4)
+    top = np.abs(a8).max(axis=1, keepdims=True)
+    tol = 64 * np.finfo(np.float32).eps
+    assert np.all(np.abs(a4 - a8) <= tol * top), (np.abs(a4 - a8) / top).max()
+    kw["noise_density"] = {"acceleration": 1e-3}
+    fast, generic = (Synthesizer(model, quantities=("acceleration",), **kw) for _ in range(2))
+    a, g = _chunks(fast), _chunks(generic, cap=0)
+    top = np.abs(g).max(axis=1, keepdims=True)
+    assert np.all(np.abs(a - g) <= tol * top), (np.abs(a - g) / top).max()
