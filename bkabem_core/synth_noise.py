@@ -3,7 +3,7 @@ fallback without the kernel.
 
 Stream: per block of 256 absolute samples four xoshiro256++ generators seeded from the noise key and the block
 number; each step gives eight 32-bit words, one per channel (``C`` channels take ``ceil(C / 8)`` steps a sample).
-Normals: the 256-layer ziggurat (Marsaglia & Tsang 2000, in Doornik's 2005 form) whose common case is a table
+Normals: the 1024-layer ziggurat (Marsaglia & Tsang 2000, in Doornik's 2005 form) whose common case is a table
 look-up, a multiply and a compare; the words outside their layer's rectangle (~1.5 %) are finished with uniforms
 of a second stream seeded by (key, sample, channel), so a value depends on the key, the absolute sample and the
 channel only. The C code is the fast one (``synth_kernel.noise_fill``); this one loops in Python over the rare
@@ -21,14 +21,14 @@ _MASK64 = (1 << 64) - 1
 _GOLDEN = 0x9E3779B97F4A7C15
 _SALT = 0xD1B54A32D192ED03
 
-#: 256 layers of the ziggurat: the base strip's edge R and the layers' area V (Marsaglia & Tsang 2000).
+#: 1024 layers of the ziggurat: the base strip's edge R closes them (Marsaglia & Tsang 2000).
 BITS = 10
 LAYERS = 1 << BITS
 R = 4.038849846109505
 
 
 def _tables():
-    """(x_i, f(x_i)) for i = 0 .. 256 in double and the fast test's float32 tables (x_i, x_{i+1} / x_i), as
+    """(x_i, f(x_i)) for i = 0 .. LAYERS in double and the fast test's float32 tables (x_i, x_{i+1} / x_i), as
     ``zn_init``: the same recurrence and libm calls (math.exp / math.log are the C library's)."""
     x, f = [0.0] * (LAYERS + 1), [0.0] * (LAYERS + 1)
     fr = math.exp(-0.5 * R * R)
