@@ -32,6 +32,26 @@
  * fallback round alike). Why int16: 4 frames of 2^13 x 8 are 512 KB and stay in L2 (the float32 frames of 2^15
  * were 4 MB and made this the largest kernel of a noisy chunk, bound by memory). */
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+/* The next run of samples from lo on (at most to n0 + m) that reads both of its grains contiguously, for C channels:
+ * the two frame rows f1 (the older grain), f2, their windows w1, w2 and the run's length; 0 if the grains of lo are
+ * not consecutive in grains (then the generic loop runs). Shared by floor_pair8_avx2 and floor_pair4_avx2. */
+static inline int floor_pair_run(int64_t lo, int64_t end, int64_t S, int64_t L, int64_t C, const int16_t *frames,
+                                 const float *win, int64_t G, const int64_t *grains, const int16_t **f1,
+                                 const int16_t **f2, const float **w1, const float **w2, int64_t *run)
+{
+    const int64_t g2 = lo / S, g1 = g2 - 1, q1 = g1 - grains[0];
+    if (q1 < 0 || q1 + 1 >= G || grains[3 * q1] != g1 || grains[3 * q1 + 3] != g2) return 0;
+    const int64_t t1 = lo - g1 * S, t2 = lo - g2 * S;
+    const int64_t s1 = (t1 + grains[3 * q1 + 2]) % L, s2 = (t2 + grains[3 * q1 + 5]) % L;
+    int64_t r = end - lo;
+    if (r > (g2 + 1) * S - lo) r = (g2 + 1) * S - lo;                  /* the next grain border */
+    if (r > L - s1) r = L - s1;
+    if (r > L - s2) r = L - s2;
+    *f1 = frames + (grains[3 * q1 + 1] * L + s1) * C, *f2 = frames + (grains[3 * q1 + 4] * L + s2) * C;
+    *w1 = win + t1, *w2 = win + t2, *run = r;
+    return 1;
+}
+
 /* The floor of m samples from n0 for 8 channels with AVX2, both grains of a sample in one pass: out = (w_1 f_1 +
  * w_2 f_2) scale, the older grain first (floor_block_f32's value: 0 + a is a), each int16 tap one 128-bit load,
  * widened; no zeroing pass, no second pass over out, no scale pass. Pieces between grain borders and frame ends
@@ -43,17 +63,10 @@ static NOINLINE __attribute__((target("avx2"))) int floor_pair8_avx2(int64_t m, 
                                                                      const int64_t *grains, float *out)
 {
     const __m256 sc = _mm256_loadu_ps(scale);
-    for (int64_t lo = n0; lo < n0 + m;) {
-        const int64_t g2 = lo / S, g1 = g2 - 1, q1 = g1 - grains[0];
-        if (q1 < 0 || q1 + 1 >= G || grains[3 * q1] != g1 || grains[3 * q1 + 3] != g2) return 0;
-        const int64_t t1 = lo - g1 * S, t2 = lo - g2 * S;
-        const int64_t s1 = (t1 + grains[3 * q1 + 2]) % L, s2 = (t2 + grains[3 * q1 + 5]) % L;
-        int64_t run = n0 + m - lo;
-        if (run > (g2 + 1) * S - lo) run = (g2 + 1) * S - lo;          /* the next grain border */
-        if (run > L - s1) run = L - s1;
-        if (run > L - s2) run = L - s2;
-        const int16_t *f1 = frames + (grains[3 * q1 + 1] * L + s1) * 8, *f2 = frames + (grains[3 * q1 + 4] * L + s2) * 8;
-        const float *w1 = win + t1, *w2 = win + t2;
+    for (int64_t lo = n0, run; lo < n0 + m; lo += run) {
+        const int16_t *f1, *f2;
+        const float *w1, *w2;
+        if (!floor_pair_run(lo, n0 + m, S, L, 8, frames, win, G, grains, &f1, &f2, &w1, &w2, &run)) return 0;
         float *o = out + (lo - n0) * 8;
         for (int64_t i = 0; i < run; ++i) {
             const __m256 a = _mm256_mul_ps(_mm256_broadcast_ss(w1 + i),
@@ -62,7 +75,6 @@ static NOINLINE __attribute__((target("avx2"))) int floor_pair8_avx2(int64_t m, 
                                            _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128((const __m128i *)(f2 + 8 * i)))));
             _mm256_storeu_ps(o + 8 * i, _mm256_mul_ps(_mm256_add_ps(a, b), sc));
         }
-        lo += run;
     }
     return 1;
 }
@@ -73,17 +85,10 @@ static NOINLINE __attribute__((target("avx2"))) int floor_pair4_avx2(int64_t m, 
                                                                      const int64_t *grains, float *out)
 {
     const __m128 sc = _mm_loadu_ps(scale);
-    for (int64_t lo = n0; lo < n0 + m;) {
-        const int64_t g2 = lo / S, g1 = g2 - 1, q1 = g1 - grains[0];
-        if (q1 < 0 || q1 + 1 >= G || grains[3 * q1] != g1 || grains[3 * q1 + 3] != g2) return 0;
-        const int64_t t1 = lo - g1 * S, t2 = lo - g2 * S;
-        const int64_t s1 = (t1 + grains[3 * q1 + 2]) % L, s2 = (t2 + grains[3 * q1 + 5]) % L;
-        int64_t run = n0 + m - lo;
-        if (run > (g2 + 1) * S - lo) run = (g2 + 1) * S - lo;          /* the next grain border */
-        if (run > L - s1) run = L - s1;
-        if (run > L - s2) run = L - s2;
-        const int16_t *f1 = frames + (grains[3 * q1 + 1] * L + s1) * 4, *f2 = frames + (grains[3 * q1 + 4] * L + s2) * 4;
-        const float *w1 = win + t1, *w2 = win + t2;
+    for (int64_t lo = n0, run; lo < n0 + m; lo += run) {
+        const int16_t *f1, *f2;
+        const float *w1, *w2;
+        if (!floor_pair_run(lo, n0 + m, S, L, 4, frames, win, G, grains, &f1, &f2, &w1, &w2, &run)) return 0;
         float *o = out + (lo - n0) * 4;
         for (int64_t i = 0; i < run; ++i) {
             const __m128 a = _mm_mul_ps(_mm_broadcast_ss(w1 + i),
@@ -92,7 +97,6 @@ static NOINLINE __attribute__((target("avx2"))) int floor_pair4_avx2(int64_t m, 
                                         _mm_cvtepi32_ps(_mm_cvtepi16_epi32(_mm_loadl_epi64((const __m128i *)(f2 + 4 * i)))));
             _mm_storeu_ps(o + 4 * i, _mm_mul_ps(_mm_add_ps(a, b), sc));
         }
-        lo += run;
     }
     return 1;
 }
