@@ -492,7 +492,7 @@ class RerunLogger:
                  rms=np.sqrt(np.mean(x * x, axis=1, dtype=np.float64)), peak=np.max(np.abs(x), axis=1).astype(np.float64),
                  names=names,
                  band=band, window_s=x.shape[1] / fs, env_df=(f[1] - f[0]) if f.size > 1 else 0.0, env_group=group,
-                 finding=health.envelope_finding(f, env, lines, names),
+                 finding=health.envelope_finding(f, env, lines, names, loc, self._defects),
                  speed_hz=speed_rad_s / (2 * math.pi), lines=lines)
         text = health.health_text(loc, self._health.get(loc, {}), self._defects, self._lines, self.iso_zones,
                                   self.condition_window_s, self._truth)

@@ -562,6 +562,40 @@ def test_two_defects_at_one_place_get_two_named_trends(tmp_path):
         [a, b, "/de/trend/ground_truth/no_defect", "/nde/trend/ground_truth/no_defect"])
 
 
+def test_envelope_verdict_says_when_a_line_is_another_bearings_defect():
+    """An envelope spectrum with BPFO and its harmonics standing out (and a weaker BPFI): on the NDE panel of a
+    machine whose only defect is a DE outer-race dent, the verdict names the DE defect as the source, transmitted;
+    on the DE panel it stays the bearing's own finding; with an NDE outer-race defect too, the NDE finding is its
+    own and says the DE one adds to it; without ground truth it is the plain finding."""
+    from bkabem_ros import fault_lines, health
+
+    fs, n = 8192.0, 8192
+    f = np.fft.rfftfreq(n, 1 / fs)[: 1024]
+    rng = np.random.default_rng(1)
+    env = np.abs(rng.normal(1e-3, 2e-4, (2, f.size)))
+    lines = {"1x": 25.0, "FTF": 9.9, "BPFO": 89.6, "BPFI": 135.6, "BSF": 58.9, "2xBSF": 117.8}
+    for h, a in ((1, 0.05), (2, 0.03), (3, 0.02)):
+        env[:, np.argmin(np.abs(f - h * 89.6))] = a
+    env[:, np.argmin(np.abs(f - 135.6))] = 0.004
+    de = fault_lines.Defect("outer", "de", 2e-3, 50e-6, -math.pi / 2, "6010", "defects[0]")
+    nde = fault_lines.Defect("outer", "nde", 1e-3, 20e-6, 0.0, "6010", "defects[1]")
+    names = ["vertical", "horizontal"]
+    text = health.envelope_finding(f, env, lines, names, "nde", [de])
+    assert text.startswith("BPFO 89.6 Hz: from the DE outer-race defect (transmitted), not a fault of the NDE "
+                           "bearing; harmonics 1-3 at "), text
+    assert "stands out" not in text
+    assert health.envelope_finding(f, env, lines, names, "de", [de]).startswith("BPFO (89.6 Hz) stands out: ")
+    both = health.envelope_finding(f, env, lines, names, "nde", [de, nde])
+    assert both.startswith("BPFO (89.6 Hz) stands out: ") and both.endswith(
+        "; the DE outer-race defect has it too (transmitted)"), both
+    assert "transmitted" not in health.envelope_finding(f, env, lines, names)
+    # a line of no defect, or one that does not stand out: no source is claimed
+    ball = fault_lines.Defect("ball", "de", 1e-3, 20e-6, 0.0, "6010", "b", ball=2)
+    assert "transmitted" not in health.envelope_finding(f, env, lines, names, "nde", [ball])
+    quiet = np.abs(rng.normal(1e-3, 2e-4, (2, f.size)))
+    assert "transmitted" not in health.envelope_finding(f, quiet, lines, names, "nde", [de])
+
+
 def test_health_text_says_what_is_in_this_bearing_and_what_is_elsewhere():
     """A panel's ground-truth line names only its own bearing's defects; the other bearing's
     defects are on their own line, so an NDE panel never reads "no defect ... (outer-race
