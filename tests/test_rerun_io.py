@@ -248,7 +248,7 @@ def test_blueprint_in_file_has_de_and_nde_side_by_side(tmp_path):
     tab_rows = [[by_path[str(q).strip("/")] for q in d["ContainerBlueprint:contents"]]
                 for d in containers.values() if d["ContainerBlueprint:container_kind"][0] == tab_kind]
     assert sorted(map(sorted, tab_rows)) == sorted(map(sorted, rerun_blueprint.tab_rows()))
-    assert len(tab_rows) == 8
+    assert len(tab_rows) == 9                        # 4 per bearing, the machine's tabs
     for row in tab_rows:
         assert 2 <= len(row) <= rerun_blueprint.MAX_TABS, row
         assert rerun_blueprint.tab_row_width_px(row) <= 954 - rerun_blueprint.TAB_BAR_END_PX, row
