@@ -541,6 +541,9 @@ def _shoot(rrd, shots, out: Path) -> list[Path]:
         problems = v.title_problems()
         if problems:
             raise RuntimeError("tab titles: " + "; ".join(problems))
+        problems = v.legend_problems(expected_legends(rrd))
+        if problems:
+            raise RuntimeError("legends: " + "; ".join(problems))
         for name, at, tab, _what in shots:
             v.show_tab(tab)
             if at is not None:
@@ -561,7 +564,8 @@ def make_doc_screenshots(out_dir, rrd=None, scenario_rrd=None) -> list[Path]:
     """Screenshots for the docs: of the demo recording (:data:`DOC_SHOTS`; without ``rrd`` the demo's ROS
     part runs first, ``out/screenshots/demo.rrd``, the same run as ``make demo``) and of a scenario
     (:data:`SCENARIO_SHOT`; without ``scenario_rrd`` a node runs it, ``out/screenshots/scenario.rrd``). Each
-    recording is first checked with :meth:`HeadlessViewer.title_problems` (every tab title visible)."""
+    recording is first checked with :meth:`HeadlessViewer.title_problems` (every tab title visible) and
+    :meth:`HeadlessViewer.legend_problems` (every legend entry whole)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     if rrd is None:
