@@ -224,6 +224,9 @@ def test_every_legend_entry_shows_whole(example_rrd, size, tmp_path):
     legends = expected_legends(example_rrd)
     assert [n for n, _c in legends["fault frequencies [Hz]"]] == [
         "1x [Hz]", "FTF [Hz]", "BPFO [Hz]", "BPFI [Hz]", "BSF [Hz]", "2xBSF [Hz]"]
+    # the committed recording is an old one: its defect gets today's name (bearing, place, quantity, unit)
+    assert [n for n, _c in legends["DE ground truth: depth [µm]"]] == ["DE outer race depth [µm]"]
+    assert [n for n, _c in legends["NDE ground truth: depth [µm]"]] == ["no defect in this bearing [µm]"]
     with HeadlessViewer(window_size=size) as v:
         v.open(example_rrd)
         assert v.legend_problems(legends) == []
