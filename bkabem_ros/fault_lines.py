@@ -43,6 +43,8 @@ DEFECT_LINE = {"outer": "BPFO", "inner": "BPFI", "ball": "2xBSF", "cage": "FTF"}
 DEFECT_NAMES = {"outer": "outer-race", "inner": "inner-race", "ball": "ball", "cage": "cage"}
 #: Harmonics marked for a line a defect excites (the others: the fundamental only).
 DEFECT_HARMONICS = (1, 2, 3)
+#: Where a defect of each kind sits, as a diagnostics engineer says it (series names: "DE outer race depth [µm]").
+DEFECT_PLACES = {"outer": "outer race", "inner": "inner race", "ball": "ball", "cage": "cage"}
 
 
 @dataclass(frozen=True)
@@ -147,6 +149,13 @@ def truth_from_message(msg) -> Truth:
 def defects_from_message(msg) -> list[Defect]:
     """Every defect a message states (:func:`truth_from_message`; [] for a healthy machine)."""
     return list(truth_from_message(msg).defects)
+
+
+def defect_place(d: Defect) -> str:
+    """Where the defect is, for people: ``"outer race"``, ``"inner race"``, ``"ball 3"``, ``"cage"``."""
+    if d.kind == "ball" and d.ball:
+        return f"ball {d.ball}"
+    return DEFECT_PLACES.get(d.kind, d.kind)
 
 
 def describe_defect(d: Defect) -> str:

@@ -14,12 +14,35 @@ import numpy as np
 
 from . import condition, fault_lines
 
-__all__ = ["bearing_truth", "envelope_finding", "health_text"]
+__all__ = ["bearing_truth", "envelope_finding", "health_text", "line_sources"]
 
 
-def envelope_finding(f, env, lines: dict[str, float], names: list[str]) -> str:
+#: Lines a defect of each kind shows in an envelope spectrum (a ball defect strikes both races:
+#: 2xBSF, and BSF when the two strikes differ).
+_ENVELOPE_LINES = {"outer": ("BPFO",), "inner": ("BPFI",), "ball": ("2xBSF", "BSF"), "cage": ("FTF",)}
+
+
+def _defect_words(d) -> str:
+    what = f"ball {d.ball}" if d.kind == "ball" and d.ball else fault_lines.DEFECT_NAMES.get(d.kind, d.kind)
+    return f"{d.bearing.upper()} {what} defect"
+
+
+def line_sources(name: str, loc: str, defects) -> tuple[list, list]:
+    """The defects of the ground truth whose fault line ``name`` is: (this bearing's, the other
+    bearings'). An envelope line of another bearing's defect is transmitted (shaft, housing,
+    frame), not a fault of this one."""
+    hit = [d for d in defects or () if name in _ENVELOPE_LINES.get(d.kind, (d.line,))]
+    return [d for d in hit if d.bearing == loc], [d for d in hit if d.bearing != loc]
+
+
+def envelope_finding(f, env, lines: dict[str, float], names: list[str], loc: str = "",
+                     defects=None) -> str:
     """The fault line whose harmonics 1-3 stand out most over the envelope spectrum's median
-    floor (what a monitoring pipeline reads first)."""
+    floor (what a monitoring pipeline reads first), for bearing ``loc``. With the ground truth
+    (``defects``: every defect of the machine with its bearing), a line that stands out and
+    belongs only to a defect of another bearing is said to be that defect's, transmitted
+    ("BPFO 89.6 Hz: from the DE outer-race defect (transmitted) ..."), so the panel of a
+    healthy bearing never reads like a fault of its own."""
     if env.size == 0 or f.size < 8:
         return "no envelope spectrum yet"
     df = f[1] - f[0]
@@ -42,10 +65,19 @@ def envelope_finding(f, env, lines: dict[str, float], names: list[str]) -> str:
     if best is None:
         return "no fault line in the envelope range yet"
     db, name, ch, f0 = best
-    verdict = "stands out" if db[0] >= 10 else "does not stand out"
+    stands = db[0] >= 10
     hs = "/".join(f"{v:.0f}" for v in db)
-    return (f"{name} ({f0:.1f} Hz) {verdict}: harmonics 1-{len(db)} at {hs} dB over the median floor "
-            f"({ch})")
+    numbers = f"harmonics 1-{len(db)} at {hs} dB over the median floor ({ch})"
+    own, other = line_sources(name, loc, defects)
+    if stands and other and not own:
+        src = " and ".join(_defect_words(d) for d in other)
+        return (f"{name} {f0:.1f} Hz: from the {src} (transmitted), not a fault of the "
+                f"{loc.upper()} bearing; {numbers}")
+    verdict = "stands out" if stands else "does not stand out"
+    also = ""
+    if stands and own and other:
+        also = f"; the {' and '.join(_defect_words(d) for d in other)} has it too (transmitted)"
+    return f"{name} ({f0:.1f} Hz) {verdict}: {numbers}{also}"
 
 
 def bearing_truth(loc: str, defects: list, truth: "fault_lines.Truth | None" = None) -> tuple[str, str]:

@@ -52,6 +52,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .node_band import BandWatch, start_note, start_refusal
 from .node_params import LIVE_PARAMETERS, PARAMETER_SPECS, PARAMETERS, ParamSpec  # noqa: F401  (re-exported)
 from .speed import SPEED_UNITS, check_speed, normalize_unit
 
@@ -156,6 +157,12 @@ class VibrationNode(_node_base()):
             time_scale=float(p["scenario_time_scale"]), scenario_start_s=float(p["scenario_start"]),
             sample_rate_hz=self.sample_rate, samples_per_chunk=self.samples_per_chunk, seed=self._seed,
             slip=self._slip, machine_id=self.machine_id, frames=self._frame, labels=labels, logger=self.get_logger())
+        # -- the sample rate against the lines (bkabem_ros.node_band): refused at start where `bkabem synth` refuses
+        # --rate; the taper acting while the stream runs is a warning once per event
+        why = start_refusal(self._source.synth, scenario, float(p["scenario_start"]), self._machine_label())
+        if why is not None:
+            raise ValueError(why)
+        self._band = BandWatch(self.get_logger().warning)
         self._apply_noise()
         self._scenario_loaded: dict[str, Scenario] = {}     # parameter callback -> post callback
 
@@ -245,8 +252,21 @@ class VibrationNode(_node_base()):
             f"machine {self.machine_id!r}: {what}, {self.sample_rate:g} Hz, "
             f"{self.samples_per_chunk} samples/chunk ({self.chunk_ns / 1e6:g} ms), QoS {p['qos']} depth {depth}, "
             f"speed in {normalize_unit(p['speed_unit'])} on {self._speed_topic}, max {self._max_speed:g} rad/s")
+        if scenario is None or not scenario.has_speed:
+            note = start_note(self._source.synth, self._max_speed / TWO_PI, self._machine_label())
+            if note is not None:
+                self.get_logger().info(note)
         if start:
             self.start()
+
+    def _machine_label(self) -> str:
+        """The model in the signal, for people: ``scenario 'x' state 2 (DE outer 0.39 mm x 10 um)`` or ``case ...``."""
+        d = self._source.driver
+        state = d.applied
+        label = "" if state is None else f" ({state.label})"
+        if d.scenario.name:
+            return f"scenario {d.scenario.name!r} state {'?' if state is None else state.index}{label}"
+        return f"case {self._source.case.name}{label}"
 
     # ------------------------------------------------------------------ parameters
     def _coerce_numeric_overrides(self) -> None:
@@ -535,6 +555,8 @@ class VibrationNode(_node_base()):
         chunk, truth = src.next_chunk(index, self._speed_rad_s / TWO_PI)
         if int(chunk.first_sample_index) != index:
             raise RuntimeError(f"synth produced index {chunk.first_sample_index}, expected {index}")
+        self._band.check(src.synth, src.model, max(float(chunk.shaft_speed_hz), float(chunk.shaft_speed_end_hz)),
+                         self._machine_label)
         speed = float(chunk.shaft_speed_hz) * TWO_PI          # at the first sample
         # the waveforms straight to CDR (waveform_cdr: the constant part of each stream encoded once); message
         # objects only for sinks (recorders, viewers), made from the same bytes when one asks for them

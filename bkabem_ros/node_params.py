@@ -42,7 +42,10 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("machine_id", "", "",
               "machine (fleet) id written into every message; empty: the node's namespace without the "
               "leading '/', or 'bkabem' in the root namespace"),
-    ParamSpec("sample_rate", 25600.0, "Hz", "samples per second and channel", range=(1000.0, 204800.0)),
+    ParamSpec("sample_rate", 25600.0, "Hz",
+              "samples per second and channel; lines near Nyquist fade out and are dropped, with a warning (a "
+              "scenario whose [speed] puts a line above Nyquist is refused at start: docs/ros_node.md, Band limit)",
+              range=(1000.0, 204800.0)),
     ParamSpec("chunk_duration", 0.1, "s",
               "length of one waveform message; samples per chunk = round(sample_rate * chunk_duration)",
               range=(0.005, 2.0)),

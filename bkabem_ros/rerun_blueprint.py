@@ -17,18 +17,20 @@ row, so that every tab title shows in full and the title in white is the plot be
    a scenario's growing defects; a 0 "no defect" line for a healthy bearing), the acceleration
    per block (min/max envelope and RMS: the overview that loads fast, ten points per second),
    displacement peak-to-peak;
-5. the health panel: ISO zone, the ground truth of this bearing, what the envelope spectrum
-   shows, the other bearing's defects, the machine;
-
-and across the bottom shaft speed and fault frequencies over the whole run, each on its own
-axis. The recording opens following its latest data (the end of a file), paused there once
-the user scrubs, so every view has data from the start.
+and across the bottom, in three equal parts: the DE and NDE health panels (ISO zone, the ground
+truth of this bearing, what the envelope spectrum shows and whose line it is, the other bearing's
+defects, the machine) and the machine's tabs: fault frequencies (1x, FTF, BPFO, BPFI, BSF, 2xBSF:
+the marker key) and shaft speed over the whole run. The bottom row is as tall as the fault-frequency
+legend's six entries need at 1600 x 900 (every legend entry of every view shows whole at 1920 x 1080
+and 1600 x 900: ``HeadlessViewer.legend_problems``, tests/test_rerun_viewer.py). The recording opens
+following its latest data (the end of a file), paused there once the user scrubs, so every view has
+data from the start.
 """
 
 from __future__ import annotations
 
-__all__ = ["DISPLAY_UNITS", "MAX_TABS", "TAB_BAR_END_PX", "TIMELINE", "blueprint", "tab_row_width_px", "tab_rows",
-           "view_names"]
+__all__ = ["DISPLAY_UNITS", "MAX_TABS", "TAB_BAR_END_PX", "TIMELINE", "blueprint", "legend_views", "tab_row_width_px",
+           "tab_rows", "view_names"]
 
 TIMELINE = "sample_time"
 
@@ -41,11 +43,15 @@ DISPLAY_UNITS = {
 
 _WAVEFORM_WINDOW_S = 1.0
 
-#: The tab rows of a bearing's column, top to bottom (the health panel is the last row, no tabs).
+#: The tab rows of a bearing's column, top to bottom (its health panel goes to the bottom row).
 _TAB_GROUPS = ("waveforms", "spectra", "condition", "levels")
-#: Heights of the column's rows: the tab rows, then the health panel (the condition row tall enough for the
-#: ISO legend's five entries at 1080 px).
-_ROW_SHARES = (2.2, 2.4, 3.1, 2.9, 2.6)
+#: Heights of the column's rows (the condition row tall enough for the ISO legend's five entries, the levels row for
+#: the four of the acceleration per block, at 900 px).
+_ROW_SHARES = (1.9, 2.0, 3.4, 3.0)
+#: Height of the bottom row (health panels, fault frequencies: the legend's six entries) against the columns' rows.
+_BOTTOM_SHARE = 4.2
+#: The machine's views (bottom right, tabs): fault frequencies first (its legend is the marker key), shaft speed.
+MACHINE_VIEWS = (("fault frequencies [Hz]", "/fault_frequencies"), ("shaft speed [Hz]", "/speed"))
 #: At most this many views share a tab row: with the titles of :func:`_views`, every title of a row is
 #: visible in a bearing's column at the screenshot window size (1920 x 1080: half the window per column) and
 #: down to a 1600 px wide window. Spectra have their abscissa in Hz, trends in time.
@@ -92,13 +98,21 @@ def tab_rows(locations=("de", "nde"), quantities=("acceleration", "displacement"
         for group, name, _kind, _origin in _views(loc, quantities):
             groups.setdefault(group, []).append(name)
         rows += [names for group, names in groups.items() if group in _TAB_GROUPS]
-    return rows
+    return rows + [[name for name, _origin in MACHINE_VIEWS]]
 
 
 def view_names(locations=("de", "nde"), quantities=("acceleration", "displacement")) -> list[str]:
     """Names of every view :func:`blueprint` makes (tests check the viewer shows each)."""
     names = [v[1] for loc in locations for v in _views(loc, quantities)]
-    return names + ["shaft speed [Hz]", "fault frequencies [Hz]"]
+    return names + [name for name, _origin in MACHINE_VIEWS]
+
+
+def legend_views(locations=("de", "nde"), quantities=("acceleration", "displacement")) -> dict[str, str]:
+    """{view name: origin} of every view of :func:`blueprint` that shows a plot legend (the time series views;
+    the bar charts have none): tests check that every entry of each legend is visible."""
+    out = {name: origin for loc in locations for _g, name, kind, origin in _views(loc, quantities)
+           if kind in ("wave", "trend")}
+    return {**out, **dict(MACHINE_VIEWS)}
 
 
 def blueprint(locations=("de", "nde"), quantities=("acceleration", "displacement"),
@@ -123,19 +137,20 @@ def blueprint(locations=("de", "nde"), quantities=("acceleration", "displacement
             return rrb.TimeSeriesView(origin=origin, name=name, plot_legend=trend_legend)
         return rrb.TextDocumentView(origin=origin, name=name)
 
-    columns = []
+    columns, panels = [], []
     for loc in locations:
         groups: dict[str, list] = {}
         for group, name, kind, origin in _views(loc, quantities):
             groups.setdefault(group, []).append(make(kind, name, origin))
         L = loc.upper()
-        parts = [rrb.Tabs(*groups[g], name=f"{L} {g}") for g in _TAB_GROUPS] + [groups["health"][0]]
-        columns.append(rrb.Vertical(*parts, row_shares=list(_ROW_SHARES), name=L))
-    machine = rrb.Horizontal(
-        rrb.TimeSeriesView(origin="/speed", name="shaft speed [Hz]", plot_legend=trend_legend),
-        rrb.TimeSeriesView(origin="/fault_frequencies", name="fault frequencies [Hz]", plot_legend=legend),
-        name="machine")
+        columns.append(rrb.Vertical(*[rrb.Tabs(*groups[g], name=f"{L} {g}") for g in _TAB_GROUPS],
+                                    row_shares=list(_ROW_SHARES), name=L))
+        panels.append(groups["health"][0])
+    legends = {"/fault_frequencies": legend, "/speed": trend_legend}
+    machine = rrb.Tabs(*[rrb.TimeSeriesView(origin=origin, name=name, plot_legend=legends[origin])
+                         for name, origin in MACHINE_VIEWS], name="machine")
     return rrb.Blueprint(
-        rrb.Vertical(rrb.Horizontal(*columns), machine, row_shares=[sum(_ROW_SHARES), 2.4]),
+        rrb.Vertical(rrb.Horizontal(*columns), rrb.Horizontal(*panels, machine, name="health and machine"),
+                     row_shares=[sum(_ROW_SHARES), _BOTTOM_SHARE]),
         rrb.TimePanel(state="collapsed", timeline=TIMELINE, play_state="following"),
         collapse_panels=True)

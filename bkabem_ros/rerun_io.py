@@ -18,7 +18,10 @@ The messages are SI; the viewer shows engineers' units, named in every series an
                                                velocity RMS 10-1000 Hz per channel [mm/s]
 ``/<loc>/iso_velocity/zones``                  the zone limits A/B, B/C, C/D [mm/s]
 ``/<loc>/trend/impulsiveness``                 per window: kurtosis and crest factor [-]
-``/<loc>/trend/ground_truth/<defect>``          per fault-frequency message: the defect's depth [µm]
+``/<loc>/trend/ground_truth/<place>_depth``     per fault-frequency message: the depth [µm] of the defect
+                                               at ``<place>`` (``outer_race``, ``inner_race``, ``ball_3``,
+                                               ``cage``), series "DE outer race depth [µm]"; a second
+                                               defect at the same place adds its name
 ``/<loc>/trend/ground_truth/no_defect``         0 [µm] while the bearing has had no defect (not an empty plot)
 ``/<loc>/envelope/<channel>``                  per window: envelope spectrum (``BarChart``, Hz)
 ``/<loc>/spectrum/<quantity>/<channel>``       order spectrum of the model, lines k >= 1
@@ -127,6 +130,11 @@ def _peak_hold(f: np.ndarray, amp: np.ndarray, bars: int) -> tuple[np.ndarray, n
     fg = f[:m].reshape(-1, g).mean(axis=1)
     ag = amp[:, :m].reshape(amp.shape[0], -1, g).max(axis=2)
     return fg, ag, g
+
+
+def _slug(text: str) -> str:
+    """An entity-path part: letters and digits, the rest as ``_`` ("ball 3" -> "ball_3")."""
+    return "".join(ch if ch.isalnum() else "_" for ch in text).strip("_") or "defect"
 
 
 def _display(quantity: str, unit: str) -> tuple[str, float]:
@@ -242,6 +250,8 @@ class RerunLogger:
         self._defects: list[fault_lines.Defect] = []
         self._truth: fault_lines.Truth | None = None
         self._truth_paths: dict[str, fault_lines.Defect] = {}     # ground-truth trend: path -> defect, once seen
+        self._truth_keys: dict[tuple, str] = {}                   # (bearing, kind, ball, name) -> its trend path
+        self._truth_names: dict[str, str] = {}                    # trend path -> series name
         self._health: dict[str, dict] = {}
         self._rows: dict[str, tuple[list[int], list[np.ndarray]]] = {}
         self._waves: dict[str, dict] = {}
@@ -482,7 +492,7 @@ class RerunLogger:
                  rms=np.sqrt(np.mean(x * x, axis=1, dtype=np.float64)), peak=np.max(np.abs(x), axis=1).astype(np.float64),
                  names=names,
                  band=band, window_s=x.shape[1] / fs, env_df=(f[1] - f[0]) if f.size > 1 else 0.0, env_group=group,
-                 finding=health.envelope_finding(f, env, lines, names),
+                 finding=health.envelope_finding(f, env, lines, names, loc, self._defects),
                  speed_hz=speed_rad_s / (2 * math.pi), lines=lines)
         text = health.health_text(loc, self._health.get(loc, {}), self._defects, self._lines, self.iso_zones,
                                   self.condition_window_s, self._truth)
@@ -598,22 +608,19 @@ class RerunLogger:
             self._log_truth_trend(truth, stamp)
 
     def _log_truth_trend(self, truth: "fault_lines.Truth", stamp: int) -> None:
-        """``/<loc>/trend/ground_truth/<defect>``: the depth [µm] of every defect of the run (from
+        """``/<loc>/trend/ground_truth/<place>_depth``: the depth [µm] of every defect of the run (from
         the fault-frequency messages; a defect that disappears is logged as 0)."""
         if not truth.available:
             return
         seen = self._truth_paths
         now = {}
         for d in truth.defects:
-            slug = "".join(ch if ch.isalnum() else "_" for ch in (d.name or d.kind)).strip("_") or "defect"
-            now[f"/{d.bearing}/trend/ground_truth/{slug}"] = d
+            now[self._truth_path(d)] = d
         for path, d in now.items():
             seen.setdefault(path, d)
         for path, d in seen.items():
             cur = now.get(path)
-            # (square brackets are for units in every series name: the case's "defects[0]" is shown as "defects 0")
-            label = (d.name or d.kind).replace("[", " ").replace("]", "")
-            self._series(path, [f"{label} ({fault_lines.DEFECT_NAMES.get(d.kind, d.kind)}) depth [µm]"],
+            self._series(path, [self._truth_names[path]],
                          [fault_lines.LINE_COLORS[fault_lines.DEFECT_LINE.get(d.kind, "BPFO")]], widths=[2.0])
             self._scalars(path, [cur.depth_m * 1e6 if cur is not None else 0.0], stamp)
         for loc in ("de", "nde"):           # a bearing without a defect (yet): a 0 line says so, not an empty plot
@@ -622,6 +629,26 @@ class RerunLogger:
             path = f"/{loc}/trend/ground_truth/no_defect"
             self._series(path, ["no defect in this bearing [µm]"], [NO_DEFECT_COLOR], widths=[2.0])
             self._scalars(path, [0.0], stamp)
+
+    def _truth_path(self, d: "fault_lines.Defect") -> str:
+        """The ground-truth trend entity of a defect, fixed for the run at its first sight: named by bearing and place
+        (``/de/trend/ground_truth/outer_race_depth``, series "DE outer race depth [µm]"); a second defect at the same
+        place of the same bearing adds its scenario name (``..._<name>_depth``, "DE outer race (spall 2) depth
+        [µm]"; square brackets are for units: a case's "defects[1]" shows as "defects 1")."""
+        key = (d.bearing, d.kind, d.ball, d.name)
+        path = self._truth_keys.get(key)
+        if path is not None:
+            return path
+        place = fault_lines.defect_place(d)
+        path = f"/{d.bearing}/trend/ground_truth/{_slug(place)}_depth"
+        name = f"{d.bearing.upper()} {place} depth [µm]"
+        if path in self._truth_names:
+            label = (d.name or d.kind).replace("[", " ").replace("]", "").strip()
+            path = f"/{d.bearing}/trend/ground_truth/{_slug(place)}_{_slug(label)}_depth"
+            name = f"{d.bearing.upper()} {place} ({label}) depth [µm]"
+        self._truth_keys[key] = path
+        self._truth_names[path] = name
+        return path
 
     def log_features(self, location: str, stamp_ns: int, features: Mapping[str, float]) -> None:
         """Extra per-chunk scalars, e.g. ``{"oil_temperature_C": 61.0}``, under

@@ -35,7 +35,8 @@ import numpy as np
 
 from .rerun_io import TIMELINE, rerun_binary
 
-__all__ = ["HeadlessViewer", "ViewStats", "listening_addresses", "locate", "main", "tab_strip", "view_statistics"]
+__all__ = ["HeadlessViewer", "ViewStats", "expected_legends", "legend_dots", "listening_addresses", "locate", "main",
+           "tab_strip", "view_statistics"]
 
 #: Window size of the headless viewer (logical points) for the screenshots.
 WINDOW_SIZE = (1920, 1080)
@@ -161,6 +162,60 @@ def tab_strip(full: np.ndarray, x: int, y: int, w: int) -> dict:
     tabs = _runs(ink[:end], 12)
     active = [i for i, (a, b) in enumerate(tabs) if bright[a:b + 1].sum() > 20]
     return {"tabs": tabs, "active": active, "overflow": bool(ink[end:w - 70].any())}
+
+
+#: A legend entry's colour dot in the viewer (rerun 0.41, egui_plot, 1 pixel per point): a filled circle about 8 px
+#: across, in the series' own colour. Accepted: 6-12 px each way, nearly round, at least 65 % filled (a line of the
+#: plot in that colour, 1-2.5 px wide, or a letter, never is); a dot cut by the plot's edge is lower than wide, a
+#: dimmed one (egui fades the entries it cuts) is not in the colour.
+_DOT_PX, _DOT_FILL, _DOT_TOLERANCE = (6, 12), 0.65, 40
+
+
+def legend_dots(img: np.ndarray, color) -> int:
+    """Number of whole legend dots of colour ``color`` (RGB) in a view's screenshot ``img`` (RGB array)."""
+    from scipy import ndimage  # noqa: PLC0415
+
+    mask = np.abs(img.astype(np.int16) - np.asarray(color, dtype=np.int16)[:3]).max(axis=2) < _DOT_TOLERANCE
+    labels, _n = ndimage.label(mask)
+    count = 0
+    for sl in ndimage.find_objects(labels):
+        h, w = sl[0].stop - sl[0].start, sl[1].stop - sl[1].start
+        if (_DOT_PX[0] <= h <= _DOT_PX[1] and _DOT_PX[0] <= w <= _DOT_PX[1] and abs(h - w) <= 2
+                and mask[sl].mean() >= _DOT_FILL):
+            count += 1
+    return count
+
+
+def expected_legends(rrd, legends: dict[str, str] | None = None) -> dict[str, list[tuple[str, tuple]]]:
+    """{view name: [(series name, RGB), ...]} of the legends the viewer draws for recording ``rrd``: every named
+    series (``SeriesLines`` names and colours) of the entities under each legend view's origin
+    (:func:`bkabem_ros.rerun_blueprint.legend_views` by default), one entry per name (the viewer merges series of
+    one name into one entry)."""
+    from rerun.chunk import RrdReader  # noqa: PLC0415
+
+    from .rerun_blueprint import legend_views  # noqa: PLC0415
+
+    legends = legend_views() if legends is None else legends
+    series: dict[str, list[tuple[str, tuple]]] = {}
+    for ch in RrdReader(str(rrd)).stream().collect().stream():
+        rb = ch.to_record_batch()
+        if "SeriesLines:names" not in rb.schema.names or "SeriesLines:colors" not in rb.schema.names:
+            continue
+        for names, colors in zip(rb.column("SeriesLines:names").to_pylist(),
+                                 rb.column("SeriesLines:colors").to_pylist()):
+            if names is None or colors is None:
+                continue
+            series[ch.entity_path] = [(n, ((c >> 24) & 255, (c >> 16) & 255, (c >> 8) & 255))
+                                      for n, c in zip(names, colors)]
+    out = {}
+    for view, origin in legends.items():
+        entries: dict[str, tuple] = {}
+        for path, items in sorted(series.items()):
+            if path == origin or path.startswith(origin.rstrip("/") + "/"):
+                for n, c in items:
+                    entries.setdefault(n, c)
+        out[view] = list(entries.items())
+    return out
 
 
 @dataclass
@@ -363,6 +418,35 @@ class HeadlessViewer:
         self.show_tab(0)
         return problems
 
+    def legend_problems(self, legends: dict[str, list[tuple[str, tuple]]], tabs=None) -> list[str]:
+        """Checks, tab by tab (as :meth:`title_problems`), that every entry of the legend of each view in
+        ``legends`` ({view name: [(series name, RGB)]}, :func:`expected_legends`) is drawn whole: one colour dot
+        per entry (:func:`legend_dots`). Returns what is hidden or cut ([] when every entry shows); the first tabs
+        are active again afterwards."""
+        problems, done = [], set()
+        for k in (range(self.tab_count()) if tabs is None else tabs):
+            self.show_tab(k)
+            self.client.take_screenshot()
+            hidden = self.hidden_views()
+            for view in self.views():
+                entries = legends.get(view.name)
+                if not entries or view.name in done or str(view.view_id) in hidden:
+                    continue
+                done.add(view.name)
+                img = _pixels(self.screenshot(view.view_id, settle=2))
+                need: dict[tuple, list[str]] = {}
+                for name, color in entries:
+                    need.setdefault(tuple(color), []).append(name)
+                missing = []
+                for color, names in need.items():
+                    missing += names[legend_dots(img, color):]
+                if missing:
+                    problems.append(f"{view.name}: legend shows {len(entries) - len(missing)} of {len(entries)} "
+                                    f"entries whole ({img.shape[1]} x {img.shape[0]} px view); hidden or cut: "
+                                    f"{', '.join(missing)}")
+        self.show_tab(0)
+        return problems
+
     def errors(self) -> list[str]:
         """WARN/ERROR lines of the viewer's log other than the software-rasteriser notice."""
         return [f"{e.level} {e.target}: {e.message}" for e in self.client.get_logs()
@@ -457,6 +541,9 @@ def _shoot(rrd, shots, out: Path) -> list[Path]:
         problems = v.title_problems()
         if problems:
             raise RuntimeError("tab titles: " + "; ".join(problems))
+        problems = v.legend_problems(expected_legends(rrd))
+        if problems:
+            raise RuntimeError("legends: " + "; ".join(problems))
         for name, at, tab, _what in shots:
             v.show_tab(tab)
             if at is not None:
@@ -477,7 +564,8 @@ def make_doc_screenshots(out_dir, rrd=None, scenario_rrd=None) -> list[Path]:
     """Screenshots for the docs: of the demo recording (:data:`DOC_SHOTS`; without ``rrd`` the demo's ROS
     part runs first, ``out/screenshots/demo.rrd``, the same run as ``make demo``) and of a scenario
     (:data:`SCENARIO_SHOT`; without ``scenario_rrd`` a node runs it, ``out/screenshots/scenario.rrd``). Each
-    recording is first checked with :meth:`HeadlessViewer.title_problems` (every tab title visible)."""
+    recording is first checked with :meth:`HeadlessViewer.title_problems` (every tab title visible) and
+    :meth:`HeadlessViewer.legend_problems` (every legend entry whole)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     if rrd is None:

@@ -446,7 +446,7 @@ def test_scenario_by_ros_parameters_same_seed_same_stream_recorded_echoed_and_vi
     texts = [t[0] for t in _column(ents["/de/health"]["batches"], "TextDocument:text")]
     last = _gt(got["a"][-1])
     assert any(last["state_label"] in t for t in texts), texts[-1]
-    trend = ents["/de/trend/ground_truth/de_outer"]
+    trend = ents["/de/trend/ground_truth/outer_race_depth"]
     depths_um = sorted({round(v[0], 6) for v in _column(trend["batches"], "Scalars:scalars")})
     want = sorted({round(d["depth_m"] * 1e6, 6) for gt in recorded.values() for d in gt["defects"]})
     assert set(want) - {0.0} <= set(depths_um) and len(want) >= 2, (depths_um, want)

@@ -248,7 +248,7 @@ def test_blueprint_in_file_has_de_and_nde_side_by_side(tmp_path):
     tab_rows = [[by_path[str(q).strip("/")] for q in d["ContainerBlueprint:contents"]]
                 for d in containers.values() if d["ContainerBlueprint:container_kind"][0] == tab_kind]
     assert sorted(map(sorted, tab_rows)) == sorted(map(sorted, rerun_blueprint.tab_rows()))
-    assert len(tab_rows) == 8
+    assert len(tab_rows) == 9                        # 4 per bearing, the machine's tabs
     for row in tab_rows:
         assert 2 <= len(row) <= rerun_blueprint.MAX_TABS, row
         assert rerun_blueprint.tab_row_width_px(row) <= 954 - rerun_blueprint.TAB_BAR_END_PX, row
@@ -501,12 +501,14 @@ def test_health_panel_and_ground_truth_trend_follow_the_messages(tmp_path):
     logger.close()
     _verify(path)
     ents = _rows(path)
-    for loc, name, kind in (("de", "de_outer", "outer-race"), ("nde", "nde_ball", "ball")):
-        p = f"/{loc}/trend/ground_truth/{name}"
+    # named as a diagnostics engineer reads them: bearing, place, quantity, unit (not the scenario's defect names)
+    for loc, name, place, series in (("de", "de_outer", "outer_race", "DE outer race depth [µm]"),
+                                     ("nde", "nde_ball", "ball_2", "NDE ball 2 depth [µm]")):
+        p = f"/{loc}/trend/ground_truth/{place}_depth"
         vals = [v[0] for v in _column(ents[p]["batches"], "Scalars:scalars")]
         want = [s[name] for s in sent if name in s] + [0.0, 0.0]
         np.testing.assert_allclose(vals, want, rtol=1e-12)
-        assert _static(ents, p, "SeriesLines:names") == [[f"{name} ({kind}) depth [µm]"]]
+        assert _static(ents, p, "SeriesLines:names") == [[series]]
     assert not any(e.startswith("/de/trend/ground_truth/nde") or e.startswith("/nde/trend/ground_truth/de")
                    for e in ents)
     # until a bearing has a defect its trend is a 0 line, named so (not an empty plot)
@@ -529,6 +531,69 @@ def test_health_panel_and_ground_truth_trend_follow_the_messages(tmp_path):
         assert "machine **faulty**: 2 defect(s)" in text
         assert f"scenario view_test: state {last_state.index} ({last_state.label}) since" in text
         assert "labels: purpose=view, site=lab" in text
+
+
+def test_two_defects_at_one_place_get_two_named_trends(tmp_path):
+    """Two outer-race dents in the DE bearing: the first is "DE outer race depth [µm]", the second adds its name (the
+    names of a run stay as first seen); the old "<scenario name> (<kind>) depth" naming is gone."""
+    from bkabem_core.scenario import Scenario
+
+    sc = Scenario.from_toml(scenario_toml(
+        "two_outer", duration_s=10.0,
+        defects=[defect("spall_a", "de", "outer", angle_deg=-90.0, time_s=[1.0], length_m=[1e-3], depth_m=[10e-6]),
+                 defect("spall_b", "de", "outer", angle_deg=90.0, time_s=[2.0], length_m=[1e-3], depth_m=[20e-6])]),
+        "two_outer.toml")
+    path = tmp_path / "two.rrd"
+    logger = rerun_io.RerunLogger("bkabem-test", save_path=path)
+    for j, t in enumerate((0.5, 1.5, 2.5, 3.5)):
+        gt = sc.ground_truth(sc.state_at(t), t, 25.0, 1.0)
+        logger.log_fault_frequencies(msgs.fault_frequencies_message(
+            shaft_speed=2 * math.pi * 25.0, ftf=9.9, bpfo=BPFO, bpfi=135.6, bsf=58.9, machine_id="m1",
+            bearing_designation="6010", defect_bearing="de", defect_race="outer", defect_length=1e-3,
+            defect_depth=10e-6, defect_angle=0.0, stamp=_stamp(5 * j), ground_truth=msgs.ground_truth_message(gt)))
+    logger.close()
+    ents = _rows(path)
+    a, b = "/de/trend/ground_truth/outer_race_depth", "/de/trend/ground_truth/outer_race_spall_b_depth"
+    assert _static(ents, a, "SeriesLines:names") == [["DE outer race depth [µm]"]]
+    assert _static(ents, b, "SeriesLines:names") == [["DE outer race (spall_b) depth [µm]"]]
+    assert [v[0] for v in _column(ents[a]["batches"], "Scalars:scalars")] == pytest.approx([10.0, 10.0, 10.0])
+    assert [v[0] for v in _column(ents[b]["batches"], "Scalars:scalars")] == pytest.approx([20.0, 20.0])
+    assert sorted(e for e in ents if "/trend/ground_truth/" in e) == sorted(
+        [a, b, "/de/trend/ground_truth/no_defect", "/nde/trend/ground_truth/no_defect"])
+
+
+def test_envelope_verdict_says_when_a_line_is_another_bearings_defect():
+    """An envelope spectrum with BPFO and its harmonics standing out (and a weaker BPFI): on the NDE panel of a
+    machine whose only defect is a DE outer-race dent, the verdict names the DE defect as the source, transmitted;
+    on the DE panel it stays the bearing's own finding; with an NDE outer-race defect too, the NDE finding is its
+    own and says the DE one adds to it; without ground truth it is the plain finding."""
+    from bkabem_ros import fault_lines, health
+
+    fs, n = 8192.0, 8192
+    f = np.fft.rfftfreq(n, 1 / fs)[: 1024]
+    rng = np.random.default_rng(1)
+    env = np.abs(rng.normal(1e-3, 2e-4, (2, f.size)))
+    lines = {"1x": 25.0, "FTF": 9.9, "BPFO": 89.6, "BPFI": 135.6, "BSF": 58.9, "2xBSF": 117.8}
+    for h, a in ((1, 0.05), (2, 0.03), (3, 0.02)):
+        env[:, np.argmin(np.abs(f - h * 89.6))] = a
+    env[:, np.argmin(np.abs(f - 135.6))] = 0.004
+    de = fault_lines.Defect("outer", "de", 2e-3, 50e-6, -math.pi / 2, "6010", "defects[0]")
+    nde = fault_lines.Defect("outer", "nde", 1e-3, 20e-6, 0.0, "6010", "defects[1]")
+    names = ["vertical", "horizontal"]
+    text = health.envelope_finding(f, env, lines, names, "nde", [de])
+    assert text.startswith("BPFO 89.6 Hz: from the DE outer-race defect (transmitted), not a fault of the NDE "
+                           "bearing; harmonics 1-3 at "), text
+    assert "stands out" not in text
+    assert health.envelope_finding(f, env, lines, names, "de", [de]).startswith("BPFO (89.6 Hz) stands out: ")
+    both = health.envelope_finding(f, env, lines, names, "nde", [de, nde])
+    assert both.startswith("BPFO (89.6 Hz) stands out: ") and both.endswith(
+        "; the DE outer-race defect has it too (transmitted)"), both
+    assert "transmitted" not in health.envelope_finding(f, env, lines, names)
+    # a line of no defect, or one that does not stand out: no source is claimed
+    ball = fault_lines.Defect("ball", "de", 1e-3, 20e-6, 0.0, "6010", "b", ball=2)
+    assert "transmitted" not in health.envelope_finding(f, env, lines, names, "nde", [ball])
+    quiet = np.abs(rng.normal(1e-3, 2e-4, (2, f.size)))
+    assert "transmitted" not in health.envelope_finding(f, quiet, lines, names, "nde", [de])
 
 
 def test_health_text_says_what_is_in_this_bearing_and_what_is_elsewhere():

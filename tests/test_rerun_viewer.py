@@ -24,6 +24,7 @@ from bkabem_ros import replay, rerun_io  # noqa: E402
 from bkabem_ros.rerun_blueprint import view_names  # noqa: E402
 from bkabem_ros.rerun_viewer import (  # noqa: E402
     HeadlessViewer,
+    expected_legends,
     lavapipe_available,
     listening_addresses,
     view_statistics,
@@ -205,6 +206,38 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
         for L in ("DE", "NDE"):
             row = [p for p in problems if p.startswith(f"{L} ISO velocity")]
             assert any("overflows" in p for p in row) and any("white title at [], not at 4" in p for p in row), problems
+        assert v.legend_problems(expected_legends(rrd)) == []
     with HeadlessViewer(window_size=(1600, 900)) as v:        # a laptop's window: the titles still fit
         v.open(rrd)
         assert v.title_problems() == []
+        assert v.legend_problems(expected_legends(rrd)) == []
+
+
+@pytest.mark.parametrize("size", [(1920, 1080), (1600, 900)])
+def test_every_legend_entry_shows_whole(example_rrd, size, tmp_path):
+    """Every entry of every plot legend (the series of each time-series view, read from the recording) is drawn
+    whole, its colour dot in the series' colour, at the screenshots' window size and a laptop's: the review saw the
+    fault-frequency legend (the marker key) show 3.5 of its 6 entries. The check can fail: with the bottom row as
+    short as the review's machine row it reports the fault-frequency entries it cuts."""
+    from bkabem_ros.rerun_viewer import _save_png
+
+    legends = expected_legends(example_rrd)
+    assert [n for n, _c in legends["fault frequencies [Hz]"]] == [
+        "1x [Hz]", "FTF [Hz]", "BPFO [Hz]", "BPFI [Hz]", "BSF [Hz]", "2xBSF [Hz]"]
+    # the committed recording is an old one: its defect gets today's name (bearing, place, quantity, unit)
+    assert [n for n, _c in legends["DE ground truth: depth [µm]"]] == ["DE outer race depth [µm]"]
+    assert [n for n, _c in legends["NDE ground truth: depth [µm]"]] == ["no defect in this bearing [µm]"]
+    with HeadlessViewer(window_size=size) as v:
+        v.open(example_rrd)
+        assert v.legend_problems(legends) == []
+        _save_png(v.screenshot(settle=2), tmp_path / f"legends_{size[0]}.png")
+        bp = v.client.get_blueprint().blueprint
+        root = next(c["ContainerBlueprint"] for c in bp.values()
+                    if c.get("ContainerBlueprint", {}).get("container_kind") == "Vertical"
+                    and len(c["ContainerBlueprint"].get("row_shares") or []) == 2)
+        root["row_shares"] = [root["row_shares"][0], root["row_shares"][0] * 2.4 / 13.2]   # the review's 2.4 : 13.2
+        v.client.set_blueprint(bp, of="recording")
+        v.client.take_screenshot()
+        problems = v.legend_problems(legends)
+        ff = [p for p in problems if p.startswith("fault frequencies [Hz]: legend shows ")]
+        assert ff and "of 6 entries whole" in ff[0] and "2xBSF [Hz]" in ff[0].split("hidden or cut: ")[1], problems
