@@ -44,6 +44,8 @@
 #ifndef BKABEM_SYNTHNOISE_H
 #define BKABEM_SYNTHNOISE_H
 
+#include "_synthbase.h"
+
 #include <math.h>
 #include <stdint.h>
 #include <string.h>

@@ -1,6 +1,7 @@
 /*
- * The rows of a line set's families for 8 float32 channels with AVX2 + FMA (included by _synthlines.h): families
- * that share one phase are evaluated together, and the carriers' cos / sin are computed 8 samples at a time.
+ * The rows of a line set's families for 8 (and 4) float32 channels with AVX2 + FMA (included by _synthlines.h; needs
+ * only _synthbase.h): families that share one phase are evaluated together, and the carriers' cos / sin are computed
+ * 8 samples at a time.
  *
  * Why: an inner-race line set has 6 carrier families on the one BPFI phase with one table size, a ball set 5 + 2 on
  * the cage phase (spin carriers); one family at a time computed the same row indices and spline weights for each
@@ -11,11 +12,13 @@
  * as lines_family8_fma did (fused multiply-adds). A group moves its families' contributions together, so the sum
  * over families is in another order than the generic path's (float rounding, as the fast path's FMA already is).
  *
- * Carrier cos / sin (carrier8_avx2): carrier_cos_sin of _synthlines.h on 8 lanes, the same operations (separate
+ * Carrier cos / sin (carrier8_avx2): carrier_cos_sin of _synthbase.h on 8 lanes, the same operations (separate
  * multiplies and adds, octant from 24 bits of the turn, quadrant by swap and sign), so the same bits.
  */
 #ifndef BKABEM_SYNTHROWS_H
 #define BKABEM_SYNTHROWS_H
+
+#include "_synthbase.h"
 
 #define GROUP_MAX 8                             /* families per group (their carriers' cos / sin on the stack) */
 
