@@ -48,6 +48,10 @@ typedef double v4f64 __attribute__((vector_size(32)));
 /* Highest instruction set the run-time dispatch of the fast paths may choose (tests lower it to cover the others):
  * 2 AVX-512 (knot table), 1 AVX2 + FMA, 0 baseline. Process-wide; not meant to change while kernels run. */
 static int isa_cap = 2;
+/* 1: the line-set kernel's vector code as it was before the rows took two families a pass and two 4-channel samples a
+ * register (one family a pass, one sample a register), and 4-channel noise through the 8-lane buffer: the tests'
+ * reference for the newer code, which must give the same bits (synth_set_reference_paths). */
+static int reference_paths = 0;
 
 /* Phases of samples j = 0 .. nb-1 of a block, from the phase u and increment d of sample 0 (advanced to sample nb on
  * return): the row idx[j] = (V_j >> fb) & mask and the fraction frac[j] = (V_j >> (fb - 24)) & (2^24 - 1), as

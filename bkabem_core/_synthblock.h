@@ -201,7 +201,7 @@ static void noise_add_block_##SUF(const int C, int nb, const NoiseArgs *na, int6
                         (const float *)(const void *)extra);                                                        \
         return;                                                                                                     \
     }                                                                                                               \
-    if (sig != NULL && sizeof(T) == 4 && C == 4 && isa_cap >= 1 && HAVE_NOISE_AVX2) {                              \
+    if (sig != NULL && sizeof(T) == 4 && C == 4 && isa_cap >= 1 && HAVE_NOISE_AVX2 && !reference_paths) {        \
         noise_add4_avx2(na->key, n, nb, (const float *)(const void *)sig, (float *)(void *)x,                      \
                         (const float *)(const void *)extra);                                                        \
         return;                                                                                                     \

@@ -204,6 +204,14 @@ int synth_set_isa_cap(int cap)
     return old;
 }
 
+/* Sets reference_paths (_synthbase.h); returns the old value. */
+int synth_set_reference_paths(int on)
+{
+    const int old = reference_paths;
+    reference_paths = on;
+    return old;
+}
+
 /* 1 if synth_segment_f32 takes the fast path for C = 8 on this CPU (tests and benchmarks ask). */
 int synth_fast_path(void) { return isa_cap >= 1 && HAVE_FMA_PATH ? 1 : 0; }
 

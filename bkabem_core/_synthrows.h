@@ -331,6 +331,14 @@ static NOINLINE FMA_TARGET void lines_group8_fma(int lanes, int nb, int64_t k0, 
         if (blend) prologue8_fma(0, 1, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
         else prologue8_fma(0, 0, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
     }
+    if (reference_paths) {                             /* one family a pass, one sample a register */
+        for (int k = 0; k < nf; ++k) {
+            const int pair = 0;
+            if (lanes == 4) GROUP_CALL(group4_rows, group4_rows2);
+            else GROUP_CALL(group8_rows, group8_rows2);
+        }
+        return;
+    }
     for (int k = 0; k < nf; k += 2) {                         /* the families in pairs (the last one alone) */
         const int pair = k + 1 < nf;
         if (lanes == 4) GROUP_CALL(group4x2_rows, group4x2_rows2);
