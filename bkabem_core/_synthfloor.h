@@ -17,6 +17,9 @@
 #ifndef BKABEM_SYNTHFLOOR_H
 #define BKABEM_SYNTHFLOOR_H
 
+#include "_synthbase.h"
+#include "_synthnoise.h"
+
 /* out[k][c] = sum_j T[j][k][c] a_j(k), a_j(k) = s z[k][j] + i s z[k][4 + j], k = 0 .. F-1, complex64 as float pairs
  * (T: 4 x F x C, out: F x C), z the normals of stream key at "samples" 0 .. F-1, 8 "channels" (noise_fill8). Every
  * operation float32 in this order: ar = s zr, ai = s zi; re = tr ar - ti ai, im = tr ai + ti ar (numpy's complex64

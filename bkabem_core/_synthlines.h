@@ -1,7 +1,7 @@
 /*
- * Any line set in one pass (included by _synthloop.c after the sample-loop kernels): the spline tables of a line
- * set's families made by an FFT that keeps the channels in vector lanes, and the samples of a segment summed over
- * all families in one call, with the sensor noise and the chunk features fused (synth_lines.py).
+ * Any line set in one pass (included by _synthloop.c; uses _synthbase.h, _synthblock.h, _synthrows.h): the spline
+ * tables of a line set's families made by an FFT that keeps the channels in vector lanes, and the samples of a
+ * segment summed over all families in one call, with the sensor noise and the chunk features fused (synth_lines.py).
  *
  * Why: a non-order line set (inner race: 9 families, ball: 10) was one numpy inverse FFT per family and knot
  * (~90 us for 1024 points x 8 channels in numpy: the ball's tables alone were 1.1 ms per knot) and per family two
@@ -24,6 +24,10 @@
  */
 #ifndef BKABEM_SYNTHLINES_H
 #define BKABEM_SYNTHLINES_H
+
+#include "_synthbase.h"
+#include "_synthblock.h"   /* NoiseArgs, block_length, noise_add_block_f32, moments_f32 */
+#include "_synthrows.h"    /* the grouped AVX2 rows */
 
 /* The broadband floor (synth_floor.py) of m samples from absolute sample n0 into out (m x C, written): grains q of G
  * (grain g, frame, offset: samples [g S, g S + 2 S) read frame `frame` from `offset` under the sine window win),
@@ -219,31 +223,6 @@ int synth_family_tables(int64_t F, int64_t C, int64_t L, const double *y, const 
     return 0;
 }
 
-/* cos and sin of 2 pi (v / 2^64 of a turn modulo 4: v in units of 2^62 per turn) from the top 24 bits of the turn's
- * fraction: octant o = 3 bits, x = (21 bits) (pi/4) 2^-21 (or pi/4 - x for odd octants, exact in the integers). */
-static inline void carrier_cos_sin(uint64_t v, float *co, float *si)
-{
-    const uint32_t q = (uint32_t)((v >> 38) & 0xFFFFFF);
-    const uint32_t o = q >> 21, r = q & 0x1FFFFF;
-    const float x = (float)(int32_t)((o & 1) ? 0x200000 - r : r) * 3.74507028e-7f;
-    const float z = x * x;
-    float sn = -1.9515295891e-4f;
-    sn = sn * z + 8.3321608736e-3f;
-    sn = sn * z + -1.6666654611e-1f;
-    sn = sn * z * x + x;
-    float cs = 2.443315711809948e-5f;
-    cs = cs * z + -1.388731625493765e-3f;
-    cs = cs * z + 4.166664568298827e-2f;
-    cs = cs * z * z - 0.5f * z + 1.0f;
-    float c = (o & 1) ? sn : cs, s = (o & 1) ? cs : sn;          /* the angle within its quadrant */
-    switch (o >> 1) {
-    case 0: *co = c, *si = s; break;
-    case 1: *co = -s, *si = c; break;
-    case 2: *co = -c, *si = -s; break;
-    default: *co = s, *si = -c; break;
-    }
-}
-
 /* One segment of a line set: m samples x C channels into out (written). Per family f (F of them): phases[f] =
  * {phase0, dphase0, ddphase} of the family phase and {...} of its carrier (uint64, the order path's fixed point),
  * log2 of its table size lg[f], carrier[f], its tables at offset off_t[f] in ta (knot a) and tb (knot b; NULL: no
@@ -291,8 +270,6 @@ static inline void carrier_cos_sin(uint64_t v, float *co, float *si)
 #else
 #define HAVE_LINES8 0
 #endif
-
-#include "_synthrows.h"
 
 static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
                                     const int64_t *carrier, const int64_t *off_t, const float *ta, const float *tb,

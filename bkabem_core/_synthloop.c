@@ -55,220 +55,10 @@
  * knot from the modal sum's amplitudes, see its comment.
  */
 #include <Python.h>
-#include <math.h>
-#include <stdint.h>
-#include <stdlib.h>
-#include <string.h>
 
-#define FRAC_BITS 24                        /* bits of the fraction of a table step the weights are computed from */
-#define FRAC_MASK ((UINT64_C(1) << FRAC_BITS) - 1)
-#define BLEND_LEVELS 65536                  /* time-blend weight quantised to 2^-16 */
-#define BLOCK 256                           /* samples per block (phases, rows, moments); = NOISE_BLOCK */
-
-#if defined(__GNUC__)
-#define INLINE static inline __attribute__((always_inline))
-#define NOINLINE __attribute__((noinline))
-#else
-#define INLINE static inline
-#define NOINLINE
-#endif
-
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
-#define CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define CLONES
-#endif
-
+#include "_synthbase.h"
 #include "_synthnoise.h"
-
-typedef double v4d __attribute__((vector_size(32)));
-typedef int64_t v4l __attribute__((vector_size(32)));
-typedef float v4f __attribute__((vector_size(16)));
-typedef uint64_t v4u __attribute__((vector_size(32)));
-typedef int32_t v4i __attribute__((vector_size(16)));
-typedef double v2d __attribute__((vector_size(16)));
-typedef int64_t v2l __attribute__((vector_size(16)));
-typedef float v2f32 __attribute__((vector_size(8)));
-typedef float v4f32 __attribute__((vector_size(16)));
-typedef double v2f64 __attribute__((vector_size(16)));
-typedef double v4f64 __attribute__((vector_size(32)));
-
-/* d > hi ? d : hi and d < lo ? d : lo lane by lane (as maxpd / minpd with d first). Macros: no vector arguments
- * cross a function boundary (-Wpsabi). */
-#define VSEL_MAX(VL, a, b) ((__typeof__(a))((((a) > (b)) & (VL)(a)) | (~((a) > (b)) & (VL)(b))))
-#define VSEL_MIN(VL, a, b) ((__typeof__(a))((((a) < (b)) & (VL)(a)) | (~((a) < (b)) & (VL)(b))))
-
-/* Running moments of rows x[0 .. nb-1] (row stride C) of channels c0 .. c0+W-1 into acc, in W-lane double vectors 
- * VD (the compiler does not vectorise loop-carried sums by itself: that would reorder them). */
-#define MOMENTS_GROUP(T, SUF, NAME, W, VD, VL, VT, ATTR)                                                           \
-ATTR void moments_##NAME##_##SUF(const int C, int c0, int nb, const T *restrict x, const double *restrict off, \
-                                      double *restrict acc)                                                         \
-{                                                                                                                   \
-    VD s1, s2, s3, s4, hi, lo, o;                                                                                   \
-    for (int l = 0; l < W; ++l) {                                                                                   \
-        const double *a = acc + 6 * (int64_t)(c0 + l);                                                                       \
-        s1[l] = a[0], s2[l] = a[1], s3[l] = a[2], s4[l] = a[3], hi[l] = a[4], lo[l] = a[5], o[l] = off[c0 + l];     \
-    }                                                                                                               \
-    for (int k = 0; k < nb; ++k) {                                                                                  \
-        VD d;                                                                                                       \
-        LOADV_##SUF(d, VT, x + (int64_t)k * C + c0);                                                                \
-        d -= o;                                                                                                     \
-        VD d2 = d * d;                                                                                              \
-        s1 += d;                                                                                                    \
-        s2 += d2;                                                                                                   \
-        s3 += d2 * d;                                                                                               \
-        s4 += d2 * d2;                                                                                              \
-        hi = VSEL_MAX(VL, d, hi);                                                                                   \
-        lo = VSEL_MIN(VL, d, lo);                                                                                   \
-    }                                                                                                               \
-    for (int l = 0; l < W; ++l) {                                                                                   \
-        double *a = acc + 6 * (int64_t)(c0 + l);                                                                             \
-        a[0] = s1[l], a[1] = s2[l], a[2] = s3[l], a[3] = s4[l], a[4] = hi[l], a[5] = lo[l];                         \
-    }                                                                                                               \
-}
-
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
-#define HAVE_AVX2 __builtin_cpu_supports("avx2")
-#define MOMENTS_AVX2(T, SUF)                                                                                        \
-    MOMENTS_GROUP(T, SUF, quad, 4, v4d, v4l, v4##SUF, static inline __attribute__((always_inline, target("avx2")))) \
-    static NOINLINE __attribute__((target("avx2"))) void moments_avx2_##SUF(                                        \
-        const int C, int nb, const T *restrict x, const double *restrict off, double *restrict acc)                \
-    {                                                                                                               \
-        int c = 0;                                                                                                  \
-        for (; c + 4 <= C; c += 4) moments_quad_##SUF(C, c, nb, x, off, acc);                                       \
-        for (; c + 2 <= C; c += 2) moments_pair_##SUF(C, c, nb, x, off, acc);                                       \
-        for (; c < C; ++c) moments_one_##SUF(C, c, nb, x, off, acc);                                                \
-    }
-#else
-#define HAVE_AVX2 0
-#define MOMENTS_AVX2(T, SUF) static void moments_avx2_##SUF(const int C, int nb, const T *restrict x,                 \
-                                                            const double *restrict off, double *restrict acc)        \
-    { moments_base_##SUF(C, nb, x, off, acc); }
-#endif
-
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
-#include <immintrin.h>
-/* The common case, 8 float32 channels with AVX2, in one 8-lane float vector per moment: a block's sums (<= BLOCK
- * samples of d = x - (float) off) are taken in float and added to the double accumulators once per block, shifted
- * by e = (float) off - off exactly (binomial expansion in double): relative round-off ~1e-6 of a sum; the double
- * 4-lane path above costs ~2x the whole sample loop. Extremes are those of x itself, so max/min of d are exact:
- * (double) max x - off. */
-typedef float v8f __attribute__((vector_size(32)));
-typedef int32_t v8i __attribute__((vector_size(32)));
-static NOINLINE __attribute__((target("avx2"))) void moments8_f32_avx2(int nb, const float *restrict x,
-                                                                      const double *restrict off,
-                                                                      double *restrict acc)
-{
-    v8f o, s1 = {0}, s2 = {0}, s3 = {0}, s4 = {0}, hi, lo;
-    for (int l = 0; l < 8; ++l) o[l] = (float)off[l];
-    memcpy(&hi, x, sizeof hi);
-    lo = hi;
-    for (int k = 0; k < nb; ++k) {
-        v8f v;
-        memcpy(&v, x + 8 * (int64_t)k, sizeof v);
-        v8f d = v - o;
-        v8f d2 = d * d;
-        s1 += d;
-        s2 += d2;
-        s3 += d2 * d;
-        s4 += d2 * d2;
-        /* maxps / minps: v > hi ? v : hi and v < lo ? v : lo exactly (the second operand where either is NaN or
-         * both are zeros), one instruction each instead of the 4 of VSEL_MAX: the loop is bound by its vector
-         * operations (16 -> 10 per sample) */
-        hi = (v8f)_mm256_max_ps((__m256)v, (__m256)hi);
-        lo = (v8f)_mm256_min_ps((__m256)v, (__m256)lo);
-    }
-    for (int l = 0; l < 8; ++l) {
-        double *a = acc + 6 * l;
-        double h = (double)hi[l] - off[l], w = (double)lo[l] - off[l];
-        double e = (double)o[l] - off[l], n = nb;          /* sum (d + e)^p from the sums of d^p */
-        double t1 = s1[l], t2 = s2[l], t3 = s3[l], t4 = s4[l];
-        a[0] += t1 + n * e;
-        a[1] += t2 + e * (2.0 * t1 + n * e);
-        a[2] += t3 + e * (3.0 * t2 + e * (3.0 * t1 + n * e));
-        a[3] += t4 + e * (4.0 * t3 + e * (6.0 * t2 + e * (4.0 * t1 + n * e)));
-        a[4] = h > a[4] ? h : a[4];
-        a[5] = w < a[5] ? w : a[5];
-    }
-}
-#define HAVE_MOMENTS8_F32 __builtin_cpu_supports("avx2")
-#else
-#define HAVE_MOMENTS8_F32 0
-static void moments8_f32_avx2(int nb, const float *x, const double *off, double *acc) { (void)nb, (void)x, (void)off, (void)acc; }
-#endif
-
-/* Phases of samples j = 0 .. nb-1 of a block, from the phase u and increment d of sample 0 (advanced to sample nb on
- * return): the row idx[j] = (V_j >> fb) & mask and the fraction frac[j] = (V_j >> (fb - 24)) & (2^24 - 1), as
- * int32 (cheap to load, and to convert to float for the weights). Four samples per step in 64-bit lanes:
- * U_{j+4} = U_j + 4 D_j + 6 dd, D_{j+4} = D_j + 4 dd, which is the scalar recurrence exactly (modulo 2^64). */
-INLINE void phase_block(const int has_warp, int nb, uint64_t *pu, uint64_t *pd, uint64_t dd,
-                        const int64_t *restrict warp, int fb, uint64_t mask, int32_t *restrict idx,
-                        int32_t *restrict frac)
-{
-    const int sh = fb - FRAC_BITS;
-    uint64_t u = *pu, d = *pd;
-    int j = 0;
-    if (nb >= 4) {
-        v4u U = {u, u + d, u + 2 * d + dd, u + 3 * d + 3 * dd}, D = {d, d + dd, d + 2 * dd, d + 3 * dd};
-        const v4u dd4 = (v4u){dd, dd, dd, dd} * 4, dd6 = (v4u){dd, dd, dd, dd} * 6;
-        for (; j + 4 <= nb; j += 4) {
-            v4u v = U;
-            if (has_warp) {
-                v4u w;
-                memcpy(&w, warp + j, sizeof w);
-                v += w;
-            }
-            const v4u t = v >> sh;
-            const v4i ti = __builtin_convertvector((t >> FRAC_BITS) & mask, v4i);
-            const v4i tf = __builtin_convertvector(t & FRAC_MASK, v4i);
-            memcpy(idx + j, &ti, sizeof ti);
-            memcpy(frac + j, &tf, sizeof tf);
-            U += (D << 2) + dd6;
-            D += dd4;
-        }
-        u = U[0], d = D[0];
-    }
-    for (; j < nb; ++j) {
-        uint64_t v = u;
-        if (has_warp) v += (uint64_t)warp[j];
-        const uint64_t t = v >> sh;
-        idx[j] = (int32_t)((t >> FRAC_BITS) & mask);
-        frac[j] = (int32_t)(t & FRAC_MASK);
-        u += d;
-        d += dd;
-    }
-    *pu = u;
-    *pd = d;
-}
-
-/* Cubic B-spline weights of a block from the fractions (the sequence of the header; numpy:
- * synth_kernel._weights_from_fraction). A plain loop of T operations that the vectoriser maps to the target's
- * vectors; its vector body and scalar tail round alike (no contraction: -ffp-contract=off), so a sample's weights
- * do not depend on its position in the block. */
-#define WEIGHT_BLOCK(T)                                                                                             \
-    for (int j = 0; j < nb; ++j) {                                                                                  \
-        const T t = (T)frac[j] * (T)0x1p-24, s = (T)1 - t;                                                          \
-        const T t2 = t * t, s2 = s * s;                                                                             \
-        const T t3 = t2 * t, s3 = s2 * s;                                                                           \
-        T e = (T)2 - t, f = (T)2 - s;                                                                               \
-        e = t2 * e, f = s2 * f;                                                                                     \
-        e = e * (T)0.5, f = f * (T)0.5;                                                                             \
-        W0[j] = s3 * (T)(1.0 / 6.0);                                                                                \
-        W1[j] = (T)(2.0 / 3.0) - e;                                                                                 \
-        W2[j] = (T)(2.0 / 3.0) - f;                                                                                 \
-        W3[j] = t3 * (T)(1.0 / 6.0);                                                                                \
-    }
-
-/* Blend weights of samples k0 .. k0+nb-1: (double) clip((int64) v, 0, 2^16) / 2^16 for v = (k0 + j + xi0) *
- * blend_scale, i.e. numpy's truncating astype(int64) followed by a clip (NaN gives 0). Clipping before the
- * truncation gives the same value and lets the conversion be a 32-bit one; four samples per step (the offsets
- * k0 + j + l are exact in double, so the lanes' xi are the scalar ones). */
-INLINE double blend_weight(double v)
-{
-    v = v > 0.0 ? v : 0.0;
-    v = v < (double)BLEND_LEVELS ? v : (double)BLEND_LEVELS;
-    return (double)(int32_t)v * (1.0 / BLEND_LEVELS);
-}
+#include "_synthblock.h"
 
 #define BLEND_BLOCK(T, STORE4)                                                                                      \
     do {                                                                                                            \
@@ -286,42 +76,11 @@ INLINE double blend_weight(double v)
         for (; j < nb; ++j) sw[j] = (T)blend_weight(((double)(k0 + j) + xi0) * blend_scale);                        \
     } while (0)
 
-/* W consecutive values of x (T) as a W-lane double vector d; VT the W-lane vector of T. */
-#define LOADV_f32(d, VT, p) do { VT t_; memcpy(&t_, (p), sizeof t_); (d) = __builtin_convertvector(t_, __typeof__(d)); } while (0)
-#define LOADV_f64(d, VT, p) memcpy(&(d), (p), sizeof(d))
+
 /* Four blend levels (v4i, 0 .. 2^16) as weights level / 2^16 in T: exact either way, so converting the integers to
  * float directly gives the values of the double weights rounded to float (numpy's order) in half the operations. */
 #define STORE4_f32(p, l) do { v4f t_ = __builtin_convertvector((l), v4f) * (float)(1.0 / BLEND_LEVELS); memcpy((p), &t_, sizeof t_); } while (0)
 #define STORE4_f64(p, l) do { v4d t_ = __builtin_convertvector((l), v4d) * (1.0 / BLEND_LEVELS); memcpy((p), &t_, sizeof t_); } while (0)
-
-/* Sensor noise added inside a segment call (_synthnoise.h): stream key, absolute index of the call's sample 0, and
- * the standard deviation per channel (float for float32 output, double for float64). With noise, the loop's blocks
- * are aligned to the noise blocks (absolute multiples of BLOCK = NOISE_BLOCK), so each block seeds its generators
- * once; the per-sample work does not depend on the block position, so the samples do not change. */
-typedef struct {
-    uint64_t key;
-    int64_t n0;
-    const float *sigma_f;         /* NULL (both): no noise, only the extra part */
-    const double *sigma_d;
-    const void *extra;            /* optional m x C block (out's dtype) added too, row 0 = the call's sample 0: the
-                                   * broadband floor (synth_floor.py) */
-    const int16_t *frames;        /* or (float32, the line-set kernel) the floor itself, rendered per block from its */
-    const float *win;             /* frames (F x L x C int16), sine window (2 S), grains (G x 3: grain, frame, */
-    const int64_t *grains;        /* offset) and scale per channel, as synth_floor_render: no m x C buffer written */
-    int64_t n_grains, half, frame_length;   /* and read back */
-    const float *floor_scale;
-} NoiseArgs;
-
-/* Samples of the next block: up to BLOCK, and with noise up to the next absolute multiple of BLOCK. */
-INLINE int64_t block_length(const int noise, int64_t left, int64_t n_abs)
-{
-    int64_t nb = left < BLOCK ? left : BLOCK;
-    if (noise) {
-        const int64_t r = BLOCK - (int64_t)(((uint64_t)n_abs) % BLOCK);
-        nb = nb < r ? nb : r;
-    }
-    return nb;
-}
 
 /* Arguments a segment call can run with: m >= 0, C >= 1, N a power of 2 in 64 .. 2^16, fb = 62 - log2 N, the
  * table, out (if m > 0) and off (with acc) given. */
@@ -335,126 +94,9 @@ static int segment_args_ok(int64_t m, int64_t C, int64_t N, int fb, const void *
 }
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
-#include <immintrin.h>
-#define FMA_TARGET __attribute__((target("avx2,fma")))
-
-/* The phases of 8 consecutive samples j .. j+7 in two 4-lane uint64 vectors (ua: j .. j+3, ub: j+4 .. j+7) from the
- * phase u and increment d of sample j, and their advance by 8 samples (U + 8 D + 28 dd, D + 8 dd): lane by lane
- * the integers of u += d, d += dd (prologue8_fma, and the carriers of _synthrows.h). */
-typedef struct { __m256i ua, ub, da, db, dd8, dd28; } Phase8;
-static inline __attribute__((always_inline, target("avx2"))) Phase8 phase8_start(uint64_t u, uint64_t d, uint64_t dd)
-{
-    Phase8 p;
-    const __m256i ddv = _mm256_set1_epi64x((int64_t)dd);
-    p.ua = _mm256_set_epi64x((int64_t)(u + 3 * d + 3 * dd), (int64_t)(u + 2 * d + dd), (int64_t)(u + d), (int64_t)u);
-    p.da = _mm256_set_epi64x((int64_t)(d + 3 * dd), (int64_t)(d + 2 * dd), (int64_t)(d + dd), (int64_t)d);
-    /* samples 4..7: U + 4 D + 6 dd, D + 4 dd (lane by lane) */
-    p.ub = _mm256_add_epi64(_mm256_add_epi64(p.ua, _mm256_slli_epi64(p.da, 2)),
-                            _mm256_add_epi64(_mm256_slli_epi64(ddv, 2), _mm256_slli_epi64(ddv, 1)));
-    p.db = _mm256_add_epi64(p.da, _mm256_slli_epi64(ddv, 2));
-    p.dd8 = _mm256_slli_epi64(ddv, 3);
-    p.dd28 = _mm256_sub_epi64(_mm256_slli_epi64(ddv, 5), _mm256_slli_epi64(ddv, 2));
-    return p;
-}
-static inline __attribute__((always_inline, target("avx2"))) void phase8_next(Phase8 *p)
-{
-    p->ua = _mm256_add_epi64(p->ua, _mm256_add_epi64(_mm256_slli_epi64(p->da, 3), p->dd28));
-    p->ub = _mm256_add_epi64(p->ub, _mm256_add_epi64(_mm256_slli_epi64(p->db, 3), p->dd28));
-    p->da = _mm256_add_epi64(p->da, p->dd8);
-    p->db = _mm256_add_epi64(p->db, p->dd8);
-}
-
 /* The fast path (see the header): 8 float32 channels, one 256-bit vector per table row, fused multiply-adds. Phases,
  * weights and blend weights are those of the generic path (the same inline code, compiled for AVX2; no contraction,
  * so they round as there); the per-sample work is the same at every position of a block. */
-/* Rows, spline weights and blend weights of a block for the fast path: phase_block, WEIGHT_BLOCK and BLEND_BLOCK
- * fused into one pass over 8 samples at a time in AVX2 registers (the three separate passes through memory cost as
- * much as the row loop). The same integer and float operations as there (no fused ones: the values are the generic
- * path's bit for bit), the 64-bit phases' low halves packed to 8 x 32 bits for the row index and the fraction;
- * the last nb mod 8 samples by the scalar code. u, d advance to sample nb. */
-static inline __attribute__((always_inline)) FMA_TARGET void prologue8_fma(
-    const int has_warp, const int blend, int nb, int64_t k0, uint64_t *pu, uint64_t *pd, uint64_t dd,
-    const int64_t *restrict warp, int fb, uint64_t mask, double xi0, double blend_scale, int32_t *restrict idx,
-    float *restrict W0, float *restrict W1, float *restrict W2, float *restrict W3, float *restrict sw)
-{
-    uint64_t u = *pu, d = *pd;
-    int j = 0;
-    if (nb >= 8) {
-        const __m128i sh = _mm_cvtsi32_si128(fb - FRAC_BITS), sh24 = _mm_cvtsi32_si128(FRAC_BITS);
-        Phase8 ph = phase8_start(u, d, dd);
-        const __m256i idx_mask = _mm256_set1_epi32((int32_t)mask), frac_mask = _mm256_set1_epi32((int32_t)FRAC_MASK);
-        const __m256 scale24 = _mm256_set1_ps(0x1p-24f), one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f);
-        const __m256 half = _mm256_set1_ps(0.5f), sixth = _mm256_set1_ps((float)(1.0 / 6.0));
-        const __m256 two_thirds = _mm256_set1_ps((float)(2.0 / 3.0));
-        const __m256d lanes = _mm256_set_pd(3.0, 2.0, 1.0, 0.0), zero = _mm256_setzero_pd();
-        const __m256d top = _mm256_set1_pd((double)BLEND_LEVELS), bsc = _mm256_set1_pd(blend_scale);
-        const __m256d x0 = _mm256_set1_pd(xi0);
-        const __m256 level = _mm256_set1_ps((float)(1.0 / BLEND_LEVELS));
-        for (; j + 8 <= nb; j += 8) {
-            __m256i va = ph.ua, vb = ph.ub;
-            if (has_warp) {
-                va = _mm256_add_epi64(va, _mm256_loadu_si256((const __m256i *)(warp + j)));
-                vb = _mm256_add_epi64(vb, _mm256_loadu_si256((const __m256i *)(warp + j + 4)));
-            }
-            const __m256i ta_ = _mm256_srl_epi64(va, sh), tb_ = _mm256_srl_epi64(vb, sh);
-            const __m256i ia = _mm256_srl_epi64(ta_, sh24), ib = _mm256_srl_epi64(tb_, sh24);
-            /* low 32 bits of the 8 lanes, in order: [a0 a1 b0 b1 | a2 a3 b2 b3] then the middle quarters swapped */
-            __m256i ti = _mm256_castps_si256(_mm256_shuffle_ps(_mm256_castsi256_ps(ia), _mm256_castsi256_ps(ib),
-                                                               _MM_SHUFFLE(2, 0, 2, 0)));
-            __m256i tf = _mm256_castps_si256(_mm256_shuffle_ps(_mm256_castsi256_ps(ta_), _mm256_castsi256_ps(tb_),
-                                                               _MM_SHUFFLE(2, 0, 2, 0)));
-            ti = _mm256_permute4x64_epi64(ti, _MM_SHUFFLE(3, 1, 2, 0));
-            tf = _mm256_permute4x64_epi64(tf, _MM_SHUFFLE(3, 1, 2, 0));
-            _mm256_storeu_si256((__m256i *)(idx + j), _mm256_and_si256(ti, idx_mask));
-            /* weights: WEIGHT_BLOCK's sequence */
-            const __m256 t = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(tf, frac_mask)), scale24);
-            const __m256 sv = _mm256_sub_ps(one, t);
-            const __m256 t2 = _mm256_mul_ps(t, t), s2 = _mm256_mul_ps(sv, sv);
-            const __m256 t3 = _mm256_mul_ps(t2, t), s3 = _mm256_mul_ps(s2, sv);
-            __m256 e = _mm256_sub_ps(two, t), f = _mm256_sub_ps(two, sv);
-            e = _mm256_mul_ps(t2, e), f = _mm256_mul_ps(s2, f);
-            e = _mm256_mul_ps(e, half), f = _mm256_mul_ps(f, half);
-            _mm256_storeu_ps(W0 + j, _mm256_mul_ps(s3, sixth));
-            _mm256_storeu_ps(W1 + j, _mm256_sub_ps(two_thirds, e));
-            _mm256_storeu_ps(W2 + j, _mm256_sub_ps(two_thirds, f));
-            _mm256_storeu_ps(W3 + j, _mm256_mul_ps(t3, sixth));
-            if (blend) {
-                /* BLEND_BLOCK's values: max(v, 0) gives 0 for NaN (the second operand), as (v > 0 ? v : 0) */
-                __m256d xa = _mm256_add_pd(_mm256_add_pd(lanes, _mm256_set1_pd((double)(k0 + j))), x0);
-                __m256d xb = _mm256_add_pd(_mm256_add_pd(lanes, _mm256_set1_pd((double)(k0 + j + 4))), x0);
-                xa = _mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(xa, bsc), zero), top);
-                xb = _mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(xb, bsc), zero), top);
-                const __m256i lv = _mm256_set_m128i(_mm256_cvttpd_epi32(xb), _mm256_cvttpd_epi32(xa));
-                _mm256_storeu_ps(sw + j, _mm256_mul_ps(_mm256_cvtepi32_ps(lv), level));
-            }
-            phase8_next(&ph);
-        }
-        u = (uint64_t)_mm256_extract_epi64(ph.ua, 0);
-        d = (uint64_t)_mm256_extract_epi64(ph.da, 0);
-    }
-    for (; j < nb; ++j) {
-        uint64_t v = u;
-        if (has_warp) v += (uint64_t)warp[j];
-        const uint64_t tt = v >> (fb - FRAC_BITS);
-        idx[j] = (int32_t)((tt >> FRAC_BITS) & mask);
-        const float t = (float)(int32_t)(tt & FRAC_MASK) * 0x1p-24f, sv = 1.0f - t;
-        const float t2 = t * t, s2 = sv * sv;
-        const float t3 = t2 * t, s3 = s2 * sv;
-        float e = 2.0f - t, f = 2.0f - sv;
-        e = t2 * e, f = s2 * f;
-        e = e * 0.5f, f = f * 0.5f;
-        W0[j] = s3 * (float)(1.0 / 6.0);
-        W1[j] = (float)(2.0 / 3.0) - e;
-        W2[j] = (float)(2.0 / 3.0) - f;
-        W3[j] = t3 * (float)(1.0 / 6.0);
-        if (blend) sw[j] = (float)blend_weight(((double)(k0 + j) + xi0) * blend_scale);
-        u += d;
-        d += dd;
-    }
-    *pu = u;
-    *pd = d;
-}
-
 /* Sample j of a block from its weights w0 .. w3 and blend weight s (vectors of the value in all lanes). */
 #define ROW8_FMA(j, w0, w1, w2, w3, s)                                                                              \
     do {                                                                                                            \
@@ -544,9 +186,7 @@ static NOINLINE FMA_TARGET void segment8_f32_fma(int64_t m, uint64_t mask, int f
     else if (f) ROWS8_N(0, 0, 1);
     else ROWS8_N(0, 0, 0);
 }
-#define HAVE_FMA_PATH (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
 #else
-#define HAVE_FMA_PATH 0
 static void segment8_f32_fma(int64_t m, uint64_t mask, int fb, uint64_t u, uint64_t d, uint64_t dd,
                              const int64_t *warp, const float *ta, const float *tb, double xi0, double blend_scale,
                              float *out, double *acc, const double *off, const NoiseArgs *na)
@@ -556,13 +196,19 @@ static void segment8_f32_fma(int64_t m, uint64_t mask, int fb, uint64_t u, uint6
 }
 #endif
 
-/* Highest instruction set the run-time dispatch of the fast paths may choose (tests lower it to cover the others):
- * 2 AVX-512 (knot table), 1 AVX2 + FMA, 0 baseline. Process-wide; not meant to change while kernels run. */
-static int isa_cap = 2;
+/* Sets the instruction-set cap (isa_cap, _synthbase.h); returns the old one. */
 int synth_set_isa_cap(int cap)
 {
     const int old = isa_cap;
     isa_cap = cap;
+    return old;
+}
+
+/* Sets reference_paths (_synthbase.h); returns the old value. */
+int synth_set_reference_paths(int on)
+{
+    const int old = reference_paths;
+    reference_paths = on;
     return old;
 }
 
@@ -574,73 +220,6 @@ int synth_fast_path(void) { return isa_cap >= 1 && HAVE_FMA_PATH ? 1 : 0; }
  * the dispatcher, so the compiler emits one branch-free loop per combination with the channel loop unrolled for
  * C = 8 and C = 4. */
 #define SYNTH_KERNELS(T, SUF)                                                                                       \
-                                                                                                                    \
-/* The same for the single channel c (the channels left over by the quads). */                                      \
-INLINE void moments_one_##SUF(const int C, int c, int nb, const T *restrict x, const double *restrict off,           \
-                              double *restrict acc)                                                                 \
-{                                                                                                                   \
-    double *a = acc + 6 * (int64_t)c;                                                                                      \
-    double s1 = a[0], s2 = a[1], s3 = a[2], s4 = a[3], hi = a[4], lo = a[5];                                        \
-    for (int k = 0; k < nb; ++k) {                                                                                  \
-        double d = (double)x[(int64_t)k * C + c] - off[c];                                                          \
-        double d2 = d * d;                                                                                          \
-        s1 += d;                                                                                                    \
-        s2 += d2;                                                                                                   \
-        s3 += d2 * d;                                                                                               \
-        s4 += d2 * d2;                                                                                              \
-        hi = d > hi ? d : hi;                                                                                       \
-        lo = d < lo ? d : lo;                                                                                       \
-    }                                                                                                               \
-    a[0] = s1, a[1] = s2, a[2] = s3, a[3] = s4, a[4] = hi, a[5] = lo;                                               \
-}                                                                                                                   \
-                                                                                                                    \
-/* Moments of a block: channel groups of 4 in 256-bit vectors where AVX2 is there, else of 2 (4-lane vectors in the \
- * SSE2 build spill: ~4x slower), then single channels. Not inlined: called once per block, dispatched on the CPU.  \
- * Written for C = 8 and any C. */                                                                                  \
-MOMENTS_GROUP(T, SUF, pair, 2, v2d, v2l, v2##SUF, INLINE)                                                           \
-static NOINLINE void moments_base_##SUF(const int C, int nb, const T *restrict x, const double *restrict off,       \
-                                        double *restrict acc)                                                       \
-{                                                                                                                   \
-    int c = 0;                                                                                                      \
-    for (; c + 2 <= C; c += 2) moments_pair_##SUF(C, c, nb, x, off, acc);                                           \
-    for (; c < C; ++c) moments_one_##SUF(C, c, nb, x, off, acc);                                                    \
-}                                                                                                                   \
-MOMENTS_AVX2(T, SUF)                                                                                                \
-INLINE void moments_##SUF(const int C, int nb, const T *restrict x, const double *restrict off,                     \
-                          double *restrict acc)                                                                     \
-{                                                                                                                   \
-    if (sizeof(T) == 4 && C == 8 && nb > 0 && HAVE_MOMENTS8_F32)                                                   \
-        moments8_f32_avx2(nb, (const float *)(const void *)x, off, acc);                                            \
-    else if (HAVE_AVX2) moments_avx2_##SUF(C, nb, x, off, acc);                                                     \
-    else moments_base_##SUF(C, nb, x, off, acc);                                                                    \
-}                                                                                                                   \
-                                                                                                                    \
-/* x[j][c] += sigma[c] z[j][c] for the nb samples of a block from absolute sample n (one noise block at most): the  \
- * product in T, then the sum (the numpy reference's order). */                                                     \
-static void noise_add_block_##SUF(const int C, int nb, const NoiseArgs *na, int64_t n, T *restrict x,              \
-                                  const T *restrict extra)                                                          \
-{                                                                                                                   \
-    const T *sig = sizeof(T) == 4 ? (const T *)(const void *)na->sigma_f : (const T *)(const void *)na->sigma_d;   \
-    if (sig != NULL && sizeof(T) == 4 && C == 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) {  /* fused, no buffer */     \
-        noise_add8_avx2(na->key, n, nb, (const float *)(const void *)sig, (float *)(void *)x,                      \
-                        (const float *)(const void *)extra);                                                        \
-        return;                                                                                                     \
-    }                                                                                                               \
-    if (sig != NULL) {                                                                                              \
-        float Z[BLOCK * NOISE_MAX_C];                                                                               \
-        if (C == 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill8_avx2(na->key, n, nb, Z);                        \
-        else if (C < 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill_narrow_avx2(na->key, n, nb, C, Z);           \
-        else noise_fill_scalar(na->key, n, nb, C, Z);                                                               \
-        for (int j = 0; j < nb; ++j)                                                                                \
-            for (int c = 0; c < C; ++c) {                                                                           \
-                const T p = sig[c] * (T)Z[(int64_t)j * C + c];                                                      \
-                x[(int64_t)j * C + c] = x[(int64_t)j * C + c] + p;                                                  \
-            }                                                                                                       \
-    }                                                                                                               \
-    if (extra != NULL)                                                                                              \
-        for (int64_t i = 0; i < (int64_t)nb * C; ++i) x[i] = x[i] + extra[i];                                       \
-}                                                                                                                   \
-                                                                                                                    \
 /* Segment loop (generic path), in blocks of BLOCK samples: phases, spline weights (and blend weights), then the  \
  * rows, then (option) the moments of the block while it is in L1. */                                              \
 INLINE void segment_rows_##SUF(const int C, const int has_warp, const int blend, const int feats, int64_t m,        \

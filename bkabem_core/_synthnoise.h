@@ -44,6 +44,8 @@
 #ifndef BKABEM_SYNTHNOISE_H
 #define BKABEM_SYNTHNOISE_H
 
+#include "_synthbase.h"
+
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
@@ -316,6 +318,59 @@ static NOINLINE NOISE_TARGET void noise_add8_avx2(uint64_t key, int64_t n0, int 
         _mm256_storeu_ps(x + 8 * i, v);
     }
 }
+/* zn_fast8 for the 4 words of a 4-channel sample (the low half of a step): the same operations lane by lane, so the
+ * same values, with half the table loads. */
+static inline __attribute__((always_inline)) NOISE_TARGET __m128 zn_fast4(__m128i w, int *bad)
+{
+    const __m128i i = _mm_and_si128(w, _mm_set1_epi32(ZN_LAYERS - 1));
+    const __m128i j = _mm_add_epi32(_mm_slli_epi32(_mm_srai_epi32(w, ZN_BITS), 1), _mm_set1_epi32(1));
+    const __m128 u = _mm_mul_ps(_mm_cvtepi32_ps(j), _mm_set1_ps(0x1p-22f));
+    uint32_t ix[4];
+    _mm_storeu_si128((__m128i *)ix, i);
+    const long long *xr = (const long long *)(const void *)zn_xr;
+    const __m128 g0 = _mm_castsi128_ps(_mm_set_epi64x(xr[ix[1]], xr[ix[0]]));
+    const __m128 g1 = _mm_castsi128_ps(_mm_set_epi64x(xr[ix[3]], xr[ix[2]]));
+    const __m128 x = _mm_shuffle_ps(g0, g1, 0x88), r = _mm_shuffle_ps(g0, g1, 0xDD);
+    const __m128 au = _mm_andnot_ps(_mm_set1_ps(-0.0f), u);
+    *bad = _mm_movemask_ps(_mm_cmp_ps(au, r, _CMP_NLT_UQ));
+    return _mm_mul_ps(u, x);
+}
+
+/* noise_add8_avx2 for 4 channels (the acc4 set): a sample's normals are words 0 .. 3 of its step (as
+ * noise_fill_narrow_avx2 keeps them), x + sigma z then + extra in 128-bit lanes: the generic path's values, in one
+ * pass without the 8-channel buffer and its per-sample copies. */
+static NOINLINE NOISE_TARGET void noise_add4_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x,
+                                                  const float *extra)
+{
+    __m256i s0, s1, s2, s3;
+    NOISE_BLOCK_START(key, n0, s0, s1, s2, s3);
+    const __m128 sig = _mm_loadu_ps(sigma);
+    int late[NOISE_BLOCK], n_late = 0;
+    uint32_t wl[NOISE_BLOCK][4];
+    for (int i = 0; i < nb; ++i) {
+        const __m128i w = _mm256_castsi256_si128(noise_step_avx2(&s0, &s1, &s2, &s3));
+        int bad;
+        const __m128 z = zn_fast4(w, &bad);
+        if (__builtin_expect(bad != 0, 0)) {
+            _mm_storeu_si128((__m128i *)wl[n_late], w);
+            late[n_late++] = i;
+            continue;
+        }
+        __m128 v = _mm_add_ps(_mm_loadu_ps(x + 4 * i), _mm_mul_ps(sig, z));
+        if (extra != NULL) v = _mm_add_ps(v, _mm_loadu_ps(extra + 4 * i));
+        _mm_storeu_ps(x + 4 * i, v);
+    }
+    for (int q = 0; q < n_late; ++q) {
+        const int i = late[q];
+        int bad;
+        float z[4];
+        _mm_storeu_ps(z, zn_fast4(_mm_loadu_si128((const __m128i *)wl[q]), &bad));
+        zn_fix8(key, n0 + i, wl[q], bad, z);
+        __m128 v = _mm_add_ps(_mm_loadu_ps(x + 4 * i), _mm_mul_ps(sig, _mm_loadu_ps(z)));
+        if (extra != NULL) v = _mm_add_ps(v, _mm_loadu_ps(extra + 4 * i));
+        _mm_storeu_ps(x + 4 * i, v);
+    }
+}
 #define HAVE_NOISE_AVX2 (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
 
 /* Any C <= 8 with AVX2: the 8 normals of each sample's step, the first C kept (the same bits as the scalar code:
@@ -341,6 +396,10 @@ static void noise_fill_narrow_avx2(uint64_t key, int64_t n0, int nb, int C, floa
     noise_fill_scalar(key, n0, nb, C, Z);
 }
 static void noise_add8_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x, const float *extra)
+{
+    (void)key, (void)n0, (void)nb, (void)sigma, (void)x, (void)extra;
+}
+static void noise_add4_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x, const float *extra)
 {
     (void)key, (void)n0, (void)nb, (void)sigma, (void)x, (void)extra;
 }

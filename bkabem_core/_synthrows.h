@@ -1,6 +1,7 @@
 /*
- * The rows of a line set's families for 8 float32 channels with AVX2 + FMA (included by _synthlines.h): families
- * that share one phase are evaluated together, and the carriers' cos / sin are computed 8 samples at a time.
+ * The rows of a line set's families for 8 (and 4) float32 channels with AVX2 + FMA (included by _synthlines.h; needs
+ * only _synthbase.h): families that share one phase are evaluated together, and the carriers' cos / sin are computed
+ * 8 samples at a time.
  *
  * Why: an inner-race line set has 6 carrier families on the one BPFI phase with one table size, a ball set 5 + 2 on
  * the cage phase (spin carriers); one family at a time computed the same row indices and spline weights for each
@@ -11,11 +12,13 @@
  * as lines_family8_fma did (fused multiply-adds). A group moves its families' contributions together, so the sum
  * over families is in another order than the generic path's (float rounding, as the fast path's FMA already is).
  *
- * Carrier cos / sin (carrier8_avx2): carrier_cos_sin of _synthlines.h on 8 lanes, the same operations (separate
+ * Carrier cos / sin (carrier8_avx2): carrier_cos_sin of _synthbase.h on 8 lanes, the same operations (separate
  * multiplies and adds, octant from 24 bits of the turn, quadrant by swap and sign), so the same bits.
  */
 #ifndef BKABEM_SYNTHROWS_H
 #define BKABEM_SYNTHROWS_H
+
+#include "_synthbase.h"
 
 #define GROUP_MAX 8                             /* families per group (their carriers' cos / sin on the stack) */
 
@@ -157,6 +160,160 @@ static inline __attribute__((always_inline)) FMA_TARGET void group4_rows(
 }
 #undef GROUP_TAP4
 
+/* Two families k, k + 1 of a group in one pass over the block (group8_rows / group4_rows for both): the weights'
+ * broadcasts and the accumulator's load and store once per sample for the pair, each family's value as there and
+ * added in the same order (k, then k + 1), so the same bits. V the vector type, L its lanes (one row of L floats). */
+#define GROUP_PAIR(NAME, V, L, LD, ST, BC, FMADD, FNMADD, MUL, SUB, ADD)                                            \
+    static inline __attribute__((always_inline)) FMA_TARGET void NAME(                                              \
+        const int blend, const int car0, const int car1, int nb, const int32_t *restrict idx,                       \
+        const float *restrict W0, const float *restrict W1, const float *restrict W2, const float *restrict W3,     \
+        const float *restrict sw, const float *restrict A0, const float *restrict B0, int64_t NT0,                  \
+        const float *restrict CQ0, const float *restrict SQ0, const float *restrict A1, const float *restrict B1,   \
+        int64_t NT1, const float *restrict CQ1, const float *restrict SQ1, float *restrict blk)                     \
+    {                                                                                                               \
+        for (int j = 0; j < nb; ++j) {                                                                              \
+            const int64_t r = (int64_t)idx[j] * (L);                                                                \
+            const V w0 = BC(W0 + j), w1 = BC(W1 + j), w2 = BC(W2 + j), w3 = BC(W3 + j);                             \
+            const V s = blend ? BC(sw + j) : w0;                                                                    \
+            V v0 = PT(A0, r, L, LD, FMADD, MUL), v1 = PT(A1, r, L, LD, FMADD, MUL), g0 = v0, g1 = v1;               \
+            if (blend) v0 = FMADD(s, SUB(PT(B0, r, L, LD, FMADD, MUL), v0), v0);                                    \
+            if (car0) {                                                                                             \
+                g0 = PT(A0 + NT0, r, L, LD, FMADD, MUL);                                                            \
+                if (blend) g0 = FMADD(s, SUB(PT(B0 + NT0, r, L, LD, FMADD, MUL), g0), g0);                          \
+            }                                                                                                       \
+            if (blend) v1 = FMADD(s, SUB(PT(B1, r, L, LD, FMADD, MUL), v1), v1);                                    \
+            if (car1) {                                                                                             \
+                g1 = PT(A1 + NT1, r, L, LD, FMADD, MUL);                                                            \
+                if (blend) g1 = FMADD(s, SUB(PT(B1 + NT1, r, L, LD, FMADD, MUL), g1), g1);                          \
+            }                                                                                                       \
+            V o = LD(blk + (L) * j);                                                                                \
+            if (car0) o = FNMADD(BC(SQ0 + j), g0, FMADD(BC(CQ0 + j), v0, o));                                       \
+            else o = ADD(o, v0);                                                                                    \
+            if (car1) o = FNMADD(BC(SQ1 + j), g1, FMADD(BC(CQ1 + j), v1, o));                                       \
+            else o = ADD(o, v1);                                                                                    \
+            ST(blk + (L) * j, o);                                                                                   \
+        }                                                                                                           \
+    }
+#define PT(T, r, L, LD, FMADD, MUL)                                                                                 \
+    FMADD(w3, LD((T) + (r) + 3 * (L)),                                                                              \
+          FMADD(w2, LD((T) + (r) + 2 * (L)), FMADD(w1, LD((T) + (r) + (L)), MUL(w0, LD((T) + (r))))))
+GROUP_PAIR(group8_rows2, __m256, 8, _mm256_loadu_ps, _mm256_storeu_ps, _mm256_broadcast_ss, _mm256_fmadd_ps,
+           _mm256_fnmadd_ps, _mm256_mul_ps, _mm256_sub_ps, _mm256_add_ps)
+GROUP_PAIR(group4_rows2, __m128, 4, _mm_loadu_ps, _mm_storeu_ps, _mm_broadcast_ss, _mm_fmadd_ps, _mm_fnmadd_ps,
+           _mm_mul_ps, _mm_sub_ps, _mm_add_ps)
+#undef PT
+#undef GROUP_PAIR
+
+/* 4 channels, two samples j, j + 1 per 256-bit register (lanes 0-3 sample j, 4-7 sample j + 1): family k (and k + 1
+ * if two) as group4_rows / group4_rows2 with the same operations lane by lane in the same order (so the same bits),
+ * half the multiply-adds and accumulator loads and stores. A sample's four taps are 64 contiguous bytes, two 256-bit
+ * loads; the taps of both samples are paired by 128-bit lane permutes. The last sample of an odd block by the 128-bit
+ * code. */
+static inline __attribute__((always_inline)) FMA_TARGET __m256 x2_tap(const float *restrict T, int64_t ra,
+                                                                       int64_t rb, __m256 w0, __m256 w1, __m256 w2,
+                                                                       __m256 w3)
+{
+    const __m256 xa = _mm256_loadu_ps(T + ra), xb = _mm256_loadu_ps(T + ra + 8);
+    const __m256 ya = _mm256_loadu_ps(T + rb), yb = _mm256_loadu_ps(T + rb + 8);
+    return _mm256_fmadd_ps(w3, _mm256_permute2f128_ps(xb, yb, 0x31),
+                           _mm256_fmadd_ps(w2, _mm256_permute2f128_ps(xb, yb, 0x20),
+                                           _mm256_fmadd_ps(w1, _mm256_permute2f128_ps(xa, ya, 0x31),
+                                                           _mm256_mul_ps(w0, _mm256_permute2f128_ps(xa, ya, 0x20)))));
+}
+/* (p[0] in lanes 0-3, p[1] in lanes 4-7) */
+#define X2_BC(p)                                                                                                    \
+    _mm256_permutevar8x32_ps(_mm256_castps128_ps256(_mm_castsi128_ps(_mm_loadl_epi64((const __m128i *)(p)))), lo_hi)
+static inline __attribute__((always_inline)) FMA_TARGET void group4x2_core(
+    const int blend, const int two, const int car0, const int car1, int nb, const int32_t *restrict idx,
+    const float *restrict W0, const float *restrict W1, const float *restrict W2, const float *restrict W3,
+    const float *restrict sw, const float *restrict A0, const float *restrict B0, int64_t NT0,
+    const float *restrict CQ0, const float *restrict SQ0, const float *restrict A1, const float *restrict B1,
+    int64_t NT1, const float *restrict CQ1, const float *restrict SQ1, float *restrict blk)
+{
+    const __m256i lo_hi = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+    int j = 0;
+    for (; j + 2 <= nb; j += 2) {
+        const int64_t ra = (int64_t)idx[j] * 4, rb = (int64_t)idx[j + 1] * 4;
+        const __m256 w0 = X2_BC(W0 + j), w1 = X2_BC(W1 + j), w2 = X2_BC(W2 + j), w3 = X2_BC(W3 + j);
+        const __m256 s = blend ? X2_BC(sw + j) : w0;
+        __m256 v0 = x2_tap(A0, ra, rb, w0, w1, w2, w3), g0 = v0, v1 = v0, g1 = v0;
+        if (blend) v0 = _mm256_fmadd_ps(s, _mm256_sub_ps(x2_tap(B0, ra, rb, w0, w1, w2, w3), v0), v0);
+        if (car0) {
+            g0 = x2_tap(A0 + NT0, ra, rb, w0, w1, w2, w3);
+            if (blend) g0 = _mm256_fmadd_ps(s, _mm256_sub_ps(x2_tap(B0 + NT0, ra, rb, w0, w1, w2, w3), g0), g0);
+        }
+        if (two) {
+            v1 = x2_tap(A1, ra, rb, w0, w1, w2, w3);
+            if (blend) v1 = _mm256_fmadd_ps(s, _mm256_sub_ps(x2_tap(B1, ra, rb, w0, w1, w2, w3), v1), v1);
+            if (car1) {
+                g1 = x2_tap(A1 + NT1, ra, rb, w0, w1, w2, w3);
+                if (blend) g1 = _mm256_fmadd_ps(s, _mm256_sub_ps(x2_tap(B1 + NT1, ra, rb, w0, w1, w2, w3), g1), g1);
+            }
+        }
+        __m256 o = _mm256_loadu_ps(blk + 4 * j);
+        if (car0) o = _mm256_fnmadd_ps(X2_BC(SQ0 + j), g0, _mm256_fmadd_ps(X2_BC(CQ0 + j), v0, o));
+        else o = _mm256_add_ps(o, v0);
+        if (two) {
+            if (car1) o = _mm256_fnmadd_ps(X2_BC(SQ1 + j), g1, _mm256_fmadd_ps(X2_BC(CQ1 + j), v1, o));
+            else o = _mm256_add_ps(o, v1);
+        }
+        _mm256_storeu_ps(blk + 4 * j, o);
+    }
+    if (j == nb) return;
+    if (two)
+        group4_rows2(blend, car0, car1, 1, idx + j, W0 + j, W1 + j, W2 + j, W3 + j, blend ? sw + j : sw, A0, B0, NT0,
+                     car0 ? CQ0 + j : NULL, car0 ? SQ0 + j : NULL, A1, B1, NT1, car1 ? CQ1 + j : NULL,
+                     car1 ? SQ1 + j : NULL, blk + 4 * j);
+    else
+        group4_rows(blend, car0, 1, idx + j, W0 + j, W1 + j, W2 + j, W3 + j, blend ? sw + j : sw, A0, B0, NT0,
+                    car0 ? CQ0 + j : NULL, car0 ? SQ0 + j : NULL, blk + 4 * j);
+}
+#undef X2_BC
+static inline __attribute__((always_inline)) FMA_TARGET void group4x2_rows(
+    const int blend, const int car, int nb, const int32_t *restrict idx, const float *restrict W0,
+    const float *restrict W1, const float *restrict W2, const float *restrict W3, const float *restrict sw,
+    const float *restrict A, const float *restrict B, int64_t NT, const float *restrict CQ,
+    const float *restrict SQ, float *restrict blk)
+{
+    group4x2_core(blend, 0, car, 0, nb, idx, W0, W1, W2, W3, sw, A, B, NT, CQ, SQ, NULL, NULL, 0, NULL, NULL, blk);
+}
+static inline __attribute__((always_inline)) FMA_TARGET void group4x2_rows2(
+    const int blend, const int car0, const int car1, int nb, const int32_t *restrict idx, const float *restrict W0,
+    const float *restrict W1, const float *restrict W2, const float *restrict W3, const float *restrict sw,
+    const float *restrict A0, const float *restrict B0, int64_t NT0, const float *restrict CQ0,
+    const float *restrict SQ0, const float *restrict A1, const float *restrict B1, int64_t NT1,
+    const float *restrict CQ1, const float *restrict SQ1, float *restrict blk)
+{
+    group4x2_core(blend, 1, car0, car1, nb, idx, W0, W1, W2, W3, sw, A0, B0, NT0, CQ0, SQ0, A1, B1, NT1, CQ1, SQ1,
+                  blk);
+}
+
+/* The rows of families k (and k + 1 if pair) of a group, with their options as constants. */
+#define GROUP_ARGS1(b0, c0) nb, idx, W0, W1, W2, W3, sw, A[k], b0, NT[k], c0 ? CQ[k] : NULL, c0 ? SQ[k] : NULL
+#define GROUP_ARGS2(b1, c1) A[k + 1], b1, NT[k + 1], c1 ? CQ[k + 1] : NULL, c1 ? SQ[k + 1] : NULL, blk
+#define GROUP_CALL(R1, R2)                                                                                          \
+    do {                                                                                                            \
+        const float *b0 = blend ? B[k] : NULL;                                                                      \
+        if (pair) {                                                                                                 \
+            const int c0 = car[k], c1 = car[k + 1];                                                                 \
+            const float *b1 = blend ? B[k + 1] : NULL;                                                              \
+            if (blend) {                                                                                            \
+                if (c0 && c1) R2(1, 1, 1, GROUP_ARGS1(b0, 1), GROUP_ARGS2(b1, 1));                                  \
+                else if (c0) R2(1, 1, 0, GROUP_ARGS1(b0, 1), GROUP_ARGS2(b1, 0));                                   \
+                else if (c1) R2(1, 0, 1, GROUP_ARGS1(b0, 0), GROUP_ARGS2(b1, 1));                                   \
+                else R2(1, 0, 0, GROUP_ARGS1(b0, 0), GROUP_ARGS2(b1, 0));                                           \
+            } else {                                                                                                \
+                if (c0 && c1) R2(0, 1, 1, GROUP_ARGS1(NULL, 1), GROUP_ARGS2(NULL, 1));                              \
+                else if (c0) R2(0, 1, 0, GROUP_ARGS1(NULL, 1), GROUP_ARGS2(NULL, 0));                               \
+                else if (c1) R2(0, 0, 1, GROUP_ARGS1(NULL, 0), GROUP_ARGS2(NULL, 1));                               \
+                else R2(0, 0, 0, GROUP_ARGS1(NULL, 0), GROUP_ARGS2(NULL, 0));                                       \
+            }                                                                                                       \
+        } else if (blend && car[k]) R1(1, 1, GROUP_ARGS1(b0, 1), blk);                                              \
+        else if (blend) R1(1, 0, GROUP_ARGS1(b0, 0), blk);                                                          \
+        else if (car[k]) R1(0, 1, GROUP_ARGS1(NULL, 1), blk);                                                       \
+        else R1(0, 0, GROUP_ARGS1(NULL, 0), blk);                                                                   \
+    } while (0)
+
 static NOINLINE FMA_TARGET void lines_group8_fma(int lanes, int nb, int64_t k0, uint64_t *u, uint64_t *d,
                                                 uint64_t dd,
                                                 const int64_t *w, int fb, uint64_t mask, double xi0,
@@ -174,22 +331,24 @@ static NOINLINE FMA_TARGET void lines_group8_fma(int lanes, int nb, int64_t k0, 
         if (blend) prologue8_fma(0, 1, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
         else prologue8_fma(0, 0, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
     }
-    if (lanes == 4) {
+    if (reference_paths) {                             /* one family a pass, one sample a register */
         for (int k = 0; k < nf; ++k) {
-            if (blend && car[k]) group4_rows(1, 1, nb, idx, W0, W1, W2, W3, sw, A[k], B[k], NT[k], CQ[k], SQ[k], blk);
-            else if (blend) group4_rows(1, 0, nb, idx, W0, W1, W2, W3, sw, A[k], B[k], NT[k], NULL, NULL, blk);
-            else if (car[k]) group4_rows(0, 1, nb, idx, W0, W1, W2, W3, sw, A[k], NULL, NT[k], CQ[k], SQ[k], blk);
-            else group4_rows(0, 0, nb, idx, W0, W1, W2, W3, sw, A[k], NULL, NT[k], NULL, NULL, blk);
+            const int pair = 0;
+            if (lanes == 4) GROUP_CALL(group4_rows, group4_rows2);
+            else GROUP_CALL(group8_rows, group8_rows2);
         }
         return;
     }
-    for (int k = 0; k < nf; ++k) {
-        if (blend && car[k]) group8_rows(1, 1, nb, idx, W0, W1, W2, W3, sw, A[k], B[k], NT[k], CQ[k], SQ[k], blk);
-        else if (blend) group8_rows(1, 0, nb, idx, W0, W1, W2, W3, sw, A[k], B[k], NT[k], NULL, NULL, blk);
-        else if (car[k]) group8_rows(0, 1, nb, idx, W0, W1, W2, W3, sw, A[k], NULL, NT[k], CQ[k], SQ[k], blk);
-        else group8_rows(0, 0, nb, idx, W0, W1, W2, W3, sw, A[k], NULL, NT[k], NULL, NULL, blk);
+    for (int k = 0; k < nf; k += 2) {                         /* the families in pairs (the last one alone) */
+        const int pair = k + 1 < nf;
+        if (lanes == 4) GROUP_CALL(group4x2_rows, group4x2_rows2);
+        else GROUP_CALL(group8_rows, group8_rows2);
+        if (!pair) break;
     }
 }
+#undef GROUP_CALL
+#undef GROUP_ARGS1
+#undef GROUP_ARGS2
 #define HAVE_GROUP8 HAVE_FMA_PATH
 #else
 #define HAVE_GROUP8 0

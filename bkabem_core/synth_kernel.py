@@ -230,6 +230,17 @@ def _set_isa_cap(cap: int) -> int:
     return fn(int(cap))
 
 
+def _set_reference_paths(on: bool) -> bool:
+    """Route the line-set kernel's AVX2 rows and the 4-channel noise through their previous code (one family a pass,
+    one sample a register; the 8-lane noise buffer), the tests' reference for the newer code (the same bits);
+    returns the previous setting. Process-wide: not while kernels run in other threads."""
+    if not AVAILABLE:
+        return False
+    fn = _EXT_LIB.synth_set_reference_paths
+    fn.argtypes, fn.restype = [ctypes.c_int], ctypes.c_int
+    return bool(fn(int(bool(on))))
+
+
 def fast_path() -> bool:
     """True if :func:`segment` takes the fast path for float32 with 8 channels now (CPU and :func:`_set_isa_cap`)."""
     return bool(AVAILABLE and _EXT_LIB.synth_fast_path())

@@ -67,3 +67,29 @@ def test_four_channel_fast_path_matches_eight_channels_and_generic(kind):
     a, g = _chunks(fast), _chunks(generic, cap=0)
     top = np.abs(g).max(axis=1, keepdims=True)
     assert np.all(np.abs(a - g) <= tol * top), (np.abs(a - g) / top).max()
+
+
+@pytest.mark.parametrize("kind", ["inner", "ball"])
+@pytest.mark.parametrize("quantities", [("acceleration",), ("acceleration", "displacement")])
+def test_vector_rows_and_noise_equal_their_reference_bit_for_bit(kind, quantities):
+    """The AVX2 line rows that take two families a pass (and, at 4 channels, two samples a 256-bit register) and the
+    4-channel one-pass noise give the very samples of their reference (one family a pass, one sample a register;
+    noise through the 8-lane buffer: ``_set_reference_paths``), at 4 and 8 channels, through speed changes (the
+    knots' blend), with slip, sensor noise and the broadband floor, and chunks that end in odd blocks."""
+    if not sk.fast_path():
+        pytest.skip("no AVX2 + FMA on this CPU")
+    model = BkaBem(Case.load(f"motor_6010_{kind}"))
+    kw = dict(sample_rate_hz=25600.0, chunk_s=0.0371, slip=0.01, seed=7, features=True, quantities=quantities,
+              noise_density={"acceleration": 5e-4, "displacement": 1e-10})
+    new, ref = Synthesizer(model, **kw), Synthesizer(model, **kw)
+    assert len(new.channels) == 4 * len(quantities)
+    out = {}
+    for name, s, on in (("new", new, False), ("ref", ref, True)):
+        old = sk._set_reference_paths(on)
+        try:
+            out[name] = [s.next_chunk(v) for v in SPEEDS + (24.4, 24.4)]
+        finally:
+            sk._set_reference_paths(old)
+    for a, b in zip(out["new"], out["ref"]):
+        assert a.samples.dtype == np.float32
+        assert np.array_equal(a.samples.view(np.uint32), b.samples.view(np.uint32))
