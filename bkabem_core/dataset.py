@@ -225,7 +225,9 @@ def _task(runs: list[Run], out_dir: str, compression: str, sinks: tuple) -> list
     fin = Finisher()
     try:
         with _blas_controller().limit(limits=1, user_api="blas"):
-            out = [render_run(run, out_dir, compression, sinks, finish=fin) for run in runs]
+            # the last run's fsync overlaps nothing: its disk writes start while it is written
+            out = [render_run(run, out_dir, compression, sinks, finish=fin, writeback=k == len(runs) - 1)
+                   for k, run in enumerate(runs)]
         fin.wait()                     # every run of the task fsync-ed and in place before it is reported
     finally:
         fin.close()
