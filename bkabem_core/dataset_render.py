@@ -22,7 +22,6 @@ here when asked for. Units: SI (s, Hz, m), samples as the synthesiser's channels
 
 from __future__ import annotations
 
-import copy
 import functools
 import importlib
 import json
@@ -143,7 +142,6 @@ class _RunCase(Case):
 
 
 _CASES: "OrderedDict[str, _RunCase]" = OrderedDict()
-_TRUTHS: "OrderedDict[tuple, dict]" = OrderedDict()
 
 
 def _run_case(run: Run) -> _RunCase:
@@ -156,20 +154,6 @@ def _run_case(run: Run) -> _RunCase:
             _CASES.popitem(last=False)
     _CASES.move_to_end(run.case_hash)
     return case
-
-
-def _case_truth(case: Case, t_s: float) -> dict:
-    """The ground truth of ``case`` alone (one state, no scenario) at time ``t_s`` [s]: made once per case and
-    time in the process (~0.3 ms: the bearing's geometry and fault frequencies, the defects), a deep copy each
-    call (the label row adds its frequencies to it)."""
-    key = (case.case_hash, float(t_s))
-    truth = _TRUTHS.get(key)
-    if truth is None:
-        alone = Scenario.of_case(case)
-        truth = _TRUTHS[key] = alone.ground_truth(alone.states[0], t_s)
-        while len(_TRUTHS) > POOL_SIZE:
-            _TRUTHS.popitem(last=False)
-    return copy.deepcopy(truth)
 
 
 def _profile(p: dict) -> SpeedProfile | None:
@@ -514,7 +498,8 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
             end = segs[k + 1].first if k + 1 < len(segs) else n_total
             truth = seg.truth
             if truth is None:                       # a grid run: the case alone (one state, no scenario)
-                truth = _case_truth(_run_case(run), seg.first / fs)
+                alone = Scenario.of_case(_run_case(run))
+                truth = alone.ground_truth(alone.states[0], seg.first / fs)
             rows.append(label_row(run, dict(truth), k, seg.first, end - seg.first, seg.speeds(), mult, synth, rel))
         meta = {"run_id": run.run_id, "run_hash": run.run_hash, "run_index": run.index, "params": run.params,
                 "machine_hash": run.case_hash, "sample_rate_hz": fs, "n_samples": n_total,

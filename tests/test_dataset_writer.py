@@ -4,8 +4,8 @@
   the documented options (docs/datasets.md) and pyarrow's defaults for everything else: the batch size, the
   buffered stream and the sink the writer uses change its speed, not one byte of the file.
 - What depends only on the machine is made once per worker process, not per run or task: the case's hash (a
-  SHA-256 of the whole case), a grid run's ground truth, the BLAS thread controller; each run still gets its own
-  seed's samples and labels (equal to a fresh process's).
+  SHA-256 of the whole case), the BLAS thread controller; each run still gets its own seed's samples and labels
+  (equal to a fresh process's).
 - A run that fails half-way leaves nothing under its final name and no temporary file.
 """
 
@@ -105,22 +105,16 @@ def test_run_file_missing_folder_and_abort_leave_nothing(tmp_path):
 
 
 class _Counts:
-    """Counts SHA-256 digests of whole cases, ground truths of cases and BLAS controllers made."""
+    """Counts SHA-256 digests of whole cases and BLAS controllers made."""
 
     def __init__(self, monkeypatch):
-        self.hashes = self.truths = self.controllers = 0
+        self.hashes = self.controllers = 0
         real_sha = hashlib.sha256
 
         def sha256(blob):
             self.hashes += 1
             return real_sha(blob)
         monkeypatch.setattr(case_module, "hashlib", SimpleNamespace(sha256=sha256))
-        real_truth = Case.ground_truth
-
-        def ground_truth(case):
-            self.truths += 1
-            return real_truth(case)
-        monkeypatch.setattr(Case, "ground_truth", ground_truth)
         import threadpoolctl
 
         real_ctl = threadpoolctl.ThreadpoolController
@@ -133,30 +127,27 @@ class _Counts:
         monkeypatch.setattr(dataset, "_BLAS", (None, None), raising=False)
 
     def take(self):
-        out = (self.hashes, self.truths, self.controllers)
-        self.hashes = self.truths = self.controllers = 0
+        out = (self.hashes, self.controllers)
+        self.hashes = self.controllers = 0
         return out
 
 
 def test_machine_work_once_per_process_not_per_run_or_task(tmp_path, monkeypatch):
-    """Two tasks of three runs each of one machine in one process (as a worker runs them): the case's hash, its
-    ground truth and the BLAS controller are made in the first task (for the run's case, the model and its
-    synthesiser); the second task makes none of them (main made them for every run: 15 hashes, 3 ground truths
-    and a controller). Its files and labels are those of a fresh process's render (the same spec in a subprocess)."""
+    """Two tasks of three runs each of one machine in one process (as a worker runs them): the case's hash and
+    the BLAS controller are made in the first task (for the run's case, the model and its synthesiser); the
+    second task makes none of them (main made them for every run: 15 hashes and a controller). Its files and labels are those of a fresh process's render (the same spec in a subprocess)."""
     spec = DatasetSpec.from_toml(SPEC, "writer_test")
     runs = spec.runs
     counts = _Counts(monkeypatch)
-    for memo in ("_CASES", "_TRUTHS"):                  # this process may have rendered these runs before
-        getattr(dataset_render, memo, {}).clear()
+    getattr(dataset_render, "_CASES", {}).clear()        # this process may have rendered these runs before
     out = tmp_path / "out"
     first = _task(runs[:3], str(out), "none", ())
-    h1, g1, c1 = counts.take()
+    h1, c1 = counts.take()
     controller = getattr(dataset, "_BLAS", (None, None))[1]
     second = _task(runs[3:], str(out), "none", ())
-    h2, g2, c2 = counts.take()
+    h2, c2 = counts.take()
     # the first task: the run's case, the model made for it and its synthesiser (each once); the second: nothing
     assert 1 <= c1 <= 3 and c2 == 0 and dataset._BLAS[1] is controller, (c1, c2)
-    assert 1 <= g1 <= 3 and g2 == 0, (g1, g2)
     assert 1 <= h1 <= 3 and h2 == 0, (h1, h2)
     for r, run in zip(first + second, runs):
         assert r["run_id"] == run.run_id and run_path(out, run).exists()
