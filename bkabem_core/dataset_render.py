@@ -383,8 +383,13 @@ class RunFile:
             w.close()
             self._sink.flush()
             self.size = self._file.tell()
-        finally:
-            self._close_files()
+        except BaseException:
+            try:
+                self._close_files()
+            except Exception:  # noqa: BLE001 - the first failure is the one to report
+                pass
+            raise
+        self._close_files()
 
     def _close_files(self) -> None:
         try:
