@@ -210,13 +210,11 @@ def _blas_controller():
     ms, ~0.2-0.7 ms a run of a task, measured) and again only when modules were imported since (a new extension
     module may have brought another BLAS)."""
     global _BLAS
-    n = len(sys.modules)
-    if _BLAS[0] != n:
+    if _BLAS[0] != len(sys.modules):
         from threadpoolctl import ThreadpoolController
 
-        _BLAS = (n, ThreadpoolController())
-        n = len(sys.modules)                 # threadpoolctl's own first import
-        _BLAS = (n, _BLAS[1])
+        controller = ThreadpoolController()
+        _BLAS = (len(sys.modules), controller)       # counted after threadpoolctl's own first import
     return _BLAS[1]
 
 
