@@ -22,6 +22,7 @@ here when asked for. Units: SI (s, Hz, m), samples as the synthesiser's channels
 
 from __future__ import annotations
 
+import functools
 import importlib
 import json
 import math
@@ -109,13 +110,13 @@ def _synth_options(p: dict) -> dict:
 _SYNTHS: "OrderedDict[str, Synthesizer]" = OrderedDict()
 
 
-def _synth_for(model, p: dict) -> Synthesizer:
-    """A synthesiser of ``model`` with the run's settings: one kept per model and settings (binding a line set
-    costs ~1-8 ms), given the run's seed and noise and reset to sample 0, which makes it the synthesiser a fresh
-    one would be (bit for bit, tested)."""
+def _synth_for(model, p: dict, case_hash: str) -> Synthesizer:
+    """A synthesiser of ``model`` (the model of the case of hash ``case_hash``) with the run's settings: one kept
+    per model and settings (binding a line set costs ~1-8 ms), given the run's seed and noise and reset to sample
+    0, which makes it the synthesiser a fresh one would be (bit for bit, tested)."""
     opts = _synth_options(p)
     seed, dens = opts.pop("seed"), opts.pop("noise_density")
-    key = json.dumps([model.case.case_hash, p["sample_rate_hz"], p["chunk_s"], p["accelerometer"], p["anti_alias"],
+    key = json.dumps([case_hash, p["sample_rate_hz"], p["chunk_s"], p["accelerometer"], p["anti_alias"],
                       opts["quantities"], opts["slip"]])
     synth = _SYNTHS.get(key)
     if synth is None or synth.model is not model:
@@ -130,6 +131,29 @@ def _synth_for(model, p: dict) -> Synthesizer:
         synth.reset()
     _SYNTHS.move_to_end(key)
     return synth
+
+
+class _RunCase(Case):
+    """The case of a data set's runs: a :class:`~bkabem_core.case.Case` whose hash (SHA-256 of the canonical JSON
+    of the whole case, ~0.13 ms) is computed once. Made once per machine and process (:func:`_run_case`) and never
+    changed, it is asked for its hash ~5 times a run (the model pool, the synthesiser's key, the ground truth)."""
+
+    case_hash = functools.cached_property(Case.case_hash.fget)
+
+
+_CASES: "OrderedDict[str, _RunCase]" = OrderedDict()
+
+
+def _run_case(run: Run) -> _RunCase:
+    """The case of a grid or random ``run``, one object per machine (the spec's machine hash) in the process."""
+    case = _CASES.get(run.case_hash)
+    if case is None:
+        case = _CASES[run.case_hash] = _RunCase(name=run.case_raw["case"]["name"], source="dataset run",
+                                                raw=run.case_raw)
+        while len(_CASES) > POOL_SIZE:
+            _CASES.popitem(last=False)
+    _CASES.move_to_end(run.case_hash)
+    return case
 
 
 def _profile(p: dict) -> SpeedProfile | None:
@@ -164,9 +188,8 @@ def _chunks(run: Run):
                 f0, f1 = chunk.shaft_speed_hz, chunk.shaft_speed_end_hz
                 yield chunk, (float(f0) if f0 == f1 else f0 + (f1 - f0) * (np.arange(m) / m)), truth
         return sr.synth, it(), model_s
-    case = Case(name=run.case_raw["case"]["name"], source="dataset run", raw=run.case_raw)
-    model = pool().get(case)
-    synth = _synth_for(model, p)
+    model = pool().get(_run_case(run))
+    synth = _synth_for(model, p, run.case_hash)
     # at a constant speed the line amplitudes are constant: knots at the run's ends only (the default 0.1 s knots
     # cost a spectrum and a table each, ~10-20 % of an inner-race run); a profile keeps the default knots
     constant = float(profile.speeds_hz[0]) if np.ptp(profile.speeds_hz) == 0 else None
@@ -244,6 +267,34 @@ def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tupl
 #: nearly so, and snappy (every Parquet reader's default codec) shrinks them to almost nothing for less CPU than
 #: the dictionary encoding they had (BENCHMARKS.md "Data sets": ~2 ms of ~6 ms per 10-s run of 4 channels).
 AUX_CODEC = "snappy"
+#: Values the Parquet column writer takes at a time (pyarrow's ``write_batch_size``; its default 1024 cut a 1-s
+#: chunk's 25 600 values of each column into 25 pieces, each with its own page-size check and level bookkeeping:
+#: ~0.7 of ~5 ms a 10-s run of 4 channels, measured). A column chunk's pages still close at pyarrow's 1-MB
+#: ``data_page_size`` (checked after each batch: pages of at most ~1.25 MB of float32); a column chunk under 1 MB
+#: is one page either way, and its file byte for byte the default's (tested with chunks of 1 000-70 000 samples).
+WRITE_BATCH = 1 << 16
+#: Bytes the file's stream gathers before a ``write`` call (an Arrow ``BufferedOutputStream``): the writer's
+#: ~120 writes of a page or a page header each (a 10-s run of 4 channels) become 2-4, and each write on ext4 also
+#: updates the inode's times (~1 of ~4 ms a run, measured; the bytes are the same).
+WRITE_BUFFER = 2 << 20
+#: With ``writeback`` (:class:`RunFile`): the file's written bytes are handed to the disk each time this many more
+#: have reached the file, so that the fsync right after the file (the last run of a task, whose fsync nothing
+#: overlaps) waits for the tail only (fsync of a 10-s run of 4 channels ~3.4 -> ~1.3 ms for ~0.5 ms of writing,
+#: measured).
+WRITEBACK_STEP = 1 << 20
+_FADVISE = getattr(os, "posix_fadvise", None)
+
+
+@functools.lru_cache(maxsize=64)
+def _file_schema(names: tuple, units: tuple, dtype: str):
+    """The Arrow schema of a run's file (made once per channel set and sample type in the process)."""
+    import pyarrow as pa
+
+    dt = pa.float32() if np.dtype(dtype) == np.float32 else pa.float64()
+    schema = pa.schema([pa.field(n, dt, nullable=False, metadata={"unit": u}) for n, u in zip(names, units)]
+                       + [pa.field("speed_hz", pa.float32(), nullable=False, metadata={"unit": "Hz"}),
+                          pa.field("state", pa.int16(), nullable=False)])
+    return schema
 
 
 class RunFile:
@@ -263,24 +314,38 @@ class RunFile:
         float32 or float64 samples.
     compression : str
         The spec's ``output.compression`` (``none``, ``snappy``, ``zstd``, ``lz4``).
+    writeback : bool
+        Start the disk writes while the file is written (every :data:`WRITEBACK_STEP` bytes: Linux
+        ``posix_fadvise(POSIX_FADV_DONTNEED)`` on the new, still dirty, range starts their writeback and drops no
+        page of it): for a file that is fsync-ed at once. Durability is still the fsync's.
+
+    The file is opened here (``FileNotFoundError`` when its folder is missing) as an Arrow ``OSFile`` behind a
+    :data:`WRITE_BUFFER` buffer that the writer writes to (no file-system resolution per file); :attr:`size` is
+    its length in bytes once closed (everything flushed to the file; the fsync is the caller's).
     """
 
-    def __init__(self, path: Path, names: list, units: list, dtype, compression: str = "none"):
+    def __init__(self, path: Path, names: list, units: list, dtype, compression: str = "none",
+                 writeback: bool = False):
         import pyarrow as pa
         import pyarrow.parquet as pq
 
         self._pa = pa
-        dt = pa.float32() if np.dtype(dtype) == np.float32 else pa.float64()
         self.names = list(names)
-        self.schema = pa.schema([pa.field(n, dt, nullable=False, metadata={"unit": u}) for n, u in zip(names, units)]
-                                + [pa.field("speed_hz", pa.float32(), nullable=False, metadata={"unit": "Hz"}),
-                                   pa.field("state", pa.int16(), nullable=False)])
+        self.schema = _file_schema(tuple(self.names), tuple(units), np.dtype(dtype).str)
         aux = AUX_CODEC if compression == "none" else compression
         codecs = {n: compression for n in self.names}
         codecs.update(speed_hz=aux, state=aux)
-        self._writer = pq.ParquetWriter(str(path), self.schema, compression=codecs, write_statistics=False,
-                                        use_dictionary=False)
+        self.size = None
+        self._file = pa.OSFile(str(path), "wb")
+        try:
+            self._sink = pa.BufferedOutputStream(self._file, WRITE_BUFFER)
+            self._writer = pq.ParquetWriter(self._sink, self.schema, compression=codecs, write_statistics=False,
+                                            use_dictionary=False, write_batch_size=WRITE_BATCH)
+        except BaseException:
+            self._file.close()
+            raise
         self._const: dict = {}                  # constant columns of the last chunks, reused while they hold
+        self._written = 0 if (writeback and _FADVISE is not None) else None    # bytes handed to the disk
 
     def _constant(self, name: str, value, n: int, dtype):
         key = (value, n)
@@ -299,13 +364,39 @@ class RunFile:
         cols.append(self._constant("speed_hz", float(speed_hz), n, np.float32) if np.ndim(speed_hz) == 0
                     else pa.array(np.asarray(speed_hz, dtype=np.float32)))
         cols.append(self._constant("state", int(state), n, np.int16))
-        self._writer.write_batch(pa.RecordBatch.from_arrays(cols, schema=self.schema))
+        self._writer.write_table(pa.Table.from_arrays(cols, schema=self.schema))
+        if self._written is not None:
+            pos = self._file.tell()
+            if pos - self._written >= WRITEBACK_STEP:
+                try:
+                    _FADVISE(self._file.fileno(), self._written, pos - self._written, os.POSIX_FADV_DONTNEED)
+                except OSError:                 # only a hint
+                    pass
+                self._written = pos
 
     def close(self, metadata: dict) -> None:
-        """Add the key-value ``metadata`` ({key: str}) and write the footer."""
+        """Add the key-value ``metadata`` ({key: str}), write the footer and close the file (its length in
+        :attr:`size`)."""
         w, self._writer = self._writer, None
-        w.add_key_value_metadata(metadata)
-        w.close()
+        try:
+            w.add_key_value_metadata(metadata)
+            w.close()
+            self._sink.flush()
+            self.size = self._file.tell()
+        except BaseException:
+            try:
+                self._close_files()
+            except Exception:  # noqa: BLE001 - the first failure is the one to report
+                pass
+            raise
+        self._close_files()
+
+    def _close_files(self) -> None:
+        try:
+            self._sink.close()                  # flushes the buffer, closes the file
+        finally:
+            if not self._file.closed:
+                self._file.close()
 
     def abort(self) -> None:
         w, self._writer = self._writer, None
@@ -314,6 +405,10 @@ class RunFile:
                 w.close()
             except Exception:  # noqa: BLE001 - already failing
                 pass
+        try:
+            self._close_files()
+        except Exception:  # noqa: BLE001 - already failing
+            pass
 
 
 class _Segment:
@@ -353,7 +448,8 @@ def _load_sink(name: str):
     return getattr(importlib.import_module(mod), attr)
 
 
-def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple = (), finish=None) -> dict:
+def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple = (), finish=None,
+               writeback: bool | None = None) -> dict:
     """Render ``run`` into ``out_dir/runs/`` (module docstring) and return ``{"run_id", "labels": [rows],
     "seconds": signal seconds, "render_s": synthesis + writing [s], "model_s": model [s], "bytes"}``.
 
@@ -364,10 +460,14 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
     ``finish``: None (the file is fsync-ed and renamed before this returns), or a :class:`Finisher` that does it
     in its thread while the caller renders the next run (the fsync and the rename wait for the disk: ~1/3 of a
     healthy machine's run, measured); the result then has ``"pending"``, and the run is finished only once
-    :meth:`Finisher.wait` has returned."""
+    :meth:`Finisher.wait` has returned.
+
+    ``writeback``: the file's disk writes start while it is written (:class:`RunFile`), for a run whose fsync
+    nothing overlaps (default: when ``finish`` is None; a task's last run)."""
     final = run_path(out_dir, run)
-    final.parent.mkdir(parents=True, exist_ok=True)
     tmp = temp_path(final)
+    if writeback is None:
+        writeback = finish is None
     t_all = time.perf_counter()
     synth, chunks, model_s = _chunks(run)
     p = run.params
@@ -375,11 +475,17 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
     n_total = int(round(p["duration_s"] * fs))
     names = list(synth.channel_names)
     mult = synth.model.fault_multipliers
+    if sinks:                                       # they write beside the Parquet file from the start
+        final.parent.mkdir(parents=True, exist_ok=True)
     open_sinks = [_load_sink(s)(run, final.with_suffix(""), synth) for s in sinks]
     segs: list[_Segment] = []
     out = None
     try:
-        out = RunFile(tmp, names, synth.units, synth.dtype, compression)
+        try:
+            out = RunFile(tmp, names, synth.units, synth.dtype, compression, writeback)
+        except FileNotFoundError:                   # the first run into this folder (a stat a run saved)
+            final.parent.mkdir(parents=True, exist_ok=True)
+            out = RunFile(tmp, names, synth.units, synth.dtype, compression, writeback)
         for chunk, speed, truth in chunks:
             x = np.ascontiguousarray(chunk.samples)      # channel-major: the columns (one copy of the chunk)
             if not np.isfinite(x).all():
@@ -397,7 +503,7 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
             end = segs[k + 1].first if k + 1 < len(segs) else n_total
             truth = seg.truth
             if truth is None:                       # a grid run: the case alone (one state, no scenario)
-                alone = Scenario.of_case(synth.model.case)
+                alone = Scenario.of_case(_run_case(run))
                 truth = alone.ground_truth(alone.states[0], seg.first / fs)
             rows.append(label_row(run, dict(truth), k, seg.first, end - seg.first, seg.speeds(), mult, synth, rel))
         meta = {"run_id": run.run_id, "run_hash": run.run_hash, "run_index": run.index, "params": run.params,
@@ -409,7 +515,7 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
         rows = json.loads(text)["labels"]                # what a resumed run reads back: the same types and order
         done_file, out = out, None
         done_file.close({META_KEY.decode(): text})
-        size = tmp.stat().st_size
+        size = done_file.size
         done_sinks, open_sinks = open_sinks, []
         if finish is None:
             _finish(tmp, final, done_sinks)

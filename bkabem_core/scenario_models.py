@@ -57,8 +57,9 @@ class ModelPool:
 
     def put(self, model: BkaBem) -> None:
         """Keep ``model`` (made elsewhere) as the model of its case and as a source of decompositions."""
-        self._models[model.case.case_hash] = model
-        self._models.move_to_end(model.case.case_hash)
+        key = model.case.case_hash
+        self._models[key] = model
+        self._models.move_to_end(key)
         while len(self._models) > self.size:
             self._models.popitem(last=False)
 
@@ -72,12 +73,15 @@ class ModelPool:
 
     def get(self, case: Case) -> BkaBem:
         """The model of ``case``: kept, or made now like :meth:`like_of` (blocking: seconds for a new line set)."""
-        model = self._models.get(case.case_hash)
+        key = case.case_hash                # the SHA-256 of the whole case: once a call
+        model = self._models.get(key)
         if model is None:
             t0 = time.perf_counter()
             model = BkaBem(case, like=self.like_of(case))
-            self.build_times_s[case.case_hash] = time.perf_counter() - t0
-        self.put(model)
+            self.build_times_s[key] = time.perf_counter() - t0
+            self.put(model)
+        else:
+            self._models.move_to_end(key)
         return model
 
 
