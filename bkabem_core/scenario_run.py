@@ -195,6 +195,10 @@ class BackgroundModels:
         start = False
         with self._lock:
             model = self._warmed.get(key)
+            if model is not None and not model.fresh:
+                # warmed for settings the stream no longer has (e.g. before another state's switch): again
+                del self._warmed[key]
+                model = None
             if model is None and key not in self._warming and key not in self._warm_errors \
                     and self.helper.ready(key):
                 self._warming.add(key)

@@ -16,8 +16,9 @@ one ``max_speed_step_hz`` of it, and returns a :class:`WarmModel` that holds the
 bit for bit: the same code makes the same numbers, only earlier (tested: tests/test_synth_switch.py).
 
 A warm model belongs to the synthesiser that made it and to the settings it had then (rate, channels, seed, noise,
-slip, sensors, spectrum method, table size, ...): if they changed before the switch, or it was installed already,
-``set_model`` binds its model afresh (correct, only not warm).
+slip, sensors, spectrum method, for an order set the running stream's table size, ...): if they changed before the
+switch, or it was installed already, ``set_model`` binds its model afresh (correct, only not warm);
+:attr:`WarmModel.fresh` tells a provider to make it again instead.
 
 Thread safety: :meth:`SwitchPath.warm` reads the synthesiser's settings and writes only the shadow's attributes and
 the new model's shared caches (its floor transfer, speed cells and exact responses, each safe for concurrent use);
@@ -89,7 +90,16 @@ class WarmModel:
 
     def fits(self, synth) -> bool:
         """Whether ``synth`` can install this (it made it, with the settings it has now, and it is not spent)."""
-        return self._state is not None and self._owner() is synth and synth._switch_settings() == self._settings
+        return self._state is not None and self._owner() is synth \
+            and synth._switch_settings(self.model) == self._settings
+
+    @property
+    def fresh(self) -> bool:
+        """Whether the synthesiser that made it can still install it (:meth:`fits`): a provider that holds warm
+        models makes a stale one again (e.g. an order set warmed before the stream switched to another table
+        size)."""
+        owner = self._owner()
+        return owner is not None and self.fits(owner)
 
     def __repr__(self) -> str:
         return (f"WarmModel({self.model.case.name!r}, speed_hz={self.speed_hz}, seconds={self.seconds:.3f}, "
@@ -99,13 +109,13 @@ class WarmModel:
 class SwitchPath:
     """The :class:`~bkabem_core.synth.Synthesizer`'s methods for warm model switches (a mixin; module docstring)."""
 
-    def _switch_settings(self) -> tuple:
-        """Everything besides the model that binding one and its first knot read: a warm model made under other
-        settings is not installed."""
-        knots = self._knots
+    def _switch_settings(self, model: BkaBem) -> tuple:
+        """Everything besides ``model`` that binding it and its first knot read: a warm model made under other
+        settings is not installed. (An order set keeps the table size of a running stream's current model.)"""
+        keeps_table = bool(self._knots) and self._table_size_arg is None and model.is_order_set
         return (self.sample_rate_hz, self.chunk_samples, self.channel_names, self.band_limit, self._spectrum_kind,
                 self._use_modal, self._max_order_arg, self._table_size_arg,
-                self.table_size if knots else None, self.min_speed_hz, self.max_speed_step_hz,
+                self.table_size if keeps_table else None, self.min_speed_hz, self.max_speed_step_hz,
                 self.dtype, self.seed, self.slip, self.noise_density, self.snr_db, self.accelerometer,
                 self.anti_alias, self._floor_wanted)
 
@@ -138,7 +148,7 @@ class SwitchPath:
             raise SynthError("model", f"must be a BkaBem (got {type(model).__name__})")
         f = self._current_speed_hz() if speed_hz is None else _finite("speed_hz", speed_hz, 0.0)
         t0 = time.perf_counter()
-        settings = self._switch_settings()
+        settings = self._switch_settings(model)
         shadow = object.__new__(_recording_class(type(self)))
         shadow.__dict__.update(self.__dict__)              # one C call: a consistent snapshot
         written: set = set()
