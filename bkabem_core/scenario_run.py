@@ -96,6 +96,9 @@ class InlineModels:
     def prefetch(self, state: ScenarioState) -> None:
         pass
 
+    def prepare(self, state: ScenarioState) -> None:
+        pass
+
     def has(self, state: ScenarioState) -> bool:
         return state.case.case_hash in self.pool
 
@@ -185,29 +188,43 @@ class BackgroundModels:
 
     def get(self, state: ScenarioState):
         """The model if it is back (bare) or warm (with ``warm``), else None; never waits (the driver's
-        look-ahead asks for models; a model that is back starts its warm-up here)."""
+        look-ahead asks for models and :meth:`prepare` warms them ahead; a model that is back but not warm, or
+        warmed for settings the stream no longer has, starts its warm-up here)."""
         key = state.case.case_hash
         if self.warm is None:
             model = self.helper.take(key)
             if model is not None:
                 self._estimate(key, 0.0)
             return model
-        start = False
         with self._lock:
             model = self._warmed.get(key)
             if model is not None and not model.fresh:
-                # warmed for settings the stream no longer has (e.g. before another state's switch): again
                 del self._warmed[key]
                 model = None
-            if model is None and key not in self._warming and key not in self._warm_errors \
-                    and self.helper.ready(key):
-                self._warming.add(key)
-                start = True
-        if start:
-            (self._worker or WarmWorker.shared()).submit(lambda: self._warm_job(key))
-        if model is not None:
-            self._estimate(key, self.warm_times_s.get(key, 0.0))
+        if model is None:
+            self._start_warm(key)
+            return None
+        self._estimate(key, self.warm_times_s.get(key, 0.0))
         return model
+
+    def prepare(self, state: ScenarioState) -> None:
+        """Warm the model of a coming state ahead if it is back (again if the held one went stale or its speed
+        cells no longer cover the stream's speed: :meth:`WarmModel.near`), so that it is warm when it is due."""
+        if self.warm is None:
+            return
+        key = state.case.case_hash
+        with self._lock:
+            held = self._warmed.get(key)
+            if held is not None and held.fresh and held.near():
+                return
+        self._start_warm(key)
+
+    def _start_warm(self, key: str) -> None:
+        with self._lock:
+            if key in self._warming or key in self._warm_errors or not self.helper.ready(key):
+                return
+            self._warming.add(key)
+        (self._worker or WarmWorker.shared()).submit(lambda: self._warm_job(key))
 
     def _estimate(self, key: str, extra_s: float) -> None:
         if key in self.helper.times_s:
@@ -347,7 +364,20 @@ class ScenarioDriver:
                                    f"{states[due].start_s:.6g} s but its model is not ready yet: the stream goes on "
                                    f"with {now}; the ground truth says so")
         self._prefetch(index)
+        self._prepare_ahead()
         return None if switched is None else switched[1]
+
+    def _prepare_ahead(self) -> None:
+        """Let the provider warm the models of coming states that are back (at most ``MAX_READY_AHEAD``, the
+        most the look-ahead holds), so that a state switches at once when it falls due."""
+        states = self.scenario.states
+        found = 0
+        for j in range(0 if self.applied is None else self.applied.index + 1, len(states)):
+            if j not in self._failed and self.models.has(states[j]):
+                self.models.prepare(states[j])
+                found += 1
+                if found >= MAX_READY_AHEAD:
+                    return
 
     def _chunk_scenario_s(self) -> float:
         return self.clock.time_scale * self.chunk_samples / self.clock.sample_rate_hz

@@ -101,6 +101,18 @@ class WarmModel:
         owner = self._owner()
         return owner is not None and self.fits(owner)
 
+    def near(self) -> bool:
+        """Whether the spectrum work it made ahead still serves the stream's current speed: within
+        ``max_speed_step_hz`` of :attr:`speed_hz` (always with ``spectrum="exact"``: a knot's solve is what any new
+        speed costs). A provider that warms ahead makes a far one again while there is time."""
+        owner = self._owner()
+        if owner is None or owner._spectrum_kind == "exact":
+            return True
+        f = owner._current_speed_hz()
+        if f is None or self.speed_hz is None:
+            return f is None and self.speed_hz is None
+        return abs(f - self.speed_hz) <= owner.max_speed_step_hz
+
     def __repr__(self) -> str:
         return (f"WarmModel({self.model.case.name!r}, speed_hz={self.speed_hz}, seconds={self.seconds:.3f}, "
                 f"installed={self.installed})")

@@ -29,6 +29,7 @@ from bkabem_core.synth_floor import BroadbandFloor, FloorTransfer
 from bkabem_core.synth_lineknots import LineSegments
 from bkabem_core.synth_lines import LineFamilies
 from bkabem_core.synth_switch import WarmModel
+from scenario_files import defect, scenario_toml
 
 FS = 25600.0
 CHUNK = 0.1
@@ -48,6 +49,14 @@ def _synth(model, **kw):
     s = Synthesizer(model, **opts)
     s.set_noise(noise_density={"acceleration": 2e-4})
     return s
+
+
+@contextmanager
+def _switch_counts():
+    """:func:`_counting` with its own patcher."""
+    with pytest.MonkeyPatch.context() as mp:
+        with _counting(mp) as counts:
+            yield counts
 
 
 @contextmanager
@@ -207,11 +216,13 @@ def test_warming_in_another_thread_leaves_the_stream_as_it_is(models):
             assert np.array_equal(s.next_chunk(25.0).samples, ref.next_chunk(25.0).samples)
 
 
-def test_background_models_count_a_model_as_ready_only_when_it_is_warm(models):
-    """The node's provider: the helper process makes the model, the warm worker unpickles and warms it for the
-    stream's synthesiser; the driver switches only to the warm model (no set-up in the chunk after it), and until
-    then the ground truth says the state in the signal."""
-    sc = Scenario.of_case(Case.load("motor_6010_healthy"))
+def test_background_models_count_a_model_as_ready_only_when_it_is_warm_and_warm_ahead(models):
+    """The node's provider: the helper process makes the models, the warm worker unpickles and warms them for the
+    stream's synthesiser. The driver switches to the first state only when its model is warm (back but not warm:
+    no switch, the ground truth has no state yet); the next state's model is warmed ahead, before it is due, and
+    switched to exactly at its chunk border; neither switch does any set-up in the chunk after it."""
+    sc = Scenario.from_toml(scenario_toml("warm_ahead", duration_s=100.0, defects=[
+        defect("d", "de", "outer", time_s=[5.0], length_m=[1.0e-3], depth_m=[20e-6])]))
     s = _synth(models["inner"])
     s.next_chunk(25.0)
     n = s.chunk_samples
@@ -224,26 +235,40 @@ def test_background_models_count_a_model_as_ready_only_when_it_is_warm(models):
 
     bg = BackgroundModels(helper, warm=warm, worker=WarmWorker())
     drv = ScenarioDriver(sc, ScenarioClock(FS, 1.0), bg, n, start_applied=False)
-    key = sc.states[0].case.case_hash
+    keys = [st.case.case_hash for st in sc.states]
+    index = n                                             # stream time 0.1 s: state 0 due, state 1 at 5 s
     try:
         t_end = time.monotonic() + 120
-        index = 0
-        while not helper.ready(key) and helper.failed(key) is None:
-            assert drv.before_chunk(index) is None and time.monotonic() < t_end
+        while not helper.ready(keys[0]):
+            assert helper.failed(keys[0]) is None, helper.failed(keys[0])
+            assert drv.before_chunk(index) is None and time.monotonic() < t_end, "the helper made no model"
             time.sleep(0.02)
-        assert helper.failed(key) is None, helper.failed(key)
         for _ in range(3):                                # back, but not warm yet: no switch
             assert drv.before_chunk(index) is None and drv.applied is None
         gate.set()
         while (got := drv.before_chunk(index)) is None:
             assert time.monotonic() < t_end, "the warm model never came"
             time.sleep(0.01)
-        assert isinstance(got, WarmModel) and got.model.case.case_hash == key and drv.applied is sc.states[0]
-        assert bg.warm_times_s[key] > 0
-        s.next_chunk(25.0)
-        s.set_model(got)
-        assert got.installed and s.model is got.model
-        assert drv.ground_truth(index, 25.0)["case"] == "motor_6010_healthy"
+        assert isinstance(got, WarmModel) and got.model.case.case_hash == keys[0] and drv.applied is sc.states[0]
+        assert bg.warm_times_s[keys[0]] > 0
+        # the next state: made and warmed while state 0 streams, before it is due
+        with _switch_counts() as counts:
+            s.set_model(got)
+            s.next_chunk(25.0)
+        assert counts == {} and got.installed and s.model is got.model
+        while keys[1] not in bg._warmed:
+            assert helper.failed(keys[1]) is None and bg.failed(sc.states[1]) is None
+            assert drv.before_chunk(index) is None and time.monotonic() < t_end, "state 1 was not warmed ahead"
+            time.sleep(0.02)
+        due = int(5.0 * FS) // n * n + (n if int(5.0 * FS) % n else 0)
+        assert drv.before_chunk(due - n) is None
+        nxt = drv.before_chunk(due)
+        assert isinstance(nxt, WarmModel) and drv.applied is sc.states[1] and drv.applied_at[1] == due
+        with _switch_counts() as counts:
+            s.set_model(nxt)
+            s.next_chunk(25.0)
+        assert counts == {} and nxt.installed
+        assert drv.ground_truth(due, 25.0)["defects"][0]["race"] == "outer"
     finally:
         gate.set()
         helper.close()
