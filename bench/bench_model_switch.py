@@ -12,8 +12,10 @@ and the stream goes on until the switch and ``--after`` chunks beyond. Timed per
 
 ordinary       median chunk of the first case before the request, and of the second case after the switch
 while waiting  the worst chunk between the request and the switch (the helper, and the warm-up thread, running)
+while warming  the worst chunk while the warm-up thread ran (new code only)
 switch         the chunk at which the second case comes into the signal
 ratio          switch / the larger ordinary median
+warm           the warm-up in the node's warm thread (unpickling included), s: the work that left the switch chunk
 
 ``BKABEM_BENCH_ROOT=/path/to/a/checkout`` runs another checkout's code (e.g. main's, for the numbers before a change)
 with this script. Prints one JSON line per run and a summary table (medians over ``--repeat``).
@@ -48,8 +50,13 @@ def run_pair(src: str, dst: str, period_s: float, before: int, after: int, timeo
     n = int(round(FS * 0.1))
     source = MachineSource(Case.load(f"motor_6010_{src}"), sample_rate_hz=FS, samples_per_chunk=n, seed=0, slip=0.0,
                            machine_id="bench", frames={"de": "de_link", "nde": "nde_link"})
-    times, index = [], 0
+    times, warming, index = [], [], 0
     t_next = time.perf_counter()
+
+    def busy() -> bool:
+        """Whether the node's warm thread is warming the coming model (new code only)."""
+        d = source._next if source._next is not None else source.driver
+        return bool(getattr(d.models, "_warming", None))
 
     def step():
         nonlocal index, t_next
@@ -59,9 +66,11 @@ def run_pair(src: str, dst: str, period_s: float, before: int, after: int, timeo
             time.sleep(pause)
         else:
             t_next = time.perf_counter()
+        w = busy()
         t0 = time.perf_counter()
         source.next_chunk(index, SPEED_HZ)
         times.append(time.perf_counter() - t0)
+        warming.append(w or busy())
         index += n
 
     for _ in range(before):
@@ -77,15 +86,19 @@ def run_pair(src: str, dst: str, period_s: float, before: int, after: int, timeo
     wait_s = time.perf_counter() - t_request
     for _ in range(after):
         step()
+    warm_s = getattr(source.driver.models, "warm_times_s", {}).get(source.case.case_hash)   # (None before warming)
     ms = [1e3 * t for t in times]
     ord_a = statistics.median(ms[2:i_request])               # (the first chunks make the first knots)
     ord_b = statistics.median(ms[i_switch + 2:])
     waiting = ms[i_request:i_switch]
+    during_warm = [t for t, w in zip(ms[i_request:i_switch], warming[i_request:i_switch]) if w]
     return {"pair": f"{src}->{dst}", "ordinary_a_ms": ord_a, "ordinary_b_ms": ord_b,
             "waiting_max_ms": max(waiting) if waiting else 0.0,
             "waiting_median_ms": statistics.median(waiting) if waiting else 0.0,
+            "warming_max_ms": max(during_warm) if during_warm else None, "chunks_warming": len(during_warm),
             "switch_ms": ms[i_switch], "after_switch_ms": ms[i_switch + 1],
             "ratio": ms[i_switch] / max(ord_a, ord_b), "chunks_waiting": len(waiting), "wait_s": wait_s,
+            "warm_s": warm_s,
             "root": str(ROOT)}
 
 
@@ -108,15 +121,20 @@ def main() -> int:
             rows.append(row)
     ModelHelper.shared().close()
     print(f"\n{ROOT}  load {os.getloadavg()[0]:.2f}  (medians of {args.repeat})")
-    print(f"{'pair':16s} {'ord A':>8s} {'ord B':>8s} {'wait max':>9s} {'switch':>8s} {'next':>7s} {'ratio':>7s}")
+    print(f"{'pair':16s} {'ord A':>8s} {'ord B':>8s} {'wait max':>9s} {'switch':>8s} {'next':>7s} {'ratio':>7s} "
+          f"{'warm':>6s} {'warming max':>11s}")
     for src, dst in pairs:
         rs = [r for r in rows if r["pair"] == f"{src}->{dst}"]
 
         def med(k):
             return statistics.median(r[k] for r in rs)
+        ws = [r["warm_s"] for r in rs if r["warm_s"] is not None]
+        warm = f"{statistics.median(ws):.3f}" if ws else "-"
+        wm = [r["warming_max_ms"] for r in rs if r["warming_max_ms"] is not None]
+        warming = f"{max(wm):.1f}" if wm else "-"
         print(f"{src + '->' + dst:16s} {med('ordinary_a_ms'):8.3f} {med('ordinary_b_ms'):8.3f} "
               f"{med('waiting_max_ms'):9.3f} {med('switch_ms'):8.3f} {med('after_switch_ms'):7.3f} "
-              f"{med('ratio'):7.2f}  (switch max {max(r['switch_ms'] for r in rs):.3f} ms)")
+              f"{med('ratio'):7.2f} {warm:>6s} {warming:>11s}  (switch max {max(r['switch_ms'] for r in rs):.3f} ms)")
     return 0
 
 
