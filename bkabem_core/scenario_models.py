@@ -12,7 +12,8 @@ against 3-13 s from nothing; BENCHMARKS.md, "Scenarios").
 :class:`ModelHelper`
     A helper process with its own :class:`ModelPool` prepares models while the caller goes on (a streaming node
     must never wait seconds for a model); the finished model comes back pickled, and :meth:`ModelHelper.take`
-    unpickles it (~20 ms for 50 MB) when the caller chooses. The helper runs at a lower CPU priority (nice 10) so
+    unpickles it (~20 ms for 50 MB) when the caller chooses (the node: in its warm-up thread,
+    :class:`bkabem_core.scenario_run.BackgroundModels`). The helper runs at a lower CPU priority (nice 10) so
     that it never takes the cores from a real-time stream. One per process can be shared (:meth:`shared`).
 
 No ROS here. Units: none of their own (the models are SI).
