@@ -309,6 +309,7 @@ class ScenarioDriver:
         self.applied: ScenarioState | None = self.first_state if start_applied else None
         self.events: list[str] = []
         self.late: set[int] = set()          # states that fell due before their model was ready
+        self._requested: set[int] = set()    # states ahead whose models were asked for (warmed when back)
         self._failed: set[int] = set()
         #: state index -> the first sample it was in effect from
         self.applied_at: dict[int, int] = {self.first_state.index: clock._anchor_index} if start_applied else {}
@@ -368,16 +369,15 @@ class ScenarioDriver:
         return None if switched is None else switched[1]
 
     def _prepare_ahead(self) -> None:
-        """Let the provider warm the models of coming states that are back (at most ``MAX_READY_AHEAD``, the
-        most the look-ahead holds), so that a state switches at once when it falls due."""
+        """Let the provider warm the models of the coming states it was asked for and has back, so that a state
+        switches at once when it falls due (the look-ahead holds at most ``MAX_READY_AHEAD`` of them)."""
+        cur = -1 if self.applied is None else self.applied.index
+        if any(j <= cur for j in self._requested):
+            self._requested = {j for j in self._requested if j > cur}
         states = self.scenario.states
-        found = 0
-        for j in range(0 if self.applied is None else self.applied.index + 1, len(states)):
+        for j in sorted(self._requested):
             if j not in self._failed and self.models.has(states[j]):
                 self.models.prepare(states[j])
-                found += 1
-                if found >= MAX_READY_AHEAD:
-                    return
 
     def _chunk_scenario_s(self) -> float:
         return self.clock.time_scale * self.chunk_samples / self.clock.sample_rate_hz
@@ -398,6 +398,7 @@ class ScenarioDriver:
             k += 1
         if k < len(states):
             m.prefetch(states[k])
+            self._requested.add(k)
 
     def end_speed_hz(self, index: int, n: int) -> float | None:
         """The scenario's shaft speed [Hz] at the end of the chunk of ``n`` samples from ``index`` (None: the
@@ -477,8 +478,9 @@ class ScenarioRun:
             m = min(n, n_total - index)
             model = self.driver.before_chunk(index)
             if model is not None:
-                # warmed at the knot's speed before the switch: the chunk after it costs what any chunk does
-                synth.set_model(synth.warm(model, self._speed_at(index + m)))
+                # warmed at the next knot's speed (known here: no cells around it) before the switch: the chunk
+                # after it costs what any chunk does
+                synth.set_model(synth.warm(model, self._speed_at(index + m), margin_hz=0.0))
             chunk = synth.next_chunk(self._speed_at(index + m), n_samples=m)
             yield chunk, self.driver.ground_truth(index, chunk.shaft_speed_hz)
             index += m

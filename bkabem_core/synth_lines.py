@@ -360,7 +360,10 @@ class ExactSpectrum:
             if len(self._cache) > self._lru[1]:
                 self._cache.popitem(last=False)
         else:
-            self._cache.move_to_end(key)
+            try:
+                self._cache.move_to_end(key)
+            except KeyError:                  # dropped meanwhile by a sharer in another thread (a model's warm-up)
+                pass
         return x
 
 

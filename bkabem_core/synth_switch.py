@@ -6,7 +6,7 @@ plans (~9 ms for the ~350 lines of an inner-race set), the broadband floor's tra
 channels, rate and measurement chain (:class:`~bkabem_core.synth_floor.FloorTransfer`: the standstill receptance
 at 16 383 frequencies, ~150 ms), the floor's frames of the seed (~5 ms) and the first knot's spectrum (with the
 modal spectrum the speed cells of the new line set, ~20-45 ms): 150-240 ms at 25.6 kHz, more than two periods of a
-0.1-s chunk (measured: BENCHMARKS.md, "Model switches").
+0.1-s chunk, and 115-320 ms on the node's path with the model's unpickling (BENCHMARKS.md, "Model switches").
 
 :meth:`SwitchPath.warm` does all of it before the switch, in any thread, while the synthesiser streams on: it binds
 the model to a *shadow* of the synthesiser (a shallow copy that records every attribute it sets), makes the floor,
@@ -139,7 +139,7 @@ class SwitchPath:
         except IndexError:
             return self.initial_speed_hz
 
-    def warm(self, model: BkaBem, speed_hz: float | None = None) -> WarmModel:
+    def warm(self, model: BkaBem, speed_hz: float | None = None, margin_hz: float | None = None) -> WarmModel:
         """Bind ``model`` to this synthesiser's settings now, for a later ``set_model`` that costs the stream
         nothing (module docstring); callable from any thread while this synthesiser streams.
 
@@ -149,7 +149,11 @@ class SwitchPath:
             The model to switch to.
         speed_hz : float or None
             Shaft speed [Hz] at which the first knot after the switch is expected (its spectrum is made now and
-            the speed cells within ``max_speed_step_hz`` of it); None: the stream's current speed.
+            the speed cells within ``margin_hz`` of it); None: the stream's current speed.
+        margin_hz : float or None
+            Speed range [Hz] either side of ``speed_hz`` whose speed cells are made too (modal spectrum); None:
+            ``max_speed_step_hz`` (a stream whose next speed is not known yet); 0: the knot's own cell only (the
+            next knot's speed is ``speed_hz``, as in an offline run).
 
         Returns
         -------
@@ -175,7 +179,8 @@ class SwitchPath:
             shadow._fused_plan(shadow._families)            # the line-set kernel's per-segment plan
         if f is not None:
             shadow._amplitudes(f)                           # the first knot's spectrum and tables, cached
-            lo, hi = max(f - self.max_speed_step_hz, 0.0), f + self.max_speed_step_hz
+            margin = self.max_speed_step_hz if margin_hz is None else _finite("margin_hz", margin_hz, 0.0)
+            lo, hi = max(f - margin, 0.0), f + margin
             if shadow._general:
                 if shadow._cells is not None:
                     shadow._cells.build(lo, hi)
