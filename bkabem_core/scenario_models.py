@@ -12,7 +12,8 @@ against 3-13 s from nothing; BENCHMARKS.md, "Scenarios").
 :class:`ModelHelper`
     A helper process with its own :class:`ModelPool` prepares models while the caller goes on (a streaming node
     must never wait seconds for a model); the finished model comes back pickled, and :meth:`ModelHelper.take`
-    unpickles it (~20 ms for 50 MB) when the caller chooses. The helper runs at a lower CPU priority (nice 10) so
+    unpickles it (~20 ms for 50 MB) when the caller chooses (the node: in its warm-up thread,
+    :class:`bkabem_core.scenario_run.BackgroundModels`). The helper runs at a lower CPU priority (nice 10) so
     that it never takes the cores from a real-time stream. One per process can be shared (:meth:`shared`).
 
 No ROS here. Units: none of their own (the models are SI).
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import shutil
 import struct
 import subprocess
 import sys
@@ -35,6 +37,8 @@ from .machine import Machine
 
 #: Models a pool keeps (each holds its line modes: ~10-50 MB for the fault library's motor).
 POOL_SIZE = 4
+#: CPU priority of the helper process (nice value; a real-time stream keeps its cores)
+NICE = 10
 _HEADER = struct.Struct("<Q")
 
 
@@ -106,7 +110,7 @@ def _recv(fh):
 
 def _lower_priority() -> None:
     try:
-        os.nice(10)
+        os.nice(NICE)
     except OSError:
         pass
 
@@ -171,10 +175,14 @@ class ModelHelper:
         env = dict(os.environ)
         env.setdefault("OPENBLAS_NUM_THREADS", "1")
         # niced before anything runs: its start-up (interpreter, numpy, scipy: ~1-3 s of CPU) must not take a core
-        # from a real-time stream either
-        self._proc = subprocess.Popen([sys.executable, "-m", "bkabem_core.scenario_models"], stdin=subprocess.PIPE,
+        # from a real-time stream either. By nice(1), not a preexec_fn: that forces a fork of this process (page
+        # tables of a streaming node's ~1 GB: ~20-30 ms in the caller's thread, measured in the chunk that asked
+        # for the first model); without one, subprocess spawns by vfork (microseconds)
+        cmd = [sys.executable, "-m", "bkabem_core.scenario_models"]
+        nice = shutil.which("nice")
+        self._proc = subprocess.Popen([nice, "-n", str(NICE)] + cmd if nice else cmd, stdin=subprocess.PIPE,
                                       stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env,
-                                      preexec_fn=_lower_priority)
+                                      preexec_fn=None if nice else _lower_priority)
         self._reader = threading.Thread(target=self._read, args=(self._proc,), daemon=True,
                                         name="bkabem-model-helper")
         self._reader.start()

@@ -11,7 +11,10 @@ hands over its model; it takes the models from a provider:
   when it falls due is applied as soon as it is; meanwhile the stream goes on with the state it has, and the ground
   truth says so (it always describes the model in the signal). When preparations take longer than the states last
   (a strong time compression), states are skipped: the driver asks for the state that will be due when the model
-  could be ready, not for the next one.
+  could be ready, not for the next one. With a ``warm`` callable (a streaming node's: ``synth.warm``) a model that
+  is back is also unpickled and warmed (:mod:`bkabem_core.synth_switch`: the floor's transfer, the line set's
+  plans, the first knot's spectrum) by :class:`WarmWorker`, a thread at low CPU priority, and only a warm model
+  counts as ready: the chunk after the switch then costs what any chunk costs.
 
 :class:`ScenarioClock` maps stream samples to scenario time: ``t = start + time_scale x (stream time)``; a change of
 the scale at a sample keeps the scenario time continuous there. Everything is a function of the sample index (not
@@ -23,7 +26,11 @@ No ROS here. Units: s (scenario and stream time), Hz, samples.
 from __future__ import annotations
 
 import math
-from typing import Iterator
+import os
+import queue
+import threading
+import time
+from typing import Callable, Iterator
 
 from .harmonic import BkaBem
 from .scenario import Scenario, ScenarioState
@@ -89,6 +96,9 @@ class InlineModels:
     def prefetch(self, state: ScenarioState) -> None:
         pass
 
+    def prepare(self, state: ScenarioState) -> None:
+        pass
+
     def has(self, state: ScenarioState) -> bool:
         return state.case.case_hash in self.pool
 
@@ -99,26 +109,146 @@ class InlineModels:
         pass
 
 
+class WarmWorker:
+    """A thread that runs the warm-ups of models (:meth:`BackgroundModels.get`) off the streaming threads, one job
+    at a time in request order, at a lower CPU priority (nice +10 for this thread on Linux): numpy's parts release
+    the GIL and then run on the other core without taking it from a real-time stream. One per process can be
+    shared (:meth:`shared`); the thread starts with the first job and is a daemon."""
+
+    _shared: "WarmWorker | None" = None
+    _shared_lock = threading.Lock()
+    NICE = 10
+
+    def __init__(self):
+        self._jobs: queue.SimpleQueue = queue.SimpleQueue()
+        self._thread: threading.Thread | None = None
+        self._lock = threading.Lock()
+
+    @classmethod
+    def shared(cls) -> "WarmWorker":
+        with cls._shared_lock:
+            if cls._shared is None:
+                cls._shared = cls()
+            return cls._shared
+
+    def submit(self, job: Callable[[], None]) -> None:
+        """Run ``job()`` in the worker thread (it reports its own result and errors)."""
+        with self._lock:
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._run, daemon=True, name="bkabem-model-warm")
+                self._thread.start()
+        self._jobs.put(job)
+
+    def _run(self) -> None:
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), self.NICE)   # this thread only (Linux)
+        except (AttributeError, OSError):
+            pass
+        while True:
+            job = self._jobs.get()
+            try:
+                job()
+            except Exception:  # noqa: BLE001 - a job reports its errors itself; the worker goes on
+                pass
+
+
 class BackgroundModels:
     """Models prepared ahead in a helper process (:class:`bkabem_core.scenario_models.ModelHelper`, shared by
-    default), never waited for. ``estimate_s`` is a running estimate of one preparation [s]."""
+    default), never waited for. ``estimate_s`` is a running estimate of one preparation [s] (the warm-up included).
 
-    def __init__(self, helper: ModelHelper | None = None):
+    Parameters
+    ----------
+    helper : ModelHelper or None
+    warm : callable or None
+        ``warm(model) -> WarmModel`` (:meth:`Synthesizer.warm <bkabem_core.synth_switch.SwitchPath.warm>` of the
+        stream's synthesiser). Given, a model that is back is unpickled and warmed in ``worker`` and :meth:`get`
+        returns the warm model once it is; None: :meth:`get` unpickles the model in the caller's thread and
+        returns it bare.
+    worker : WarmWorker or None
+        Where the warm-ups run (default the process's shared one).
+    """
+
+    def __init__(self, helper: ModelHelper | None = None, warm: Callable | None = None,
+                 worker: WarmWorker | None = None):
         self.helper = helper if helper is not None else ModelHelper.shared()
         self.estimate_s = 3.0
         self._mine: set[str] = set()
+        self.warm = warm
+        self._worker = worker
+        self._lock = threading.Lock()
+        self._warming: set[str] = set()
+        self._warmed: dict = {}                  # case hash -> WarmModel
+        self._warm_errors: dict[str, str] = {}
+        #: case hash -> seconds of its warm-up (unpickling included), in the worker
+        self.warm_times_s: dict[str, float] = {}
 
     @property
     def idle(self) -> bool:
         return not any(self.helper.pending(h) for h in self._mine)
 
-    def get(self, state: ScenarioState) -> BkaBem | None:
-        """The model if it is back (never waits; the driver's look-ahead asks for models)."""
+    def get(self, state: ScenarioState):
+        """The model if it is back (bare) or warm (with ``warm``), else None; never waits (the driver's
+        look-ahead asks for models and :meth:`prepare` warms them ahead; a model that is back but not warm, or
+        warmed for settings the stream no longer has, starts its warm-up here)."""
         key = state.case.case_hash
-        model = self.helper.take(key)
-        if model is not None and key in self.helper.times_s:
-            self.estimate_s = 0.5 * self.estimate_s + 0.5 * self.helper.times_s[key]
+        if self.warm is None:
+            model = self.helper.take(key)
+            if model is not None:
+                self._estimate(key, 0.0)
+            return model
+        with self._lock:
+            model = self._warmed.get(key)
+            if model is not None and not model.fresh:
+                del self._warmed[key]
+                model = None
+        if model is None:
+            self._start_warm(key)
+            return None
+        self._estimate(key, self.warm_times_s.get(key, 0.0))
         return model
+
+    def prepare(self, state: ScenarioState) -> None:
+        """Warm the model of a coming state ahead if it is back (again if the held one went stale or its speed
+        cells no longer cover the stream's speed: :meth:`WarmModel.near`), so that it is warm when it is due."""
+        if self.warm is None:
+            return
+        key = state.case.case_hash
+        with self._lock:
+            held = self._warmed.get(key)
+            if held is not None and held.fresh and held.near():
+                return
+        self._start_warm(key)
+
+    def _start_warm(self, key: str) -> None:
+        with self._lock:
+            if key in self._warming or key in self._warm_errors or not self.helper.ready(key):
+                return
+            self._warming.add(key)
+        (self._worker or WarmWorker.shared()).submit(lambda: self._warm_job(key))
+
+    def _estimate(self, key: str, extra_s: float) -> None:
+        if key in self.helper.times_s:
+            self.estimate_s = 0.5 * self.estimate_s + 0.5 * (self.helper.times_s[key] + extra_s)
+
+    def _warm_job(self, key: str) -> None:
+        """In the worker: unpickle (:meth:`ModelHelper.take`) and warm the model of ``key``."""
+        t0 = time.perf_counter()
+        warm, err = None, None
+        try:
+            model = self.helper.take(key)
+            if model is not None:
+                warm = self.warm(model)
+        except Exception as exc:  # noqa: BLE001 - the state is reported as failed; the stream goes on
+            err = f"{type(exc).__name__}: {exc}"
+        with self._lock:
+            if key not in self._warming:                      # released meanwhile
+                return
+            self._warming.discard(key)
+            if warm is not None:
+                self._warmed[key] = warm
+                self.warm_times_s[key] = time.perf_counter() - t0
+            elif err is not None:
+                self._warm_errors[key] = err
 
     def prefetch(self, state: ScenarioState) -> None:
         self._mine.add(state.case.case_hash)
@@ -128,11 +258,21 @@ class BackgroundModels:
         return self.helper.ready(state.case.case_hash)
 
     def failed(self, state: ScenarioState) -> str | None:
-        return self.helper.failed(state.case.case_hash)
+        key = state.case.case_hash
+        err = self.helper.failed(key)
+        if err is None:
+            with self._lock:
+                err = self._warm_errors.get(key)
+        return err
 
     def release(self, state: ScenarioState) -> None:
-        self.helper.drop(state.case.case_hash)
-        self._mine.discard(state.case.case_hash)
+        key = state.case.case_hash
+        self.helper.drop(key)
+        self._mine.discard(key)
+        with self._lock:
+            self._warming.discard(key)
+            self._warmed.pop(key, None)
+            self._warm_errors.pop(key, None)
 
 
 # --------------------------------------------------------------------------- the driver
@@ -169,6 +309,7 @@ class ScenarioDriver:
         self.applied: ScenarioState | None = self.first_state if start_applied else None
         self.events: list[str] = []
         self.late: set[int] = set()          # states that fell due before their model was ready
+        self._requested: set[int] = set()    # states ahead whose models were asked for (warmed when back)
         self._failed: set[int] = set()
         #: state index -> the first sample it was in effect from
         self.applied_at: dict[int, int] = {self.first_state.index: clock._anchor_index} if start_applied else {}
@@ -177,9 +318,11 @@ class ScenarioDriver:
             # then made like it (their FE, basis and line modes reused: ~10x faster for a grown defect)
             models.prefetch(self.first_state)
 
-    def before_chunk(self, index: int) -> BkaBem | None:
+    def before_chunk(self, index: int):
         """Called before the chunk that starts at stream sample ``index``: the model to switch to there (the state
-        due then, or the newest state before it that is ready), or None to keep the current one."""
+        due then, or the newest state before it that is ready), or None to keep the current one. What the provider
+        gives: a BkaBem, or a :class:`~bkabem_core.synth_switch.WarmModel` (``BackgroundModels`` with ``warm``);
+        either goes to :meth:`Synthesizer.set_model`."""
         states = self.scenario.states
         t = self.clock.time_s(index)
         due = self.scenario.state_index_at(t)
@@ -222,7 +365,19 @@ class ScenarioDriver:
                                    f"{states[due].start_s:.6g} s but its model is not ready yet: the stream goes on "
                                    f"with {now}; the ground truth says so")
         self._prefetch(index)
+        self._prepare_ahead()
         return None if switched is None else switched[1]
+
+    def _prepare_ahead(self) -> None:
+        """Let the provider warm the models of the coming states it was asked for and has back, so that a state
+        switches at once when it falls due (the look-ahead holds at most ``MAX_READY_AHEAD`` of them)."""
+        cur = -1 if self.applied is None else self.applied.index
+        if any(j <= cur for j in self._requested):
+            self._requested = {j for j in self._requested if j > cur}
+        states = self.scenario.states
+        for j in sorted(self._requested):
+            if j not in self._failed and self.models.has(states[j]):
+                self.models.prepare(states[j])
 
     def _chunk_scenario_s(self) -> float:
         return self.clock.time_scale * self.chunk_samples / self.clock.sample_rate_hz
@@ -243,6 +398,7 @@ class ScenarioDriver:
             k += 1
         if k < len(states):
             m.prefetch(states[k])
+            self._requested.add(k)
 
     def end_speed_hz(self, index: int, n: int) -> float | None:
         """The scenario's shaft speed [Hz] at the end of the chunk of ``n`` samples from ``index`` (None: the
@@ -322,7 +478,9 @@ class ScenarioRun:
             m = min(n, n_total - index)
             model = self.driver.before_chunk(index)
             if model is not None:
-                synth.set_model(model)
+                # warmed at the next knot's speed (known here: no cells around it) before the switch: the chunk
+                # after it costs what any chunk does
+                synth.set_model(synth.warm(model, self._speed_at(index + m), margin_hz=0.0))
             chunk = synth.next_chunk(self._speed_at(index + m), n_samples=m)
             yield chunk, self.driver.ground_truth(index, chunk.shaft_speed_hz)
             index += m

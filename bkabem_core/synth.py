@@ -56,6 +56,7 @@ from .synth_lines import (ISO_BAND_HZ, BEARINGS, DEFAULT_QUANTITIES, QUANTITIES,
 from .synth_profile import SpeedProfile, SynthError, _finite, parse_profile  # noqa: F401  (re-exported)
 from .synth_floor import FloorPath
 from .synth_knots import KnotSpectrum
+from .synth_switch import SwitchPath, WarmModel
 from .synth_random import NoisePath, _NoiseBlocks, _SlipWalk, noise_key  # noqa: F401
 
 
@@ -65,7 +66,7 @@ _PASS = float(synth_kernel.PASS_UNITS)   # fixed-point units of one ball pass (2
 
 
 # =========================================================================== the synthesiser
-class Synthesizer(KnotSpectrum, LineSetPath, FloorPath, NoisePath):
+class Synthesizer(KnotSpectrum, LineSetPath, FloorPath, NoisePath, SwitchPath):
     """Speed-driven, phase-continuous sensor signals of one case, chunk by chunk.
 
     Parameters
@@ -305,11 +306,20 @@ class Synthesizer(KnotSpectrum, LineSetPath, FloorPath, NoisePath):
     def model(self, model: BkaBem) -> None:
         self.set_model(model)
 
-    def set_model(self, model: BkaBem) -> None:
+    def set_model(self, model: "BkaBem | WarmModel") -> None:
         """Switch to another model (e.g. a new defect depth) from the next knot on (``synth.model = m`` does the
         same). Phase stays continuous; the amplitudes move from the old to the new spectrum over one segment.
-        With the modal spectrum the new model's modal form is made at its first use (~1.5 s, once per model): call
-        :meth:`prepare` right after this one where the next chunk must not wait."""
+
+        A bare model is bound now and the rest is made by the next chunk: the floor's transfer (~150 ms), the
+        line set's plans and the first knot's spectrum (with the modal spectrum its speed cells, and the modal
+        form at its first use, ~1.5 s once per model). Where the next chunk must not wait, pass
+        ``self.warm(model)`` made earlier (off the streaming thread: :mod:`bkabem_core.synth_switch`): then this
+        only installs it, and the samples are the same. A warm model that no longer fits (other settings, spent)
+        is bound afresh."""
+        if isinstance(model, WarmModel):
+            if self._install(model):
+                return
+            model = model.model
         if not isinstance(model, BkaBem):
             raise SynthError("model", f"must be a BkaBem (got {type(model).__name__})")
         use_modal = self._use_modal

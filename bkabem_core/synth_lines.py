@@ -360,7 +360,10 @@ class ExactSpectrum:
             if len(self._cache) > self._lru[1]:
                 self._cache.popitem(last=False)
         else:
-            self._cache.move_to_end(key)
+            try:
+                self._cache.move_to_end(key)
+            except KeyError:                  # dropped meanwhile by a sharer in another thread (a model's warm-up)
+                pass
         return x
 
 
@@ -596,10 +599,13 @@ class LineSetPath:
         phase (each family's, then its carrier's) the constants of :meth:`_phase_args` (rate / BPFO, fixed, rate,
         rate / 2), and the slip-offset row of each family's phase and carrier (-1: none) over the distinct slip
         factors ``kappas``, handed to C once (``segments``: :class:`synth_lineknots.LineSegments`). The plan holds
-        its families, so that another line set cannot take their id while it is cached (a model swap)."""
+        its families, so that another line set cannot take their id while it is cached (a model swap). Two plans
+        are kept, so that the segment across a swap between line sets (both rendered) makes neither again."""
         key = (id(fams), self._slip_walk is not None)
-        cached = self._scratch.get("fused")
-        if cached is not None and cached["key"] == key and cached["families"] is fams:
+        plans = self._scratch.setdefault("fused", OrderedDict())
+        cached = plans.get(key)
+        if cached is not None and cached["families"] is fams:
+            plans.move_to_end(key)
             return cached
         walk = self._slip_walk
         kappas: list = []
@@ -621,7 +627,9 @@ class LineSetPath:
         wq = np.array([row(f.kappa_q) if f.carrier else -1 for f in ff], dtype=np.int64)
         plan = {"key": key, "families": fams, "kappas": tuple(kappas), "phases": phases, "wp": wp, "wq": wq,
                 "segments": LineSegments(fams.plan, phases, kappas, wp, wq, self.sample_rate_hz)}
-        self._scratch["fused"] = plan
+        plans[key] = plan
+        while len(plans) > 2:
+            plans.popitem(last=False)
         return plan
 
     def _segment_lines_fused(self, a: _Knot, b: _Knot, lo: int, hi: int, out: np.ndarray, acc, noise) -> None:

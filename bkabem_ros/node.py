@@ -688,6 +688,7 @@ def _stats_line(st: dict) -> str:
     return (f"stats: {st['chunks']} chunks (next index {st['next_index']}), {st['spectra']} spectra, "
             f"{st['speed_messages']} speed messages ({st['speed_rejected']} rejected), publish lateness "
             f"p50 {st['lateness_ms_p50']:.3f} ms p99 {st['lateness_ms_p99']:.3f} ms max {st['lateness_ms_max']:.3f} ms "
+            f"at chunk {st['lateness_max_chunk']}, {st['late_chunks']} a period late "
             f"(start p50 {st['start_lateness_ms_p50']:.3f} ms p99 {st['start_lateness_ms_p99']:.3f} ms)")
 
 

@@ -9,8 +9,11 @@ The machine is always run by a :class:`~bkabem_core.scenario_run.ScenarioDriver`
 parameter), or the case alone (:meth:`Scenario.of_case`: one state). A change of the machine while the stream runs
 (a new scenario, ``defect_depth``, the scenario's next state) is a model made in the background
 (:class:`bkabem_core.scenario_models.ModelHelper`, a helper process at low CPU priority: the stream never waits for
-it) and switched to at a chunk border, phase-continuously (:meth:`Synthesizer.set_model`). Until the model is
-there, the stream goes on with the one it has and the ground truth describes that one.
+it), unpickled and warmed for this source's synthesiser in a low-priority thread (:meth:`Synthesizer.warm`: the
+floor's transfer, the line set's plans, the first knot's spectrum; ~0.2 s that the chunk after the switch would
+otherwise pay inside the timer) and switched to at the first chunk border after that, phase-continuously
+(:meth:`Synthesizer.set_model`). Until the model is there, the stream goes on with the one it has and the ground
+truth describes that one.
 
 No rclpy here: messages are built with :mod:`bkabem_ros.msgs`. Units: SI (Hz, rad/s, m, m/s^2, s).
 """
@@ -119,7 +122,7 @@ class MachineSource:
         sc = scenario if scenario is not None else Scenario.of_case(case)
         clock = ScenarioClock(self.sample_rate, time_scale if scenario is not None else 1.0,
                               scenario_start_s if scenario is not None else 0.0)
-        self._driver = ScenarioDriver(sc, clock, BackgroundModels(), self.samples_per_chunk)
+        self._driver = ScenarioDriver(sc, clock, self._models(), self.samples_per_chunk)
         self._next: ScenarioDriver | None = None
         self._next_reason = ""
         self._next_t0 = 0.0
@@ -142,6 +145,14 @@ class MachineSource:
             raise RuntimeError(f"synth chunk of {synth.chunk_samples} samples, node expects {n}")
         synth.max_knots_per_step = max(4, int(0.4 * (n / self.sample_rate) / self.KNOT_COST_S))
         self.synth = synth
+
+    def _models(self) -> BackgroundModels:
+        """Models from the helper process, warmed for this source's synthesiser before they count as ready."""
+        return BackgroundModels(warm=self._warm)
+
+    def _warm(self, model):
+        """(In the warm-up thread) ``model`` bound to the synthesiser's settings at its current speed."""
+        return self.synth.warm(model)
 
     def set_noise(self, acceleration_rms: float, displacement_rms: float, snr_db: float) -> None:
         """Sensor noise from the next chunk on: RMS over 0..fs/2 per quantity [m/s^2, m], or by SNR [dB] (> 0)."""
@@ -185,7 +196,7 @@ class MachineSource:
                                                               at_index), why)
 
     def _switch_to(self, scenario: Scenario, clock: ScenarioClock, why: str) -> None:
-        self._next = ScenarioDriver(scenario, clock, BackgroundModels(), self.samples_per_chunk, start_applied=False)
+        self._next = ScenarioDriver(scenario, clock, self._models(), self.samples_per_chunk, start_applied=False)
         self._next_reason = why
         self._next_t0 = time.perf_counter()
         if self.log is not None:
@@ -226,9 +237,9 @@ class MachineSource:
         driver.events.clear()
 
     def _apply(self, model) -> None:
-        self.synth.set_model(model)          # from this chunk border on, phase continuous
-        self.model = model
-        self.case = model.case
+        self.synth.set_model(model)          # from this chunk border on, phase continuous (warm: no set-up here)
+        self.model = self.synth.model
+        self.case = self.model.case
         self.changed = True
         self.switches += 1
 
