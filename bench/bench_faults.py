@@ -11,7 +11,8 @@ preparation     ``BkaBem(case)``: excitation (quasi-static, 2-torus for inner/ba
                 eigen-decomposition per speed-locked line; median of ``--repeat``
 new speed       ``model.response([f])`` at 200 random speeds in 5-75 Hz; median [us]
 synthesis       ``next_chunk(v)`` with a new speed every 0.1-s chunk (random walk 20-30 Hz), 8 channels at 51.2
-                kHz, float32, slip 1 % and accelerometer + probe noise, features on (the realistic path), after
+                kHz, float32, slip 1 % and accelerometer + probe noise, features on (the realistic path; ``--features
+                off``: the waveform stream alone), after
                 ``prepare()`` and one pass over the speed range (speed cells made); real-time factor = signal
                 seconds / wall seconds, median of ``--repeat``
 """
@@ -45,7 +46,7 @@ CASES = ("electric_motor_6010", "motor_6010_healthy", "motor_6010_outer", "motor
 NOISE = {"acceleration": 1e-3, "displacement": 1e-10}
 
 
-def bench_case(name: str, repeat: int, seconds: float) -> dict:
+def bench_case(name: str, repeat: int, seconds: float, features: bool = True) -> dict:
     case = Case.load(name)
     prep, parts, model = [], None, None
     for _ in range(repeat):
@@ -65,7 +66,7 @@ def bench_case(name: str, repeat: int, seconds: float) -> dict:
     for label, kw in (("plain", {}), ("slip_noise", {"slip": 0.01, "noise_density": NOISE})):
         rts = []
         for r in range(repeat):
-            s = Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, **kw)
+            s = Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, features=features, **kw)
             s.prepare()
             for v in np.linspace(20.0, 30.0, 41):                  # speed cells of the range made (one-off)
                 s.next_chunk(float(v))
@@ -129,6 +130,9 @@ def main(argv=None) -> int:
     ap.add_argument("--seconds", type=float, default=5.0, help="signal seconds per synthesis run")
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--json", default=None)
+    ap.add_argument("--features", choices=("on", "off"), default="on",
+                    help="per-chunk features (RMS, kurtosis, ISO velocity...; on = the node's default) or the "
+                         "waveform stream alone (off, as issue 4's 1000x target was measured)")
     ap.add_argument("--figures", default=None, metavar="DIR", help="write the docs figure to DIR and stop")
     args = ap.parse_args(argv)
     if args.figures:
@@ -136,11 +140,12 @@ def main(argv=None) -> int:
         return 0
     rows = []
     for name in args.cases.split(","):
-        r = bench_case(name, args.repeat, args.seconds)
+        r = bench_case(name, args.repeat, args.seconds, features=args.features == "on")
         rows.append(r)
         print(json.dumps(r), flush=True)
     print(f"\nmachine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"load {os.getloadavg()[0]:.1f}, python {platform.python_version()}, numpy {np.__version__}")
+          f"features {args.features}, load {os.getloadavg()[0]:.1f}, python {platform.python_version()}, "
+          f"numpy {np.__version__}")
     print("| case | lines | preparation [s] (excitation / solver set-up) | new speed [us] | synthesis, new speed "
           "every 0.1-s chunk [x real time] | same + slip 1 % + noise |")
     print("|---|---:|---|---:|---:|---:|")

@@ -43,6 +43,23 @@ class KnotSpectrum:
             taper = np.where(r <= 0.85, 1.0, np.where(r >= 0.95, 0.0, 0.5 * (1 + np.cos(np.pi * (r - 0.85) / 0.1))))
         return fade, taper
 
+    def band_taper(self, speed_hz: float):
+        """The Nyquist taper per line at a shaft speed (``band_limit="taper"``), or None when every line is carried
+        in full.
+
+        Parameters
+        ----------
+        speed_hz : float
+            Shaft speed [Hz].
+
+        Returns
+        -------
+        ndarray (K,) or None
+            Weight of each kept line (order) in [0, 1]: 1 below 0.85 of Nyquist, a raised cosine to 0 at 0.95,
+            0 above [-].
+        """
+        return self._order_weights(float(speed_hz))[1]
+
     def _check_band(self, f: float, argument: str) -> None:
         if self.band_limit == "error" and f > self.min_speed_hz:
             top = self._top_hz(f)

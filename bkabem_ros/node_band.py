@@ -28,7 +28,7 @@ HYSTERESIS = 1.03
 
 def _taper(synth, speed_hz: float):
     """The synthesiser's own Nyquist taper per line at ``speed_hz`` (None: every line in full)."""
-    return synth._order_weights(float(speed_hz))[1]
+    return synth.band_taper(float(speed_hz))
 
 
 def profile_max_speed_hz(scenario, start_s: float) -> float:

@@ -351,8 +351,9 @@ class HeadlessViewer:
 
     def shoot_every_view(self, settle: int = 2):
         """{view name: (View, PNG)} of every view of the blueprint, tab by tab (after a tab
-        switch the first view is shot until two shots agree, the others until ``settle`` agree);
-        the first tabs are active again afterwards."""
+        switch every view is shot until two shots agree: the views of a newly shown tab load one
+        by one, and one shot of a later one could still be blank; in the first tabs until ``settle``
+        agree, the first view at least two); the first tabs are active again afterwards."""
         out = {}
         n = self.tab_count()
         for i in range(n):
@@ -362,8 +363,9 @@ class HeadlessViewer:
             hidden = self.hidden_views()
             todo = [v for v in self.views() if v.name not in out and str(v.view_id) not in hidden]
             for k, view in enumerate(todo):
-                # the first shot after a tab switch waits until the newly shown views have loaded
-                out[view.name] = (view, self.screenshot(view.view_id, settle=max(settle, 2) if k == 0 else settle))
+                # after a tab switch each newly shown view waits until it has loaded (two shots agree)
+                wait = k == 0 or (n > 1 and i > 0)
+                out[view.name] = (view, self.screenshot(view.view_id, settle=max(settle, 2) if wait else settle))
         if n > 1:
             self.show_tab(0)
         return out
