@@ -26,11 +26,6 @@ import numpy as np
 HYSTERESIS = 1.03
 
 
-def _taper(synth, speed_hz: float):
-    """The synthesiser's own Nyquist taper per line at ``speed_hz`` (None: every line in full)."""
-    return synth.band_taper(float(speed_hz))
-
-
 def profile_max_speed_hz(scenario, start_s: float) -> float:
     """Highest shaft speed [Hz] of a scenario's ``[speed]`` profile (linear between points, held after the last)
     from scenario time ``start_s`` [s] to its end."""
@@ -63,13 +58,13 @@ def start_refusal(synth, scenario, start_s: float, what: str) -> str | None:
 def taper_start_speed_hz(synth, up_to_hz: float) -> float | None:
     """Lowest shaft speed [Hz] up to ``up_to_hz`` at which the taper acts on some line (None: it never does)."""
     lo, hi = 2.0 * synth.min_speed_hz, float(up_to_hz)
-    if hi <= lo or _taper(synth, hi) is None:
+    if hi <= lo or synth.band_taper(hi) is None:
         return None
-    if _taper(synth, lo) is not None:
+    if synth.band_taper(lo) is not None:
         return lo
     for _ in range(50):                    # the lines' frequencies grow with speed: bisection on the taper itself
         mid = 0.5 * (lo + hi)
-        if _taper(synth, mid) is None:
+        if synth.band_taper(mid) is None:
             lo = mid
         else:
             hi = mid
@@ -108,10 +103,10 @@ class BandWatch:
             self._model = model
             self._active = False
         if self._active:
-            if _taper(synth, speed_hz * HYSTERESIS) is None:
+            if synth.band_taper(speed_hz * HYSTERESIS) is None:
                 self._active = False
             return
-        w = _taper(synth, speed_hz)
+        w = synth.band_taper(speed_hz)
         if w is None:
             return
         self._active = True
