@@ -211,12 +211,13 @@ typedef struct {
     const double *factor, *tw, *nu, *mu, *scale;
 } KnotPlan;
 
-#define SEG_PLAN_ARRAYS 7
+#define SEG_PLAN_ARRAYS 8
 typedef struct {
     Buf b[SEG_PLAN_ARRAYS];
     int64_t F, K, table_floats;
     const int64_t *lg, *carrier, *off_t, *wp, *wq;
-    const double *consts, *kappas;     /* per family (rate / BPFO, fixed, rate, rate / 2) of its phase and carrier */
+    const double *consts, *kappas;
+    const int64_t *csrc;               /* per family -1, -1 or the two families whose carriers add to its own */     /* per family (rate / BPFO, fixed, rate, rate / 2) of its phase and carrier */
 } SegPlan;
 
 static void knot_plan_free(PyObject *cap)
@@ -318,18 +319,18 @@ fail:
     return NULL;
 }
 
-PyDoc_STRVAR(py_lines_segment_plan_doc, "lines_segment_plan(lg, carrier, off_t, wp, wq, consts, kappas): see "
+PyDoc_STRVAR(py_lines_segment_plan_doc, "lines_segment_plan(lg, carrier, off_t, wp, wq, consts, kappas, csrc): see "
                                         "synth_kernel.LineKnots");
 
 static PyObject *py_lines_segment_plan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     (void)self;
     if (nargs != SEG_PLAN_ARRAYS) {
-        PyErr_SetString(PyExc_TypeError, "lines_segment_plan takes 7 arguments");
+        PyErr_SetString(PyExc_TypeError, "lines_segment_plan takes 8 arguments");
         return NULL;
     }
-    static const char *names[SEG_PLAN_ARRAYS] = {"lg", "carrier", "off_t", "wp", "wq", "consts", "kappas"};
-    static const char kinds[SEG_PLAN_ARRAYS] = {'q', 'q', 'q', 'q', 'q', 'd', 'd'};
+    static const char *names[SEG_PLAN_ARRAYS] = {"lg", "carrier", "off_t", "wp", "wq", "consts", "kappas", "csrc"};
+    static const char kinds[SEG_PLAN_ARRAYS] = {'q', 'q', 'q', 'q', 'q', 'd', 'd', 'q'};
     SegPlan *p = calloc(1, sizeof(SegPlan));
     if (p == NULL) return PyErr_NoMemory();
     for (int i = 0; i < SEG_PLAN_ARRAYS; ++i) {
@@ -337,11 +338,11 @@ static PyObject *py_lines_segment_plan(PyObject *self, PyObject *const *args, Py
         if (!buf_take(args[i], &p->b[i], names[i], k, 1, 0)) goto fail;
     }
     p->lg = QP(0), p->carrier = QP(1), p->off_t = QP(2), p->wp = QP(3), p->wq = QP(4), p->consts = DP(5);
-    p->kappas = DP(6);
+    p->kappas = DP(6), p->csrc = QP(7);
     p->F = LEN(0), p->K = LEN(6);
-    if (p->F < 1 || p->F > 64 || LEN(1) != p->F || LEN(2) != p->F || LEN(3) != p->F || LEN(4) != p->F
-        || LEN(5) != 8 * p->F) {
-        plan_error("lengths: F <= 64 families, 8 F constants");
+    if (p->F < 1 || p->F > 64 || p->K > 128 || LEN(1) != p->F || LEN(2) != p->F || LEN(3) != p->F || LEN(4) != p->F
+        || LEN(5) != 8 * p->F || LEN(7) != 2 * p->F) {
+        plan_error("lengths: F <= 64 families, K <= 128 slip factors, 8 F constants, 2 F carrier sources");
         goto fail;
     }
     for (int64_t f = 0; f < p->F; ++f)
@@ -350,6 +351,26 @@ static PyObject *py_lines_segment_plan(PyObject *self, PyObject *const *args, Py
             plan_error("log2 table sizes in 6 .. 16, slip rows in -1 .. K-1");
             goto fail;
         }
+    for (int64_t f = 0; f < p->F; ++f) {
+        const int64_t a = p->csrc[2 * f], b = p->csrc[2 * f + 1];
+        if ((a < 0) != (b < 0) || a < -1 || b < -1 || a >= p->F || b >= p->F || a == f || b == f
+            || (a >= 0 && (!p->carrier[f] || !p->carrier[a] || !p->carrier[b]))) {
+            plan_error("carrier sources: -1, -1 or two other families with carriers, for a family with one");
+            goto fail;
+        }
+    }
+    {                                   /* no cycle: every summed carrier resolves to carriers of their own phase */
+        char done[64];
+        int left = 0;
+        for (int64_t f = 0; f < p->F; ++f) done[f] = p->csrc[2 * f] < 0, left += !done[f];
+        for (int pass = 0; left > 0 && pass < p->F; ++pass)
+            for (int64_t f = 0; f < p->F; ++f)
+                if (!done[f] && done[p->csrc[2 * f]] && done[p->csrc[2 * f + 1]]) done[f] = 1, --left;
+        if (left > 0) {
+            plan_error("carrier sources: a cycle");
+            goto fail;
+        }
+    }
 #undef LEN
 #undef QP
 #undef DP
@@ -657,12 +678,20 @@ static PyObject *py_lines_render(PyObject *self, PyObject *const *args, Py_ssize
         }
     int64_t *warp = slip ? (int64_t *)bwarp.v.buf : NULL;
     int rc = 0;
+    char need[128];
+    if (slip) lines_rows_needed(p->F, C, ph, p->lg, p->carrier, p->csrc, p->wp, p->wq, p->K, need);
     Py_BEGIN_ALLOW_THREADS
-    for (int64_t i = 0; slip && i < p->K && rc == 0; i += 8)
-        rc = synth_slip_warp(m, (double)j, c1u, c2u, u_frac, bw.v.buf, bw.v.shape[0], jw0, p->kappas + i,
-                             p->K - i < 8 ? p->K - i : 8, warp + i * m);
+    for (int64_t i = 0, e; slip && i < p->K && rc == 0; i = e) {   /* the rows read, in runs of at most 8 */
+        if (!need[i]) {
+            e = i + 1;
+            continue;
+        }
+        for (e = i + 1; e < p->K && e < i + 8 && need[e]; ++e) {}
+        rc = synth_slip_warp(m, (double)j, c1u, c2u, u_frac, bw.v.buf, bw.v.shape[0], jw0, p->kappas + i, e - i,
+                             warp + i * m);
+    }
     if (rc == 0)
-        rc = synth_lines_segment_f32(m, C, p->F, ph, p->lg, p->carrier, p->off_t, bta.v.buf,
+        rc = lines_segment_f32_plan(m, C, p->F, ph, p->lg, p->carrier, p->csrc, p->off_t, bta.v.buf,
                                      btb.held ? btb.v.buf : NULL, warp, p->wp, p->wq, bdc.v.buf, (double)j,
                                      65536.0 / (double)length, bo.v.buf, bacc.held ? bacc.v.buf : NULL,
                                      boff.held ? boff.v.buf : NULL, key, n0, bsig.held ? bsig.v.buf : NULL, extra,

@@ -263,6 +263,42 @@ int synth_family_tables(int64_t F, int64_t C, int64_t L, const double *y, const 
         }                                                                                                           \
     } while (0)
 
+/* cos and sin of the sum of two carrier phases by the angle addition (cos a cos b - sin a sin b, sin a cos b +
+ * cos a sin b), for a family whose carrier is the sum of two others of its group (csrc; synth_lines._carrier_sums):
+ * 6 operations a sample instead of a phase and two polynomials (carrier8_avx2: ~7 % of a 10-s data-set run of the
+ * inner race or the ball). Not the bits of the direct cos / sin: within a few float32 roundings of them. */
+static inline void carrier_sum(int nb, const float *restrict ca, const float *restrict sa, const float *restrict cb,
+                               const float *restrict sb, float *restrict co, float *restrict si)
+{
+    for (int j = 0; j < nb; ++j) {
+        co[j] = ca[j] * cb[j] - sa[j] * sb[j];
+        si[j] = sa[j] * cb[j] + ca[j] * sb[j];
+    }
+}
+
+/* For the fast path's groups (lines_groups): spos[f] = the places in f's group of the two families whose carriers
+ * add up to f's (csrc), or -1, -1 where f's carrier comes from its own phase (no sources, or one of them in another
+ * group). The slip rows a render computes follow it (py_lines_render: a summed carrier's own row is not needed). */
+static void carrier_sum_places(int64_t F, const int64_t *carrier, const int64_t *csrc, int n_groups,
+                               const int *gstart, const int *gmember, int (*spos)[2])
+{
+    for (int64_t f = 0; f < F; ++f) spos[f][0] = spos[f][1] = -1;
+    if (csrc == NULL) return;
+    for (int q = 0; q < n_groups; ++q) {
+        const int nf = gstart[q + 1] - gstart[q], *mem = gmember + gstart[q];
+        for (int k = 0; k < nf; ++k) {
+            const int64_t f = mem[k];
+            int a = -1, b = -1;
+            if (!carrier[f] || csrc[2 * f] < 0) continue;
+            for (int i = 0; i < nf; ++i) {
+                if (mem[i] == csrc[2 * f]) a = i;
+                if (mem[i] == csrc[2 * f + 1]) b = i;
+            }
+            if (a >= 0 && b >= 0) spos[f][0] = a, spos[f][1] = b;
+        }
+    }
+}
+
 #define LINES_MAX_C 64
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
@@ -271,8 +307,31 @@ int synth_family_tables(int64_t F, int64_t C, int64_t L, const double *y, const 
 #define HAVE_LINES8 0
 #endif
 
+/* 1 if lines_segment_f32 takes the fast path (groups, carrier sums) for C channels on this CPU now. */
+static int lines_fast_path(int64_t C)
+{
+    return (C == 8 || C == 4) && isa_cap >= 1 && HAVE_LINES8 && HAVE_GROUP8;
+}
+
+/* need[i] = 1 for the slip rows 0 .. K-1 that lines_segment_f32 reads for these families: every family's phase row,
+ * and the carrier rows of the carriers it computes from their own phase (on the fast path not those of the carrier
+ * sums), so that a render computes no row for nothing (synth_slip_warp: ~1 of a 10-s ball run's ~5 % per row set). */
+static void lines_rows_needed(int64_t F, int64_t C, const uint64_t *phases, const int64_t *lg, const int64_t *carrier,
+                              const int64_t *csrc, const int64_t *wp, const int64_t *wq, int64_t K, char *need)
+{
+    int gstart[65], gmember[64], spos[64][2];
+    const int fast = lines_fast_path(C);
+    const int n_groups = fast ? lines_groups(F, phases, lg, wp, gstart, gmember) : 0;
+    carrier_sum_places(F, carrier, csrc, n_groups, gstart, gmember, spos);
+    for (int64_t i = 0; i < K; ++i) need[i] = 0;
+    for (int64_t f = 0; f < F; ++f) {
+        if (wp[f] >= 0) need[wp[f]] = 1;
+        if (carrier[f] && wq[f] >= 0 && spos[f][0] < 0) need[wq[f]] = 1;
+    }
+}
+
 static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
-                                    const int64_t *carrier, const int64_t *off_t, const float *ta, const float *tb,
+                                    const int64_t *carrier, const int64_t *csrc, const int64_t *off_t, const float *ta, const float *tb,
                                     const int64_t *warp, const int64_t *wp, const int64_t *wq, const float *dc,
                                     double xi0, double blend_scale, float *out, double *acc, const double *off,
                                     const NoiseArgs *na)
@@ -288,9 +347,11 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
         if (lg[f] < 6 || lg[f] > 16) return -1;
     }
     const int noise = na != NULL;
-    const int fast = (C == 8 || C == 4) && isa_cap >= 1 && HAVE_LINES8 && HAVE_GROUP8;
+    const int fast = lines_fast_path(C);
     int gstart[65], gmember[64];
     const int n_groups = fast ? lines_groups(F, phases, lg, wp, gstart, gmember) : 0;
+    int spos[64][2];                        /* a summed carrier's sources: their places in its group, else -1 */
+    carrier_sum_places(F, carrier, csrc, n_groups, gstart, gmember, spos);
     for (int64_t k0 = 0, nbl; k0 < m; k0 += nbl) {
         nbl = block_length(noise, m - k0, noise ? na->n0 + k0 : 0);
         const int nb = (int)nbl;
@@ -312,15 +373,31 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             float CQg[GROUP_MAX][BLOCK], SQg[GROUP_MAX][BLOCK];
             const float *A[GROUP_MAX], *Bt[GROUP_MAX];
             int64_t NTg[GROUP_MAX];
-            int carg[GROUP_MAX];
+            int carg[GROUP_MAX], ready[GROUP_MAX], n_sum = 0;
             for (int k = 0; k < nf; ++k) {
                 const int64_t f = mem[k];
                 A[k] = ta + off_t[f], Bt[k] = blend ? tb + off_t[f] : NULL;
                 NTg[k] = ((int64_t)1 << lg[f]) * C + 3 * C;
                 carg[k] = (int)carrier[f];
-                if (carg[k])
+                ready[k] = !carg[k];
+                if (carg[k] && spos[f][0] >= 0) {
+                    ++n_sum;
+                    continue;
+                }
+                if (carg[k]) {
                     carrier8_avx2(nb, &st[f][2], &st[f][3], phases[6 * f + 5], wq[f] >= 0 ? warp + wq[f] * m + k0 : NULL,
                                   CQg[k], SQg[k]);
+                    ready[k] = 1;
+                }
+            }
+            for (int pass = 0; n_sum > 0; ++pass) {             /* carriers that are sums of two: in order */
+                if (pass == nf) return -1;                      /* a cycle: the plan's check rules it out */
+                for (int k = 0; k < nf; ++k) {
+                    const int a = spos[mem[k]][0], b = spos[mem[k]][1];
+                    if (ready[k] || !ready[a] || !ready[b]) continue;
+                    carrier_sum(nb, CQg[a], SQg[a], CQg[b], SQg[b], CQg[k], SQg[k]);
+                    ready[k] = 1, --n_sum;
+                }
             }
             lines_group8_fma((int)C, nb, k0, &st[f0][0], &st[f0][1], phases[6 * f0 + 2],
                              wp[f0] >= 0 ? warp + wp[f0] * m + k0 : NULL, 62 - (int)lg[f0],
@@ -372,13 +449,13 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
     return 0;
 }
 
-int synth_lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
-                            const int64_t *carrier, const int64_t *off_t, const float *ta, const float *tb,
-                            const int64_t *warp, const int64_t *wp, const int64_t *wq, const float *dc, double xi0,
-                            double blend_scale, float *out, double *acc, const double *off, uint64_t noise_key,
-                            int64_t noise_n0, const float *sigma, const float *extra, const int16_t *frames,
-                            const float *win, int64_t n_grains, const int64_t *grains, int64_t half,
-                            int64_t frame_length, const float *floor_scale)
+static int lines_segment_f32_plan(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
+                                  const int64_t *carrier, const int64_t *csrc, const int64_t *off_t, const float *ta,
+                                  const float *tb, const int64_t *warp, const int64_t *wp, const int64_t *wq,
+                                  const float *dc, double xi0, double blend_scale, float *out, double *acc,
+                                  const double *off, uint64_t noise_key, int64_t noise_n0, const float *sigma,
+                                  const float *extra, const int16_t *frames, const float *win, int64_t n_grains,
+                                  const int64_t *grains, int64_t half, int64_t frame_length, const float *floor_scale)
 {
     if (m < 0 || (acc != NULL && off == NULL) || F < 0 || F > 64) return -1;
     for (int64_t f = 0; f < F; ++f)                      /* a slip row needs the offsets (else: out of bounds) */
@@ -387,8 +464,22 @@ int synth_lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *pha
                            || half < 1 || frame_length < 2 * half)) return -1;
     NoiseArgs na = {noise_key, noise_n0, sigma, NULL, extra, frames, win, grains, n_grains, half, frame_length,
                     floor_scale};
-    return lines_segment_f32(m, C, F, phases, lg, carrier, off_t, ta, tb, warp, wp, wq, dc, xi0, blend_scale, out,
-                             acc, off, sigma != NULL || extra != NULL || frames != NULL ? &na : NULL);
+    return lines_segment_f32(m, C, F, phases, lg, carrier, csrc, off_t, ta, tb, warp, wp, wq, dc, xi0, blend_scale,
+                             out, acc, off, sigma != NULL || extra != NULL || frames != NULL ? &na : NULL);
+}
+
+/* lines_segment_f32_plan, the ctypes entry point (csrc NULL: every carrier from its own phase). */
+int synth_lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
+                            const int64_t *carrier, const int64_t *csrc, const int64_t *off_t, const float *ta, const float *tb,
+                            const int64_t *warp, const int64_t *wp, const int64_t *wq, const float *dc, double xi0,
+                            double blend_scale, float *out, double *acc, const double *off, uint64_t noise_key,
+                            int64_t noise_n0, const float *sigma, const float *extra, const int16_t *frames,
+                            const float *win, int64_t n_grains, const int64_t *grains, int64_t half,
+                            int64_t frame_length, const float *floor_scale)
+{
+    return lines_segment_f32_plan(m, C, F, phases, lg, carrier, csrc, off_t, ta, tb, warp, wp, wq, dc, xi0,
+                                  blend_scale, out, acc, off, noise_key, noise_n0, sigma, extra, frames, win, n_grains,
+                                  grains, half, frame_length, floor_scale);
 }
 
 #endif

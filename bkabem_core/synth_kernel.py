@@ -177,7 +177,7 @@ def _load():
     ft.restype = ctypes.c_int
     fns["family_tables"] = ft
     ls = lib.synth_lines_segment_f32
-    ls.argtypes = [i64, i64, i64] + [ptr] * 10 + [ctypes.c_double, ctypes.c_double, ptr, ptr, ptr,
+    ls.argtypes = [i64, i64, i64] + [ptr] * 11 + [ctypes.c_double, ctypes.c_double, ptr, ptr, ptr,
                                                   ctypes.c_uint64, i64, ptr, ptr, ptr, ptr, i64, ptr, i64, i64, ptr]
     fr = lib.synth_floor_render
     fr.argtypes = [i64, i64, i64, i64, i64, ptr, ptr, i64, ptr, ptr, ptr]
@@ -446,7 +446,7 @@ def family_tables(y: np.ndarray, plan: dict, table: np.ndarray, work: np.ndarray
 
 def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, warp, wp: np.ndarray,
                   wq: np.ndarray, dc: np.ndarray, xi0: float, blend_scale: float, out: np.ndarray, acc=None,
-                  off=None, noise=None) -> None:
+                  off=None, noise=None, csrc=None) -> None:
     """Samples of one segment of a line set, every family in one C pass (``_synthlines.h``), float32: ``phases``
     (F, 6) uint64 (family phase0, dphase0, ddphase, then the carrier's), tables ``ta``/``tb`` (knot a, b; tb None:
     no blend) laid out by ``plan``, ``warp`` (K, m) int64 slip offsets (or None) with the row of each family's
@@ -454,7 +454,8 @@ def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, wa
     ``off`` the features, ``noise`` (key, n0, sigma float32[, extra]) as :func:`segment`; ``extra`` an (m, C)
     float32 block added with the noise, or the broadband floor itself as :meth:`synth_floor.BroadbandFloor.source`
     ``(frames, window, grains, half, scale)``, rendered per block inside the pass (the same samples as
-    :func:`floor_render`, without the chunk-sized buffer)."""
+    :func:`floor_render`, without the chunk-sized buffer); ``csrc`` (F, 2) int64 the carrier sums
+    (:func:`synth_lines._carrier_sums`; None: every carrier from its own phase)."""
     C = out.shape[1]
     key, n0, sigma, *extra = noise if noise is not None else (0, 0, None)
     extra = extra[0] if extra else None
@@ -467,7 +468,8 @@ def lines_segment(m: int, phases: np.ndarray, plan: dict, ta: np.ndarray, tb, wa
     fixed = plan.get("_addresses")
     if fixed is None:                               # the plan's arrays do not change: their addresses once
         fixed = plan["_addresses"] = tuple(plan[k].ctypes.data for k in ("lg", "carrier", "off_t"))
-    if _FNS["lines_segment"](int(m), C, plan["F"], _ptr(phases, "phases"), *fixed, _ptr(ta, "ta"),
+    src = 0 if csrc is None else _ptr(csrc, "csrc")
+    if _FNS["lines_segment"](int(m), C, plan["F"], _ptr(phases, "phases"), *fixed[:2], src, fixed[2], _ptr(ta, "ta"),
                              0 if tb is None else _ptr(tb, "tb"), 0 if warp is None else _ptr(warp, "warp"),
                              _ptr(wp, "wp"), _ptr(wq, "wq"), _ptr(dc, "dc"), float(xi0), float(blend_scale),
                              _ptr(out, "out"), 0 if acc is None else _ptr(acc, "acc"),

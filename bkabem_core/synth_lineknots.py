@@ -72,9 +72,10 @@ class LineSegments:
     """The segment call of one line set and slip setting: per family (``families`` of
     :class:`synth_lines.LineFamilies`) its table size and offsets (``plan``), the constants of its phase and carrier
     ``(rate / BPFO, fixed, rate, rate / 2)`` (``phases``: per family the phase's, then the carrier's or None), the
-    distinct slip factors ``kappas`` and each family's slip rows ``wp``, ``wq`` (-1: none)."""
+    distinct slip factors ``kappas``, each family's slip rows ``wp``, ``wq`` (-1: none) and ``csrc`` (F, 2) the
+    two families whose carriers add up to its own (-1, -1: its own phase; None: every carrier from its own)."""
 
-    def __init__(self, plan: dict, phases: list, kappas, wp, wq, sample_rate_hz: float):
+    def __init__(self, plan: dict, phases: list, kappas, wp, wq, sample_rate_hz: float, csrc=None):
         consts = np.zeros((len(phases), 4))
         for i, ph in enumerate(phases):
             if ph is not None:
@@ -82,7 +83,8 @@ class LineSegments:
         self.n_kappas = len(kappas)
         self.sample_rate_hz = float(sample_rate_hz)
         self._plan = _EXT.lines_segment_plan(_i64(plan["lg"]), _i64(plan["carrier"]), _i64(plan["off_t"]), _i64(wp),
-                                             _i64(wq), consts.reshape(-1), _f64(np.asarray(kappas, dtype=float)))
+                                             _i64(wq), consts.reshape(-1), _f64(np.asarray(kappas, dtype=float)),
+                                             _i64(np.full((len(wp), 2), -1) if csrc is None else csrc).reshape(-1))
         self._warp: dict = {}
 
     def segment(self, m: int, j: int, a, b, walk, bpfo_per_hz: float, ta, tb, out, acc, off, dc, noise) -> None:

@@ -107,6 +107,39 @@ def _family_of(c, z: int):
     return (s // g, cc // g, 0, 0), g, (0, 0, 0, 0)
 
 
+def _carrier_sums(families: list) -> np.ndarray:
+    """Per family (F, 2): the two families of its rows' group whose carriers add up to its own (``q = q_a + q_b``),
+    or -1, -1: its carrier's cos / sin from its own phase. A group is what the C kernel evaluates together (one
+    phase ``p``, table size and slip factor); the carriers of an inner race's BPFI families are the shaft orders
+    1, 2, 3, ..., a ball's spin families the cage orders: only the first needs its own cos / sin (``_synthlines.h``
+    ``carrier_sum``: the angle addition, 6 operations a sample against ~40). The carrier's rate, fixed part and
+    slip factor are linear in ``q``, so the sum's phase is the family's own (to the fixed point's rounding). Each
+    family's sources are taken among those already available, the shallowest pair first (each addition adds a
+    float32 rounding or two), the rest from their own phase."""
+    out = np.full((len(families), 2), -1, dtype=np.int64)
+    groups: dict = {}
+    for i, f in enumerate(families):
+        if f.carrier:
+            groups.setdefault((f.p, f.table_size, f.kappa_p), []).append(i)
+    for members in groups.values():
+        depth: dict = {}                                    # q -> (depth, family) of the carriers available
+        for i in sorted(members, key=lambda i: (sum(abs(v) for v in families[i].q), families[i].q)):
+            q = families[i].q
+            best = None
+            for qa, (da, a) in depth.items():
+                qb = tuple(x - y for x, y in zip(q, qa))
+                if qb in depth:
+                    d = 1 + max(da, depth[qb][0])
+                    if best is None or d < best[0]:
+                        best = (d, a, depth[qb][1])
+            if best is None:
+                depth[q] = (0, i)
+            else:
+                depth[q] = (best[0], i)
+                out[i] = best[1], best[2]
+    return out
+
+
 def _canonical(q) -> int:
     """+1 if the carrier's first non-zero coefficient is positive (or q = 0), else -1."""
     for v in q:
@@ -598,7 +631,8 @@ class LineSetPath:
         """What :meth:`_segment_lines_fused` needs of the families, made once per line set and slip setting: per
         phase (each family's, then its carrier's) the constants of :meth:`_phase_args` (rate / BPFO, fixed, rate,
         rate / 2), and the slip-offset row of each family's phase and carrier (-1: none) over the distinct slip
-        factors ``kappas``, handed to C once (``segments``: :class:`synth_lineknots.LineSegments`). The plan holds
+        factors ``kappas``, the carrier sums ``csrc`` (:func:`_carrier_sums`), handed to C once (``segments``:
+        :class:`synth_lineknots.LineSegments`). The plan holds
         its families, so that another line set cannot take their id while it is cached (a model swap). Two plans
         are kept, so that the segment across a swap between line sets (both rendered) makes neither again."""
         key = (id(fams), self._slip_walk is not None)
@@ -625,8 +659,9 @@ class LineSetPath:
             phases.append((f.rate_q / bpfo, f.fixed_q, f.rate_q, 0.5 * f.rate_q) if f.carrier else None)
         wp = np.array([row(f.kappa_p) for f in ff], dtype=np.int64)
         wq = np.array([row(f.kappa_q) if f.carrier else -1 for f in ff], dtype=np.int64)
+        csrc = _carrier_sums(ff)
         plan = {"key": key, "families": fams, "kappas": tuple(kappas), "phases": phases, "wp": wp, "wq": wq,
-                "segments": LineSegments(fams.plan, phases, kappas, wp, wq, self.sample_rate_hz)}
+                "csrc": csrc, "segments": LineSegments(fams.plan, phases, kappas, wp, wq, self.sample_rate_hz, csrc)}
         plans[key] = plan
         while len(plans) > 2:
             plans.popitem(last=False)

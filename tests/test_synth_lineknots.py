@@ -95,7 +95,8 @@ def _python_segment(s: Synthesizer, a, b, lo: int, hi: int, out, acc, noise) -> 
                                                             plan["kappas"]))
     tb = None if b.amp is a.amp else b.amp.fbuf
     synth_kernel.lines_segment(m, np.array(vals, dtype=np.uint64), fams.plan, a.amp.fbuf, tb, warp, plan["wp"],
-                               plan["wq"], a.amp.dc32, float(j), 65536.0 / (b.x - a.x), out, acc, s._dc_off, noise)
+                               plan["wq"], a.amp.dc32, float(j), 65536.0 / (b.x - a.x), out, acc, s._dc_off, noise,
+                               csrc=plan["csrc"])
 
 
 @pytest.mark.parametrize("kind", ["inner", "ball"])

@@ -6,10 +6,12 @@ the same samples to float32 rounding, through speed changes with slip, sensor no
 import numpy as np
 import pytest
 
+from bkabem_core import synth_lineknots
 from bkabem_core import synth_kernel as sk
 from bkabem_core.case import Case
 from bkabem_core.harmonic import BkaBem
 from bkabem_core.synth import Synthesizer
+from bkabem_core.synth_lines import _carrier_sums
 
 if not sk.LINES_AVAILABLE:     # the set-up builds them (make install): fail, never skip, when they are missing
     pytest.fail("the C line-set kernel is not built: run `make install`", pytrace=False)
@@ -94,3 +96,58 @@ def test_vector_rows_and_noise_equal_their_reference_bit_for_bit(kind, quantitie
     for a, b in zip(out["new"], out["ref"]):
         assert a.samples.dtype == np.float32
         assert np.array_equal(a.samples.view(np.uint32), b.samples.view(np.uint32))
+
+
+def test_carrier_sums_follow_the_families_groups_and_orders():
+    """The plan's carrier sums (synth_lines._carrier_sums): an inner race's BPFI families take the shaft orders 2,
+    3, 4 as sums of the others of their group (table size and phase), the first one and families of another group
+    from their own phase; a ball's spin families the cage orders likewise. Every sum adds up to the family's own
+    carrier, its sources are carrier families of the same group, and the shallowest pair is taken (4 = 2 + 2)."""
+    for kind, axis in (("inner", 0), ("ball", 1)):
+        s = Synthesizer(BkaBem(Case.load(f"motor_6010_{kind}")), sample_rate_hz=25600.0, chunk_s=0.05,
+                        features=False)
+        ff = s._families.families
+        cs = _carrier_sums(ff)
+        summed = {ff[i].q[axis]: tuple(int(v) for v in cs[i]) for i in range(len(ff)) if cs[i][0] >= 0}
+        assert sorted(summed) == [2, 3, 4], (kind, summed)
+        for i, (a, b) in enumerate(cs):
+            if a < 0:
+                assert b < 0
+                continue
+            fi, fa, fb = ff[i], ff[a], ff[b]
+            assert fa.carrier and fb.carrier and a != i and b != i
+            assert tuple(x + y for x, y in zip(fa.q, fb.q)) == fi.q
+            assert (fa.p, fa.table_size, fa.kappa_p) == (fb.p, fb.table_size, fb.kappa_p) == (fi.p, fi.table_size,
+                                                                                               fi.kappa_p)
+        four = summed[4]
+        assert ff[four[0]].q[axis] == ff[four[1]].q[axis] == 2       # depth 2, not 3 + 1 (depth 3)
+
+
+def test_segment_plan_rejects_bad_carrier_sums():
+    """lines_segment_plan takes carrier sources only as two other carrier families and without a cycle: one line
+    naming what is wrong, never a kernel that reads a slip row it did not compute."""
+    s = Synthesizer(BkaBem(Case.load("motor_6010_inner")), sample_rate_hz=25600.0, chunk_s=0.05, slip=0.01,
+                    features=False)
+    s.next_chunk(24.0)
+    plan = s._fused_plan(s._families)
+    fams = s._families
+    good = plan["csrc"]
+    car = [i for i, f in enumerate(fams.families) if f.carrier]
+    plain = [i for i, f in enumerate(fams.families) if not f.carrier]
+    cyc = good.copy()
+    a, b = car[0], car[1]
+    cyc[a] = (b, b)
+    cyc[b] = (a, a)
+    own = good.copy()
+    own[a] = (a, b)
+    nocar = good.copy()
+    nocar[a] = (plain[0], b)
+    half = good.copy()
+    half[a] = (b, -1)
+    for bad, what in ((cyc, "a cycle"), (own, "carrier sources"), (nocar, "carrier sources"),
+                      (half, "carrier sources")):
+        with pytest.raises(ValueError, match=what):
+            synth_lineknots.LineSegments(fams.plan, plan["phases"], plan["kappas"], plan["wp"], plan["wq"],
+                                         s.sample_rate_hz, bad)
+    synth_lineknots.LineSegments(fams.plan, plan["phases"], plan["kappas"], plan["wp"], plan["wq"],
+                                 s.sample_rate_hz, good)
