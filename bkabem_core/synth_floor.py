@@ -27,8 +27,9 @@ Realisation (the synthesiser's fast path): ``N_FRAMES`` periodic frames of ``L =
 sample of the process (complex Gaussian line amplitudes on the FFT grid f_k = k fs / L with E|A_k|^2 =
 2 S_F^2 fs / L per input, through the receptance, one real inverse FFT of the Hermitian half per frame, once per
 seed: :meth:`BroadbandFloor.reseeded`; the seed-independent part, state space, receptance, measurement chain,
-transfer and window, is a :class:`FloorTransfer` made once per model and channel set in the process and shared by
-every floor of them, so a data set's next run, a fleet's next machine or a scenario's next run pays its frames only,
+transfer and window, is a :class:`FloorTransfer` made once per machine structure (the standstill modal basis: every
+defect model of one machine has the same) and channel set in the process and shared by every floor of them, so a
+data set's next run or defect, a fleet's next machine or a scenario's next state pays its frames only,
 ~2.5 ms at 4 channels and ~4 ms at 8 instead of ~80 and ~130 ms for the whole floor on the 2-core VM), and the output
 is an overlap of *grains*: grain g covers samples [g S, g S + 2 S), S = L / 2, reading frame
 ``2 (g mod 2) + (h_g mod 2)`` from offset ``h_g / 2 mod L`` (``h_g`` a hash of seed and g) under the sine window
@@ -68,6 +69,7 @@ Units: forces N, densities N/sqrt(Hz), frequencies Hz, samples in the channels' 
 
 from __future__ import annotations
 
+import hashlib
 import math
 import threading
 import weakref
@@ -124,18 +126,21 @@ def receptance(model, frequency_hz: np.ndarray, state_space=None) -> np.ndarray:
 class FloorTransfer:
     """The seed-independent part of a floor: each channel's transfer from the four force pairs on the frames' FFT
     grid ``f_k = k fs / L``, k = 1 .. L/2 - 1 (receptance of the standstill state space, measurement chain,
-    channel factor), and the grains' window. Made once per model and channel set (:meth:`shared`) and shared, read
-    only, by every :class:`BroadbandFloor` of them, whatever its seed or level: a data set's runs (one seed each),
-    a fleet's machines and a scenario's runs pay only their own frames (:meth:`frames`; ~1/6 of the whole floor).
+    channel factor), and the grains' window. Made once per machine structure and channel set (:meth:`shared`) and
+    shared, read only, by every :class:`BroadbandFloor` of them, whatever its defects, seed or level: a data set's
+    runs (one seed each), a fleet's machines and a scenario's states pay only their own frames (:meth:`frames`;
+    ~1/6 of the whole floor).
     Memory: (4, F, C) complex64, 2 MB at 4 channels, once per process instead of once per synthesiser.
 
     Parameters: those of :class:`BroadbandFloor` without the density and seed.
     """
 
-    #: id(model) -> LRU {key: FloorTransfer}; an entry goes with its model (weakref.finalize), so an id is never
-    #: reused for another model's transfers
-    _shared: dict[int, OrderedDict] = {}
-    #: transfers kept per model (one per channel set, rate and chain: 2-8 MB each)
+    #: structure digest -> LRU {key: FloorTransfer}: the models of one machine (its defects, kinds, sizes: the
+    #: same standstill structure) share them; an entry goes with the last live model of its structure
+    _shared: dict[bytes, OrderedDict] = {}
+    #: structure digest -> ids of the live models that use it (weakref.finalize removes each)
+    _users: dict[bytes, set] = {}
+    #: transfers kept per structure (one per channel set, rate and chain: 2-8 MB each)
     CACHE = 4
     _lock = threading.Lock()
 
@@ -167,21 +172,38 @@ class FloorTransfer:
         """(F, C, 4) complex transfer [channel unit / N] at :attr:`frequency_hz` (a read-only view)."""
         return self.by_input.transpose(1, 2, 0)
 
+    @staticmethod
+    def structure_key(model) -> bytes:
+        """Digest of what the transfer takes of the model: its standstill structure, the reduced modal basis (M, K,
+        C, the force pairs' inputs, the outputs). The defects of a machine excite it but do not change it, so the
+        models of one machine (a scenario's states, a fleet's or a data set's defect kinds and sizes) have one key
+        (~0.1 ms against ~80-150 ms for the transfer)."""
+        b = model.basis
+        h = hashlib.blake2b(digest_size=20)
+        for a in (b.M, b.K, b.C, b.inputs[:, :4], b.outputs):
+            a = np.ascontiguousarray(a, dtype=float)
+            h.update(repr(a.shape).encode())
+            h.update(a.tobytes())
+        return h.digest()
+
     @classmethod
     def shared(cls, model, combination, cindex, power, scale, housing_cols, sample_rate_hz: float,
                accelerometer=None, anti_alias=None) -> "FloorTransfer":
-        """The transfer of these arguments, made once per model and arguments in the process (an LRU of
-        :attr:`CACHE` per model): the same arrays for every floor of them."""
+        """The transfer of these arguments, made once per machine structure (:meth:`structure_key`) and arguments
+        in the process (an LRU of :attr:`CACHE` per structure) and kept while a model of that structure lives: the
+        same arrays for every floor of them, whichever of the machine's models asks."""
         def key_of(a):
             a = np.ascontiguousarray(a)
             return a.shape, a.dtype.str, a.tobytes()
         key = (key_of(combination), key_of(cindex), key_of(power), key_of(scale), key_of(housing_cols),
                float(sample_rate_hz), accelerometer, anti_alias)
+        structure = cls.structure_key(model)
         with cls._lock:                     # a fleet's machines may bind from several threads: one making each
-            lru = cls._shared.get(id(model))
-            if lru is None:
-                lru = cls._shared[id(model)] = OrderedDict()
-                weakref.finalize(model, cls._shared.pop, id(model), None)
+            users = cls._users.setdefault(structure, set())
+            if id(model) not in users:
+                users.add(id(model))
+                weakref.finalize(model, cls._release, structure, id(model))
+            lru = cls._shared.setdefault(structure, OrderedDict())
             made = lru.get(key)
             if made is None:
                 made = lru[key] = cls(model, combination, cindex, power, scale, housing_cols, sample_rate_hz,
@@ -191,6 +213,18 @@ class FloorTransfer:
             else:
                 lru.move_to_end(key)
             return made
+
+    @classmethod
+    def _release(cls, structure: bytes, model_id: int) -> None:
+        """A model of ``structure`` is gone: the structure's transfers go with the last one."""
+        with cls._lock:
+            users = cls._users.get(structure)
+            if users is None:
+                return
+            users.discard(model_id)
+            if not users:
+                cls._users.pop(structure, None)
+                cls._shared.pop(structure, None)
 
     def frames(self, density: float, seed: int) -> tuple:
         """(int16 frames (N_FRAMES, L, C), float32 scale per channel) of a floor of ``density`` [N/sqrt(Hz)] and

@@ -241,19 +241,45 @@ def test_the_frames_kernels_equal_their_numpy_fallbacks(healthy, monkeypatch):
     assert scale[2] == 1.0 and not q[:, :, 2].any() and np.abs(q[:, :, :2]).max() == 32767
 
 
-def test_the_shared_transfer_goes_with_its_model():
-    """The process keeps a model's floor transfers (4-8 MB each) only while the model lives: a fleet or a data set
-    that moves on to other models does not hold the old ones' transfers."""
+def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last():
+    """The floor transfer (4-8 MB, ~80-150 ms) depends on the machine's standstill structure, not on its defects:
+    the healthy and the inner-race model of one machine get the very same transfer (the second one makes none), a
+    machine of another structure its own; the process keeps a structure's transfers only while one of its models
+    lives (a fleet or a data set that moves on to other machines does not hold the old ones)."""
     import gc
 
     from bkabem_core.synth_floor import FloorTransfer
 
-    model = BkaBem(Case.load("motor_6010_healthy"))
-    s = Synthesizer(model, sample_rate_hz=25600.0, chunk_s=0.1, seed=3, features=False, broadband_floor=True,
-                    quantities=["acceleration"])
-    s._floor_source()
-    key = id(model)
-    assert len(FloorTransfer._shared[key]) == 1
-    del s, model
+    kw = dict(sample_rate_hz=20480.0, chunk_s=0.1, seed=3, features=False, broadband_floor=True,
+              quantities=["acceleration"])                  # a rate no other test's transfer has
+    healthy, inner = BkaBem(Case.load("motor_6010_healthy")), BkaBem(Case.load("motor_6010_inner"))
+    other, other2 = BkaBem(Case.load("electric_motor_6010")), BkaBem(Case.load("electric_motor_6010"))
+    key, okey = FloorTransfer.structure_key(healthy), FloorTransfer.structure_key(other)
+    assert FloorTransfer.structure_key(inner) == key != okey == FloorTransfer.structure_key(other2)
+    s1, s2, s3, s4 = (Synthesizer(m, **kw) for m in (healthy, inner, other, other2))
+    made = []
+    real_init = FloorTransfer.__init__
+
+    def counting(self, *a, **k):
+        made.append(1)
+        real_init(self, *a, **k)
+    FloorTransfer.__init__ = counting
+    try:
+        s1._floor_source()
+        assert len(made) == 1
+        s2._floor_source()
+        assert len(made) == 1                               # the inner-race model makes none
+        s3._floor_source()
+        s4._floor_source()
+        assert len(made) == 2                               # the other structure one, for both its models
+    finally:
+        FloorTransfer.__init__ = real_init
+    assert s1._floor.path is s2._floor.path is not s3._floor.path
+    assert s3._floor.path is s4._floor.path
+    assert s1._floor.path in FloorTransfer._shared[key].values()
+    del s3, other
     gc.collect()
-    assert key not in FloorTransfer._shared
+    assert okey in FloorTransfer._shared                    # its second model still uses it
+    del s4, other2
+    gc.collect()
+    assert okey not in FloorTransfer._shared and okey not in FloorTransfer._users
