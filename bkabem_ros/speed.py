@@ -184,7 +184,7 @@ def _csv_profile(path: Path, unit: str) -> SpeedProfile:
 # --------------------------------------------------------------------------- the publisher
 def add_parser(sub, add_case=None):
     """Register ``bkabem speed``."""
-    from .cli_base import finite_float
+    from .cli_base import finite_float, pos_int
 
     p = sub.add_parser("speed", help="publish a shaft-speed profile on the speed topic (std_msgs/Float64)",
                        description=__doc__.split("\n\n")[0] + " See bkabem_ros/speed.py for the profile syntax.")
@@ -203,7 +203,10 @@ def add_parser(sub, add_case=None):
     p.add_argument("--namespace", default="", help="namespace, e.g. /machine_00")
     p.add_argument("--qos", choices=("reliable", "sensor_data"), default="reliable")
     p.add_argument("--wait-subscribers", type=finite_float("--wait-subscribers", 0.0), default=0.0,
-                   help="wait up to this long (s) for a subscriber before starting the profile clock")
+                   help="wait up to this long (s) for --subscribers subscribers before starting the profile clock")
+    p.add_argument("--subscribers", type=pos_int("--subscribers", 1, 1000), default=1,
+                   help="how many subscribers --wait-subscribers waits for (default 1; e.g. 2 for a node and a "
+                        "monitor that both subscribe to the speed)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stdout")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
                    help="everything after this goes to ROS (e.g. -r __ns:=/m1)")
@@ -243,7 +246,7 @@ def main(args) -> int:
         pub = node.create_publisher(Float64, args.topic, qos)
         if args.wait_subscribers > 0:
             t_end = time.monotonic() + args.wait_subscribers
-            while pub.get_subscription_count() == 0 and time.monotonic() < t_end:
+            while pub.get_subscription_count() < args.subscribers and time.monotonic() < t_end:
                 rclpy.spin_once(node, timeout_sec=0.02)
         factor = SPEED_UNITS[unit] / SPEED_UNITS[pub_unit]
         period = 1.0 / args.rate

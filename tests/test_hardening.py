@@ -202,6 +202,7 @@ def _full(tmp_path: Path, name: str) -> Path:
     (lambda d: ["fleet", "--machines", "1000000"], "--machines"),
     (lambda d: ["demo", "--sample-rate", "1", "--out", d / "demo"], "--sample-rate"),
     (lambda d: ["speed", "--rate", "1e-300"], "--rate"),
+    (lambda d: ["speed", "--wait-subscribers", "1", "--subscribers", "0"], "--subscribers"),
 ], ids=lambda v: v if isinstance(v, str) else None)
 def test_no_traceback_one_line_exit_2(tmp_path, make_args, fragment):
     p = run(*make_args(tmp_path), cwd=tmp_path, timeout=120)

@@ -56,7 +56,8 @@ def stack():
         node.wait_for(r"streaming from t0", timeout=60)
         lis.wait_publishers(f"{ns}/vibration/de/acceleration")
         speed = Proc(bkabem_cmd("speed", "--namespace", ns, "--profile", f"steps:{SPEED1_HZ},{SPEED2_HZ}:{STEP_S}",
-                                "--rate", "50", "--hold", "1", "--wait-subscribers", "10"), name="speed")
+                                "--rate", "50", "--hold", "1", "--wait-subscribers", "10", "--subscribers", "2"),
+                     name="speed")        # the node and this listener: the profile's clock starts when both hear it
         procs["speed"] = speed
         assert speed.p.wait(3 * STEP_S + 20) == 0, speed.text
         time.sleep(2 * CHUNK + 0.1)
