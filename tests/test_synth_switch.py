@@ -118,7 +118,8 @@ def test_a_warm_switch_gives_the_samples_of_a_cold_one(models, spectrum, feature
 @pytest.mark.parametrize("spectrum", ["exact", "modal"])
 def test_the_chunk_after_a_warm_switch_does_no_set_up(models, monkeypatch, spectrum):
     """Counted: the switch and the chunk after it make no floor transfer, frames, speed cell, line families,
-    kernel plan or exact solve when the model is warm; a cold switch makes them (so the counters see them)."""
+    kernel plan or exact solve when the model is warm; a cold switch makes them (so the counters see them), but
+    for the floor transfer, which the models of one machine share."""
     for dst in ("inner", "ball"):
         for warm_it in (True, False):
             s = _synth(models["healthy"], spectrum=spectrum)
@@ -135,7 +136,9 @@ def test_the_chunk_after_a_warm_switch_does_no_set_up(models, monkeypatch, spect
                 assert counts == {}, (dst, counts)
                 assert target.installed and target.speed_hz == 25.0
             else:
-                assert counts.get("floor transfer", 0) == 1 and counts.get("line families", 0) == 1, counts
+                # the floor transfer is the machine structure's, shared by all its defect models (test_floor):
+                # a cold switch between two of them makes none either
+                assert counts.get("floor transfer", 0) == 0 and counts.get("line families", 0) == 1, counts
                 assert counts.get("speed cell" if spectrum == "modal" else "exact solve", 0) >= 1, counts
 
 
