@@ -216,8 +216,8 @@ typedef struct {
     Buf b[SEG_PLAN_ARRAYS];
     int64_t F, K, table_floats;
     const int64_t *lg, *carrier, *off_t, *wp, *wq;
-    const double *consts, *kappas;
-    const int64_t *csrc;               /* per family -1, -1 or the two families whose carriers add to its own */     /* per family (rate / BPFO, fixed, rate, rate / 2) of its phase and carrier */
+    const double *consts, *kappas;     /* per family (rate / BPFO, fixed, rate, rate / 2) of its phase and carrier */
+    const int64_t *csrc;               /* per family -1, -1 or the two families whose carriers add up to its own */
 } SegPlan;
 
 static void knot_plan_free(PyObject *cap)
@@ -691,7 +691,7 @@ static PyObject *py_lines_render(PyObject *self, PyObject *const *args, Py_ssize
                              warp + i * m);
     }
     if (rc == 0)
-        rc = lines_segment_f32_plan(m, C, p->F, ph, p->lg, p->carrier, p->csrc, p->off_t, bta.v.buf,
+        rc = synth_lines_segment_f32(m, C, p->F, ph, p->lg, p->carrier, p->csrc, p->off_t, bta.v.buf,
                                      btb.held ? btb.v.buf : NULL, warp, p->wp, p->wq, bdc.v.buf, (double)j,
                                      65536.0 / (double)length, bo.v.buf, bacc.held ? bacc.v.buf : NULL,
                                      boff.held ? boff.v.buf : NULL, key, n0, bsig.held ? bsig.v.buf : NULL, extra,

@@ -20,7 +20,8 @@
  * cosf polynomials on [0, pi/4] (error ~1e-7), so x += cos(2 pi phi_q) Re G - sin(2 pi phi_q) Im G; then the
  * static part, the noise and the features of the block. Float32, any C (the channel loops are unrolled for C = 8).
  * With 8 (or 4: 128-bit lanes, the same operations per lane) channels and AVX2 + FMA, families of one phase share
- * the rows and weights and the carriers' cos / sin are 8 samples at a time (_synthrows.h).
+ * the rows and weights and the carriers' cos / sin are 8 samples at a time (_synthrows.h); a carrier that is the sum
+ * of two others of its group (csrc) takes its cos / sin from theirs by the angle addition (carrier_sum).
  */
 #ifndef BKABEM_SYNTHLINES_H
 #define BKABEM_SYNTHLINES_H
@@ -331,10 +332,10 @@ static void lines_rows_needed(int64_t F, int64_t C, const uint64_t *phases, cons
 }
 
 static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
-                                    const int64_t *carrier, const int64_t *csrc, const int64_t *off_t, const float *ta, const float *tb,
-                                    const int64_t *warp, const int64_t *wp, const int64_t *wq, const float *dc,
-                                    double xi0, double blend_scale, float *out, double *acc, const double *off,
-                                    const NoiseArgs *na)
+                                    const int64_t *carrier, const int64_t *csrc, const int64_t *off_t, const float *ta,
+                                    const float *tb, const int64_t *warp, const int64_t *wp, const int64_t *wq,
+                                    const float *dc, double xi0, double blend_scale, float *out, double *acc,
+                                    const double *off, const NoiseArgs *na)
 {
     int32_t idx[BLOCK], frac[BLOCK];
     float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK], CQ[BLOCK], SQ[BLOCK];
@@ -449,13 +450,15 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
     return 0;
 }
 
-static int lines_segment_f32_plan(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
-                                  const int64_t *carrier, const int64_t *csrc, const int64_t *off_t, const float *ta,
-                                  const float *tb, const int64_t *warp, const int64_t *wp, const int64_t *wq,
-                                  const float *dc, double xi0, double blend_scale, float *out, double *acc,
-                                  const double *off, uint64_t noise_key, int64_t noise_n0, const float *sigma,
-                                  const float *extra, const int16_t *frames, const float *win, int64_t n_grains,
-                                  const int64_t *grains, int64_t half, int64_t frame_length, const float *floor_scale)
+/* The segment kernel's entry point (py_lines_render, and ctypes: synth_kernel.lines_segment); csrc (F x 2) the
+ * carrier sums of synth_lines._carrier_sums, or NULL: every carrier from its own phase. */
+int synth_lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
+                            const int64_t *carrier, const int64_t *csrc, const int64_t *off_t, const float *ta,
+                            const float *tb, const int64_t *warp, const int64_t *wp, const int64_t *wq,
+                            const float *dc, double xi0, double blend_scale, float *out, double *acc,
+                            const double *off, uint64_t noise_key, int64_t noise_n0, const float *sigma,
+                            const float *extra, const int16_t *frames, const float *win, int64_t n_grains,
+                            const int64_t *grains, int64_t half, int64_t frame_length, const float *floor_scale)
 {
     if (m < 0 || (acc != NULL && off == NULL) || F < 0 || F > 64) return -1;
     for (int64_t f = 0; f < F; ++f)                      /* a slip row needs the offsets (else: out of bounds) */
@@ -466,20 +469,6 @@ static int lines_segment_f32_plan(int64_t m, int64_t C, int64_t F, const uint64_
                     floor_scale};
     return lines_segment_f32(m, C, F, phases, lg, carrier, csrc, off_t, ta, tb, warp, wp, wq, dc, xi0, blend_scale,
                              out, acc, off, sigma != NULL || extra != NULL || frames != NULL ? &na : NULL);
-}
-
-/* lines_segment_f32_plan, the ctypes entry point (csrc NULL: every carrier from its own phase). */
-int synth_lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint64_t *phases, const int64_t *lg,
-                            const int64_t *carrier, const int64_t *csrc, const int64_t *off_t, const float *ta, const float *tb,
-                            const int64_t *warp, const int64_t *wp, const int64_t *wq, const float *dc, double xi0,
-                            double blend_scale, float *out, double *acc, const double *off, uint64_t noise_key,
-                            int64_t noise_n0, const float *sigma, const float *extra, const int16_t *frames,
-                            const float *win, int64_t n_grains, const int64_t *grains, int64_t half,
-                            int64_t frame_length, const float *floor_scale)
-{
-    return lines_segment_f32_plan(m, C, F, phases, lg, carrier, csrc, off_t, ta, tb, warp, wp, wq, dc, xi0,
-                                  blend_scale, out, acc, off, noise_key, noise_n0, sigma, extra, frames, win, n_grains,
-                                  grains, half, frame_length, floor_scale);
 }
 
 #endif

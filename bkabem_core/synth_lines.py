@@ -632,9 +632,9 @@ class LineSetPath:
         phase (each family's, then its carrier's) the constants of :meth:`_phase_args` (rate / BPFO, fixed, rate,
         rate / 2), and the slip-offset row of each family's phase and carrier (-1: none) over the distinct slip
         factors ``kappas``, the carrier sums ``csrc`` (:func:`_carrier_sums`), handed to C once (``segments``:
-        :class:`synth_lineknots.LineSegments`). The plan holds
-        its families, so that another line set cannot take their id while it is cached (a model swap). Two plans
-        are kept, so that the segment across a swap between line sets (both rendered) makes neither again."""
+        :class:`synth_lineknots.LineSegments`). The plan holds its families, so that another line set cannot take
+        their id while it is cached (a model swap). Two plans are kept, so that the segment across a swap between
+        line sets (both rendered) makes neither again."""
         key = (id(fams), self._slip_walk is not None)
         plans = self._scratch.setdefault("fused", OrderedDict())
         cached = plans.get(key)
