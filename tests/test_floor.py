@@ -241,7 +241,7 @@ def test_the_frames_kernels_equal_their_numpy_fallbacks(healthy, monkeypatch):
     assert scale[2] == 1.0 and not q[:, :, 2].any() and np.abs(q[:, :, :2]).max() == 32767
 
 
-def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last():
+def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last(monkeypatch):
     """The floor transfer (4-8 MB, ~80-150 ms) depends on the machine's standstill structure, not on its defects:
     the healthy and the inner-race model of one machine get the very same transfer (the second one makes none), a
     machine of another structure its own; the process keeps a structure's transfers only while one of its models
@@ -263,17 +263,14 @@ def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last():
     def counting(self, *a, **k):
         made.append(1)
         real_init(self, *a, **k)
-    FloorTransfer.__init__ = counting
-    try:
-        s1._floor_source()
-        assert len(made) == 1
-        s2._floor_source()
-        assert len(made) == 1                               # the inner-race model makes none
-        s3._floor_source()
-        s4._floor_source()
-        assert len(made) == 2                               # the other structure one, for both its models
-    finally:
-        FloorTransfer.__init__ = real_init
+    monkeypatch.setattr(FloorTransfer, "__init__", counting)
+    s1._floor_source()
+    assert len(made) == 1
+    s2._floor_source()
+    assert len(made) == 1                                   # the inner-race model makes none
+    s3._floor_source()
+    s4._floor_source()
+    assert len(made) == 2                                   # the other structure one, for both its models
     assert s1._floor.path is s2._floor.path is not s3._floor.path
     assert s3._floor.path is s4._floor.path
     assert s1._floor.path in FloorTransfer._shared[key].values()
