@@ -25,7 +25,7 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 
-$(STAMP): pyproject.toml setup.py bkabem_core/*.c bkabem_core/*.h | $(BIN)/python
+$(STAMP): pyproject.toml setup.py bkabem_core/kernels/*.c bkabem_core/kernels/*.h | $(BIN)/python
 	$(BIN)/python -m pip install -q -e '.[dev]'
 	touch $@
 
@@ -45,7 +45,7 @@ test: install
 	$(BIN)/python -m pytest
 
 screenshots: install
-	$(BIN)/python -m bkabem_ros.rerun_viewer --docs docs/img
+	$(BIN)/python -m bkabem_ros.viewer.screenshots --docs docs/img
 
 bench: install
 	$(BIN)/python bench/bench_core.py

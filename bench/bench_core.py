@@ -24,9 +24,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from bkabem_core.case import Case  # noqa: E402
-from bkabem_core.harmonic import BkaBem  # noqa: E402
-from bkabem_core.hill import HillCorrection  # noqa: E402
+from bkabem_core.model.case import Case  # noqa: E402
+from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.solve.improved import HillCorrection  # noqa: E402
 
 
 def median_time(fn, repeats):

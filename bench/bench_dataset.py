@@ -12,7 +12,7 @@ run set-up     of it, per run: the first chunk's time less a later chunk's (medi
                samples (the seed's noise, slip walk and broadband floor; the knots)
 writing alone  one run's chunks, rendered once and kept, written with the data set's writer
                (``dataset_render.RunFile``: the Parquet file, its metadata; no fsync), per run of ``--seconds``
-whole path     a worker's task of the runs (:func:`bkabem_core.dataset._task`: ``render_run`` per run, synthesis,
+whole path     a worker's task of the runs (:func:`bkabem_core.dataset.engine._task`: ``render_run`` per run, synthesis,
                Parquet file under a temporary name, the label rows; fsync and atomic rename in the worker's
                finishing thread, overlapping the next run; the task returns when every file is in place):
                everything a worker does for the runs once its model is made
@@ -50,9 +50,9 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
-from bkabem_core import dataset_render  # noqa: E402
-from bkabem_core.dataset import _task, render_dataset  # noqa: E402
-from bkabem_core.dataset_spec import DatasetSpec  # noqa: E402
+from bkabem_core.dataset import render as dataset_render # noqa: E402
+from bkabem_core.dataset.engine import _task, render_dataset  # noqa: E402
+from bkabem_core.dataset.spec import DatasetSpec  # noqa: E402
 
 KINDS = ("healthy", "outer", "inner", "ball")
 CONFIGS = {
@@ -159,7 +159,7 @@ def _write_alone(kept: dict, path: Path, compression: str) -> float:
 
 
 def _case(run):
-    from bkabem_core.case import Case
+    from bkabem_core.model.case import Case
 
     return Case(name=run.case_raw["case"]["name"], source="bench", raw=run.case_raw)
 

@@ -36,9 +36,9 @@ for _p in (ROOT, ROOT / "bench"):
 
 import numpy as np  # noqa: E402
 
-from bkabem_core.case import Case  # noqa: E402
-from bkabem_core.harmonic import BkaBem  # noqa: E402
-from bkabem_core.synth import Synthesizer  # noqa: E402
+from bkabem_core.model.case import Case  # noqa: E402
+from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.synth.synthesizer import Synthesizer  # noqa: E402
 from bench_synth import speeds_random_walk  # noqa: E402  (the same speed stream as the synthesis benchmark)
 
 FS = 51200.0

@@ -34,11 +34,11 @@ if str(ROOT) not in sys.path:
 
 from threadpoolctl import threadpool_limits  # noqa: E402
 
-from bkabem_core.case import Case  # noqa: E402
-from bkabem_core.harmonic import BkaBem  # noqa: E402
-from bkabem_core.sensors import Accelerometer, AntiAliasFilter  # noqa: E402
-from bkabem_core.synth import Synthesizer  # noqa: E402
-from bkabem_core.synth_floor import FloorTransfer  # noqa: E402
+from bkabem_core.model.case import Case  # noqa: E402
+from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.synth.sensors import Accelerometer, AntiAliasFilter  # noqa: E402
+from bkabem_core.synth.synthesizer import Synthesizer  # noqa: E402
+from bkabem_core.synth.floor import FloorTransfer  # noqa: E402
 
 FS = 25600.0
 CHANNEL_SETS = {"acc4": ["acceleration"], "acc+disp8": ["acceleration", "displacement"]}

@@ -34,10 +34,11 @@ for _p in (ROOT, ROOT / "bench"):
 import numpy as np  # noqa: E402
 
 from bench_synth import speeds_random_walk  # noqa: E402
-from bkabem_core import synth_kernel, synth_lineknots  # noqa: E402
-from bkabem_core.case import Case  # noqa: E402
-from bkabem_core.harmonic import BkaBem  # noqa: E402
-from bkabem_core.synth import Synthesizer  # noqa: E402
+from bkabem_core.synth import kernel as synth_kernel # noqa: E402
+from bkabem_core.synth import lineknots as synth_lineknots
+from bkabem_core.model.case import Case  # noqa: E402
+from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.synth.synthesizer import Synthesizer  # noqa: E402
 
 
 def load_extension(code: str):
@@ -45,8 +46,8 @@ def load_extension(code: str):
     so = sorted(glob.glob(str(Path(code) / "bkabem_core" / "_synthloop*.so")))
     if not so:
         sys.exit(f"--code: no built _synthloop extension in {code}/bkabem_core")
-    loader = importlib.machinery.ExtensionFileLoader("bkabem_core._synthloop", so[0])
-    spec = importlib.util.spec_from_file_location("bkabem_core._synthloop", so[0], loader=loader)
+    loader = importlib.machinery.ExtensionFileLoader("bkabem_core.kernels._synthloop", so[0])
+    spec = importlib.util.spec_from_file_location("bkabem_core.kernels._synthloop", so[0], loader=loader)
     mod = importlib.util.module_from_spec(spec)
     loader.exec_module(mod)
     return mod

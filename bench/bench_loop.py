@@ -1,4 +1,4 @@
-"""Sample loop and knot table of the synthesiser: the C kernels of bkabem_core/_synthloop.c against the code they
+"""Sample loop and knot table of the synthesiser: the C kernels of bkabem_core/kernels/_synthloop.c against the code they
 replaced, measured in the same run.
 
 The old code is built from git (``--old-ref``, default the commit before the computed spline weights, the fast path
@@ -42,23 +42,23 @@ if str(ROOT) not in sys.path:
 
 import numpy as np  # noqa: E402
 
-from bkabem_core import synth_kernel as sk  # noqa: E402
+from bkabem_core.synth import kernel as sk # noqa: E402
 
 OLD_REF = "0835588886be0b299f596faa62471cd2f302f5c9"     # 12-bit weight table, ctypes wrapper, numpy table build
 
 
 def build_old(ref: str, tmp: Path):
     """The synth_kernel module of git ``ref`` bound to its _synthloop.c, compiled into ``tmp`` (flags of setup.py)."""
-    src = subprocess.run(["git", "show", f"{ref}:bkabem_core/_synthloop.c"], cwd=ROOT, check=True,
+    src = subprocess.run(["git", "show", f"{ref}:bkabem_core/kernels/_synthloop.c"], cwd=ROOT, check=True,
                          capture_output=True, text=True).stdout
-    py = subprocess.run(["git", "show", f"{ref}:bkabem_core/synth_kernel.py"], cwd=ROOT, check=True,
+    py = subprocess.run(["git", "show", f"{ref}:bkabem_core/synth/kernel.py"], cwd=ROOT, check=True,
                         capture_output=True, text=True).stdout
     (tmp / "_synthloop_old.c").write_text(src)
     so = tmp / "_synthloop_old.so"
     subprocess.run(["gcc", "-O3", "-std=c99", "-ffp-contract=off", "-shared", "-fPIC",
                     "-I" + sysconfig.get_paths()["include"], str(tmp / "_synthloop_old.c"), "-o", str(so), "-lm"],
                    check=True)
-    needle = 'importlib.util.find_spec("bkabem_core._synthloop")'
+    needle = 'importlib.util.find_spec("bkabem_core.kernels._synthloop")'
     if needle not in py:
         raise SystemExit(f"{ref}: synth_kernel.py does not load the kernel as expected")
     mod = types.ModuleType("old_synth_kernel")

@@ -3,7 +3,7 @@
     flock /work/notes/bench.lock env OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_model_switch.py --repeat 3
 
 Per pair of the fault library's cases (``motor_6010_healthy -> motor_6010_inner``, ``inner -> ball``, ``outer ->
-inner``): a :class:`bkabem_ros.node_source.MachineSource` as the node makes it (25.6 kHz, the node's default chunk
+inner``): a :class:`bkabem_ros.node.source.MachineSource` as the node makes it (25.6 kHz, the node's default chunk
 of 0.1 s = 2560 samples, 8 channels, ``spectrum="exact"``, taper, no features, the case's broadband floor) streams
 the first case at 25 Hz, one chunk per ``--period`` (the node's timer: 0.1 s); then ``set_case`` asks for the
 second, which the real helper process makes (a fresh helper per run, so the model comes pickled as in the node),
@@ -36,9 +36,9 @@ ROOT = Path(os.environ.get("BKABEM_BENCH_ROOT") or Path(__file__).resolve().pare
 sys.path.insert(0, str(ROOT))
 os.environ["PYTHONPATH"] = str(ROOT) + (os.pathsep + os.environ["PYTHONPATH"] if os.environ.get("PYTHONPATH") else "")
 
-from bkabem_core.case import Case  # noqa: E402
-from bkabem_core.scenario_models import ModelHelper  # noqa: E402
-from bkabem_ros.node_source import MachineSource  # noqa: E402
+from bkabem_core.model.case import Case  # noqa: E402
+from bkabem_core.scenario.models import ModelHelper  # noqa: E402
+from bkabem_ros.node.source import MachineSource  # noqa: E402
 
 PAIRS = (("healthy", "inner"), ("inner", "ball"), ("outer", "inner"))
 FS = 25600.0

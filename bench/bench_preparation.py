@@ -29,8 +29,8 @@ CASES = ("electric_motor_6010", "motor_6010_healthy", "motor_6010_outer", "motor
 
 SNIPPET = r"""
 import json, time, numpy as np
-from bkabem_core.case import Case
-from bkabem_core.harmonic import BkaBem
+from bkabem_core.model.case import Case
+from bkabem_core.solve.harmonic import BkaBem
 if "+" in {name!r}:                        # several defects: built by this checkout's bench/validate_kinds.py
     import sys
     sys.path.insert(0, {bench!r})
@@ -49,7 +49,7 @@ lm = m._line_modes
 hill = None
 if {improved!r}:
     try:
-        from bkabem_core.hill import HillCorrection
+        from bkabem_core.solve.improved import HillCorrection
         plain = BkaBem(case, baseline=False, like=m)      # the same machine and line modes, no baseline lines
         t = time.perf_counter(); h = HillCorrection(plain); hp = time.perf_counter() - t
         hs = []

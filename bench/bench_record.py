@@ -9,7 +9,7 @@ Parts
    data = fraction of one core the recording adds. Checks that nothing is lost (every message in
    the file, ``first_sample_index`` gap-free).
 2. ``RerunLogger`` to an ``.rrd`` (``send_columns`` per block) with the same data.
-3. The real node (``bkabem_ros.node.VibrationNode``) at sample_rate 51200 Hz for ``--node-seconds``,
+3. The real node (``bkabem_ros.node.vibration_node.VibrationNode``) at sample_rate 51200 Hz for ``--node-seconds``,
    once without and once with the MCAP sink (and once with MCAP + Rerun): process CPU per wall
    second; recorded messages vs published ones. Skipped with a note if the node cannot run here.
 
@@ -38,7 +38,8 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bkabem_ros import mcap_io, msgs  # noqa: E402
+from bkabem_ros.recording import mcap_io # noqa: E402
+from bkabem_ros.messages import convert as msgs
 
 FS = 51_200.0
 CHUNK_S = 0.1
@@ -115,7 +116,7 @@ def bench_mcap(stream, seconds: float, tmp: Path) -> dict:
 
 
 def bench_rerun(stream, seconds: float, tmp: Path) -> dict:
-    from bkabem_ros.rerun_io import RerunLogger, RerunSink
+    from bkabem_ros.viewer.rerun_io import RerunLogger, RerunSink
 
     path = tmp / "bench.rrd"
     c0, w0 = _cpu(), time.perf_counter()
@@ -138,7 +139,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64
-from bkabem_ros.node import VibrationNode
+from bkabem_ros.node.vibration_node import VibrationNode
 mode, seconds, out = sys.argv[1], float(sys.argv[2]), sys.argv[3]
 rclpy.init()
 node = VibrationNode("bench", namespace="/bench", start=False, parameter_overrides=[
@@ -148,12 +149,12 @@ cleanup = None
 published = {"n": 0}
 node.add_sink(lambda topic, t, m, s: published.__setitem__("n", published["n"] + 1))
 if mode == "mcap_inline":
-    from bkabem_ros.mcap_io import McapSink
+    from bkabem_ros.recording.mcap_io import McapSink
     _s = McapSink(out + ".mcap", threaded=False)
     node.add_sink(_s)
     cleanup = _s.close
 elif mode != "plain":
-    from bkabem_ros.record import attach_sinks
+    from bkabem_ros.recording.record import attach_sinks
     cleanup = attach_sinks(node, record=out + ".mcap",
                            rerun_save=(out + ".rrd") if mode == "mcap+rerun" else None)
 speed_node = rclpy.create_node("bench_speed", namespace="/bench")

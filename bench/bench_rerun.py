@@ -37,8 +37,8 @@ spec = importlib.util.spec_from_file_location("bkabem_ros", os.path.join(tree, "
 pkg = importlib.util.module_from_spec(spec); sys.modules["bkabem_ros"] = pkg; spec.loader.exec_module(pkg)
 sys.path.insert(0, sys.argv[3])
 import bench_record
-from bkabem_ros.rerun_io import RerunLogger, RerunSink
-import bkabem_ros.rerun_io as rio
+from bkabem_ros.viewer.rerun_io import RerunLogger, RerunSink
+import bkabem_ros.viewer.rerun_io as rio
 assert rio.__file__.startswith(tree), rio.__file__
 stream = bench_record.make_stream(seconds)
 def cpu():

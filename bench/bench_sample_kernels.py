@@ -27,10 +27,10 @@ for _p in (ROOT, ROOT / "bench"):
 
 import numpy as np  # noqa: E402
 
-from bkabem_core import synth_kernel as sk  # noqa: E402
-from bkabem_core.case import Case  # noqa: E402
-from bkabem_core.harmonic import BkaBem  # noqa: E402
-from bkabem_core.synth import Synthesizer  # noqa: E402
+from bkabem_core.synth import kernel as sk # noqa: E402
+from bkabem_core.model.case import Case  # noqa: E402
+from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.synth.synthesizer import Synthesizer  # noqa: E402
 
 FS, M = 51200.0, 5120
 NOISE = {"acceleration": 1e-3, "displacement": 1e-10}

@@ -33,8 +33,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from bkabem_core.harmonic import BkaBem  # noqa: E402
-from bkabem_core.scenario import Scenario  # noqa: E402
+from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.scenario.timeline import Scenario  # noqa: E402
 
 TEMPLATE = """
 [scenario]
@@ -80,7 +80,7 @@ def kind_row(kind: str, repeat: int) -> dict:
 
 
 def run_to_failure(repeat: int, seconds: float) -> dict:
-    from bkabem_core.scenario_run import ScenarioRun
+    from bkabem_core.scenario.run import ScenarioRun
 
     sc = Scenario.load("de_outer_run_to_failure")
     walls, states = [], 0

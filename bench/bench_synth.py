@@ -1,4 +1,4 @@
-"""Synthesis speed (issue 4): real-time factor of bkabem_core.synth for 8 channels at 51.2 kHz.
+"""Synthesis speed (issue 4): real-time factor of bkabem_core.synth.synthesizer for 8 channels at 51.2 kHz.
 
 8 channels = DE/NDE x vertical/horizontal x (housing acceleration, shaft-relative displacement), every kept order
 (50 on the embedded case), float32, chunks of 0.1 s unless stated. Real-time factor = signal seconds / wall
@@ -39,9 +39,9 @@ if str(ROOT) not in sys.path:
 
 import numpy as np  # noqa: E402
 
-from bkabem_core.case import Case  # noqa: E402
-from bkabem_core.harmonic import BkaBem  # noqa: E402
-from bkabem_core.synth import Synthesizer  # noqa: E402
+from bkabem_core.model.case import Case  # noqa: E402
+from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.synth.synthesizer import Synthesizer  # noqa: E402
 
 FS = 51200.0
 

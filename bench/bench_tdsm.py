@@ -19,10 +19,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from bkabem_core.case import Case
-from bkabem_core.machine import Machine
-from bkabem_core.periodic import harmonic_balance
-from bkabem_core.tdsm import Tdsm
+from bkabem_core.model.case import Case
+from bkabem_core.fe.machine import Machine
+from bkabem_core.reference.periodic import harmonic_balance
+from bkabem_core.reference.tdsm import Tdsm
 
 
 def per_step(case, speed, scheme, steps, repeats, max_step_s=1e-5, machine=None):

@@ -17,10 +17,10 @@ import sys
 import numpy as np
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-from bkabem_core import synth_kernel as sk  # noqa: E402
-from bkabem_core.case import Case  # noqa: E402
-from bkabem_core.harmonic import BkaBem  # noqa: E402
-from bkabem_core.synth import Synthesizer  # noqa: E402
+from bkabem_core.synth import kernel as sk # noqa: E402
+from bkabem_core.model.case import Case  # noqa: E402
+from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.synth.synthesizer import Synthesizer  # noqa: E402
 
 SPEEDS = {"const": (24.0,) * 5, "ramp": (24.0, 24.0, 25.3, 26.1, 25.7, 25.2, 24.1)}
 

@@ -25,8 +25,8 @@ import numpy as np  # noqa: E402
 import pyarrow.parquet as pq  # noqa: E402
 from scipy import signal  # noqa: E402
 
-from bkabem_core.dataset import read_labels, render_dataset  # noqa: E402
-from bkabem_core.dataset_spec import DatasetSpec  # noqa: E402
+from bkabem_core.dataset.engine import read_labels, render_dataset  # noqa: E402
+from bkabem_core.dataset.spec import DatasetSpec  # noqa: E402
 
 
 def envelope_spectrum(x: np.ndarray, fs: float):

@@ -4,7 +4,7 @@
     flock /work/notes/bench.lock .venv/bin/python bench/profile_dataset.py --kinds inner --code /tmp/main
 
 The runs of ``bench_dataset.py`` (10 s at 25.6 kHz in 1-s chunks, constant speeds 15-35 Hz, a seed each, 5 runs per
-task) rendered by :func:`bkabem_core.dataset._task` ``--passes`` times; each piece's time per run, the minimum and
+task) rendered by :func:`bkabem_core.dataset.engine._task` ``--passes`` times; each piece's time per run, the minimum and
 the median over the passes (the minimum: the least disturbed pass of that piece on a shared machine; the pieces'
 minima come from different passes and do not add up to the task's). Pieces (nested ones indented):
 
@@ -43,8 +43,11 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 import threadpoolctl  # noqa: E402
 
-from bkabem_core import case as case_module  # noqa: E402
-from bkabem_core import dataset, dataset_render, scenario, synth_floor  # noqa: E402
+from bkabem_core.model import case as case_module # noqa: E402
+from bkabem_core.dataset import engine as dataset # noqa: E402
+from bkabem_core.dataset import render as dataset_render
+from bkabem_core.scenario import timeline as scenario
+from bkabem_core.synth import floor as synth_floor
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_dataset import CONFIGS, _case, spec_for  # noqa: E402

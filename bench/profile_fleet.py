@@ -12,7 +12,7 @@ process briefly) and reads the CPU time of every thread from /proc. Samples whos
 out; the groups are shares of the busy samples. (Without native frames py-spy counts the EventsExecutor's
 condition-variable wait as busy.) A sample is put in the first group whose pattern is on its stack, in this order:
 synthesis (bkabem_core), serialize_message, the waveform CDR encoder, publish (rclpy -> rmw -> Fast DDS write), message building
-(bkabem_ros/msgs.py, the generated message classes), clock and time objects, the node's own Python
+(bkabem_ros/messages/convert.py, the generated message classes), clock and time objects, the node's own Python
 (_on_tick/_prepare), the executor (wait set, dispatch); the rest is listed by its leaf frame.
 """
 

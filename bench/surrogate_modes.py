@@ -24,9 +24,9 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from bkabem_core.rotor import STANDARD_GRAVITY_M_S2, Rotor, rotor_from_case  # noqa: E402
+from bkabem_core.fe.rotor import STANDARD_GRAVITY_M_S2, Rotor, rotor_from_case  # noqa: E402
 
-DEFAULT_CASE = ROOT / "bkabem_core" / "cases" / "electric_motor_6010.toml"
+DEFAULT_CASE = ROOT / "bkabem_core" / "embedded" / "cases" / "electric_motor_6010.toml"
 DEFAULT_PNG = ROOT / "docs" / "img" / "surrogate_motor.png"
 
 # Design assumptions behind [[rotor.disks]] (see docs/surrogate_motor.md).
@@ -340,8 +340,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fmax-hz", type=float, default=2500.0, help="highest frequency listed")
     args = ap.parse_args(argv)
 
-    from bkabem_core.case import Case
-    from bkabem_core.machine import Machine
+    from bkabem_core.model.case import Case
+    from bkabem_core.fe.machine import Machine
 
     with open(args.case, "rb") as fh:
         case = tomllib.load(fh)

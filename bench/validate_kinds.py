@@ -5,9 +5,9 @@
 
 For each fault-library case (outer race, inner race, ball; the baseline is left out of both models: the TDSM has
 the bearings only), and a case with two moving defects (the inner-race dent in the DE bearing and the ball defect in
-the NDE bearing), and speed: :func:`bkabem_core.validation.validate_lines` (TDSM settled 2 s, 0.3 s fitted by
+the NDE bearing), and speed: :func:`bkabem_core.reference.validation.validate_lines` (TDSM settled 2 s, 0.3 s fitted by
 least squares at the BKA-BEM line frequencies) with the plain method and the improved one
-(:class:`bkabem_core.hill.HillCorrection`: orders for the outer race, the lattice form for the others), the
+(:class:`bkabem_core.solve.improved.HillCorrection`: orders for the outer race, the lattice form for the others), the
 largest |error| over the five largest TDSM lines of every location and direction, displacement and acceleration,
 the residual the lines leave, and the wall times. Only the block between ``<!-- BEGIN kinds -->`` and
 ``<!-- END kinds -->`` is written.
@@ -29,11 +29,11 @@ if str(ROOT) not in sys.path:
 
 import numpy as np  # noqa: E402
 
-from bkabem_core.case import Case  # noqa: E402
-from bkabem_core.harmonic import LOCATIONS, BkaBem  # noqa: E402
-from bkabem_core.hill import HillCorrection  # noqa: E402
-from bkabem_core.tdsm import DIRECTIONS  # noqa: E402
-from bkabem_core.validation import validate_lines  # noqa: E402
+from bkabem_core.model.case import Case  # noqa: E402
+from bkabem_core.solve.harmonic import LOCATIONS, BkaBem  # noqa: E402
+from bkabem_core.solve.improved import HillCorrection  # noqa: E402
+from bkabem_core.reference.tdsm import DIRECTIONS  # noqa: E402
+from bkabem_core.reference.validation import validate_lines  # noqa: E402
 
 DOC = ROOT / "docs" / "validation.md"
 BEGIN, END = "<!-- BEGIN kinds -->", "<!-- END kinds -->"
@@ -105,7 +105,7 @@ def main(argv=None) -> int:
            "(DE/NDE rotor and housing, vertical and horizontal), worst over the locations, among the lines the "
            f"record resolves (nearest other line >= 1 / T = {1 / args.duration:.1f} Hz away; `unresolved`: how many "
            "are not; the last two columns: the same over every line). Improved: `HillCorrection` (orders method for "
-           "the outer race, its lattice form for the other sets, `bkabem_core/hill.py`).", "",
+           "the outer race, its lattice form for the other sets, `bkabem_core/solve/improved.py`).", "",
            "| kind | speed [Hz] | lines | unresolved | plain, displacement [dB] | plain, acceleration [dB] | "
            "improved, displacement [dB] | improved, acceleration [dB] | residual | TDSM [s] | plain [ms] | "
            "improved [ms] | plain / improved, every line [dB] |",

@@ -2,6 +2,6 @@
 
 import sys
 
-from bkabem_ros.main import main
+from bkabem_ros.cli.main import main
 
 sys.exit(main())

@@ -12,14 +12,14 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 @pytest.fixture(scope="session")
 def case():
-    from bkabem_core.case import Case
+    from bkabem_core.model.case import Case
 
     return Case.load()
 
 
 @pytest.fixture(scope="session")
 def machine(case):
-    from bkabem_core.machine import Machine
+    from bkabem_core.fe.machine import Machine
 
     return Machine(case)
 
@@ -27,7 +27,7 @@ def machine(case):
 @pytest.fixture(scope="session")
 def model(case, machine):
     """The default BKA-BEM model of the embedded case (quasi-static excitation of both bearings)."""
-    from bkabem_core.harmonic import BkaBem
+    from bkabem_core.solve.harmonic import BkaBem
 
     return BkaBem(case, machine=machine)
 

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-CASE_TEXT = (REPO / "bkabem_core" / "cases" / "electric_motor_6010.toml").read_text()
+CASE_TEXT = (REPO / "bkabem_core" / "embedded" / "cases" / "electric_motor_6010.toml").read_text()
 MEMORY_LIMIT_BYTES = 6 << 30
 
 BAD_NUMBERS = ["0", "-1", "1e-300", "1e300", "1e308", "nan", "inf", "-inf", '"x"', "true", "[1.0, 2.0]",

@@ -1,5 +1,5 @@
 """Scenario files for the tests, and the timeline evaluated here from a file alone (independent of
-``bkabem_core.scenario``): shared by test_scenario.py (the library and ``bkabem synth``),
+``bkabem_core.scenario.timeline``): shared by test_scenario.py (the library and ``bkabem synth``),
 test_node_scenario.py (the node) and test_rerun_io.py (the view).
 
 :func:`scenario_toml` writes a scenario file (docs/scenarios.md) from Python values in one layout,

@@ -1,4 +1,4 @@
-"""Bearing kinematics, Hertz contact, clearance, dent and forces (bkabem_core.bearing)."""
+"""Bearing kinematics, Hertz contact, clearance, dent and forces (bkabem_core.bearing.deep_groove)."""
 
 import math
 
@@ -7,7 +7,7 @@ import pytest
 from scipy.optimize import brentq
 from scipy.special import ellipe, ellipk
 
-from bkabem_core.bearing import Bearing, BearingGeometry, Dent, wrap_to_pi
+from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent, wrap_to_pi
 
 INCH = 0.0254
 

@@ -5,7 +5,7 @@ import re
 import numpy as np
 import pytest
 
-from bkabem_core.case import Case, CaseError, embedded_cases
+from bkabem_core.model.case import Case, CaseError, embedded_cases
 
 EMBEDDED = Case.load().raw
 
@@ -13,7 +13,7 @@ EMBEDDED = Case.load().raw
 def _text():
     from importlib import resources
 
-    return resources.files("bkabem_core").joinpath("cases", "electric_motor_6010.toml").read_text()
+    return resources.files("bkabem_core.embedded").joinpath("cases", "electric_motor_6010.toml").read_text()
 
 
 def _sub(pattern, repl, count=1):
@@ -111,7 +111,7 @@ def _v2_text() -> str:
 def test_version_2_cases_migrate_to_the_same_machine(tmp_path):
     """A v2 file (single [dent]) is read as v3: its dent is the one defect, the baseline is off, and its bearing
     excitation is the embedded case's, bit for bit."""
-    from bkabem_core.machine import Machine
+    from bkabem_core.fe.machine import Machine
 
     p = tmp_path / "v2.toml"
     p.write_text(_v2_text())

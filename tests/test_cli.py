@@ -81,7 +81,7 @@ def test_bad_case_file_exit_2(tmp_path):
     bad = tmp_path / "bad.toml"
     from importlib import resources
 
-    text = resources.files("bkabem_core").joinpath("cases", "electric_motor_6010.toml").read_text()
+    text = resources.files("bkabem_core.embedded").joinpath("cases", "electric_motor_6010.toml").read_text()
     bad.write_text(text.replace("depth_m = 50.0e-6", "depth_m = -50.0e-6"))
     p = run("excitation", "--case", str(bad), check=False)
     assert p.returncode == 2

@@ -1,4 +1,4 @@
-"""The command-line layer: one place above both packages (``bkabem_ros.main`` + ``cli_base``).
+"""The command-line layer: one place above both packages (``bkabem_ros.cli.main`` + ``cli_base``).
 
 - ``bkabem_core`` imports nothing above itself (no bkabem_ros, rclpy, mcap, rerun);
 - the core commands never import rclpy (checked in a real ``bkabem`` process through ``sys.modules``);
@@ -38,7 +38,7 @@ def test_core_imports_nothing_above_itself():
 
 
 _PROBE = ("import sys\n"
-          "from bkabem_ros.main import main\n"
+          "from bkabem_ros.cli.main import main\n"
           "try:\n"
           "    rc = main(sys.argv[1:])\n"
           "finally:\n"
@@ -68,15 +68,15 @@ def test_core_commands_never_import_rclpy(args, tmp_path):
 
 def test_ros_command_module_imports_rclpy_only_when_it_runs():
     """Building the whole parser (all ROS commands registered) must not import rclpy either."""
-    code = ("import sys; from bkabem_ros.main import build_parser; build_parser(); "
+    code = ("import sys; from bkabem_ros.cli.main import build_parser; build_parser(); "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('rclpy', 'rerun', 'mcap')))")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert p.returncode == 0 and p.stdout.strip() == "[]", p.stdout + p.stderr
 
 
 def test_unexpected_exception_is_one_line_with_debug_hint(monkeypatch, capsys):
-    from bkabem_ros import core_cli
-    from bkabem_ros.main import main
+    from bkabem_ros.cli import core as core_cli
+    from bkabem_ros.cli.main import main
 
     def broken(case, solver="block"):
         raise ZeroDivisionError("a bug somewhere")
@@ -93,10 +93,10 @@ def test_unexpected_exception_is_one_line_with_debug_hint(monkeypatch, capsys):
 
 def test_standalone_modules_keep_the_contract(tmp_path):
     for module, args, fragment in (
-            ("bkabem_ros.synth_cli", ["--profile", "constant:10", "--out", str(tmp_path / "x.npz")], "--seconds"),
-            ("bkabem_ros.record_cli", ["--recover", str(tmp_path / "no.mcap"), str(tmp_path / "o.mcap")],
+            ("bkabem_ros.cli.synth", ["--profile", "constant:10", "--out", str(tmp_path / "x.npz")], "--seconds"),
+            ("bkabem_ros.cli.record", ["--recover", str(tmp_path / "no.mcap"), str(tmp_path / "o.mcap")],
              "no such file"),
-            ("bkabem_ros.replay_cli", [str(tmp_path / "no.mcap")], "no such file")):
+            ("bkabem_ros.cli.replay", [str(tmp_path / "no.mcap")], "no such file")):
         p = subprocess.run([sys.executable, "-m", module, *args], capture_output=True, text=True, timeout=120)
         lines = p.stderr.strip().splitlines()
         assert p.returncode == 2 and len(lines) == 1 and fragment in lines[0], (module, p.stderr)

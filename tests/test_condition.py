@@ -1,4 +1,4 @@
-"""What the Rerun view computes from the acceleration (bkabem_ros.condition, bkabem_ros.fault_lines)
+"""What the Rerun view computes from the acceleration (bkabem_core.analysis.condition, bkabem_core.analysis.fault_lines)
 against textbook implementations written here (scipy filters + Hilbert transform, closed forms),
 and what the logger writes from it: ISO velocity with zone limits, envelope spectrum with the
 fault-frequency markers, health panels saying what the envelope shows next to the ground truth.
@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 import scipy.signal as ss
 
-from bkabem_ros import condition, fault_lines, msgs
+from bkabem_core.analysis import condition
+from bkabem_core.analysis import fault_lines
+from bkabem_ros.messages import convert as msgs
 
 FS = 25_600.0
 BPFO = 87.3
@@ -132,7 +134,7 @@ def test_defects_from_message():
 # --------------------------------------------------------------------------- through the logger
 def _run_logger(tmp_path, seconds=2.0):
     """DE: impacts at BPFO; NDE: 100 Hz sine + noise (healthy). 0.1 s blocks, fault message first."""
-    from bkabem_ros import rerun_io
+    from bkabem_ros.viewer import rerun_io
 
     path = tmp_path / "cond.rrd"
     logger = rerun_io.RerunLogger("bkabem-test", save_path=path)

@@ -1,4 +1,4 @@
-"""Issue 15, data sets: ``bkabem dataset SPEC --out DIR`` (bkabem_core.dataset_spec / dataset_render / dataset).
+"""Issue 15, data sets: ``bkabem dataset SPEC --out DIR`` (bkabem_core.dataset.spec / dataset_render / dataset).
 
 What a data scientist relies on, each checked against something computed here, not by the code under test:
 
@@ -30,9 +30,9 @@ import pyarrow.parquet as pq
 import pytest
 from scipy import signal as sps
 
-from bkabem_core.case import Case
-from bkabem_core.dataset import _manifest, read_labels, render_dataset
-from bkabem_core.dataset_spec import DatasetSpec
+from bkabem_core.model.case import Case
+from bkabem_core.dataset.engine import _manifest, read_labels, render_dataset
+from bkabem_core.dataset.spec import DatasetSpec
 
 REPO = Path(__file__).resolve().parents[1]
 FS = 25600.0
@@ -412,7 +412,7 @@ BAD = [
 
 
 def _main(argv, capsys) -> tuple[int, str, str]:
-    from bkabem_ros.main import main
+    from bkabem_ros.cli.main import main
 
     rc = main(argv)
     cap = capsys.readouterr()
@@ -455,7 +455,7 @@ def _toml_value(v) -> str:
 def test_fuzz_every_key_with_hostile_values_exit_0_or_2_with_one_line(tmp_path, capsys):
     """Every key of the embedded example spec (and of a random-sampling variant) set to each hostile value:
     ``--list`` (the whole validation, no rendering) exits 0 or 2 with one line naming the key, never 1."""
-    from bkabem_core.dataset_spec import PARAMETERS
+    from bkabem_core.dataset.spec import PARAMETERS
 
     sections = {"dataset": {"name": '"f"', "schema_version": "1", "seed": "1"},
                 "run": {k: None for k in ("duration_s", "slip", "noise_acc", "depth_m", "quantities", "ball",
@@ -512,9 +512,9 @@ def test_scenario_runs_label_every_state_and_record_mcap(tmp_path):
     each at the scenario's own size for the state's start (the timeline evaluated here from the scenario file),
     the state column of the file switching at those samples; the MCAP of the run holds the node's waveform
     messages with the same ground truth."""
-    from bkabem_core.scenario import Scenario
+    from bkabem_core.scenario.timeline import Scenario
 
-    from bkabem_ros.dataset_mcap import SINK
+    from bkabem_ros.recording.dataset_sink import SINK
 
     spec = DatasetSpec.load(_spec(tmp_path, SCENARIO_SPEC))
     out = tmp_path / "out"
@@ -542,7 +542,7 @@ def test_scenario_runs_label_every_state_and_record_mcap(tmp_path):
             assert row["d0_depth_m"] == pytest.approx(d, rel=1e-6) and row["d0_bearing"] == "de"
             assert row["d0_fault_frequency_hz"] == pytest.approx(row["bpfo_hz"], rel=1e-12)
     assert sum(r["n_samples"] for r in rows) == int(6.0 * fs)
-    from bkabem_ros.mcap_io import iter_messages
+    from bkabem_ros.recording.mcap_io import iter_messages
 
     mcap = out / rows[0]["file"].replace(".parquet", ".mcap")
     msgs = list(iter_messages(mcap))
@@ -554,7 +554,7 @@ def test_scenario_runs_label_every_state_and_record_mcap(tmp_path):
 
 
 def test_embedded_specs_load_and_list(capsys):
-    from bkabem_core.dataset_spec import embedded_specs
+    from bkabem_core.dataset.spec import embedded_specs
 
     assert {"dataset_example", "dataset_run_to_failure"} <= set(embedded_specs())
     ex = DatasetSpec.load("dataset_example")

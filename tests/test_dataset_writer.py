@@ -1,4 +1,4 @@
-"""Issue 15, data sets: the run file's writer and the per-run work of a worker (bkabem_core.dataset_render).
+"""Issue 15, data sets: the run file's writer and the per-run work of a worker (bkabem_core.dataset.render).
 
 - A run's Parquet file is byte for byte the file of a plain ``pyarrow.parquet.ParquetWriter`` written here with
   the documented options (docs/datasets.md) and pyarrow's defaults for everything else: the batch size, the
@@ -22,12 +22,13 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from bkabem_core import case as case_module
-from bkabem_core import dataset, dataset_render
-from bkabem_core.case import Case
-from bkabem_core.dataset import _task, render_dataset
-from bkabem_core.dataset_render import RunFile, render_run, run_path
-from bkabem_core.dataset_spec import DatasetSpec
+from bkabem_core.model import case as case_module
+from bkabem_core.dataset import engine as dataset
+from bkabem_core.dataset import render as dataset_render
+from bkabem_core.model.case import Case
+from bkabem_core.dataset.engine import _task, render_dataset
+from bkabem_core.dataset.render import RunFile, render_run, run_path
+from bkabem_core.dataset.spec import DatasetSpec
 
 SPEC = """
 [dataset]
@@ -159,7 +160,7 @@ def test_machine_work_once_per_process_not_per_run_or_task(tmp_path, monkeypatch
     import subprocess
 
     (tmp_path / "spec.toml").write_text(SPEC)
-    code = ("import sys; from bkabem_core.dataset import render_dataset; from bkabem_core.dataset_spec import "
+    code = ("import sys; from bkabem_core.dataset.engine import render_dataset; from bkabem_core.dataset.spec import "
             "DatasetSpec; render_dataset(DatasetSpec.load(sys.argv[1]), sys.argv[2], workers=1, log=print)")
     subprocess.run([sys.executable, "-c", code, str(tmp_path / "spec.toml"), str(tmp_path / "fresh")], check=True,
                    cwd=Path(__file__).resolve().parents[1])

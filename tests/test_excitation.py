@@ -1,4 +1,4 @@
-"""The bearing excitation and its BPFO orders (bkabem_core.excitation): the quasi-static method (the default)
+"""The bearing excitation and its BPFO orders (bkabem_core.excitation.quasi_static): the quasi-static method (the default)
 and the paper's 4-DOF integration, each bearing under its own load."""
 
 import dataclasses
@@ -8,7 +8,7 @@ import pytest
 from scipy.optimize import root
 from scipy.signal import find_peaks
 
-from bkabem_core.excitation import FourDofModel, compute_excitation, quasi_static_excitation
+from bkabem_core.excitation.quasi_static import FourDofModel, compute_excitation, quasi_static_excitation
 
 
 def test_quasi_static_path_is_the_equilibrium_at_every_cage_angle(machine, excitation):

@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from bkabem_core.bearing import Bearing, BearingGeometry, Dent
-from bkabem_core.case import Case
-from bkabem_core.excitation import quasi_static_excitation
-from bkabem_core.harmonic import BkaBem
-from bkabem_core.lines import LineSet, union
-from bkabem_core.synth import Synthesizer
+from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent
+from bkabem_core.model.case import Case
+from bkabem_core.excitation.quasi_static import quasi_static_excitation
+from bkabem_core.solve.harmonic import BkaBem
+from bkabem_core.excitation.lines import LineSet, union
+from bkabem_core.synth.synthesizer import Synthesizer
 
 INCH = 25.4e-3
 FS = 51200.0
@@ -326,7 +326,7 @@ def test_tdsm_agrees_with_plain_bkabem_for_every_kind(kind):
     of settling: the plain method's mean bearing stiffness, the same class as the outer race's 8 dB at its rotor
     nodes before the improved method; docs/validation.md, kinds block), so acceleration is held to 3 dB at the
     housings, where accelerometers sit."""
-    from bkabem_core.validation import validate_lines
+    from bkabem_core.reference.validation import validate_lines
 
     r = validate_lines(Case.load(f"motor_6010_{kind}"), 30.0, duration_s=0.3, settle_s=0.5)
     assert r.max_error_db().max() < 3.0, r.to_dict()["max_abs_error_db_largest"]
@@ -424,7 +424,7 @@ def test_like_reuses_the_machine_for_a_growing_defect(models):
 
 
 def test_line_modes_extended_reuses_and_adds():
-    from bkabem_core.modal import LineModes
+    from bkabem_core.fe.modal import LineModes
 
     basis = BkaBem(Case.load()).basis
     lm = LineModes(basis, np.array([1.0, 2.5, 7.0]))

@@ -20,7 +20,7 @@ from ros_helpers import bkabem_cmd, ros_env
 
 
 def test_plan_follows_the_plant_index():
-    from bkabem_ros.fleet import machine_names, plan
+    from bkabem_ros.fleet.launcher import machine_names, plan
 
     one = plan(6, ["a", "b", "c"], 10, "m_", [0.0, 1e-5], first=0, width=3)
     host2 = plan(3, ["a", "b", "c"], 10, "m_", [0.0, 1e-5], first=3, width=3)
@@ -91,7 +91,7 @@ def test_discovery_values_fast_dds_accepts_pass():
 
 
 def test_discovery_options_are_on_every_ros_command_only():
-    from bkabem_ros.main import build_parser
+    from bkabem_ros.cli.main import build_parser
 
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     for name, sp in sub.choices.items():

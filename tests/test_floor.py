@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from bkabem_core.case import Case
-from bkabem_core.harmonic import DIRECTIONS, LOCATIONS, BkaBem
-from bkabem_core.synth import Synthesizer
+from bkabem_core.model.case import Case
+from bkabem_core.solve.harmonic import DIRECTIONS, LOCATIONS, BkaBem
+from bkabem_core.synth.synthesizer import Synthesizer
 
 FS = 51200.0
 SPEED_HZ = 25.0
@@ -112,7 +112,7 @@ def test_int16_frames_and_the_c_render_equal_the_numpy_render(healthy, monkeypat
     """The frames are int16 with a scale per channel (half the bytes of float32: the render is bound by memory);
     their quantisation is below 1/32767 of each channel's largest value, and the C render (any split) equals the
     numpy fallback's operations bit for bit."""
-    from bkabem_core import synth_kernel
+    from bkabem_core.synth import kernel as synth_kernel
 
     s = Synthesizer(healthy, sample_rate_hz=FS, chunk_s=0.1, seed=5, features=False, broadband_floor=True)
     fl = s._floor_source()
@@ -136,8 +136,8 @@ def _frames_by_the_definition(fl):
     operations: per frame the complex amplitudes of the four force pairs (the frame's normals, taken from the
     sensor noise's generator here: ``synth_kernel.noise_fill`` of ``frame_keys``, 8 a line), through the transfer
     (einsum), the one-sided spectrum's complex inverse FFT (real part). Returns (N_FRAMES, L, C) float64."""
-    from bkabem_core import synth_kernel
-    from bkabem_core.synth_floor import N_FRAMES, frame_keys
+    from bkabem_core.synth import kernel as synth_kernel
+    from bkabem_core.synth.floor import N_FRAMES, frame_keys
 
     n, fs = fl.frame_length, fl.sample_rate_hz
     t = fl.transfer.astype(np.complex128)
@@ -215,7 +215,7 @@ def test_the_frames_kernels_equal_their_numpy_fallbacks(healthy, monkeypatch):
     """The C pass of a frame's spectrum (normals and transfer product) gives the numpy fallback's normals (bit for
     bit: the scalar and the AVX2 generator too) and its products to float32 rounding; the int16 pass equals its
     fallback bit for bit (a channel without floor: scale 1, zeros)."""
-    from bkabem_core import synth_kernel
+    from bkabem_core.synth import kernel as synth_kernel
 
     s = Synthesizer(healthy, sample_rate_hz=25600.0, chunk_s=0.1, seed=3, features=False, broadband_floor=True,
                     quantities=["acceleration"])
@@ -248,7 +248,7 @@ def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last(mon
     lives (a fleet or a data set that moves on to other machines does not hold the old ones)."""
     import gc
 
-    from bkabem_core.synth_floor import FloorTransfer
+    from bkabem_core.synth.floor import FloorTransfer
 
     kw = dict(sample_rate_hz=20480.0, chunk_s=0.1, seed=3, features=False, broadband_floor=True,
               quantities=["acceleration"])                  # a rate no other test's transfer has

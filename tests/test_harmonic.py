@@ -1,4 +1,4 @@
-"""BKA-BEM harmonic solve (bkabem_core.harmonic, .modal, .solvers) against independent solutions."""
+"""BKA-BEM harmonic solve (bkabem_core.solve.harmonic, .modal, .solvers) against independent solutions."""
 
 import time
 
@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from bkabem_core import modal, solvers
-from bkabem_core.harmonic import LOCATIONS, BkaBem
-from bkabem_core.machine import Machine
-from bkabem_core.solvers import ShaftSolver
+from bkabem_core.fe import modal
+from bkabem_core.fe import solvers
+from bkabem_core.solve.harmonic import LOCATIONS, BkaBem
+from bkabem_core.fe.machine import Machine
+from bkabem_core.fe.solvers import ShaftSolver
 
 
 @pytest.fixture(scope="module")
@@ -226,7 +227,7 @@ def test_speed_cells_stay_within_their_bound(model, cell_hz, degree):
     pole sum in double, at random speeds, cell borders and the lightly damped resonances' neighbourhood: every
     order and output within the stated tolerance of its reference. The coarse setting (4 Hz cells, degree 3)
     must still hold the bound: more poles are then taken as near, which is what the bound is for."""
-    from bkabem_core.modal import SpeedCells
+    from bkabem_core.fe.modal import SpeedCells
 
     form = model.order_modal_form()
     cells = SpeedCells(form, cell_hz=cell_hz, degree=degree, tol=2e-6)
@@ -246,7 +247,7 @@ def test_speed_cells_stay_within_their_bound(model, cell_hz, degree):
 def test_speed_cells_need_their_near_poles(model):
     """Negative control: at the resonance of a pole taken as near, the cell's far-pole interpolant alone misses by
     far more than the budget; the near poles (summed exactly) are what keeps the cells within the bound."""
-    from bkabem_core.modal import SpeedCells
+    from bkabem_core.fe.modal import SpeedCells
 
     form = model.order_modal_form()
     cells = SpeedCells(form)
@@ -271,7 +272,7 @@ def test_speed_cells_need_their_near_poles(model):
 
 
 def test_speed_cells_memory_is_bounded(model):
-    from bkabem_core.modal import SpeedCells
+    from bkabem_core.fe.modal import SpeedCells
 
     form = model.order_modal_form()
     cells = SpeedCells(form, max_cells=3)

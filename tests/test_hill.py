@@ -17,9 +17,9 @@ import math
 import numpy as np
 import pytest
 
-from bkabem_core.case import Case
-from bkabem_core.harmonic import BkaBem
-from bkabem_core.hill import HillCorrection, lattice_basis, lattice_coordinates, lattice_phases, rank1_lattice
+from bkabem_core.model.case import Case
+from bkabem_core.solve.harmonic import BkaBem
+from bkabem_core.solve.improved import HillCorrection, lattice_basis, lattice_coordinates, lattice_phases, rank1_lattice
 
 Z = 14
 
@@ -115,7 +115,7 @@ def test_improved_method_agrees_with_the_tdsm_for_every_kind(kind):
     largest lines of every location and direction within 0.5 dB, displacement and acceleration, and closer than
     the plain method's worst (measured, 2 s settled: inner <= 0.17 dB against plain 1.9 dB; ball <= 0.12 dB
     against 3.1 dB). The lattice is converged: twice its points change the lines by < 0.02 dB."""
-    from bkabem_core.validation import validate_lines
+    from bkabem_core.reference.validation import validate_lines
 
     case = Case.load(f"motor_6010_{kind}")
     model = BkaBem(case, baseline=False)
@@ -159,7 +159,7 @@ def test_baseline_lines_keep_their_plain_response():
 def test_line_validation_ranks_only_lines_the_record_resolves():
     """Two lines 0.02 Hz apart cannot be told apart by a 0.3-s fit: with a 1/T separation they are left out of the
     ranking (the largest of them would otherwise be the worst line), the others are ranked as before."""
-    from bkabem_core.validation import LineValidation
+    from bkabem_core.reference.validation import LineValidation
 
     f = np.array([100.0, 100.02, 200.0, 300.0, 400.0, 500.0, 600.0])
     tdsm = np.ones((f.size, 4, 2), complex) * np.array([9.0, 8.0, 5.0, 4.0, 3.0, 2.0, 1.0])[:, None, None]

@@ -29,10 +29,10 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from bkabem_core.case import Case
-from bkabem_core.harmonic import BkaBem
-from bkabem_core.sensors import Accelerometer, AntiAliasFilter
-from bkabem_core.synth import Synthesizer
+from bkabem_core.model.case import Case
+from bkabem_core.solve.harmonic import BkaBem
+from bkabem_core.synth.sensors import Accelerometer, AntiAliasFilter
+from bkabem_core.synth.synthesizer import Synthesizer
 
 FS = 51200.0
 SPEED_HZ = 25.0

@@ -1,13 +1,13 @@
-"""The line modes (bkabem_core.linemodes): the real plane-rotated form and the anchored refinement against the
+"""The line modes (bkabem_core.fe.linemodes): the real plane-rotated form and the anchored refinement against the
 complex eigen-decomposition of every line, on the fault library's inner-race and ball line sets."""
 
 import numpy as np
 import pytest
 
-from bkabem_core.case import Case
-from bkabem_core.harmonic import BkaBem
-from bkabem_core.linemodes import LineModes
-from bkabem_core.modal import ModalBasis, plane_mask
+from bkabem_core.model.case import Case
+from bkabem_core.solve.harmonic import BkaBem
+from bkabem_core.fe.linemodes import LineModes
+from bkabem_core.fe.modal import ModalBasis, plane_mask
 
 #: Accepted receptance error of the fast forms against the complex decomposition, relative to the receptance's
 #: largest entry at each frequency (measured: 1.6e-7 at the highest lines, where the pole sum itself has that
@@ -76,7 +76,7 @@ def test_line_modes_of_the_ball_lines_match_the_complex_decomposition(fault_mode
     m = fault_models["ball"]
     nu = m.multipliers[m._locked_idx]
     fast = LineModes(m.basis, nu)
-    from bkabem_core.linemodes import _groups
+    from bkabem_core.fe.linemodes import _groups
 
     far = []
     for anchor, members in _groups(1.0 / nu, 0.05, 2e-3):

@@ -1,4 +1,4 @@
-"""bkabem_ros.mcap_io: ros2-profile MCAP written with the plain ``mcap`` writer, read by rosbags and
+"""bkabem_ros.recording.mcap_io: ros2-profile MCAP written with the plain ``mcap`` writer, read by rosbags and
 mcap_ros2; QoS / type-hash metadata; rotation; crash (kill -9) and recovery; write errors.
 
 Needs the project venv with the ROS 2 wheels (tools/setup_ros.sh .venv): no skipping, a missing
@@ -24,7 +24,8 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from rclpy.serialization import serialize_message  # noqa: E402
 
-from bkabem_ros import mcap_io, msgs  # noqa: E402
+from bkabem_ros.recording import mcap_io # noqa: E402
+from bkabem_ros.messages import convert as msgs
 from test_msgs import _truth  # noqa: E402  (a ground truth with two defects, labels)
 
 T0 = 1_700_000_000_000_000_000
@@ -290,7 +291,8 @@ def test_idle_chunk_is_written_within_chunk_duration(tmp_path):
 CHILD = textwrap.dedent("""
     import sys, time, math
     import numpy as np
-    from bkabem_ros import mcap_io, msgs
+    from bkabem_ros.recording import mcap_io
+    from bkabem_ros.messages import convert as msgs
     path, rate = sys.argv[1], float(sys.argv[2])
     rec = mcap_io.McapRecorder(path, chunk_duration_s=0.25, chunk_size_bytes=1 << 24)
     x = np.sin(np.arange(2 * 1024) * 0.01).reshape(2, 1024)
@@ -352,12 +354,12 @@ def test_recover_cli(tmp_path):
     cut = tmp_path / "cut.mcap"
     data = path.read_bytes()
     cut.write_bytes(data[: len(data) // 2])
-    r = subprocess.run([sys.executable, "-m", "bkabem_ros.record_cli", "--recover", str(cut),
+    r = subprocess.run([sys.executable, "-m", "bkabem_ros.cli.record", "--recover", str(cut),
                         str(tmp_path / "ok.mcap")],
                        capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert r.returncode == 0, r.stderr
     assert "was cut" in r.stdout
-    r = subprocess.run([sys.executable, "-m", "bkabem_ros.record_cli", "--recover",
+    r = subprocess.run([sys.executable, "-m", "bkabem_ros.cli.record", "--recover",
                         str(tmp_path / "nope.mcap"), str(tmp_path / "x.mcap")],
                        capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert r.returncode == 2 and "no such file" in r.stderr and len(r.stderr.strip().splitlines()) == 1
@@ -378,7 +380,8 @@ def test_unwritable_path_and_full_disk_raise_one_clear_error(tmp_path):
 DISK_FULL_CHILD = textwrap.dedent("""
     import resource, signal, sys
     import numpy as np
-    from bkabem_ros import mcap_io, msgs
+    from bkabem_ros.recording import mcap_io
+    from bkabem_ros.messages import convert as msgs
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)          # writes past the limit fail with EFBIG
     resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))
     rec = mcap_io.McapRecorder(sys.argv[1], chunk_size_bytes=30_000, compression="none")
@@ -461,9 +464,9 @@ def test_node_recording_read_by_independent_readers(tmp_path):
     from rosbags.highlevel import AnyReader
     from std_msgs.msg import Float64
 
-    from bkabem_ros.node import VibrationNode
-    from bkabem_ros.record import attach_sinks
-    from bkabem_ros.rerun_io import rerun_binary
+    from bkabem_ros.node.vibration_node import VibrationNode
+    from bkabem_ros.recording.record import attach_sinks
+    from bkabem_ros.viewer.rerun_io import rerun_binary
 
     path, rrd = tmp_path / "node.mcap", tmp_path / "node.rrd"
     published: list = []

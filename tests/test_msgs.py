@@ -1,4 +1,4 @@
-"""bkabem_msgs + bkabem_ros.msgs: types, CDR round trip, MCAP schemas read by mcap_ros2 and rosbags.
+"""bkabem_msgs + bkabem_ros.messages.convert: types, CDR round trip, MCAP schemas read by mcap_ros2 and rosbags.
 
 Runs with the project's venv python after ``tools/setup_ros.sh .venv`` (nothing to source).
 No skipping: a python without the ROS wheels fails here (the set-up installs them).
@@ -23,7 +23,7 @@ import rclpy  # noqa: F401,E402  (fail, do not skip, when ROS is missing)
 
 from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
 
-from bkabem_ros import msgs  # noqa: E402
+from bkabem_ros.messages import convert as msgs # noqa: E402
 
 TYPES = ["VibrationWaveform", "VibrationSpectrum", "BearingFaultFrequencies"]
 
@@ -77,7 +77,7 @@ def _spectrum():
 
 def _truth():
     """A ground truth with two defects (a DE outer-race dent, ball 3 of the NDE bearing), a scenario state, labels."""
-    from bkabem_core.scenario import Scenario
+    from bkabem_core.scenario.timeline import Scenario
 
     sc = Scenario.from_toml("""
 [scenario]
@@ -358,7 +358,7 @@ def test_waveform_encoder_bytes_equal_serialize_message(machine_id, frame_id, na
     """WaveformEncoder (the node's publication path) writes the bytes rclpy/Fast DDS would: equal to
     serialize_message outside the alignment padding (Fast CDR leaves old buffer bytes there), the same length,
     and deserialised the same message; string lengths here move every later field's alignment."""
-    from bkabem_ros.waveform_cdr import WaveformEncoder
+    from bkabem_ros.messages.cdr import WaveformEncoder
 
     rng = np.random.default_rng(len(machine_id) + n)
     enc = WaveformEncoder(machine_id=machine_id, location="nde", quantity="displacement", unit="m",
@@ -384,7 +384,7 @@ def test_waveform_encoder_bytes_equal_serialize_message(machine_id, frame_id, na
 
 
 def test_waveform_encoder_rejects_bad_input():
-    from bkabem_ros.waveform_cdr import WaveformEncoder
+    from bkabem_ros.messages.cdr import WaveformEncoder
 
     enc = WaveformEncoder(machine_id="m", location="de", quantity="acceleration", unit="m/s^2",
                           channel_names=["v", "h"], sample_rate=25600.0, samples_per_channel=4, frame_id="f")
@@ -406,7 +406,7 @@ def test_waveform_encoder_rejects_bad_input():
 def test_with_stamp_rewrites_only_the_header_stamp():
     """waveform_cdr.with_stamp (the node's re-stamping of a prepared chunk): every bkabem message starts with its
     header, so the new stamp replaces bytes 4..12 and the message deserialises with it and nothing else changed."""
-    from bkabem_ros.waveform_cdr import with_stamp
+    from bkabem_ros.messages.cdr import with_stamp
 
     wave = msgs.waveform_message(np.arange(6.0).reshape(2, 3), sample_rate=100.0, first_sample_index=7,
                                  shaft_speed=3.0, machine_id="m", location="de", quantity="acceleration",

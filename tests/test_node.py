@@ -38,7 +38,7 @@ def stack():
     from bkabem_msgs.msg import BearingFaultFrequencies, VibrationSpectrum, VibrationWaveform
     from std_msgs.msg import Float64
 
-    from bkabem_core.case import Case
+    from bkabem_core.model.case import Case
 
     ns = unique_namespace("node")
     lis = Listener("node_test_listener")

@@ -1,4 +1,4 @@
-"""The node's sample rate against the machine's lines (bkabem_ros/node_band.py, docs/ros_node.md "Band limit"):
+"""The node's sample rate against the machine's lines (bkabem_ros/node/band.py, docs/ros_node.md "Band limit"):
 real ``bkabem node`` / ``bkabem synth`` processes, DDS on loopback (tests/ros_helpers.py).
 
 * at start, a scenario whose [speed] profile puts a line of its first model at or above Nyquist: the node refuses

@@ -72,7 +72,7 @@ def test_fleet_seconds_prints_statistics():
 
 
 def test_docs_list_every_parameter():
-    from bkabem_ros.node import PARAMETERS
+    from bkabem_ros.node.vibration_node import PARAMETERS
 
     text = (REPO / "docs" / "ros_node.md").read_text()
     missing = [p.name for p in PARAMETERS if f"`{p.name}`" not in text]

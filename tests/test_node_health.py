@@ -1,4 +1,4 @@
-"""The health panels' envelope verdict knows where a fault line comes from (bkabem_ros/health.py): a real
+"""The health panels' envelope verdict knows where a fault line comes from (bkabem_core/analysis/health.py): a real
 ``bkabem node`` (the embedded case: an outer-race dent in the DE bearing, the NDE bearing healthy) writing its
 Rerun recording, speed over DDS on loopback (tests/ros_helpers.py).
 
@@ -79,7 +79,7 @@ def test_nde_panel_says_the_bpfo_it_sees_is_the_de_defect_transmitted(tmp_path):
         lis.close()
     fmsg = lis.get(ff)[-1][1]
     bpfo = fmsg.bpfo
-    from bkabem_ros.msgs import ground_truth_dict
+    from bkabem_ros.messages.convert import ground_truth_dict
 
     gt = ground_truth_dict(fmsg)
     assert [(d["bearing"], d["kind"]) for d in gt["defects"]] == [("de", "outer")]

@@ -37,7 +37,7 @@ NODE_SCENARIO = scenario_toml(
 
 
 def _gt(msg) -> dict:
-    from bkabem_ros.msgs import ground_truth_dict
+    from bkabem_ros.messages.convert import ground_truth_dict
 
     return ground_truth_dict(msg)
 
@@ -105,7 +105,7 @@ def test_ground_truth_of_every_message_matches_the_scenario(scenario_node):
     waves = [m for _, m in lis.get(t["acc"])][:210]
     idx = [m.first_sample_index for m in waves]
     assert idx[0] == 0 and all(b - a == N for a, b in zip(idx, idx[1:])), "a gap or repeat in the stream"
-    from bkabem_core.scenario import Scenario
+    from bkabem_core.scenario.timeline import Scenario
 
     sc = Scenario.from_toml(NODE_SCENARIO)
     states = []
@@ -152,11 +152,11 @@ def test_node_samples_are_an_offline_rendering_with_the_same_state_changes(scena
     """The node's DE acceleration = the synthesiser driven here with the node's settings, switching models at the
     chunks where the node's ground truth says it did: same phases, slip and noise, the same models (made in the
     helper process there, inline here)."""
-    from bkabem_core.scenario import Scenario
-    from bkabem_core.scenario_models import ModelPool
-    from bkabem_core.synth import Synthesizer
+    from bkabem_core.scenario.timeline import Scenario
+    from bkabem_core.scenario.models import ModelPool
+    from bkabem_core.synth.synthesizer import Synthesizer
 
-    from bkabem_ros.msgs import waveform_array
+    from bkabem_ros.messages.convert import waveform_array
 
     lis, t = scenario_node["lis"], scenario_node["topics"]
     waves = [m for _, m in lis.get(t["acc"])][:200]
@@ -334,7 +334,7 @@ def test_scenario_by_ros_parameters_same_seed_same_stream_recorded_echoed_and_vi
     follow the states)."""
     from bkabem_msgs.msg import VibrationWaveform
 
-    from bkabem_core.scenario import Scenario
+    from bkabem_core.scenario.timeline import Scenario
 
     src = tmp_path / "det.toml"
     src.write_text(DET_SCENARIO)

@@ -21,7 +21,9 @@ import pytest
 
 from ros_helpers import REPO, Listener, Proc, bkabem_cmd, ros_env, unique_namespace
 
-from bkabem_ros import mcap_io, msg_compat, msgs
+from bkabem_ros.recording import mcap_io
+from bkabem_ros.messages import compat as msg_compat
+from bkabem_ros.messages import convert as msgs
 
 HISTORY = REPO / "msg_defs" / "history" / "0.1.0"
 EXAMPLE = REPO / "recordings" / "example_runup.mcap"
@@ -163,8 +165,8 @@ def test_a_reader_of_the_old_definitions_reads_todays_messages():
     from mcap_ros2._dynamic import generate_dynamic
     from rclpy.serialization import serialize_message
 
-    from bkabem_core.case import Case
-    from bkabem_core.scenario import Scenario
+    from bkabem_core.model.case import Case
+    from bkabem_core.scenario.timeline import Scenario
 
     sc = Scenario.of_case(Case.load("motor_6010_ball"))
     truth = msgs.ground_truth_message(sc.ground_truth(sc.states[0], 3.0, 25.0, 1.0), {"line": "7"})

@@ -9,8 +9,8 @@ import re
 
 import pytest
 
-from bkabem_core import plausibility
-from bkabem_core.case import Case, CaseError
+from bkabem_core.model import plausibility
+from bkabem_core.model.case import Case, CaseError
 
 BASE = Case.load().raw
 
@@ -111,7 +111,7 @@ def test_bounds_of_missing_keys_are_skipped():
 def test_toml_override_in_a_case_file(tmp_path):
     from importlib import resources
 
-    text = resources.files("bkabem_core").joinpath("cases", "electric_motor_6010.toml").read_text()
+    text = resources.files("bkabem_core.embedded").joinpath("cases", "electric_motor_6010.toml").read_text()
     text = text.replace("density_kg_m3 = 7850.0", "density_kg_m3 = 30000.0")
     with pytest.raises(CaseError, match="rotor.density_kg_m3"):
         Case.from_toml(text)

@@ -29,7 +29,9 @@ import rclpy  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 
-from bkabem_ros import mcap_io, msgs, replay  # noqa: E402
+from bkabem_ros.recording import mcap_io # noqa: E402
+from bkabem_ros.messages import convert as msgs
+from bkabem_ros.recording import replay
 
 ROOT = Path(__file__).resolve().parents[1]
 T0 = 1_700_000_000_000_000_000
@@ -124,7 +126,7 @@ def test_replay_reproduces_messages_spacing_and_clock(recording, ros):
                    clock=True, sim_time=True)
     try:
         rate = 2.0
-        r = _run_cli("bkabem_ros.replay_cli", recording, "--rate", rate, "--clock", 50,
+        r = _run_cli("bkabem_ros.cli.replay", recording, "--rate", rate, "--clock", 50,
                      "--remap", "/m1/speed:=/m1/speed_in", "--wait-subscribers", 20)
         assert r.returncode == 0, r.stderr[-3000:]
         time.sleep(0.3)
@@ -226,11 +228,11 @@ def test_replay_of_rosbag2_written_file(tmp_path, ros):
 def test_replay_then_record_through_the_graph(recording, tmp_path):
     """bkabem record (raw subscriptions, types and QoS from the graph) captures bkabem replay."""
     out = tmp_path / "rec.mcap"
-    rec = subprocess.Popen([sys.executable, "-m", "bkabem_ros.record_cli", "--out", str(out), "--namespace", "/m1",
+    rec = subprocess.Popen([sys.executable, "-m", "bkabem_ros.cli.record", "--out", str(out), "--namespace", "/m1",
                             "--duration", "30", "--chunk-duration", "0.5"],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT, env=dict(os.environ))
     try:
-        r = _run_cli("bkabem_ros.replay_cli", recording, "--rate", 4, "--wait-subscribers", 20)
+        r = _run_cli("bkabem_ros.cli.replay", recording, "--rate", 4, "--wait-subscribers", 20)
         assert r.returncode == 0, r.stderr[-3000:]
         time.sleep(1.0)
     finally:
@@ -256,11 +258,11 @@ def test_replay_then_record_through_the_graph(recording, tmp_path):
 
 
 def test_cli_errors_are_one_line_exit_2(tmp_path):
-    r = _run_cli("bkabem_ros.replay_cli", tmp_path / "missing.mcap")
+    r = _run_cli("bkabem_ros.cli.replay", tmp_path / "missing.mcap")
     assert r.returncode == 2 and "no such file" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(b"not an mcap")
-    r = _run_cli("bkabem_ros.replay_cli", bad)
+    r = _run_cli("bkabem_ros.cli.replay", bad)
     assert r.returncode == 2 and "not a readable MCAP" in r.stderr
-    r = _run_cli("bkabem_ros.replay_cli", bad, "--remap", "nonsense")
+    r = _run_cli("bkabem_ros.cli.replay", bad, "--remap", "nonsense")
     assert r.returncode == 2 and "OLD:=NEW" in r.stderr

@@ -1,4 +1,4 @@
-"""bkabem_ros.rerun_io: .rrd files that pass ``rerun rrd verify``, hold the expected entities and
+"""bkabem_ros.viewer.rerun_io: .rrd files that pass ``rerun rrd verify``, hold the expected entities and
 sample counts (read back with rerun.chunk.RrdReader), a blueprint, MCAP -> .rrd conversion without
 ROS, and streaming to a viewer process bound to 127.0.0.1.
 """
@@ -22,8 +22,11 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from bkabem_ros import mcap_io, msgs, rerun_blueprint, rerun_io  # noqa: E402
-from bkabem_ros.rerun_viewer import listening_addresses as _listening  # noqa: E402
+from bkabem_ros.recording import mcap_io # noqa: E402
+from bkabem_ros.messages import convert as msgs
+from bkabem_ros.viewer import blueprint as rerun_blueprint
+from bkabem_ros.viewer import rerun_io
+from bkabem_ros.viewer.screenshots import listening_addresses as _listening  # noqa: E402
 from scenario_files import defect, scenario_toml  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -219,7 +222,7 @@ def test_blueprint_in_file_has_de_and_nde_side_by_side(tmp_path):
     from rerun.blueprint.components import ContainerKind, PlayState
     from rerun.chunk import RrdReader
 
-    from bkabem_ros.rerun_blueprint import view_names
+    from bkabem_ros.viewer.blueprint import view_names
 
     path = tmp_path / "bp.rrd"
     logger = rerun_io.RerunLogger("bkabem-test", recording_id="t2", save_path=path)
@@ -284,7 +287,7 @@ def test_mcap_to_rrd_without_ros(tmp_path):
             rec.add(topic, ty, m, stamp, stamp)
     out = tmp_path / "run.rrd"
     env = dict(os.environ, ROS_DOMAIN_ID="0")
-    code = ("import sys, rclpy; from bkabem_ros.replay_cli import standalone; rc = standalone(); "
+    code = ("import sys, rclpy; from bkabem_ros.cli.replay import standalone; rc = standalone(); "
             "assert not rclpy.ok(), 'a ROS context was created'; "
             "assert 'rclpy.node' not in sys.modules or True; sys.exit(rc)")
     r = subprocess.run([sys.executable, "-c", code, str(mc), "--rerun-save", str(out)], capture_output=True,
@@ -297,7 +300,7 @@ def test_mcap_to_rrd_without_ros(tmp_path):
 
 def test_mcap_to_rrd_with_embedded_schemas_only(tmp_path, monkeypatch):
     """Conversion on a machine without our message package: decoded from the file's schemas."""
-    from bkabem_ros import replay
+    from bkabem_ros.recording import replay
 
     mc = tmp_path / "run.mcap"
     with mcap_io.McapRecorder(mc) as rec:
@@ -424,7 +427,7 @@ def test_each_plot_has_one_unit_and_the_health_panel_says_what_is_not_drawn(tmp_
     of the spectrum, and the spectrum's BPFO and orders are stated in the health panel."""
     import re
 
-    from bkabem_ros.rerun_blueprint import _views
+    from bkabem_ros.viewer.blueprint import _views
 
     path = tmp_path / "units.rrd"
     logger = rerun_io.RerunLogger("bkabem-test", save_path=path)
@@ -473,7 +476,7 @@ def test_health_panel_and_ground_truth_trend_follow_the_messages(tmp_path):
     from 3 s), one per 0.5 s, then the machine healthy again (a new scenario switched on): the ground-truth trend
     of each bearing has one series per defect with the depth [µm] each message states (0 once it is gone), and
     each bearing's health panel names its own defects, the scenario state and the labels."""
-    from bkabem_core.scenario import Scenario
+    from bkabem_core.scenario.timeline import Scenario
 
     sc = Scenario.from_toml(TWO_DEFECTS, "view_test.toml")
     path = tmp_path / "truth.rrd"
@@ -536,7 +539,7 @@ def test_health_panel_and_ground_truth_trend_follow_the_messages(tmp_path):
 def test_two_defects_at_one_place_get_two_named_trends(tmp_path):
     """Two outer-race dents in the DE bearing: the first is "DE outer race depth [µm]", the second adds its name (the
     names of a run stay as first seen); the old "<scenario name> (<kind>) depth" naming is gone."""
-    from bkabem_core.scenario import Scenario
+    from bkabem_core.scenario.timeline import Scenario
 
     sc = Scenario.from_toml(scenario_toml(
         "two_outer", duration_s=10.0,
@@ -567,7 +570,8 @@ def test_envelope_verdict_says_when_a_line_is_another_bearings_defect():
     machine whose only defect is a DE outer-race dent, the verdict names the DE defect as the source, transmitted;
     on the DE panel it stays the bearing's own finding; with an NDE outer-race defect too, the NDE finding is its
     own and says the DE one adds to it; without ground truth it is the plain finding."""
-    from bkabem_ros import fault_lines, health
+    from bkabem_core.analysis import fault_lines
+    from bkabem_core.analysis import health
 
     fs, n = 8192.0, 8192
     f = np.fft.rfftfreq(n, 1 / fs)[: 1024]
@@ -600,7 +604,8 @@ def test_health_text_says_what_is_in_this_bearing_and_what_is_elsewhere():
     """A panel's ground-truth line names only its own bearing's defects; the other bearing's
     defects are on their own line, so an NDE panel never reads "no defect ... (outer-race
     defect, DE bearing ...)"."""
-    from bkabem_ros import fault_lines, health
+    from bkabem_core.analysis import fault_lines
+    from bkabem_core.analysis import health
 
     de = fault_lines.Defect("outer", "de", 4e-3, 100e-6, -math.pi / 2, "6010", "de_outer_spall")
     nde = fault_lines.Defect("ball", "nde", 1e-3, 20e-6, 0.0, "6010", "nde_ball", ball=2)

@@ -20,9 +20,10 @@ from pathlib import Path  # noqa: E402
 
 import pytest  # noqa: E402
 
-from bkabem_ros import replay, rerun_io  # noqa: E402
-from bkabem_ros.rerun_blueprint import view_names  # noqa: E402
-from bkabem_ros.rerun_viewer import (  # noqa: E402
+from bkabem_ros.recording import replay # noqa: E402
+from bkabem_ros.viewer import rerun_io
+from bkabem_ros.viewer.blueprint import view_names  # noqa: E402
+from bkabem_ros.viewer.screenshots import (  # noqa: E402
     HeadlessViewer,
     expected_legends,
     lavapipe_available,
@@ -83,7 +84,7 @@ def _spiky_recording(path: Path) -> float:
     data's range that the sine spans (what an honest plot shows)."""
     import numpy as np
 
-    from bkabem_ros import msgs
+    from bkabem_ros.messages import convert as msgs
 
     fs, n, t0 = 25_600.0, 2560, 1_700_000_000_000_000_000
     t = np.arange(int(2 * fs)) / fs
@@ -107,7 +108,7 @@ def test_waveform_keeps_impact_peaks_at_full_height(tmp_path):
     most of the height when an averaging plot shrinks them to 1/20."""
     import numpy as np
 
-    from bkabem_ros.rerun_viewer import _pixels
+    from bkabem_ros.viewer.screenshots import _pixels
 
     path = tmp_path / "spikes.rrd"
     want = _spiky_recording(path)
@@ -146,7 +147,7 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
 
     from ros_helpers import Proc, bkabem_cmd, unique_namespace
 
-    from bkabem_ros.rerun_viewer import _pixels, _save_png
+    from bkabem_ros.viewer.screenshots import _pixels, _save_png
 
     rrd = tmp_path / "rtf.rrd"
     node = Proc(bkabem_cmd("node", "--namespace", unique_namespace("rtf"), "--sample-rate", "12800",
@@ -219,7 +220,7 @@ def test_every_legend_entry_shows_whole(example_rrd, size, tmp_path):
     whole, its colour dot in the series' colour, at the screenshots' window size and a laptop's: the review saw the
     fault-frequency legend (the marker key) show 3.5 of its 6 entries. The check can fail: with the bottom row as
     short as the review's machine row it reports the fault-frequency entries it cuts."""
-    from bkabem_ros.rerun_viewer import _save_png
+    from bkabem_ros.viewer.screenshots import _save_png
 
     legends = expected_legends(example_rrd)
     assert [n for n, _c in legends["fault frequencies [Hz]"]] == [

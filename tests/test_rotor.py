@@ -1,4 +1,4 @@
-"""Tests of bkabem_core.rotor: element matrices, assembly, case model, ROSS cross-check, beam theory."""
+"""Tests of bkabem_core.fe.rotor: element matrices, assembly, case model, ROSS cross-check, beam theory."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from bkabem_core.rotor import (
+from bkabem_core.fe.rotor import (
     Disk,
     LinearBearing,
     Material,
@@ -21,7 +21,7 @@ from bkabem_core.rotor import (
 )
 
 ROOT = Path(__file__).resolve().parents[1]
-CASE_FILE = ROOT / "bkabem_core" / "cases" / "electric_motor_6010.toml"
+CASE_FILE = ROOT / "bkabem_core" / "embedded" / "cases" / "electric_motor_6010.toml"
 ROSS_FIXTURE = ROOT / "tests" / "fixtures" / "ross_electric_motor.npz"
 G0 = 9.80665
 STEEL = Material(youngs_modulus_pa=206e9, poisson_ratio=0.3, density_kg_m3=7850.0)
@@ -338,7 +338,7 @@ def test_model_errors(case):
 # mesh refinement and structural damping
 # --------------------------------------------------------------------------------------------
 def test_refined_mesh_keeps_the_case_nodes_and_the_band(case):
-    from bkabem_core.rotor import Mesh, mesh_for
+    from bkabem_core.fe.rotor import Mesh, mesh_for
 
     mesh = mesh_for(case, 25600.0, 16.0)
     fine = rotor_from_case(case, mesh=mesh, damping={})
@@ -350,7 +350,7 @@ def test_refined_mesh_keeps_the_case_nodes_and_the_band(case):
         assert pos_f[n] == pytest.approx(pos_c[n], abs=1e-12)
     assert fine.shaft_node_labels[0] == 1 and fine.shaft_node_labels[-1] == 14
     # DOFs follow the chain: the shaft matrix stays block-tridiagonal
-    from bkabem_core.solvers import ShaftSolver
+    from bkabem_core.fe.solvers import ShaftSolver
     assert ShaftSolver(fine).n_nodes == len(fine.shaft_node_labels)
     assert fine.static_bearing_loads_n()["de"][1] == pytest.approx(coarse.static_bearing_loads_n()["de"][1])
     assert Mesh((1,) * 13).doubled().pieces == (2,) * 13
@@ -358,8 +358,8 @@ def test_refined_mesh_keeps_the_case_nodes_and_the_band(case):
 
 @pytest.fixture(scope="module")
 def embedded_machine():
-    from bkabem_core.case import Case
-    from bkabem_core.machine import Machine
+    from bkabem_core.model.case import Case
+    from bkabem_core.fe.machine import Machine
 
     return Machine(Case.load())
 

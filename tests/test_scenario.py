@@ -16,12 +16,12 @@ import time
 import numpy as np
 import pytest
 
-from bkabem_core.case import Case
-from bkabem_core.machine import Machine
-from bkabem_core.scenario import MAX_STATES, Scenario, ScenarioError, embedded_scenarios
-from bkabem_core.scenario_models import ModelHelper, ModelPool
-from bkabem_core.scenario_run import InlineModels, ScenarioClock, ScenarioDriver, ScenarioRun
-from bkabem_core.synth import Synthesizer
+from bkabem_core.model.case import Case
+from bkabem_core.fe.machine import Machine
+from bkabem_core.scenario.timeline import MAX_STATES, Scenario, ScenarioError, embedded_scenarios
+from bkabem_core.scenario.models import ModelHelper, ModelPool
+from bkabem_core.scenario.run import InlineModels, ScenarioClock, ScenarioDriver, ScenarioRun
+from bkabem_core.synth.synthesizer import Synthesizer
 from scenario_files import check_truth, defect, scenario_toml, speed_of_timeline, truth_of_timeline
 from scenario_files import parse as _toml
 
@@ -67,7 +67,7 @@ def test_embedded_scenarios_load_and_their_states_follow_the_timeline():
     from importlib import resources
 
     rtf = Scenario.load("de_outer_run_to_failure")
-    raw = _toml(resources.files("bkabem_core").joinpath("scenarios", "de_outer_run_to_failure.toml").read_text())
+    raw = _toml(resources.files("bkabem_core.embedded").joinpath("scenarios", "de_outer_run_to_failure.toml").read_text())
     hours = 3600.0
     assert rtf.duration_s == 12 * hours and rtf.case.name == "motor_6010_healthy"
     assert rtf.states[0].healthy and rtf.states[0].label == "healthy"
@@ -467,10 +467,10 @@ def test_synth_cli_too_low_a_rate_for_the_scenario_names_rate(tmp_path, rate):
 def test_every_input_file_kind_refuses_a_too_deep_nesting_with_one_line():
     """Case, scenario, fleet scenario and data-set spec read TOML through one reader (case.parse_toml): a nesting
     too deep for the parser is the key ``toml`` of each file kind's own error, not a RecursionError."""
-    from bkabem_core.case import Case, CaseError
-    from bkabem_core.dataset_spec import DatasetSpec, DatasetSpecError
-    from bkabem_core.fleet_scenario import FleetScenario
-    from bkabem_core.scenario import Scenario, ScenarioError
+    from bkabem_core.model.case import Case, CaseError
+    from bkabem_core.dataset.spec import DatasetSpec, DatasetSpecError
+    from bkabem_core.scenario.fleet import FleetScenario
+    from bkabem_core.scenario.timeline import Scenario, ScenarioError
 
     deep = "x = " + "[" * 5000 + "]" * 5000 + "\n"
     for load, error in [(Case.from_toml, CaseError), (Scenario.from_toml, ScenarioError),
@@ -485,9 +485,9 @@ def test_every_input_file_kind_finds_an_embedded_name_or_a_path_the_same_way(tmp
     (case.read_input_text): the same errors, each for its own key and error class - an unknown name lists the
     embedded ones, a missing file, a file that is not UTF-8 (key ``toml``), an empty name - and a bare name that
     is a file here is read as that file."""
-    from bkabem_core.case import Case, CaseError, embedded_cases
-    from bkabem_core.dataset_spec import DatasetSpec, DatasetSpecError, embedded_specs
-    from bkabem_core.fleet_scenario import FleetScenario
+    from bkabem_core.model.case import Case, CaseError, embedded_cases
+    from bkabem_core.dataset.spec import DatasetSpec, DatasetSpecError, embedded_specs
+    from bkabem_core.scenario.fleet import FleetScenario
 
     binary = tmp_path / "latin1.toml"
     binary.write_bytes(b"name = '\xe9'\n")

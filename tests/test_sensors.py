@@ -1,4 +1,4 @@
-"""The measurement chain (bkabem_core.sensors): mounted accelerometer and anti-alias filter as line gains."""
+"""The measurement chain (bkabem_core.synth.sensors): mounted accelerometer and anti-alias filter as line gains."""
 
 from __future__ import annotations
 
@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from bkabem_core.case import Case
-from bkabem_core.harmonic import BkaBem
-from bkabem_core.sensors import MOUNTING_RESONANCE_HZ, Accelerometer, AntiAliasFilter
-from bkabem_core.synth import SynthError, Synthesizer
+from bkabem_core.model.case import Case
+from bkabem_core.solve.harmonic import BkaBem
+from bkabem_core.synth.sensors import MOUNTING_RESONANCE_HZ, Accelerometer, AntiAliasFilter
+from bkabem_core.synth.synthesizer import SynthError, Synthesizer
 
 
 def test_accelerometer_is_a_base_excited_oscillator():

@@ -1,4 +1,4 @@
-"""Tests of bkabem_core.synth / bkabem_ros.synth_cli: accuracy against BKA-BEM, continuity, determinism, errors, CLI.
+"""Tests of bkabem_core.synth.synthesizer / bkabem_ros.cli.synth: accuracy against BKA-BEM, continuity, determinism, errors, CLI.
 
 The BKA-BEM model comes from the session fixture ``model`` (tests/conftest.py), built once.
 """
@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bkabem_core.harmonic import DIRECTIONS, TWO_PI
-from bkabem_core.synth import (
+from bkabem_core.solve.harmonic import DIRECTIONS, TWO_PI
+from bkabem_core.synth.synthesizer import (
     ModalSpectrum,
     SpeedProfile,
     SynthError,
@@ -110,7 +110,7 @@ def test_order_modal_form_matches_the_direct_solver(model):
     """OrderModalForm (all 8 output displacements) against the dense direct solve of the full FE, with gyroscopics:
     the order-wise pencil K + s C + s^2 (M - i G / (k BPFO)) is the same system as Eq. (8) along each order (on the
     reduced model: its modal truncation is the 1e-7 left, tests/test_harmonic.py)."""
-    from bkabem_core.harmonic import BkaBem as _B
+    from bkabem_core.solve.harmonic import BkaBem as _B
     direct = _B(model.case, excitation=model.excitations, solver="direct", machine=model.machine)
     form = direct.order_modal_form()
     assert np.abs(direct.rotor.G).max() > 0
@@ -151,7 +151,7 @@ def test_c_loop_and_numpy_reference_give_the_same_run(model, dtype):
     block sums' round-off."""
     import functools
 
-    from bkabem_core import synth_kernel
+    from bkabem_core.synth import kernel as synth_kernel
 
     assert synth_kernel.AVAILABLE
     kw = dict(sample_rate_hz=25600, chunk_s=0.05, slip=0.01, seed=4, dtype=dtype,
@@ -406,7 +406,7 @@ def test_memory_bounded_by_chunk(model):
 
 
 def test_set_model_keeps_phase_continuous(model, case):
-    from bkabem_core.harmonic import BkaBem
+    from bkabem_core.solve.harmonic import BkaBem
 
     s = Synthesizer(model, sample_rate_hz=25600, chunk_s=0.05)
     a = s.next_chunk(20.0)
@@ -423,7 +423,7 @@ def test_set_model_keeps_phase_continuous(model, case):
 
 
 def test_spectrum_auto_choice(model):
-    from bkabem_core.harmonic import BkaBem as _B
+    from bkabem_core.solve.harmonic import BkaBem as _B
     fresh = _B(model.case, excitation=model.excitation)     # no modal form made yet
     s = Synthesizer(fresh, sample_rate_hz=25600)
     list(s.render("constant:25", 0.1))
@@ -560,7 +560,7 @@ def test_synthesisers_of_one_model_share_the_exact_response_and_give_the_same_sa
     exact-response cache, so a speed step that several of them follow is solved once per process; sharing changes
     no sample: a run served from a cache that other synthesisers filled (and used) equals, bit for bit, the same
     run with a cache of its own."""
-    from bkabem_core.synth_lines import ExactSpectrum
+    from bkabem_core.synth.linesets import ExactSpectrum
 
     kw = dict(sample_rate_hz=25600, chunk_s=0.1, seed=5, spectrum="exact", band_limit="taper", features=False)
     ExactSpectrum._shared.pop(id(model), None)

@@ -1,4 +1,4 @@
-"""Tests of bkabem_core.synth_kernel: the C sample loop (_synthloop.c) against its numpy reference (the generic path
+"""Tests of bkabem_core.synth.kernel: the C sample loop (_synthloop.c) against its numpy reference (the generic path
 bit for bit, the fast path with fused multiply-adds to a stated rounding bound), its chunk invariance, the accuracy of
 the cubic B-spline interpolation, the knot table against the direct formula and an FFT, and the running-moment
 features.
@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from bkabem_core import synth_kernel as sk
-from bkabem_core.synth import waveform_features
+from bkabem_core.synth import kernel as sk
+from bkabem_core.synth.synthesizer import waveform_features
 
 FS = 51200.0
 PASSES_PER_SAMPLE = 151.0 / FS          # ball passes per sample at a typical speed
@@ -22,7 +22,7 @@ M64 = (1 << 64) - 1
 
 
 def test_kernel_is_built():
-    assert sk.AVAILABLE, "bkabem_core/_synthloop.c is not built: run `pip install -e .`"
+    assert sk.AVAILABLE, "bkabem_core/kernels/_synthloop.c is not built: run `pip install -e .`"
 
 
 def test_phase_bits_and_weights():

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from bkabem_core import synth_kernel as sk
-from bkabem_core import synth_noise
-from bkabem_core.synth_random import noise_key
+from bkabem_core.synth import kernel as sk
+from bkabem_core.synth import noise as synth_noise
+from bkabem_core.synth.randomness import noise_key
 
 if not sk.AVAILABLE:     # the set-up builds them (make install): fail, never skip, when they are missing
     pytest.fail("the C kernel is not built: run `make install`", pytrace=False)

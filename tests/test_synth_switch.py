@@ -1,4 +1,4 @@
-"""Warm model switches (bkabem_core/synth_switch.py): ``set_model(synth.warm(model))`` gives the samples of
+"""Warm model switches (bkabem_core/synth/switch.py): ``set_model(synth.warm(model))`` gives the samples of
 ``set_model(model)`` bit for bit, and the chunk after it makes nothing model-specific (no floor transfer, no floor
 frames, no speed cells, no line families or kernel plans, no exact solve): the work that made the first chunk after
 a switch cost 150-240 ms at 25.6 kHz, more than two chunk periods of a streaming node.
@@ -18,17 +18,17 @@ from contextlib import contextmanager
 import numpy as np
 import pytest
 
-from bkabem_core.case import Case
-from bkabem_core.harmonic import BkaBem
-from bkabem_core.modal import SpeedCells
-from bkabem_core.scenario import Scenario
-from bkabem_core.scenario_models import ModelHelper, ModelPool
-from bkabem_core.scenario_run import BackgroundModels, ScenarioClock, ScenarioDriver, WarmWorker
-from bkabem_core.synth import Synthesizer
-from bkabem_core.synth_floor import BroadbandFloor, FloorTransfer
-from bkabem_core.synth_lineknots import LineSegments
-from bkabem_core.synth_lines import LineFamilies
-from bkabem_core.synth_switch import WarmModel
+from bkabem_core.model.case import Case
+from bkabem_core.solve.harmonic import BkaBem
+from bkabem_core.fe.modal import SpeedCells
+from bkabem_core.scenario.timeline import Scenario
+from bkabem_core.scenario.models import ModelHelper, ModelPool
+from bkabem_core.scenario.run import BackgroundModels, ScenarioClock, ScenarioDriver, WarmWorker
+from bkabem_core.synth.synthesizer import Synthesizer
+from bkabem_core.synth.floor import BroadbandFloor, FloorTransfer
+from bkabem_core.synth.lineknots import LineSegments
+from bkabem_core.synth.linesets import LineFamilies
+from bkabem_core.synth.switch import WarmModel
 from scenario_files import defect, scenario_toml
 
 FS = 25600.0

@@ -1,4 +1,4 @@
-"""Tests of bkabem_core.tdsm: statics, the integrator (energy, exact linear solution, convergence), and the
+"""Tests of bkabem_core.reference.tdsm: statics, the integrator (energy, exact linear solution, convergence), and the
 nonlinear model against an independent stiff ODE solve. Every run is a few BPFO periods (seconds in total)."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import pytest
 import scipy.linalg
 from scipy.integrate import solve_ivp
 
-from bkabem_core.periodic import harmonic_balance
-from bkabem_core.rotor import rotor_from_case
-from bkabem_core.tdsm import Tdsm
+from bkabem_core.reference.periodic import harmonic_balance
+from bkabem_core.fe.rotor import rotor_from_case
+from bkabem_core.reference.tdsm import Tdsm
 
 SPEED = 30.0
 

@@ -20,11 +20,11 @@ import json
 import numpy as np
 import pytest
 
-from bkabem_core.harmonic import LOCATIONS, BkaBem
-from bkabem_core.hill import HillCorrection
-from bkabem_core.periodic import harmonic_balance
-from bkabem_core.tdsm import Tdsm
-from bkabem_core.validation import METHODS, make_method, plot_validation, validate
+from bkabem_core.solve.harmonic import LOCATIONS, BkaBem
+from bkabem_core.solve.improved import HillCorrection
+from bkabem_core.reference.periodic import harmonic_balance
+from bkabem_core.reference.tdsm import Tdsm
+from bkabem_core.reference.validation import METHODS, make_method, plot_validation, validate
 
 SPEED = 30.0
 
@@ -129,7 +129,7 @@ def test_methods_build(case, model):
 
 
 def test_interrupt_returns_partial_comparison(case, model, monkeypatch):
-    from bkabem_core import tdsm as tdsm_mod
+    from bkabem_core.reference import tdsm as tdsm_mod
 
     real = tdsm_mod.Tdsm._integrate
     calls = {"n": 0}

@@ -1,0 +1,1 @@
+"""bkabem_core/dataset"""

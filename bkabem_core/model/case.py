@@ -1,0 +1,684 @@
+"""Case files: TOML with every parameter of a machine, validated key by key.
+
+A case describes one machine: the bearing type, the dent, the 4-DOF excitation model, the FE rotor with its
+bearing and housing elements, and the operating range. The embedded default ``electric_motor_6010`` ships in
+``bkabem_core/embedded/cases/``; user cases are loaded by path. Every key carries its unit as a suffix.
+
+Validation is strict and explains itself: a missing key, an unknown key, a wrong type or a value outside its
+physical range raises :class:`CaseError` naming the key (``section.key``) and the reason. Nothing is clamped.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+from bkabem_core.model import plausibility
+from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent
+from bkabem_core.excitation.quasi_static import FourDofParameters
+
+DEFAULT_CASE = "electric_motor_6010"
+#: Version of the case format this code reads; older files are migrated (:func:`migrate_v1`, :func:`migrate_v2`).
+SCHEMA_VERSION = 3
+
+
+class InputFileError(ValueError):
+    """An input file (case, scenario, data-set spec) is invalid: ``key`` is the dotted key at fault (or the file),
+    ``reason`` says why, ``source`` names the file. Each kind of file raises its own subclass."""
+
+    def __init__(self, key: str, reason: str, source: str = ""):
+        self.key = key
+        self.reason = reason
+        self.source = source
+        where = f"{source}: " if source else ""
+        super().__init__(f"{where}{key}: {reason}")
+
+
+def embedded_names(folder: str) -> list[str]:
+    """Names of the TOML files shipped in the package folder ``folder`` (``cases``, ``scenarios``, ``datasets``)."""
+    try:
+        files = resources.files("bkabem_core.embedded").joinpath(folder).iterdir()
+    except FileNotFoundError:
+        return []
+    return sorted(p.name[:-5] for p in files if p.name.endswith(".toml"))
+
+
+def read_input_text(name_or_path: str | Path, folder: str, what: str, key: str,
+                    error: type[InputFileError]) -> tuple[str, str, Path | None]:
+    """(text, source, base directory) of an input file: the embedded ``<folder>/<name>.toml`` when
+    ``name_or_path`` is a bare name (no ``.toml`` suffix, no ``/``, no such file here), else the file at that
+    path (UTF-8). ``source`` is ``"embedded:<name>"`` or the path; the base directory (for paths inside the
+    file) is None for an embedded file. Errors are ``error`` for ``key`` ("no embedded <what> named ...",
+    "file not found", "cannot read") or for ``toml`` (not UTF-8); an empty name is refused."""
+    s = str(name_or_path)
+    if not s.strip():
+        raise error(key, "empty name")
+    if not s.endswith(".toml") and "/" not in s and not Path(s).exists():
+        try:
+            text = resources.files("bkabem_core.embedded").joinpath(folder, f"{s}.toml").read_text()
+        except FileNotFoundError:
+            raise error(key, f"no embedded {what} named {s!r} (available: "
+                             f"{', '.join(embedded_names(folder))})") from None
+        return text, f"embedded:{s}", None
+    p = Path(s)
+    if not p.is_file():
+        raise error(key, f"file not found: {p}")
+    try:
+        text = p.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise error("toml", f"not a UTF-8 text file (byte {exc.start}: {exc.reason})", str(p)) from None
+    except OSError as exc:
+        raise error(key, f"cannot read {p}: {exc.strerror}") from None
+    return text, str(p), p.parent
+
+
+class CaseError(InputFileError):
+    """A case file is invalid. ``key`` is the dotted key at fault (or the file)."""
+
+
+def parse_toml(text: str, source: str, error: type[InputFileError]) -> dict:
+    """The tables of a TOML text; a syntax error or a too deep nesting raises ``error`` for the key ``toml``."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise error("toml", f"not valid TOML: {exc}", source) from None
+    except RecursionError:
+        raise error("toml", "nested too deeply (arrays or tables inside each other)", source) from None
+
+
+# --------------------------------------------------------------------------- schema
+# Each entry: key -> (kind, check). kind in {"float", "int", "bool", "str", "float[]"}.
+# check: None or a tuple ("gt", x) / ("ge", x) / ("range_open", lo, hi) / ("in", {...}) / ("range", lo, hi).
+_POS = ("gt", 0.0)
+_NONNEG = ("ge", 0.0)
+
+SCHEMA: dict[str, dict[str, tuple]] = {
+    "case": {
+        "name": ("str", None),
+        "description": ("str", None),
+        "schema_version": ("int", ("in", {SCHEMA_VERSION})),
+    },
+    "bearing": {
+        "designation": ("str", None),
+        "bore_diameter_m": ("float", _POS),
+        "outer_diameter_m": ("float", _POS),
+        "pitch_diameter_m": ("float", _POS),
+        "ball_diameter_m": ("float", _POS),
+        "n_balls": ("int", ("ge", 3)),
+        "diametral_clearance_m": ("float", _NONNEG),
+        "inner_conformity": ("float", ("gt", 0.5)),
+        "outer_conformity": ("float", ("gt", 0.5)),
+        "contact_angle_deg": ("float", ("range", 0.0, 45.0)),
+        "static_load_rating_n": ("float", _POS),
+        "youngs_modulus_pa": ("float", _POS),
+        "poisson_ratio": ("float", ("range_open", 0.0, 0.5)),
+        "pressure_viscosity_m2_n": ("float", _NONNEG),
+        "dynamic_viscosity_pa_s": ("float", _NONNEG),
+        "ehl_film": ("bool", None),
+        "first_ball_angle_deg": ("float", ("range", -360.0, 360.0)),
+        "damping_n_s_m": ("float", _NONNEG),
+    },
+    "defects[]": {
+        "bearing": ("str", ("in", {"de", "nde"})),
+        "race": ("str", ("in", {"outer", "inner", "ball"})),
+        "length_m": ("float", _POS),
+        "depth_m": ("float", _NONNEG),
+        "angle_deg": ("float", ("range", -360.0, 360.0)),
+        "edge": ("str", ("in", {"ball", "cubic"})),
+        "edge_fraction": ("float", ("range", 0.0, 1.0)),
+        "ball": ("int", ("ge", 1)),
+    },
+    "baseline": {
+        "unbalance_grade_mm_s": ("float", _NONNEG),
+        "unbalance_phase_deg": ("float", ("range", -360.0, 360.0)),
+        "misalignment_force_n": ("float", _NONNEG),
+        "misalignment_node": ("int", ("ge", 1)),
+        "electrical_force_n": ("float", _NONNEG),
+        "line_frequency_hz": ("float", _POS),
+        "broadband_force_n_per_sqrt_hz": ("float", _NONNEG),
+    },
+    "excitation": {
+        "method": ("str", ("in", {"quasi_static", "four_dof"})),
+        "load": ("str", ("in", {"fe_share", "rotor_weight"})),
+        "bearings": ("str", ("in", {"all", "faulty"})),
+        "force": ("str", ("in", {"spring", "paper"})),
+        "rotor_mass_kg": ("float", _POS),
+        "housing_mass_kg": ("float", _POS),
+        "support_stiffness_n_m": ("float", _POS),
+        "support_damping_n_s_m": ("float", _NONNEG),
+        "gravity_m_s2": ("float", _POS),
+        "reference_speed_hz": ("float", _POS),
+        "settle_time_s": ("float", _NONNEG),
+        "record_cage_periods": ("int", ("ge", 1)),
+        "samples_per_ball_pass": ("int", ("ge", 64)),
+        "rtol": ("float", ("range_open", 0.0, 1e-2)),
+        "atol_m": ("float", _POS),
+        "relative_amplitude_threshold": ("float", ("range", 0.0, 1.0)),
+        "max_order": ("int", ("ge", 0)),
+    },
+    "bearings.*": {
+        "rotor_node": ("int", ("ge", 1)),
+        "housing_node": ("int", ("ge", 1)),
+        "axial_load_n": ("float", _NONNEG),
+        "linearisation": ("str", ("in", {"model", "table"})),
+        "table_stiffness_vertical_n_m": ("float", _POS),
+        "table_stiffness_horizontal_n_m": ("float", _POS),
+        "table_damping_vertical_n_s_m": ("float", _NONNEG),
+        "table_damping_horizontal_n_s_m": ("float", _NONNEG),
+    },
+    "housings[]": {
+        "name": ("str", ("in", {"de", "nde"})),
+        "node": ("int", ("ge", 1)),
+        "mass_kg": ("float", _POS),
+        "support_stiffness_vertical_n_m": ("float", _POS),
+        "support_stiffness_horizontal_n_m": ("float", _POS),
+        "support_damping_vertical_n_s_m": ("float", _NONNEG),
+        "support_damping_horizontal_n_s_m": ("float", _NONNEG),
+    },
+    "rotor": {
+        "youngs_modulus_pa": ("float", _POS),
+        "poisson_ratio": ("float", ("range_open", 0.0, 0.5)),
+        "density_kg_m3": ("float", _POS),
+        "shear_effects": ("bool", None),
+        "rotary_inertia": ("bool", None),
+        "gyroscopic": ("bool", None),
+        "damping_model": ("str", ("in", {"stiffness", "modal", "none"})),
+        "damping_ratio": ("float", ("range", 0.0, 0.5)),
+        "damping_reference_hz": ("float", _POS),
+        "elements_per_wavelength": ("float", ("range", 0.0, 64.0)),
+        "node_positions_m": ("float[]", None),
+        "outer_diameters_m": ("float[]", _POS),
+        "inner_diameters_m": ("float[]", _NONNEG),
+        "disks": ("table[]", None),
+    },
+    "rotor.disks[]": {
+        "name": ("str", None),
+        "node": ("int", ("ge", 1)),
+        "mass_kg": ("float", _POS),
+        "polar_inertia_kg_m2": ("float", _NONNEG),
+        "diametral_inertia_kg_m2": ("float", _NONNEG),
+    },
+    "operating": {
+        "max_speed_hz": ("float", _POS),
+        "max_sample_rate_hz": ("float", _POS),
+    },
+}
+TOP_LEVEL = ("case", "bearing", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating")
+#: keys a section may leave out (their default: 0 = off), so that cases written before them stay valid
+_OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz",)}
+#: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
+_KIND_KEYS = {"ball": ("ball",)}
+#: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)
+BASELINE_OFF = {"unbalance_grade_mm_s": 0.0, "unbalance_phase_deg": 0.0, "misalignment_force_n": 0.0,
+                "misalignment_node": 1, "electrical_force_n": 0.0, "line_frequency_hz": 50.0}
+BEARING_NAMES = ("de", "nde")
+
+
+def _type_ok(kind: str, value) -> bool:
+    if kind == "float":
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    if kind == "int":
+        return isinstance(value, int) and not isinstance(value, bool)
+    if kind == "bool":
+        return isinstance(value, bool)
+    if kind == "str":
+        return isinstance(value, str)
+    if kind == "float[]":
+        return isinstance(value, list) and all(_type_ok("float", v) for v in value)
+    if kind == "table[]":
+        return isinstance(value, list) and all(isinstance(v, dict) for v in value)
+    raise AssertionError(kind)
+
+
+_KIND_TEXT = {"float": "a number", "int": "an integer", "bool": "true or false", "str": "a string",
+              "float[]": "an array of numbers", "table[]": "an array of tables"}
+
+
+def _check_value(key: str, value, check, source: str):
+    if check is None:
+        return
+    values = value if isinstance(value, list) else [value]
+    for v in values:
+        if isinstance(v, float) and not math.isfinite(v):
+            raise CaseError(key, f"must be finite (got {v})", source)
+        op = check[0]
+        if op == "gt" and not v > check[1]:
+            raise CaseError(key, f"must be > {check[1]:g} (got {v!r})", source)
+        if op == "ge" and not v >= check[1]:
+            raise CaseError(key, f"must be >= {check[1]:g} (got {v!r})", source)
+        if op == "range" and not check[1] <= v <= check[2]:
+            raise CaseError(key, f"must be in [{check[1]:g}, {check[2]:g}] (got {v!r})", source)
+        if op == "range_open" and not check[1] < v < check[2]:
+            raise CaseError(key, f"must be in ({check[1]:g}, {check[2]:g}) (got {v!r})", source)
+        if op == "in" and v not in check[1]:
+            allowed = ", ".join(repr(a) for a in sorted(check[1], key=str))
+            raise CaseError(key, f"must be one of {allowed} (got {v!r})", source)
+
+
+def _check_table(prefix: str, table, schema: dict, source: str, optional=()):
+    if not isinstance(table, dict):
+        raise CaseError(prefix, "must be a table", source)
+    for k in table:
+        if k not in schema:
+            raise CaseError(f"{prefix}.{k}", f"unknown key (allowed: {', '.join(schema)})", source)
+    for k, (kind, check) in schema.items():
+        key = f"{prefix}.{k}"
+        if k not in table:
+            if k in optional:
+                continue
+            raise CaseError(key, "missing", source)
+        v = table[k]
+        if not _type_ok(kind, v):
+            raise CaseError(key, f"must be {_KIND_TEXT[kind]} (got {type(v).__name__} {v!r})", source)
+        if isinstance(v, float) and not math.isfinite(v):
+            raise CaseError(key, f"must be finite (got {v})", source)
+        if kind == "float[]" and any(not math.isfinite(x) for x in v):
+            raise CaseError(key, "must hold finite numbers only", source)
+        _check_value(key, v, check, source)
+
+
+def migrate_v1(raw: dict) -> dict:
+    """A schema-version-1 case as version 3 (through 2: :func:`migrate_v2`), describing the model version 1
+    computed.
+
+    Version 1 had the paper's configuration built in: FE bearings from Table 1 (``stiffness_*`` keys), the 4-DOF
+    excitation with the whole rotor weight on the faulty bearing only, Eq. 5 as printed, cubic dent edges, no
+    axial load, no structural damping, one FE element per case element and the damper in ``[excitation]``.
+    """
+    raw = copy.deepcopy(raw)
+    exc = raw.get("excitation", {})
+    damper = exc.pop("bearing_damping_n_s_m", 550.0)
+    raw.setdefault("bearing", {})["damping_n_s_m"] = damper
+    raw.setdefault("dent", {}).setdefault("edge", "cubic")
+    raw.setdefault("case", {})["schema_version"] = 2
+    return migrate_v2(_migrate_v1_to_v2(raw))
+
+
+def _migrate_v1_to_v2(raw: dict) -> dict:
+    """The version-1 -> 2 steps of :func:`migrate_v1` (on a copy made there)."""
+    exc = raw.get("excitation", {})
+    exc.update({"method": "four_dof", "load": "rotor_weight", "bearings": "faulty", "force": "paper"})
+    for b in raw.get("bearings", {}).values():
+        if isinstance(b, dict):
+            for k in ("stiffness_vertical_n_m", "stiffness_horizontal_n_m", "damping_vertical_n_s_m",
+                      "damping_horizontal_n_s_m"):
+                if k in b:
+                    b[f"table_{k}"] = b.pop(k)
+            b.update({"axial_load_n": 0.0, "linearisation": "table"})
+    rot = raw.setdefault("rotor", {})
+    rot.setdefault("damping_model", "none")
+    rot.setdefault("damping_ratio", 0.0)
+    rot.setdefault("damping_reference_hz", 1000.0)
+    rot.setdefault("elements_per_wavelength", 0.0)
+    raw.setdefault("operating", {}).setdefault("max_sample_rate_hz", 51200.0)
+    return raw
+
+
+def migrate_v2(raw: dict) -> dict:
+    """A schema-version-2 case as version 3, describing the model version 2 computed.
+
+    Version 2 had one outer-race ``[dent]`` and nothing but the bearings: the dent becomes the single entry of
+    ``[[defects]]`` (depth 0: a defect no ball feels, as before), ``[baseline]`` is switched off.
+    """
+    raw = copy.deepcopy(raw)
+    dent = raw.pop("dent", None)
+    if isinstance(dent, dict):
+        raw["defects"] = [dent]
+    raw.setdefault("baseline", dict(BASELINE_OFF))
+    raw.setdefault("case", {})["schema_version"] = SCHEMA_VERSION
+    return raw
+
+
+def validate_case_dict(raw: dict, source: str = "") -> None:
+    """Validate a parsed case; raise :class:`CaseError` at the first problem."""
+    for k in raw:
+        if k not in TOP_LEVEL:
+            raise CaseError(k, f"unknown section (allowed: {', '.join(TOP_LEVEL)})", source)
+    for sec in ("case", "bearing", "baseline", "excitation", "rotor", "operating"):
+        if sec not in raw:
+            raise CaseError(sec, "missing section", source)
+        _check_table(sec, raw[sec], SCHEMA[sec], source, optional=_OPTIONAL.get(sec, ()))
+    # defects: [[defects]] tables (none: a healthy machine, `defects = []`)
+    if "defects" not in raw:
+        raise CaseError("defects", "missing ([[defects]] tables, or `defects = []` for a healthy machine)", source)
+    if not _type_ok("table[]", raw["defects"]):
+        raise CaseError("defects", "must be an array of tables ([[defects]])", source)
+    for i, d in enumerate(raw["defects"]):
+        kind = d.get("race") if isinstance(d, dict) else None
+        optional = tuple(k for k, kinds in _KIND_KEYS.items() if kind not in kinds)
+        _check_table(f"defects[{i}]", d, SCHEMA["defects[]"], source, optional=optional)
+        for k in optional:
+            if k in d:
+                raise CaseError(f"defects[{i}].{k}", f"only for race = {' or '.join(map(repr, _KIND_KEYS[k]))} "
+                                f"(this one is {kind!r})", source)
+    # bearings.de / bearings.nde
+    if "bearings" not in raw:
+        raise CaseError("bearings", "missing section", source)
+    brg = raw["bearings"]
+    if not isinstance(brg, dict):
+        raise CaseError("bearings", "must be a table with sub-tables de and nde", source)
+    for name in brg:
+        if name not in BEARING_NAMES:
+            raise CaseError(f"bearings.{name}", "unknown bearing (allowed: de, nde)", source)
+    for name in BEARING_NAMES:
+        if name not in brg:
+            raise CaseError(f"bearings.{name}", "missing", source)
+        _check_table(f"bearings.{name}", brg[name], SCHEMA["bearings.*"], source)
+    # housings
+    hs = raw.get("housings")
+    if hs is None:
+        raise CaseError("housings", "missing (two [[housings]] tables: de and nde)", source)
+    if not _type_ok("table[]", hs):
+        raise CaseError("housings", "must be an array of tables ([[housings]])", source)
+    for i, h in enumerate(hs):
+        _check_table(f"housings[{i}]", h, SCHEMA["housings[]"], source)
+    names = [h["name"] for h in hs]
+    if sorted(names) != ["de", "nde"]:
+        raise CaseError("housings", f"need exactly one housing named 'de' and one named 'nde' (got {names})", source)
+    for i, d in enumerate(raw["rotor"]["disks"]):
+        _check_table(f"rotor.disks[{i}]", d, SCHEMA["rotor.disks[]"], source)
+    _check_cross(raw, source)
+
+
+def _check_cross(raw: dict, source: str) -> None:
+    b = raw["bearing"]
+    if b["ball_diameter_m"] >= b["pitch_diameter_m"]:
+        raise CaseError("bearing.ball_diameter_m", f"must be smaller than bearing.pitch_diameter_m "
+                        f"({b['ball_diameter_m']} >= {b['pitch_diameter_m']})", source)
+    if not b["bore_diameter_m"] < b["pitch_diameter_m"] < b["outer_diameter_m"]:
+        raise CaseError("bearing.pitch_diameter_m", "must lie between bearing.bore_diameter_m and "
+                        "bearing.outer_diameter_m", source)
+    if b["n_balls"] * b["ball_diameter_m"] >= math.pi * b["pitch_diameter_m"]:
+        raise CaseError("bearing.n_balls", f"{b['n_balls']} balls of {b['ball_diameter_m']} m do not fit on the "
+                        f"pitch circle of {b['pitch_diameter_m']} m", source)
+    # defect lengths against their surface
+    z_b = b["n_balls"]
+    r_out = (b["pitch_diameter_m"] + b["ball_diameter_m"] + b["diametral_clearance_m"] / 2.0) / 2.0
+    r_in = (b["pitch_diameter_m"] - b["ball_diameter_m"] - b["diametral_clearance_m"] / 2.0) / 2.0
+    for i, d in enumerate(raw["defects"]):
+        key = f"defects[{i}]"
+        if d["race"] == "ball":
+            if d["ball"] > z_b:
+                raise CaseError(f"{key}.ball", f"must be a ball number 1..{z_b} (got {d['ball']})", source)
+            if d["length_m"] >= b["ball_diameter_m"] * math.pi / 4:
+                raise CaseError(f"{key}.length_m", f"must be shorter than a quarter of the ball's circumference "
+                                f"({b['ball_diameter_m'] * math.pi / 4 * 1e3:.2f} mm): a longer pit meets both "
+                                f"races at once, outside this model (got {d['length_m'] * 1e3:g} mm)", source)
+            continue
+        radius = r_out if d["race"] == "outer" else r_in
+        circ = 2.0 * math.pi * radius
+        if d["length_m"] >= circ:
+            raise CaseError(f"{key}.length_m", f"must be shorter than the {d['race']}-race circumference "
+                            f"{circ * 1e3:.1f} mm (got {d['length_m'] * 1e3:g} mm)", source)
+        if d["length_m"] >= circ / z_b:
+            raise CaseError(f"{key}.length_m", f"must be shorter than one ball pitch along the {d['race']} race "
+                            f"({circ / z_b * 1e3:.2f} mm): longer spalls are outside this model "
+                            f"(got {d['length_m'] * 1e3:g} mm)", source)
+    # rotor geometry
+    r = raw["rotor"]
+    z = r["node_positions_m"]
+    n_nodes = len(z)
+    if n_nodes < 2:
+        raise CaseError("rotor.node_positions_m", "needs at least two shaft nodes", source)
+    if any(z1 <= z0 for z0, z1 in zip(z, z[1:])):
+        raise CaseError("rotor.node_positions_m", "must be strictly increasing", source)
+    for k in ("outer_diameters_m", "inner_diameters_m"):
+        if len(r[k]) != n_nodes - 1:
+            raise CaseError(f"rotor.{k}", f"needs one value per element: {n_nodes - 1} (got {len(r[k])})", source)
+    for i, (do, di) in enumerate(zip(r["outer_diameters_m"], r["inner_diameters_m"])):
+        if di >= do:
+            raise CaseError("rotor.inner_diameters_m", f"element {i + 1}: inner diameter {di} must be smaller "
+                            f"than the outer diameter {do}", source)
+    shaft_nodes = set(range(1, n_nodes + 1))
+    for i, dk in enumerate(r["disks"]):
+        if dk["node"] not in shaft_nodes:
+            raise CaseError(f"rotor.disks[{i}].node", f"must be a shaft node 1..{n_nodes} (got {dk['node']})", source)
+    housing_nodes = {h["name"]: h["node"] for h in raw["housings"]}
+    for name, h_node in housing_nodes.items():
+        if h_node in shaft_nodes:
+            raise CaseError(f"housings.{name}.node", f"{h_node} is a shaft node; housings need their own node "
+                            f"label > {n_nodes}", source)
+    if len(set(housing_nodes.values())) != 2:
+        raise CaseError("housings", "the two housings need different nodes", source)
+    for name in BEARING_NAMES:
+        e = raw["bearings"][name]
+        if e["rotor_node"] not in shaft_nodes:
+            raise CaseError(f"bearings.{name}.rotor_node", f"must be a shaft node 1..{n_nodes} "
+                            f"(got {e['rotor_node']})", source)
+        if e["housing_node"] != housing_nodes[name]:
+            raise CaseError(f"bearings.{name}.housing_node", f"must be the node of housing '{name}' "
+                            f"({housing_nodes[name]}, got {e['housing_node']})", source)
+    if raw["bearings"]["de"]["rotor_node"] == raw["bearings"]["nde"]["rotor_node"]:
+        raise CaseError("bearings.nde.rotor_node", "DE and NDE bearings must sit on different shaft nodes", source)
+    if raw["excitation"]["method"] == "four_dof" and any(d["race"] != "outer" for d in raw["defects"]):
+        raise CaseError("excitation.method", "'four_dof' models outer-race dents only; inner-race and ball defects "
+                        "need 'quasi_static'", source)
+    if raw["baseline"]["misalignment_node"] not in shaft_nodes:
+        raise CaseError("baseline.misalignment_node", f"must be a shaft node 1..{n_nodes} "
+                        f"(got {raw['baseline']['misalignment_node']})", source)
+
+
+# --------------------------------------------------------------------------- the Case object
+@dataclass
+class Case:
+    """A validated machine case.
+
+    Attributes
+    ----------
+    name : str
+    source : str
+        Path of the file, or ``"embedded:<name>"``.
+    raw : dict
+        The parsed TOML (validated), the single source of truth for builders such as ``rotor_from_case``.
+    """
+
+    name: str
+    source: str
+    raw: dict
+
+    # -- loading --
+    @classmethod
+    def load(cls, name_or_path: str | Path | None = None) -> "Case":
+        """Load the embedded case ``name`` (default ``electric_motor_6010``) or a TOML file by path."""
+        if name_or_path is None:
+            name_or_path = DEFAULT_CASE
+        text, source, _base = read_input_text(name_or_path, "cases", "case", "case", CaseError)
+        return cls.from_toml(text, source=source)
+
+    @classmethod
+    def from_toml(cls, text: str, source: str = "") -> "Case":
+        return cls.from_dict(parse_toml(text, source, CaseError), source)
+
+    @classmethod
+    def from_dict(cls, raw: dict, source: str = "") -> "Case":
+        raw = copy.deepcopy(raw)
+        version = raw["case"].get("schema_version") if isinstance(raw.get("case"), dict) else None
+        if version == 1:
+            raw = migrate_v1(raw)
+        elif version == 2:
+            raw = migrate_v2(raw)
+        validate_case_dict({k: v for k, v in raw.items() if k != plausibility.SECTION}, source)
+        bad = plausibility.problem(raw)           # physical bounds (unit slips) and computing limits
+        if bad is not None:
+            raise CaseError(*bad, source)
+        return cls(name=raw["case"]["name"], source=source, raw=raw)
+
+    # -- identity --
+    @property
+    def case_hash(self) -> str:
+        """SHA-256 (first 16 hex digits) of the canonical JSON of the parameters: the case identity."""
+        blob = json.dumps(self.raw, sort_keys=True, separators=(",", ":")).encode()
+        return hashlib.sha256(blob).hexdigest()[:16]
+
+    # -- builders --
+    def bearing_geometry(self) -> BearingGeometry:
+        b = self.raw["bearing"]
+        return BearingGeometry(
+            designation=b["designation"],
+            ball_diameter_m=float(b["ball_diameter_m"]),
+            pitch_diameter_m=float(b["pitch_diameter_m"]),
+            n_balls=int(b["n_balls"]),
+            diametral_clearance_m=float(b["diametral_clearance_m"]),
+            inner_conformity=float(b["inner_conformity"]),
+            outer_conformity=float(b["outer_conformity"]),
+            contact_angle_rad=math.radians(b["contact_angle_deg"]),
+            youngs_modulus_pa=float(b["youngs_modulus_pa"]),
+            poisson_ratio=float(b["poisson_ratio"]),
+            bore_diameter_m=float(b["bore_diameter_m"]),
+            outer_diameter_m=float(b["outer_diameter_m"]),
+            static_load_rating_n=float(b["static_load_rating_n"]),
+            pressure_viscosity_m2_n=float(b["pressure_viscosity_m2_n"]),
+            dynamic_viscosity_pa_s=float(b["dynamic_viscosity_pa_s"]),
+            first_ball_angle_rad=math.radians(b["first_ball_angle_deg"]),
+        )
+
+    def defects(self, location: str | None = None) -> list[Dent]:
+        """The case's defects (``[[defects]]``), all or those of bearing ``location`` (``"de"``/``"nde"``)."""
+        out = []
+        for d in self.raw["defects"]:
+            if location is not None and d["bearing"] != location:
+                continue
+            out.append(Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]),
+                            angle_rad=math.radians(d["angle_deg"]), edge_fraction=float(d["edge_fraction"]),
+                            bearing=d["bearing"], race=d["race"], edge=d["edge"],
+                            ball_index=int(d.get("ball", 1)) - 1))
+        return out
+
+    def dent(self) -> Dent:
+        """The first defect (the single-defect view of earlier versions); a healthy case gives a depth-0 outer-race
+        placeholder of length 0 at the DE bearing (no ball feels it)."""
+        found = self.defects()
+        if found:
+            return found[0]
+        return Dent(length_m=0.0, depth_m=0.0, angle_rad=0.0, bearing="de", race="outer")
+
+    @property
+    def defect_depth_m(self) -> float:
+        """Depth of the first defect [m] (0 for a healthy case)."""
+        return float(self.raw["defects"][0]["depth_m"]) if self.raw["defects"] else 0.0
+
+    def with_defect_depth(self, depth_m: float) -> "Case":
+        """The same case with the first defect at another depth [m] (a healthy case accepts only 0)."""
+        if not self.raw["defects"]:
+            if float(depth_m) != 0.0:
+                raise CaseError("defects", "the case has no defect whose depth could change", self.source)
+            return self
+        return self.with_overrides({"defects.0.depth_m": float(depth_m)})
+
+    def bearing(self, location: str | None = None) -> Bearing:
+        """The bearing at ``location`` (``"de"``/``"nde"``; default: the faulty one) with its defects, if any."""
+        loc = self.faulty_bearing if location is None else location
+        return Bearing(self.bearing_geometry(), defects=self.defects(loc))
+
+    def four_dof_parameters(self) -> FourDofParameters:
+        """The 4-DOF model's parameters (``[excitation]``; the bearing damper from ``[bearing]``)."""
+        e = self.raw["excitation"]
+        fields = {k: e[k] for k in FourDofParameters.__dataclass_fields__ if k in e}
+        return FourDofParameters(bearing_damping_n_s_m=float(self.raw["bearing"]["damping_n_s_m"]), **fields)
+
+    def axial_load_n(self, location: str) -> float:
+        """Axial load of bearing ``location`` [N]."""
+        return float(self.raw["bearings"][location]["axial_load_n"])
+
+    @property
+    def bearing_damping_n_s_m(self) -> float:
+        """The viscous damper across each bearing [N s/m]."""
+        return float(self.raw["bearing"]["damping_n_s_m"])
+
+    @property
+    def gravity_m_s2(self) -> float:
+        return float(self.raw["excitation"]["gravity_m_s2"])
+
+    @property
+    def max_frequency_hz(self) -> float:
+        """Highest frequency the model must serve [Hz]: half the case's highest sample rate, or the highest kept
+        order at the highest speed if that is more (the FE mesh is converged up to it)."""
+        op, ex = self.raw["operating"], self.raw["excitation"]
+        top = ex["max_order"] * self.bearing().fault_multipliers().bpfo * op["max_speed_hz"]
+        return float(max(0.5 * op["max_sample_rate_hz"], top))
+
+    @property
+    def faulty_bearing(self) -> str:
+        """The bearing of the first defect (``"de"`` for a healthy case)."""
+        return self.raw["defects"][0]["bearing"] if self.raw["defects"] else "de"
+
+    @property
+    def baseline(self) -> dict:
+        """``[baseline]``: unbalance, misalignment and electrical settings (docs/faults.md)."""
+        return dict(self.raw["baseline"])
+
+    @property
+    def max_speed_hz(self) -> float:
+        return float(self.raw["operating"]["max_speed_hz"])
+
+    def with_overrides(self, overrides: dict) -> "Case":
+        """A new validated case with ``{"section.key": value}`` overrides (e.g. ``{"defects.0.depth_m": 20e-6}``:
+        an integer picks an entry of an array of tables; ``dent.<key>``, the single defect of schema 2, is the first
+        defect)."""
+        raw = copy.deepcopy(self.raw)
+        for dotted, value in overrides.items():
+            if dotted.startswith("dent.") and raw["defects"]:       # schema 2's single [dent]: the first defect
+                dotted = "defects.0." + dotted[5:]
+            *path, last = dotted.split(".")
+            node = raw
+            for p in path:
+                if isinstance(node, list) and p.isdigit() and int(p) < len(node):
+                    node = node[int(p)]
+                    continue
+                if not isinstance(node, dict) or p not in node or not isinstance(node[p], (dict, list)):
+                    raise CaseError(dotted, "unknown key", self.source)
+                node = node[p]
+            optional = len(path) == 1 and last in _OPTIONAL.get(path[0], ())
+            if not isinstance(node, dict) or (last not in node and not optional):
+                raise CaseError(dotted, "unknown key", self.source)
+            node[last] = value
+        return Case.from_dict(raw, self.source + " (overridden)")
+
+    def ground_truth(self) -> dict:
+        """What a labelled data set needs: bearing designation and geometry, every defect (kind, bearing, size,
+        position, fault-frequency multiplier), the machine baseline, case identity.
+
+        ``defects``: one entry per ``[[defects]]`` table, with ``fault_frequency`` (``"bpfo"``, ``"bpfi"`` or
+        ``"bsf"``) and ``fault_multiplier`` [Hz per shaft Hz] of its textbook signature (a ball defect strikes at
+        2 x BSF: ``strike_multiplier``). ``defect``: the first one (as in earlier versions; ``None`` if healthy).
+        """
+        g = self.bearing_geometry()
+        fm = Bearing(g).fault_multipliers()
+        name = {"outer": "bpfo", "inner": "bpfi", "ball": "bsf"}
+        strike = {"outer": fm.bpfo, "inner": fm.bpfi, "ball": 2.0 * fm.bsf}
+        defects = []
+        for d in self.defects():
+            entry = {"kind": d.race, "bearing": d.bearing, "race": d.race, "length_m": d.length_m,
+                     "depth_m": d.depth_m, "angle_rad": d.angle_rad, "edge": d.edge,
+                     "fault_frequency": name[d.race], "fault_multiplier": getattr(fm, name[d.race]),
+                     "strike_multiplier": strike[d.race]}
+            if d.race == "ball":
+                entry["ball"] = d.ball_index + 1
+            defects.append(entry)
+        first = defects[0] if defects else None
+        return {
+            "case": self.name,
+            "case_hash": self.case_hash,
+            "bearing_designation": g.designation,
+            "bearing_geometry": {
+                "ball_diameter_m": g.ball_diameter_m, "pitch_diameter_m": g.pitch_diameter_m,
+                "n_balls": g.n_balls, "diametral_clearance_m": g.diametral_clearance_m,
+                "contact_angle_rad": g.contact_angle_rad,
+            },
+            "healthy": not any(d["depth_m"] > 0 for d in defects),
+            "defects": defects,
+            "defect": None if first is None else {k: first[k] for k in ("bearing", "race", "length_m", "depth_m",
+                                                                       "angle_rad")},
+            "baseline": self.baseline,
+        }
+
+
+def embedded_cases() -> list[str]:
+    """Names of the cases shipped inside the package."""
+    return embedded_names("cases")

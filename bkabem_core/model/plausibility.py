@@ -1,0 +1,234 @@
+"""Physical plausibility of case values, and the limits that keep a case computable in bounded time and memory.
+
+The schema (``bkabem_core.model.case``) checks types and signs; this module checks that a value is one a real machine
+can have, so that a unit slip is caught before it gives a plausible-looking but wrong result (a diameter in mm
+written as m, a speed in rpm written as Hz, a stiffness of 1e30, a dent 1e300 m deep), or a value the models
+cannot compute with (a zero gravity leaves the bearing unloaded; 1e-300 kg has no equilibrium; 1e9 s of settling
+never ends; 1e9 samples per ball pass do not fit in memory).
+
+:data:`BOUNDS` maps ``"section.key"`` to ``(low, high, why)`` (inclusive, SI units as the key says). Keys of
+tables in arrays are written ``housings[].mass_kg``, ``rotor.disks[].mass_kg``, ``bearings.*.stiffness_vertical_n_m``
+(every element is checked and named, e.g. ``rotor.disks[3].mass_kg``); an array value (``rotor.outer_diameters_m``)
+is checked element by element. Bounds of keys a case does not have are skipped (the schema decides what exists).
+
+Computing limits (:func:`cost_problem`), two derived quantities with bounds of their own: the 4-DOF integration
+covers the settling time and the recorded cage periods, about 35 ms of computing per ball pass on the project
+machine: ``excitation.ball_passes`` = settle_time_s x BPFO at the reference speed + record_cage_periods x n_balls,
+at most 5000 (~3 min); it records ``excitation.recorded_samples`` = record_cage_periods x n_balls x
+samples_per_ball_pass samples of 8 states, at most 2^22 (~270 MB).
+
+**Override.** A case that really is outside a bound says so explicitly, in a ``[plausibility]`` table of the case
+file, with new bounds for that key::
+
+    [plausibility]
+    "rotor.density_kg_m3" = [500.0, 40000.0]      # tungsten-loaded rotor
+    "excitation.settle_time_s" = [0.0, 60.0]
+
+An override key that is not in :data:`BOUNDS` is an error (a typo must not switch a check off silently).
+"""
+
+from __future__ import annotations
+
+import math
+
+SECTION = "plausibility"
+
+_UNIT_SLIP = " (a unit slip? SI units, as the key's suffix says)"
+#: Bounds that limit computing rather than physics: no unit-slip hint.
+_COMPUTING = frozenset({"bearings.*.axial_load_ratio", "excitation.settle_time_s", "excitation.record_cage_periods", "excitation.samples_per_ball_pass",
+                        "excitation.atol_m", "excitation.ball_passes", "excitation.recorded_samples"})
+
+_SUPPORT_STIFFNESS = (1e3, 1e11, "supports are 1e3 .. 1e11 N/m")
+_SUPPORT_DAMPING = (0.0, 1e8, "support damping is 0 .. 1e8 N s/m")
+_BEARING_STIFFNESS = (1e5, 1e11, "ball bearing stiffnesses are 1e5 .. 1e11 N/m")
+_BEARING_DAMPING = (0.0, 1e7, "bearing damping is 0 .. 1e7 N s/m")
+_HOUSING_MASS = (1e-2, 1e5, "housings weigh 10 g .. 100 t")
+_DISK_INERTIA = (0.0, 1e5, "disk inertias are 0 .. 1e5 kg m^2")
+
+#: "section.key" -> (low, high, why): inclusive physical bounds.
+BOUNDS: dict[str, tuple[float, float, str]] = {
+    # bearing geometry and material (deep-groove ball bearings from miniature to large slewing sizes)
+    "bearing.bore_diameter_m": (1e-3, 2.0, "ball bearing bores are 1 mm .. 2 m"),
+    "bearing.outer_diameter_m": (2e-3, 3.0, "ball bearing outer diameters are 2 mm .. 3 m"),
+    "bearing.pitch_diameter_m": (1.5e-3, 2.5, "ball bearing pitch diameters are 1.5 mm .. 2.5 m"),
+    "bearing.ball_diameter_m": (0.3e-3, 0.3, "rolling balls are 0.3 mm .. 300 mm"),
+    "bearing.n_balls": (3, 200, "3 .. 200 balls"),
+    "bearing.diametral_clearance_m": (0.0, 1e-3, "diametral clearances are 0 .. 1 mm (C5 of large bearings ~0.3 mm)"),
+    "bearing.inner_conformity": (0.5, 0.7, "groove radius / ball diameter is 0.5 .. 0.7 (typically 0.51-0.54)"),
+    "bearing.outer_conformity": (0.5, 0.7, "groove radius / ball diameter is 0.5 .. 0.7 (typically 0.51-0.54)"),
+    "bearing.static_load_rating_n": (10.0, 1e8, "static load ratings are 10 N .. 100 MN"),
+    "bearing.youngs_modulus_pa": (1e9, 1e12, "bearing materials are 1 GPa (polymers) .. 1 TPa (ceramics ~0.3 TPa)"),
+    "bearing.pressure_viscosity_m2_n": (0.0, 1e-7, "pressure-viscosity coefficients are 0 .. 1e-7 m^2/N "
+                                                   "(mineral oils ~2e-8)"),
+    "bearing.dynamic_viscosity_pa_s": (0.0, 10.0, "lubricant viscosities are 0 .. 10 Pa s"),
+    "bearing.damping_n_s_m": _BEARING_DAMPING,
+    # the defects (schema 3; a schema-2 [dent] is migrated to the first entry)
+    "defects[].length_m": (1e-6, 0.1, "dents are 1 um .. 100 mm long"),
+    "defects[].depth_m": (0.0, 1e-3, "dents are 0 .. 1 mm deep"),
+    # the machine baseline
+    "baseline.unbalance_grade_mm_s": (0.0, 4000.0, "ISO 21940-11 balance grades are G 0.4 .. G 4000 mm/s (0 = off; "
+                                                   "electric motors G 2.5-6.3)"),
+    "baseline.misalignment_force_n": (0.0, 1e6, "misalignment forces are 0 .. 1 MN"),
+    "baseline.electrical_force_n": (0.0, 1e6, "magnetic pull forces are 0 .. 1 MN"),
+    "baseline.broadband_force_n_per_sqrt_hz": (0.0, 100.0, "broadband bearing forces are 0 .. 100 N/sqrt(Hz) "
+                                                          "(roughness of a new bearing: ~0.01-0.05; docs/faults.md)"),
+    "baseline.line_frequency_hz": (1.0, 1000.0, "supply frequencies are 1 .. 1000 Hz (grids 50/60 Hz, drives up "
+                                                "to a few hundred)"),
+    # the 4-DOF excitation model
+    "excitation.rotor_mass_kg": (1e-2, 1e5, "rotors weigh 10 g .. 100 t"),
+    "excitation.housing_mass_kg": _HOUSING_MASS,
+    "excitation.support_stiffness_n_m": _SUPPORT_STIFFNESS,
+    "excitation.support_damping_n_s_m": _SUPPORT_DAMPING,
+    "excitation.gravity_m_s2": (1.0, 100.0, "the 4-DOF model is loaded by the rotor's weight: 1 .. 100 m/s^2 "
+                                            "(0 leaves the bearing unloaded, without an equilibrium)"),
+    "excitation.reference_speed_hz": (0.1, 1000.0, "the 4-DOF reference speed is 0.1 .. 1000 Hz (its integration "
+                                                   "time grows as 1 / speed)"),
+    "excitation.settle_time_s": (0.0, 60.0, "settling is integrated: 0 .. 60 s (and at most excitation.ball_passes)"),
+    "excitation.record_cage_periods": (1, 64, "1 .. 64 cage periods are recorded for the FFT"),
+    "excitation.samples_per_ball_pass": (64, 65536, "64 .. 65536 samples per ball pass (orders up to half of it)"),
+    "excitation.atol_m": (1e-18, 1e-6, "absolute tolerances on displacements are 1e-18 .. 1e-6 m"),
+    # derived: the cost of the 4-DOF integration (cost_problem)
+    "excitation.ball_passes": (0.0, 5000.0, "ball passes to integrate (~35 ms each: 5000 is ~3 min)"),
+    "excitation.recorded_samples": (0.0, float(1 << 22), "recorded samples of 8 states (2^22 is ~270 MB)"),
+    # FE bearing and support elements
+    "bearings.*.axial_load_n": (0.0, 1e7, "axial bearing loads are 0 .. 10 MN"),
+    # derived: axial load / bearing.static_load_rating_n (deep-groove ball bearings carry ~0.5 C0 axially)
+    "bearings.*.axial_load_ratio": (0.0, 1.0, "the axial load is at most the static load rating "
+                                              "bearing.static_load_rating_n"),
+    "bearings.*.table_stiffness_vertical_n_m": _BEARING_STIFFNESS,
+    "bearings.*.table_stiffness_horizontal_n_m": _BEARING_STIFFNESS,
+    "bearings.*.table_damping_vertical_n_s_m": _BEARING_DAMPING,
+    "bearings.*.table_damping_horizontal_n_s_m": _BEARING_DAMPING,
+    "housings[].mass_kg": _HOUSING_MASS,
+    "housings[].support_stiffness_vertical_n_m": _SUPPORT_STIFFNESS,
+    "housings[].support_stiffness_horizontal_n_m": _SUPPORT_STIFFNESS,
+    "housings[].support_damping_vertical_n_s_m": _SUPPORT_DAMPING,
+    "housings[].support_damping_horizontal_n_s_m": _SUPPORT_DAMPING,
+    # the FE rotor
+    "rotor.youngs_modulus_pa": (1e9, 1e12, "shaft materials are 1 GPa .. 1 TPa (steel 206 GPa)"),
+    "rotor.density_kg_m3": (500.0, 25000.0, "shaft materials are 500 .. 25000 kg/m^3 (steel 7850)"),
+    "rotor.damping_reference_hz": (0.1, 1e5, "damping reference frequencies are 0.1 Hz .. 100 kHz"),
+    "rotor.node_positions_m": (-20.0, 20.0, "shaft nodes lie within 20 m"),
+    "rotor.outer_diameters_m": (1e-3, 2.0, "shaft diameters are 1 mm .. 2 m"),
+    "rotor.inner_diameters_m": (0.0, 2.0, "bore diameters are 0 .. 2 m"),
+    "rotor.disks[].mass_kg": (1e-6, 1e5, "disks weigh 1 mg .. 100 t"),
+    "rotor.disks[].polar_inertia_kg_m2": _DISK_INERTIA,
+    "rotor.disks[].diametral_inertia_kg_m2": _DISK_INERTIA,
+    # operation
+    "operating.max_speed_hz": (0.1, 2000.0, "shaft speeds are 0.1 .. 2000 Hz (120 000 rpm; a speed in rpm "
+                                            "written as Hz?)"),
+    "operating.max_sample_rate_hz": (100.0, 1e6, "sensor sample rates are 100 Hz .. 1 MHz (the FE mesh is refined "
+                                                 "up to the frequency it needs)"),
+}
+
+
+def _bounds_with_overrides(raw: dict) -> tuple[dict, tuple[str, str] | None]:
+    bounds = dict(BOUNDS)
+    ov = raw.get(SECTION)
+    if ov is None:
+        return bounds, None
+    if not isinstance(ov, dict):
+        return bounds, (SECTION, 'must be a table of "section.key" = [low, high]')
+    for key, value in ov.items():
+        name = f'{SECTION}."{key}"'
+        if key not in BOUNDS:
+            return bounds, (name, f"no plausibility bound of that name (known: {', '.join(sorted(BOUNDS))})")
+        ok = (isinstance(value, list) and len(value) == 2
+              and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+              and value[0] <= value[1])
+        if not ok:
+            return bounds, (name, f"must be [low, high] with finite low <= high (got {value!r})")
+        bounds[key] = (float(value[0]), float(value[1]), f"overridden in the case's [{SECTION}] table")
+    return bounds, None
+
+
+def _values(raw: dict, dotted: str):
+    """(concrete key, value) for every occurrence of a bound's key in the case; none when it does not exist."""
+    section, _, key = dotted.rpartition(".")
+    if section.endswith("[]"):                        # housings[], rotor.disks[]
+        path = section[:-2].split(".")
+        node = raw
+        for p in path:
+            node = node.get(p) if isinstance(node, dict) else None
+        if isinstance(node, list):
+            for i, item in enumerate(node):
+                if isinstance(item, dict) and key in item:
+                    yield f"{section[:-2]}[{i}].{key}", item[key]
+        return
+    if section.endswith(".*"):                        # bearings.*
+        node = raw.get(section[:-2])
+        if isinstance(node, dict):
+            for name, item in node.items():
+                if isinstance(item, dict) and key in item:
+                    yield f"{section[:-2]}.{name}.{key}", item[key]
+        return
+    node = raw.get(section)
+    if isinstance(node, dict) and key in node:
+        yield dotted, node[key]
+
+
+def _fmt(v: float) -> str:
+    return f"{v:g}"
+
+
+def problem(raw: dict) -> tuple[str, str] | None:
+    """The first implausible value of a schema-valid case as ``(key, reason)``, or None."""
+    bounds, bad = _bounds_with_overrides(raw)
+    if bad is not None:
+        return bad
+    for dotted, (lo, hi, why) in bounds.items():
+        for key, value in _values(raw, dotted):
+            for v in (value if isinstance(value, list) else [value]):
+                if isinstance(v, bool) or not isinstance(v, (int, float)):
+                    continue                          # the schema reports types
+                if not lo <= v <= hi:
+                    return key, (f"{v!r} is outside [{_fmt(lo)}, {_fmt(hi)}]: {why}"
+                                 + (_UNIT_SLIP if "overridden" not in why and dotted not in _COMPUTING else "")
+                                 + f'; if it is right, widen it in the case: [{SECTION}] "{dotted}" = [low, high]')
+    return relation_problem(raw, bounds) or cost_problem(raw, bounds)
+
+
+def relation_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] | None:
+    """Bounds on ratios of two keys (``bearings.*.axial_load_ratio``), or None (also when a key does not exist)."""
+    bounds = BOUNDS if bounds is None else bounds
+    c0 = raw.get("bearing", {}).get("static_load_rating_n") if isinstance(raw.get("bearing"), dict) else None
+    if not isinstance(c0, (int, float)) or isinstance(c0, bool) or not c0 > 0:
+        return None
+    lo, hi, why = bounds["bearings.*.axial_load_ratio"]
+    for key, fa in _values(raw, "bearings.*.axial_load_n"):
+        if isinstance(fa, (int, float)) and not isinstance(fa, bool) and not lo <= fa / c0 <= hi:
+            return key, (f"{fa!r} N is {fa / c0:.3g} x bearing.static_load_rating_n ({c0:g} N), outside "
+                         f"[{_fmt(lo)}, {_fmt(hi)}]: {why}{_UNIT_SLIP}; if it is right, widen it in the case: "
+                         f'[{SECTION}] "bearings.*.axial_load_ratio" = [low, high]')
+    return None
+
+
+def cost_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] | None:
+    """The 4-DOF computing limits (``excitation.ball_passes``, ``excitation.recorded_samples``; see the module
+    docstring), or None (also when the keys they are made of do not exist)."""
+    bounds = BOUNDS if bounds is None else bounds
+    try:
+        b, e = raw["bearing"], raw["excitation"]
+        d, pd, z = float(b["ball_diameter_m"]), float(b["pitch_diameter_m"]), int(b["n_balls"])
+        alpha = math.radians(float(b["contact_angle_deg"]))
+        f_ref = float(e["reference_speed_hz"])
+        settle, periods, per_pass = float(e["settle_time_s"]), int(e["record_cage_periods"]), \
+            int(e["samples_per_ball_pass"])
+    except (KeyError, TypeError, ValueError):
+        return None
+    override = f'widen it in the case: [{SECTION}] "%s" = [low, high]'
+    n_rec = periods * z * per_pass
+    lo, hi, why = bounds["excitation.recorded_samples"]
+    if not lo <= n_rec <= hi:
+        return ("excitation.samples_per_ball_pass",
+                f"record_cage_periods x n_balls x samples_per_ball_pass = {periods} x {z} x {per_pass} = {n_rec} "
+                f"recorded samples, more than {_fmt(hi)}: {why}; " + override % "excitation.recorded_samples")
+    f_bp = z * 0.5 * (1.0 - d / pd * math.cos(alpha)) * f_ref
+    passes = settle * f_bp + periods * z
+    lo, hi, why = bounds["excitation.ball_passes"]
+    if not lo <= passes <= hi:
+        return ("excitation.settle_time_s",
+                f"settle_time_s {settle:g} s at reference_speed_hz {f_ref:g} Hz + {periods} cage period(s) = "
+                f"{passes:.0f} ball passes to integrate, more than {_fmt(hi)}: {why}; "
+                + override % "excitation.ball_passes")
+    return None

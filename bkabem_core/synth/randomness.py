@@ -1,0 +1,188 @@
+"""The synthesiser's randomness, indexed by absolute position so that chunking never changes it.
+
+:class:`_SlipWalk` is the random walk of the ball-pass phase (random slip, Antoni & Randall), :class:`_NoiseBlocks`
+the sensor noise, both generated in seeded blocks. Units: ball passes, standard normal numbers.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+
+import numpy as np
+
+from bkabem_core.synth import kernel as synth_kernel
+from bkabem_core.synth.features import _FOLD
+
+
+class _SlipWalk:
+    """Random walk W_j of the ball-pass phase [passes] at integer nominal passes j (W_j = 0 for j <= 0).
+
+    ``W_{j+1} - W_j ~ N(0, sigma^2)`` i.i.d.: the j-th inter-arrival lasts ``1 - (W_{j+1} - W_j)`` nominal passes,
+    i.e. a relative jitter of standard deviation ``sigma`` (Antoni & Randall's random slip). Increments come in
+    blocks of 2^14 passes, each from its own seeded generator, so values depend only on (seed, j).
+    """
+
+    BLOCK = 1 << 14
+
+    def __init__(self, sigma: float, seed: int):
+        self.sigma = float(sigma)
+        self.seed = int(seed)
+        self.reset()
+
+    def reset(self):
+        self._blocks: OrderedDict[int, np.ndarray] = OrderedDict()
+        self._next_block = 0
+        self._next_start = 0.0
+
+    def _block(self, b: int) -> np.ndarray:
+        if b in self._blocks:
+            return self._blocks[b]
+        if b < self._next_block:                         # went back beyond the kept blocks: replay
+            self.reset()
+        while self._next_block <= b:
+            rng = np.random.default_rng(np.random.SeedSequence([self.seed, 0x51117, self._next_block]))
+            eps = self.sigma * rng.standard_normal(self.BLOCK)
+            w = np.empty(self.BLOCK)
+            w[0] = 0.0
+            np.cumsum(eps[:-1], out=w[1:])
+            w += self._next_start
+            self._next_start = float(w[-1] + eps[-1])
+            self._blocks[self._next_block] = w
+            self._next_block += 1
+            while len(self._blocks) > 3:
+                self._blocks.popitem(last=False)
+        return self._blocks[b]
+
+    def values(self, j0: int, j1: int) -> np.ndarray:
+        """W_j for j in [j0, j1] (inclusive)."""
+        out = np.zeros(j1 - j0 + 1)
+        lo = max(j0, 0)
+        j = lo
+        while j <= j1:
+            b = j // self.BLOCK
+            blk = self._block(b)
+            s = j - b * self.BLOCK
+            e = min(self.BLOCK, j1 - b * self.BLOCK + 1)
+            out[j - j0:j - j0 + e - s] = blk[s:e]
+            j += e - s
+        return out
+
+    def warp(self, u_int: int, u: np.ndarray) -> np.ndarray:
+        """W at absolute passes ``u_int + u`` (C1 cubic Hermite, Catmull-Rom slopes)."""
+        fl = np.floor(u)
+        j_lo, j_hi = int(fl[0]) if u.size else 0, int(fl[-1]) if u.size else 0
+        j_lo, j_hi = min(j_lo, int(fl.min())), max(j_hi, int(fl.max()))
+        w = self.values(u_int + j_lo - 1, u_int + j_hi + 2)
+        m = np.empty_like(w)
+        m[1:-1] = 0.5 * (w[2:] - w[:-2])
+        m[0], m[-1] = m[1], m[-2]
+        idx = fl.astype(np.intp) - (j_lo - 1)
+        t = u - fl
+        t2 = t * t
+        t3 = t2 * t
+        w0, w1 = w[idx], w[idx + 1]
+        m0, m1 = m[idx], m[idx + 1]
+        return (2 * t3 - 3 * t2 + 1) * w0 + (t3 - 2 * t2 + t) * m0 + (3 * t2 - 2 * t3) * w1 + (t3 - t2) * m1
+
+
+    def warp_fixed(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float,
+                   kappas=(1.0,)) -> list:
+        """Per ``kappa`` the (m,) int64 phase offsets of a segment's samples j0..j0+m-1 (ball passes since the knot
+        ``u = (c2 xi + c1) xi + u_frac``, speed >= 0 so u is monotonic), ``rint(frac(kappa W(u)) 2^52) 2^10``: the
+        Hermite warp of :meth:`warp` (Horner form per pass interval) and the fixed-point conversion in one C pass
+        for all factors (:func:`synth_kernel.slip_warp`, vectorised: ~5 us per 0.1-s chunk)."""
+        w, jw0 = self.window(u_int, j0, m, c1, c2, u_frac)
+        kap = list(kappas)
+        rows = []
+        for i in range(0, len(kap), 8):                  # the C kernel takes up to 8 factors per pass
+            rows.extend(synth_kernel.slip_warp(m, j0, c1, c2, u_frac, w, jw0, kap[i:i + 8]))
+        return rows
+
+    def window(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float):
+        """(W values, pass of the first) that :meth:`warp_fixed`'s samples need (the walk from one pass before
+        the first sample's to two after the last's)."""
+        u_lo = u_frac + (c2 * j0 + c1) * j0
+        xe = float(j0 + m - 1)
+        u_hi = (c2 * xe + c1) * xe + u_frac
+        j_lo, j_hi = int(math.floor(min(u_lo, u_hi))), int(math.floor(max(u_lo, u_hi)))
+        return self.values(u_int + j_lo - 1, u_int + j_hi + 2), j_lo - 1
+
+
+def noise_key(seed: int) -> int:
+    """The 64-bit key of the sensor-noise stream of ``seed`` (``_synthnoise.h``: the sample loop makes the normals
+    of absolute sample n from it, in blocks of 256 samples)."""
+    return int(np.random.SeedSequence([int(seed), _NoiseBlocks._TAG]).generate_state(1, np.uint64)[0])
+
+
+class _NoiseBlocks:
+    """Standard normal noise (n, C) indexed by absolute sample, in seeded blocks: the fallback when the C kernel is
+    not built (numpy's generator; block b from ``SeedSequence([seed, tag, b])``), another, equally valid,
+    realisation for the same seed. With the kernel the noise is made inside the sample loop (:func:`noise_key`)."""
+
+    BLOCK = 1 << 13
+    _TAG = 0x4015E
+
+    def __init__(self, seed: int, n_channels: int, dtype):
+        self.seed, self.c, self.dtype = int(seed), int(n_channels), dtype
+        self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
+
+    def _block(self, b: int) -> np.ndarray:
+        z = self._cache.get(b)
+        if z is None:
+            seq = np.random.SeedSequence([self.seed, self._TAG, b])
+            dt = np.float32 if self.dtype == np.float32 else np.float64
+            z = np.random.default_rng(seq).standard_normal((self.BLOCK, self.c), dtype=dt)
+            self._cache[b] = z
+            while len(self._cache) > 4:
+                self._cache.popitem(last=False)
+        return z
+
+    def get(self, n0: int, n: int) -> np.ndarray:
+        out = np.empty((n, self.c), dtype=self.dtype)
+        i = n0
+        while i < n0 + n:
+            b = i // self.BLOCK
+            s = i - b * self.BLOCK
+            e = min(self.BLOCK, n0 + n - b * self.BLOCK)
+            out[i - n0:i - n0 + e - s] = self._block(b)[s:e]
+            i += e - s
+        return out
+
+
+class NoisePath:
+    """The :class:`~bkabem_core.synth.synthesizer.Synthesizer`'s methods for the sensor noise (a mixin: it reads the synthesiser's
+    state; with the C kernel the noise is made inside the sample loop from :meth:`_segment_noise`, without it numpy's
+    blocks are added after the samples)."""
+
+    def _segment_noise(self, a: "_Knot", b: "_Knot", lo: int):
+        """(key, first sample, sigma per channel in the samples' dtype) of the noise of a segment starting at
+        sample lo: the density's sigma, or with ``snr_db`` the segment's dynamic RMS / 10^(snr/20)."""
+        if self.snr_db is None:
+            return self._noise_key, lo, self._noise_sigma_t
+        g = 10 ** (-self.snr_db / 20)
+        sigma = g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
+        return self._noise_key, lo, np.ascontiguousarray(sigma, dtype=self.dtype)
+
+    @staticmethod
+    def _add_scaled(out: np.ndarray, z: np.ndarray, sigma: np.ndarray) -> None:
+        """out += z * sigma (per channel), rows folded (see _FOLD)."""
+        m, c = out.shape
+        q = m // _FOLD * _FOLD
+        sig = sigma.astype(out.dtype)
+        if q:
+            zz = z[:q].reshape(-1, _FOLD * c)
+            zz *= np.tile(sig, _FOLD)
+            out[:q].reshape(-1, _FOLD * c)[...] += zz
+        if q < m:
+            out[q:] += z[q:] * sig
+
+    def _add_noise(self, n0: int, n: int, out: np.ndarray) -> None:
+        z = self._noise.get(n0, n)
+        if self.snr_db is None:
+            self._add_scaled(out, z, self._noise_sigma)
+            return
+        g = 10 ** (-self.snr_db / 20)
+        for a, b, lo, hi in self._segments(n0, n):
+            sigma = g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
+            self._add_scaled(out[lo - n0:hi - n0], z[lo - n0:hi - n0], sigma)

@@ -1,0 +1,1 @@
+"""bkabem_ros/cli"""

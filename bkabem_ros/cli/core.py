@@ -1,0 +1,456 @@
+"""The core commands of ``bkabem``: ``excitation``, ``spectrum``, ``sweep``, ``validate`` and ``demo``.
+
+They parse, call ``bkabem_core`` and print; none imports rclpy (``demo`` only for its ROS part, after the core
+part). Field names of the JSON outputs follow the contract in ``architecture.md``. Errors follow the contract
+of :mod:`bkabem_ros.cli.base` (one line naming the argument or case key, exit code 2).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import sys
+import time
+
+import numpy as np
+
+from bkabem_ros.cli.base import UsageError, check_output_dir, finite_float, output_path, pos_int, writing
+
+#: validate: below 1 Hz one BPFO period of the TDSM reference takes minutes of computing; the TDSM output grows
+#: with the simulated time (~10 s of computing and ~100 MB per simulated second).
+VALIDATE_MIN_SPEED_HZ = 1.0
+VALIDATE_MAX_DURATION_S = 20.0
+
+# --------------------------------------------------------------------------- helpers
+def _load_case(path):
+    from bkabem_core.model.case import Case
+
+    return Case.load(path)
+
+
+def _model(case, solver="modal"):
+    from bkabem_core.solve.harmonic import BkaBem
+
+    return BkaBem(case, solver=solver)
+
+
+def _numbers(obj):
+    """Every float in a JSON-like object."""
+    if isinstance(obj, float):
+        yield obj
+    elif isinstance(obj, dict):
+        for v in obj.values():
+            yield from _numbers(v)
+    elif isinstance(obj, (list, tuple)):
+        for v in obj:
+            yield from _numbers(v)
+
+
+def _print_json(obj) -> None:
+    json.dump(obj, sys.stdout, indent=1)
+    sys.stdout.write("\n")
+
+
+def _excitation_table(ex, max_rows: int = 24) -> str:
+    d = ex.to_dict()
+    what = "quasi-static excitation" if ex.method == "quasi_static" else \
+        f"4-DOF excitation at {ex.reference_speed_hz:g} Hz"
+    lines = [
+        f"{(ex.bearing or '').upper()} bearing, {what} under {ex.radial_load_n:.1f} N radial + {ex.axial_load_n:.0f} N "
+        f"axial  (BPFO {ex.bpfo_per_hz:.4f} x shaft Hz, clearance {ex.clearance_m * 1e6:.1f} um, "
+        f"{len(ex.orders)} orders kept of {len(ex.all_orders)}"
+        + (f"; {len(ex.lines)} lines of its defects, --json for all)" if ex.lines is not None else ")"),
+        f"  DC           vertical {d['dc_m']['vertical'] * 1e6:9.3f} um   horizontal "
+        f"{d['dc_m']['horizontal'] * 1e6:9.4f} um",
+        f"  peak-to-peak vertical {d['peak_to_peak_m']['vertical'] * 1e6:9.3f} um   horizontal "
+        f"{d['peak_to_peak_m']['horizontal'] * 1e6:9.4f} um",
+        f"  {'order':>5} {'f@ref [Hz]':>10} {'A_v [um]':>10} {'phi_v [rad]':>11} {'A_h [um]':>10} {'phi_h [rad]':>11}",
+    ]
+    for i, k in enumerate(ex.orders[:max_rows]):
+        lines.append(f"  {k:5d} {k * ex.bpfo_per_hz * ex.reference_speed_hz:10.3f} "
+                     f"{ex.amplitude_m['vertical'][i] * 1e6:10.4f} {ex.phase_rad['vertical'][i]:11.4f} "
+                     f"{ex.amplitude_m['horizontal'][i] * 1e6:10.4f} {ex.phase_rad['horizontal'][i]:11.4f}")
+    if len(ex.orders) > max_rows:
+        lines.append(f"  ... {len(ex.orders) - max_rows} more orders (--json for all)")
+    return "\n".join(lines)
+
+
+def _spectrum_table(sp, max_rows: int = 12) -> str:
+    from bkabem_core.solve.harmonic import LOCATIONS
+
+    ff = sp.fault_frequencies_hz
+    lines = [f"BKA-BEM spectrum at {sp.speed_hz:g} Hz shaft speed ({sp.speed_hz * 60:.0f} rpm): FTF {ff.ftf:.3f} Hz, "
+             f"BPFO {ff.bpfo:.3f} Hz, BPFI {ff.bpfi:.3f} Hz, BSF {ff.bsf:.3f} Hz"]
+    acc = np.abs(sp.acceleration)
+    disp = np.abs(sp.displacement)
+    head = "  " + f"{'order':>5} {'f [Hz]':>9}" + "".join(f" {loc + ' v/h [m/s2]':>27}" for loc in LOCATIONS)
+    lines.append(head)
+    for i, k in enumerate(sp.orders[:max_rows]):
+        row = f"  {k:5d} {sp.frequency_hz[i]:9.2f}"
+        for li in range(len(LOCATIONS)):
+            row += f" {acc[i, li, 0]:13.4e}/{acc[i, li, 1]:.4e}"
+        lines.append(row)
+    if len(sp.orders) > max_rows:
+        lines.append(f"  ... {len(sp.orders) - max_rows} more orders (--json for all)")
+    rms_a = np.sqrt(0.5 * np.sum(acc ** 2, axis=0))
+    rms_d = np.sqrt(0.5 * np.sum(disp ** 2, axis=0))
+    for li, loc in enumerate(LOCATIONS):
+        lines.append(f"  {loc:12s} overall RMS acceleration v/h {rms_a[li, 0]:.4e}/{rms_a[li, 1]:.4e} m/s2, "
+                     f"displacement v/h {rms_d[li, 0] * 1e6:.4f}/{rms_d[li, 1] * 1e6:.4f} um, "
+                     f"DC v/h {sp.dc_m[li, 0] * 1e6:.3f}/{sp.dc_m[li, 1] * 1e6:.4f} um")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- commands
+def cmd_excitation(args) -> int:
+    case = _load_case(args.case)
+    from bkabem_core.fe.machine import BEARINGS, Machine
+
+    machine = Machine(case, mesh=None)
+    names = BEARINGS if args.all_bearings else machine.excited_bearings()
+    exs = {n: machine.excitation(n, method=args.method) for n in names}
+    ex = exs.get(case.faulty_bearing, next(iter(exs.values())))
+    for n, e in exs.items():
+        _check_finite(f"excitation of the {n} bearing", list(_numbers(e.to_dict())))
+    if args.png:
+        from bkabem_core.analysis.plots import plot_excitation
+
+        with writing("--png", args.png):
+            plot_excitation(ex, args.png)
+    if args.json:
+        out = ex.to_dict()          # the faulty bearing's at the top level (CLI contract), every bearing below
+        out["bearings"] = {n: e.to_dict() for n, e in exs.items()}
+        _print_json(out)
+    else:
+        print("\n\n".join(_excitation_table(e) for e in exs.values()))
+        if args.png:
+            print(f"wrote {args.png}")
+    return 0
+
+
+def cmd_spectrum(args) -> int:
+    case = _load_case(args.case)
+    _check_speeds(case, [args.speed_hz], "--speed-hz")
+    model = _model(case)
+    sp = model.spectrum(args.speed_hz)
+    _check_finite(f"spectrum at {args.speed_hz:g} Hz", sp.displacement, sp.acceleration, sp.dc_m)
+    if args.png:
+        from bkabem_core.analysis.plots import plot_spectrum
+
+        with writing("--png", args.png):
+            plot_spectrum(sp, args.png)
+    if args.json:
+        _print_json(sp.to_dict())
+    else:
+        print(_spectrum_table(sp))
+        if args.png:
+            print(f"wrote {args.png}")
+    return 0
+
+
+#: Sweep sizes: streamed outputs (--csv, --jsonl, the table) hold one batch of speeds at a time; --json (one
+#: document) and --png (one figure) hold the whole sweep: ~6.4 kB of complex responses per speed.
+SWEEP_MAX_STEPS = 1_000_000
+SWEEP_MAX_STEPS_IN_MEMORY = 20_000
+SWEEP_BATCH = 256
+
+
+def _check_speeds(case, speeds_hz, argument: str) -> None:
+    """Shaft speeds must lie in the case's operating range (0 .. operating.max_speed_hz)."""
+    top = float(np.max(speeds_hz))
+    if top > case.max_speed_hz:
+        raise UsageError(f"{argument}: {top:g} Hz is above the case's operating.max_speed_hz ({case.max_speed_hz:g} Hz; "
+                         f"raise it in the case file if the machine runs faster)")
+
+
+def _check_finite(what: str, *arrays) -> None:
+    """The last check before anything is written: no NaN or inf leaves the command."""
+    for a in arrays:
+        a = np.asarray(a)
+        if a.size and not np.all(np.isfinite(a)):
+            raise UsageError(f"{what}: the result is not finite (NaN or inf); a case value or argument is outside "
+                             f"what the model can represent (check the units of the case)")
+
+
+def _sweep_batches(model, speeds, progress: bool):
+    """Yield (first index, Sweep of a batch of speeds)."""
+    starts = range(0, speeds.size, SWEEP_BATCH)
+    if progress:
+        from tqdm import tqdm
+
+        starts = tqdm(starts, desc="sweep", unit="batch", file=sys.stderr)
+    for i0 in starts:
+        sw = model.sweep(speeds[i0:i0 + SWEEP_BATCH])
+        _check_finite(f"sweep at {speeds[i0]:g}..{speeds[min(i0 + SWEEP_BATCH, speeds.size) - 1]:g} Hz",
+                      sw.displacement, sw.acceleration)
+        yield i0, sw
+
+
+def _sweep_fields(sw, si: int, li: int, di: int) -> dict:
+    disp, acc = sw.displacement[si, :, li, di], sw.acceleration[si, :, li, di]
+    return {"displacement_m": np.abs(disp).tolist(), "acceleration_m_s2": np.abs(acc).tolist(),
+            "phase_rad": np.angle(disp).tolist(),
+            "rms_acceleration_m_s2": float(np.sqrt(0.5 * np.sum(np.abs(acc) ** 2))),
+            "rms_displacement_m": float(np.sqrt(0.5 * np.sum(np.abs(disp) ** 2)))}
+
+
+def _write_sweep_json(out, sw, speeds, elapsed: float) -> None:
+    """The ``--json`` document (architecture.md's fields), written row by row: no Python lists of the whole sweep."""
+    from bkabem_core.excitation.quasi_static import DIRECTIONS
+    from bkabem_core.solve.harmonic import LOCATIONS
+
+    acc, disp = sw.acceleration, sw.displacement
+    rms_a, rms_d = sw.rms("acceleration"), sw.rms("displacement")
+    w = out.write
+    w('{\n "speeds_hz": ' + json.dumps(speeds.tolist()) + ',\n "orders": ' + json.dumps([int(k) for k in sw.orders])
+      + f',\n "bpfo_per_hz": {json.dumps(float(sw.bpfo_per_hz))},\n "wall_time_s": {json.dumps(elapsed)}')
+    for li, loc in enumerate(LOCATIONS):
+        w(f',\n "{loc}": {{')
+        for di, d in enumerate(DIRECTIONS):
+            w(("," if di else "") + f'\n  "{d}": {{')
+            for ai, (name, arr) in enumerate((("displacement_m", np.abs(disp[:, :, li, di])),
+                                              ("acceleration_m_s2", np.abs(acc[:, :, li, di])),
+                                              ("phase_rad", np.angle(disp[:, :, li, di])))):
+                w(("," if ai else "") + f'\n   "{name}": [')
+                for si in range(arr.shape[0]):
+                    w(("," if si else "") + "\n    " + json.dumps(arr[si].tolist()))
+                w("]")
+            w(',\n   "rms_acceleration_m_s2": ' + json.dumps(rms_a[:, li, di].tolist()))
+            w(',\n   "rms_displacement_m": ' + json.dumps(rms_d[:, li, di].tolist()) + "}")
+        w("}")
+    w("\n}\n")
+
+
+def cmd_sweep(args) -> int:
+    if args.to_hz < args.from_hz:
+        raise UsageError(f"--to-hz ({args.to_hz:g}) must be >= --from-hz ({args.from_hz:g})")
+    if (args.json or args.png) and args.steps > SWEEP_MAX_STEPS_IN_MEMORY:
+        raise UsageError(f"--steps: {args.steps} speeds is more than {SWEEP_MAX_STEPS_IN_MEMORY} for "
+                         f"{'--json' if args.json else '--png'} (one document/figure in memory); --csv and --jsonl "
+                         f"stream up to {SWEEP_MAX_STEPS}")
+    case = _load_case(args.case)
+    speeds = np.linspace(args.from_hz, args.to_hz, args.steps)
+    _check_speeds(case, speeds, "--to-hz")
+    model = _model(case)
+    from bkabem_core.excitation.quasi_static import DIRECTIONS
+    from bkabem_core.solve.harmonic import LOCATIONS, Sweep
+
+    progress = not (args.json or args.csv or args.jsonl) and sys.stderr.isatty()
+    t0 = time.perf_counter()
+    if args.json or args.png:                       # whole sweep (bounded by SWEEP_MAX_STEPS_IN_MEMORY)
+        parts = [sw for _, sw in _sweep_batches(model, speeds, progress)]
+        sw_all = Sweep(speeds_hz=speeds, orders=parts[0].orders, bpfo_per_hz=parts[0].bpfo_per_hz,
+                       displacement=np.concatenate([p.displacement for p in parts]))
+        elapsed = time.perf_counter() - t0
+        if args.png:
+            from bkabem_core.analysis.plots import plot_sweep
+
+            with writing("--png", args.png):
+                plot_sweep(sw_all, args.png)
+        if args.json:
+            _write_sweep_json(sys.stdout, sw_all, speeds, elapsed)
+            return 0
+        batches = [(0, sw_all)]
+    else:
+        batches = _sweep_batches(model, speeds, progress)
+    if args.csv:
+        w = csv.writer(sys.stdout)
+        w.writerow(["speed_hz", "order", "frequency_hz", "location", "direction", "displacement_m",
+                    "acceleration_m_s2", "phase_rad"])
+        for i0, sw in batches:
+            acc, disp, f = sw.acceleration, sw.displacement, sw.frequency_hz
+            for si, s in enumerate(sw.speeds_hz):
+                for ki, k in enumerate(sw.orders):
+                    for li, loc in enumerate(LOCATIONS):
+                        for di, d in enumerate(DIRECTIONS):
+                            x = disp[si, ki, li, di]
+                            w.writerow([f"{s:.6g}", int(k), f"{f[si, ki]:.6g}", loc, d, f"{abs(x):.6e}",
+                                        f"{abs(acc[si, ki, li, di]):.6e}", f"{np.angle(x):.6f}"])
+        return 0
+    if args.jsonl:
+        for i0, sw in batches:
+            f = sw.frequency_hz
+            for si, s in enumerate(sw.speeds_hz):
+                row = {"speed_hz": float(s), "orders": [int(k) for k in sw.orders],
+                       "frequency_hz": f[si].tolist()}
+                for li, loc in enumerate(LOCATIONS):
+                    row[loc] = {d: _sweep_fields(sw, si, li, di) for di, d in enumerate(DIRECTIONS)}
+                sys.stdout.write(json.dumps(row) + "\n")
+        return 0
+    step = max(1, args.steps // 15)
+    lines = []
+    n_orders = 0
+    for i0, sw in batches:
+        rms = sw.rms("acceleration")
+        n_orders = sw.orders.size
+        for si in range(sw.speeds_hz.size):
+            if (i0 + si) % step == 0:
+                lines.append(f"  {sw.speeds_hz[si]:10.3f}" + "".join(f" {rms[si, li, 0]:13.4e}/{rms[si, li, 1]:.4e}"
+                                                                     for li in range(len(LOCATIONS))))
+    elapsed = time.perf_counter() - t0
+    print(f"sweep {args.from_hz:g}..{args.to_hz:g} Hz, {args.steps} speeds x {n_orders} orders "
+          f"in {elapsed * 1e3:.1f} ms")
+    print(f"  {'speed [Hz]':>10}" + "".join(f" {loc + ' v/h RMS [m/s2]':>27}" for loc in LOCATIONS))
+    print("\n".join(lines))
+    if args.png:
+        print(f"wrote {args.png}")
+    return 0
+
+
+def cmd_validate(args) -> int:
+    try:
+        from bkabem_core.reference import validation
+    except ImportError as exc:  # pragma: no cover - until the TDSM lands
+        raise UsageError(f"validate is not available: {exc}") from None
+    case = _load_case(args.case)
+    kwargs = {}
+    if args.speed_hz is not None:
+        _check_speeds(case, [args.speed_hz], "--speed-hz")
+        kwargs["speed_hz"] = args.speed_hz
+    if args.duration is not None:
+        kwargs["duration_s"] = args.duration
+    if args.improvement:
+        kwargs["improvement"] = None if args.improvement == "none" else args.improvement
+    if args.max_step_us is not None:
+        kwargs["max_step_s"] = args.max_step_us * 1e-6
+    result = validation.validate(case, progress=not args.json and sys.stderr.isatty(), **kwargs)
+    d = result.to_dict()
+    _check_finite("validate", [v for v in _numbers(d)])
+    if args.png:
+        with writing("--png", args.png):
+            validation.plot_validation(result, args.png)
+    if args.json:
+        _print_json(result.to_dict())
+    else:
+        print(result.summary() if hasattr(result, "summary") else json.dumps(result.to_dict(), indent=1))
+    return 0
+
+
+def cmd_demo(args) -> int:
+    """The main job on the embedded case.
+
+    1. the BKA-BEM core: excitation table, spectra at a few speeds, figures in ``--out`` (default out/demo);
+    2. the ROS 2 node through a run-up and a hold, recorded to ``recordings/demo.mcap`` and ``demo.rrd``
+       (bkabem_ros.cli.demo), with progress, a summary and the command that opens the result in Rerun.
+    """
+    from pathlib import Path
+
+    case = _load_case(args.case)
+    _check_speeds(case, args.speeds, "--speeds")
+    if not args.no_ros:
+        _check_speeds(case, [args.top_hz], "--top-hz")
+        check_output_dir("--recordings", args.recordings)
+    out = Path(args.out)
+    check_output_dir("--out", out)
+    t0 = time.perf_counter()
+    model = _model(case)
+    prep = time.perf_counter() - t0
+    ex = model.excitation
+    info = model.solver_info()
+    print(f"== 1/2  BKA-BEM core: case {case.name} ({case.source}, hash {case.case_hash})")
+    print(f"prepared in {prep:.2f} s (excitation of {', '.join(b.upper() for b in model.excitations)} "
+          f"{model.preparation_time_s['excitation']:.2f} s; {info['ndof']}-DOF FE model of {info['fe_elements']} "
+          f"elements, reduced to {info.get('modal_basis_size', '-')} modes; "
+          f"{info['orders']} orders diagonalised {model.preparation_time_s['solver_setup']:.2f} s)")
+    print(_excitation_table(ex, max_rows=12))
+    from bkabem_core.analysis.plots import plot_excitation, plot_spectrum, plot_sweep
+
+    plot_excitation(ex, str(out / "excitation.png"))
+    for s in args.speeds:
+        t1 = time.perf_counter()
+        sp = model.spectrum(s)
+        dt = time.perf_counter() - t1
+        print()
+        print(_spectrum_table(sp, max_rows=6))
+        print(f"  (solved in {dt * 1e3:.2f} ms)")
+    plot_spectrum(model.spectrum(args.speeds[-1]), str(out / "spectrum.png"))
+    speeds = np.linspace(0.5, case.max_speed_hz, 500)
+    t1 = time.perf_counter()
+    sw = model.sweep(speeds)
+    print(f"\nsweep of {speeds.size} speeds x {sw.orders.size} orders in {(time.perf_counter() - t1) * 1e3:.0f} ms")
+    plot_sweep(sw, str(out / "sweep.png"))
+    print(f"wrote {out / 'excitation.png'}, {out / 'spectrum.png'}, {out / 'sweep.png'}")
+    if args.no_ros:
+        return 0
+    try:
+        from bkabem_ros.cli.demo import run_demo
+    except ImportError as exc:
+        raise UsageError(f"the ROS 2 part needs the ROS set-up (make demo installs it): {exc}") from None
+    print(f"\n== 2/2  ROS 2 node: run-up 0 -> {args.top_hz:g} Hz in {args.ramp:g} s, hold {args.hold:g} s, "
+          f"recording to {args.recordings}/demo.mcap and demo.rrd", flush=True)
+    r = run_demo(args.recordings, ramp_s=args.ramp, hold_s=args.hold, top_hz=args.top_hz,
+                 sample_rate=args.sample_rate, case=args.case, rerun=not args.no_rerun)
+    if r.errors:                        # a recording failed (full disk ...): the summary above lists them all
+        raise UsageError(f"--recordings: {r.errors[0]}")
+    return 0
+
+
+# --------------------------------------------------------------------------- parser
+def add_case(sp) -> None:
+    """``--case`` of every command that loads a case."""
+    sp.add_argument("--case", default=None,
+                    help="embedded case name or TOML file (default: electric_motor_6010)")
+
+
+def add_parsers(sub) -> None:
+    """Register ``excitation``, ``spectrum``, ``sweep``, ``validate`` and ``demo`` on an argparse subparsers object."""
+    e = sub.add_parser("excitation", help="bearing excitation: DC, amplitudes and phases per BPFO order")
+    add_case(e)
+    e.add_argument("--json", action="store_true", help="machine-readable output")
+    e.add_argument("--png", type=output_path("--png", (".png",)), help="write a figure of the waveform and orders")
+    e.add_argument("--method", choices=("quasi_static", "four_dof"), default=None,
+                   help="excitation model (default: the case's [excitation] method)")
+    e.add_argument("--all-bearings", action="store_true",
+                   help="every bearing, also those the case does not excite ([excitation] bearings)")
+    e.set_defaults(func=cmd_excitation)
+
+    s = sub.add_parser("spectrum", help="BKA-BEM spectrum at one shaft speed")
+    add_case(s)
+    s.add_argument("--speed-hz", required=True, type=finite_float("--speed-hz", 0.0),
+                   help="shaft speed [Hz]")
+    s.add_argument("--json", action="store_true")
+    s.add_argument("--png", type=output_path("--png", (".png",)))
+    s.set_defaults(func=cmd_spectrum)
+
+    w = sub.add_parser("sweep", help="BKA-BEM spectra over a range of shaft speeds")
+    add_case(w)
+    w.add_argument("--from-hz", required=True, type=finite_float("--from-hz", 0.0), help="first speed [Hz]")
+    w.add_argument("--to-hz", required=True, type=finite_float("--to-hz", 0.0), help="last speed [Hz]")
+    w.add_argument("--steps", required=True, type=pos_int("--steps", 1, SWEEP_MAX_STEPS),
+                   help=f"number of speeds (at most {SWEEP_MAX_STEPS}; {SWEEP_MAX_STEPS_IN_MEMORY} with --json or --png)")
+    w.add_argument("--png", type=output_path("--png", (".png",)), help="order map and RMS vs speed")
+    g = w.add_mutually_exclusive_group()
+    g.add_argument("--json", action="store_true", help="one JSON document (architecture.md's fields)")
+    g.add_argument("--csv", action="store_true", help="tidy CSV: one row per speed, order, location, direction "
+                                                      "(streamed as computed)")
+    g.add_argument("--jsonl", action="store_true", help="JSON lines: one object per speed (streamed as computed)")
+    w.set_defaults(func=cmd_sweep)
+
+    v = sub.add_parser("validate", help="time-domain reference (TDSM) against BKA-BEM at one speed")
+    add_case(v)
+    v.add_argument("--speed-hz", type=finite_float("--speed-hz", VALIDATE_MIN_SPEED_HZ), default=None,
+                   help=f"shaft speed [Hz], {VALIDATE_MIN_SPEED_HZ:g} .. the case's operating.max_speed_hz")
+    v.add_argument("--duration", type=finite_float("--duration", 0.0, strict=True, maximum=VALIDATE_MAX_DURATION_S),
+                   default=None, help=f"simulated time after the transient [s] (at most {VALIDATE_MAX_DURATION_S:g}: "
+                                      f"the TDSM takes ~10 s of computing per simulated s)")
+    v.add_argument("--improvement", default=None, choices=("hill", "paper", "four_dof", "hbm", "none"),
+                   help="also evaluate this variant of BKA-BEM (default hill: the improved method; "
+                        "docs/validation.md)")
+    v.add_argument("--max-step-us", type=finite_float("--max-step-us", 0.0, strict=True), default=None,
+                   help="largest TDSM step [us] (default: the TDSM's rule)")
+    v.add_argument("--json", action="store_true")
+    v.add_argument("--png", type=output_path("--png", (".png",)))
+    v.set_defaults(func=cmd_validate)
+
+    d = sub.add_parser("demo", help="the main job: core tables and figures, then the ROS 2 node run-up recorded "
+                                    "to MCAP and Rerun")
+    add_case(d)
+    d.add_argument("--out", default="out/demo", help="folder for the core figures (default out/demo)")
+    d.add_argument("--speeds", type=finite_float("--speeds", 0.0), nargs="+", default=[10.0, 25.0, 50.0],
+                   help="shaft speeds [Hz] for the spectrum tables")
+    d.add_argument("--recordings", default="recordings", help="folder for demo.mcap and demo.rrd")
+    from bkabem_ros.cli.demo import add_run_up_arguments    # options only; rclpy is imported when it runs
+
+    add_run_up_arguments(d)
+    d.add_argument("--no-ros", action="store_true", help="core part only (no ROS 2 node run)")
+    d.set_defaults(func=cmd_demo, ros_network=lambda a: not a.no_ros)

@@ -1,0 +1,756 @@
+"""The bkabem ROS 2 node: a digital-twin vibration source for one machine with a faulty ball bearing.
+
+Run it with ``bkabem node`` (``--ros-args ...`` passes through to ROS). Full documentation with the
+parameter table: ``docs/ros_node.md``.
+
+Topics (relative names: ``-r __ns:=/machine_07`` or ``--namespace`` puts one machine in a namespace)
+
+=============================  ===================================  ==========================================
+topic                          type                                 when
+=============================  ===================================  ==========================================
+``speed`` (in)                 ``std_msgs/msg/Float64``             shaft speed, rad/s (REP 103) or
+                                                                    ``speed_unit`` (hz, rpm)
+``vibration/de/acceleration``  ``bkabem_msgs/msg/VibrationWaveform`` every chunk: vertical + horizontal, m/s^2
+``vibration/de/displacement``  ``VibrationWaveform``                every chunk, m
+``vibration/nde/acceleration`` ``VibrationWaveform``                every chunk, m/s^2
+``vibration/nde/displacement`` ``VibrationWaveform``                every chunk, m
+``vibration/de/spectrum``      ``bkabem_msgs/msg/VibrationSpectrum`` on speed change and at ``spectrum_rate``;
+``vibration/nde/spectrum``                                          one message per quantity (acc., displ.)
+``vibration/fault_frequencies`` ``bkabem_msgs/msg/BearingFaultFrequencies`` with the spectra
+=============================  ===================================  ==========================================
+
+Timing
+------
+The node keeps a sample clock: sample ``i`` of the stream is at ``t0 + i / sample_rate`` where ``t0`` is
+the node-clock time (ROS time: ``/clock`` with ``use_sim_time``) at which the stream started. A chunk
+holds samples ``[j N, (j + 1) N)``; it is *synthesised* when its first sample is due (with the speed
+known at that moment: ``shaft_speed`` is the speed at the first sample) and *published* when its last
+sample is due, by a timer of period ``N / sample_rate`` on the node clock. The header stamp is computed
+from the sample index, never from the time the callback ran; a late timer publishes every chunk that is
+due, so ``first_sample_index`` never skips or repeats. A speed change therefore shows in the first
+chunk that starts after it arrived (within one chunk of sample time) and is published one chunk later.
+Spectra and fault frequencies are stamped with the first sample of the chunk they belong to and are
+published together with it.
+
+Sinks (hook for recorders and viewers)
+--------------------------------------
+``node.add_sink(fn)`` attaches a callable ``fn(topic, type_name, msg, stamp_ns)`` that receives every
+incoming speed message and every outgoing message, in the executor thread, right after it was taken or
+published: ``topic`` is the fully resolved name (``/machine_07/vibration/de/acceleration``),
+``type_name`` is ``"pkg/msg/Type"``, ``msg`` the message object (do not modify it), ``stamp_ns`` the
+header stamp in ns (for the speed message, which has no header: the node-clock time of receipt).
+Sinks must be quick (they run between publications); an exception in a sink is logged (throttled) and
+does not stop the node. ``node.remove_sink(fn)`` detaches it. ``run(..., on_node=f)`` calls ``f(node)``
+after construction so a command can attach sinks before the stream starts.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from bkabem_ros.node.band import BandWatch, start_note, start_refusal
+from bkabem_ros.node.params import LIVE_PARAMETERS, PARAMETER_SPECS, PARAMETERS, ParamSpec  # noqa: F401  (re-exported)
+from bkabem_ros.node.speed import SPEED_UNITS, check_speed, normalize_unit
+
+from bkabem_ros.node.source import (BEARINGS, CHANNELS, FAULT_TYPE, QUANTITIES, SPECTRUM_TYPE, TWO_PI,  # noqa: F401
+                          WAVEFORM_TYPE, MachineSource, parse_labels, prepare_model)
+
+SPEED_TYPE = "std_msgs/msg/Float64"
+N_WAVEFORMS = len(BEARINGS) * len(QUANTITIES)   # waveform messages per chunk (first in a chunk's items)
+
+Sink = Callable[[str, str, Any, int], None]
+
+
+# --------------------------------------------------------------------------- helpers
+def _percentile(values, q) -> float:
+    if not values:
+        return float("nan")
+    return float(np.percentile(np.asarray(values, dtype=float), q))
+
+
+@dataclass
+class _Prepared:
+    """A chunk synthesised ahead of its publication time, with its messages built."""
+
+    index: int
+    stamp_ns: int
+    due_ns: int
+    speed_rad_s: float
+    items: list  # (publisher, type_name, msg or None (waveforms: see _message), serialized CDR bytes); waveforms first
+
+
+def _message(pub, msg, raw: bytes):
+    """The message object of a prepared item: ``msg``, or the CDR bytes deserialised (waveforms have no object)."""
+    if msg is not None:
+        return msg
+    from rclpy.serialization import deserialize_message
+
+    return deserialize_message(raw, pub.msg_type)
+
+
+# --------------------------------------------------------------------------- the node
+def _node_base():
+    from rclpy.node import Node
+
+    return Node
+
+
+class VibrationNode(_node_base()):
+    """bkabem digital-twin node (see the module docstring for topics, timing and sinks).
+
+    Parameters
+    ----------
+    node_name : str
+    namespace : str, optional
+    context : rclpy.context.Context, optional
+    parameter_overrides : list of rclpy.parameter.Parameter, optional
+        Win over ``--ros-args -p`` / ``--params-file`` values (used for the CLI shorthand options).
+    start : bool
+        Start the stream (or the wait for speed / sim time) at once; False leaves it to :meth:`start`.
+    """
+
+    def __init__(self, node_name: str = "bkabem", *, namespace: str | None = None, context=None,
+                 parameter_overrides=None, start: bool = True):
+        super().__init__(node_name, namespace=namespace, context=context,
+                         parameter_overrides=list(parameter_overrides or []))
+        from bkabem_core.model.case import Case
+        from bkabem_core.scenario.timeline import Scenario
+
+        self._sinks: list[Sink] = []
+        self._sink_errors = 0
+        self._coerce_numeric_overrides()
+        # -- parameters, declared up front (the machine first: two defaults come from it)
+        self._declare("case")
+        self._declare("scenario")
+        case_name = self.get_parameter("case").value
+        scenario_ref = self.get_parameter("scenario").value
+        scenario = Scenario.load(scenario_ref) if scenario_ref else None
+        base_case = scenario.case if scenario is not None else Case.load(case_name or None)
+        self._declare_all(base_case)
+        p = {s.name: self.get_parameter(s.name).value for s in PARAMETERS}
+        case = base_case
+        if p["defect_depth"] != base_case.defect_depth_m:
+            if scenario is not None:
+                raise ValueError(f"parameter defect_depth: scenario {scenario.name!r} sets the defects (leave "
+                                 f"defect_depth at its default, or run without a scenario)")
+            case = base_case.with_defect_depth(float(p["defect_depth"]))
+        labels = parse_labels(p["labels"])
+        self.machine_id = p["machine_id"] or self.get_namespace().strip("/") or "bkabem"
+        self.sample_rate = float(p["sample_rate"])
+        self.samples_per_chunk = max(1, int(round(self.sample_rate * float(p["chunk_duration"]))))
+        self.chunk_ns = self.samples_per_chunk * 1e9 / self.sample_rate   # float ns (exact stamps use ints)
+        self._seed = int(p["seed"])
+        self._slip = float(p["slip"])
+        self._frame = {"de": p["frame_id.de"], "nde": p["frame_id.nde"]}
+        self._wait_for_speed = bool(p["wait_for_speed"])
+        self._live = {k: p[k] for k in LIVE_PARAMETERS}
+        self._speed_factor = SPEED_UNITS[normalize_unit(p["speed_unit"])]
+        self._max_speed = float(p["max_speed"])
+
+        # -- model and synthesiser (BkaBem preparation ~2 s happens here, before any timer)
+        self._source = MachineSource(
+            base_case if scenario is not None else case, scenario=scenario,
+            time_scale=float(p["scenario_time_scale"]), scenario_start_s=float(p["scenario_start"]),
+            sample_rate_hz=self.sample_rate, samples_per_chunk=self.samples_per_chunk, seed=self._seed,
+            slip=self._slip, machine_id=self.machine_id, frames=self._frame, labels=labels, logger=self.get_logger())
+        # -- the sample rate against the lines (bkabem_ros.node.band): refused at start where `bkabem synth` refuses
+        # --rate; the taper acting while the stream runs is a warning once per event
+        why = start_refusal(self._source.synth, scenario, float(p["scenario_start"]), self._machine_label())
+        if why is not None:
+            raise ValueError(why)
+        self._band = BandWatch(self.get_logger().warning)
+        self._apply_noise()
+        self._scenario_loaded: dict[str, Scenario] = {}     # parameter callback -> post callback
+
+        # -- publishers and the speed subscription
+        from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy,
+                               qos_profile_sensor_data)
+        from std_msgs.msg import Float64
+
+        from bkabem_msgs.msg import BearingFaultFrequencies, VibrationSpectrum, VibrationWaveform
+
+        depth = int(p["qos_depth"])
+        if p["qos"] == "reliable":
+            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.VOLATILE)
+        else:
+            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
+                             reliability=qos_profile_sensor_data.reliability,
+                             durability=qos_profile_sensor_data.durability)
+        self.qos = qos
+        # rclpy gives every publisher two QoS event handlers (incompatible QoS / type warnings) that each executor
+        # cycle adds to its wait set; with many nodes in one executor that is most of the CPU. Only the first
+        # waveform publisher keeps them (subscribers report incompatibilities on their side as well).
+        from rclpy.event_handler import PublisherEventCallbacks
+
+        quiet = PublisherEventCallbacks(use_default_callbacks=False)
+
+        def pub(msg_type, name):
+            return self.create_publisher(msg_type, name, qos, event_callbacks=None if not self._wave_pub else quiet)
+
+        self._wave_pub = {}
+        for b in BEARINGS:
+            for q in QUANTITIES:
+                self._wave_pub[(b, q)] = pub(VibrationWaveform, f"vibration/{b}/{q}")
+        from bkabem_ros.messages.convert import SI_UNITS
+        from bkabem_ros.messages.cdr import WaveformEncoder
+
+        self._wave_cdr = {(b, q): WaveformEncoder(machine_id=self.machine_id, location=b, quantity=q,
+                                                  unit=SI_UNITS[q], channel_names=CHANNELS,
+                                                  sample_rate=self.sample_rate,
+                                                  samples_per_channel=self.samples_per_chunk, frame_id=self._frame[b])
+                          for b in BEARINGS for q in QUANTITIES}
+        self._spec_pub = {b: pub(VibrationSpectrum, f"vibration/{b}/spectrum") for b in BEARINGS}
+        self._ff_pub = pub(BearingFaultFrequencies, "vibration/fault_frequencies")
+        # best effort + keep last: matches reliable and best-effort publishers; a flood only overwrites
+        speed_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                               reliability=ReliabilityPolicy.BEST_EFFORT)
+        from rclpy.event_handler import SubscriptionEventCallbacks
+
+        self._speed_sub = self.create_subscription(      # best effort + volatile: never incompatible, no handlers
+            Float64, "speed", self._on_speed, speed_qos,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+        self._speed_topic = self._speed_sub.topic_name
+        # a publisher of another type on `speed` never matches (DDS drops it silently): look at the graph
+        from rclpy.clock import Clock, ClockType
+
+        self._wrong_speed_publishers: set[tuple[str, str]] = set()
+        self._graph_timer = self.create_timer(2.0, self._check_speed_publishers,
+                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+        # -- state
+        self._speed_rad_s = 0.0            # last good speed (rad/s)
+        self._have_speed = False
+        self._speed_count = 0
+        self._speed_rejected = 0
+        self._started = False
+        self._t0_ns: int | None = None
+        self._pending: _Prepared | None = None
+        self._primed: _Prepared | None = None   # chunk 0 made ahead by prime(), stamped from t0 = 0
+        self._timer = None
+        self._poll_timer = None
+        self._last_spectrum_speed: float | None = None
+        self._next_spectrum_ns = 0
+        self._spectra = 0
+        self._lateness_ns: deque[int] = deque(maxlen=100_000)        # waveforms handed to DDS - due
+        self._start_lateness_ns: deque[int] = deque(maxlen=100_000)  # publication started - due
+        self._published_chunks = 0
+        self._reanchors = 0
+        self._last_now_ns = 0
+
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_post_set_parameters_callback(self._after_set_parameters)
+        what = f"scenario {scenario.name} (x{float(p['scenario_time_scale']):g})" if scenario is not None else \
+            f"case {self._source.case.name}"
+        if scenario is not None and scenario.has_speed:
+            what += "; shaft speed from the scenario's [speed] profile (the speed topic is counted, not used)"
+        self.get_logger().info(
+            f"machine {self.machine_id!r}: {what}, {self.sample_rate:g} Hz, "
+            f"{self.samples_per_chunk} samples/chunk ({self.chunk_ns / 1e6:g} ms), QoS {p['qos']} depth {depth}, "
+            f"speed in {normalize_unit(p['speed_unit'])} on {self._speed_topic}, max {self._max_speed:g} rad/s")
+        if scenario is None or not scenario.has_speed:
+            note = start_note(self._source.synth, self._max_speed / TWO_PI, self._machine_label())
+            if note is not None:
+                self.get_logger().info(note)
+        if start:
+            self.start()
+
+    def _machine_label(self) -> str:
+        """The model in the signal, for people: ``scenario 'x' state 2 (DE outer 0.39 mm x 10 um)`` or ``case ...``."""
+        d = self._source.driver
+        state = d.applied
+        label = "" if state is None else f" ({state.label})"
+        if d.scenario.name:
+            return f"scenario {d.scenario.name!r} state {'?' if state is None else state.index}{label}"
+        return f"case {self._source.case.name}{label}"
+
+    # ------------------------------------------------------------------ parameters
+    def _coerce_numeric_overrides(self) -> None:
+        """YAML ``sample_rate: 51200`` is an integer: accept it for a double parameter (and 2.0 for ints)."""
+        from rclpy.parameter import Parameter
+
+        ov = self._parameter_overrides
+        for spec in PARAMETERS:
+            prm = ov.get(spec.name)
+            if prm is None:
+                continue
+            want_float = isinstance(spec.default, float) or (spec.default is None)
+            if want_float and prm.type_ == Parameter.Type.INTEGER:
+                ov[spec.name] = Parameter(spec.name, Parameter.Type.DOUBLE, float(prm.value))
+            elif isinstance(spec.default, int) and not isinstance(spec.default, bool) and \
+                    prm.type_ == Parameter.Type.DOUBLE and float(prm.value).is_integer():
+                ov[spec.name] = Parameter(spec.name, Parameter.Type.INTEGER, int(prm.value))
+
+    def _descriptor(self, spec: ParamSpec, value):
+        from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+
+        text = spec.description
+        if spec.unit:
+            text += f" [{spec.unit}]"
+        if spec.choices:
+            text += f" (one of: {', '.join(spec.choices)})"
+        text += "; changeable at run time" if spec.live else "; fixed while the node runs"
+        d = ParameterDescriptor(description=text, read_only=False)
+        if spec.range is not None:
+            lo, hi = spec.range
+            if isinstance(value, float):
+                d.floating_point_range = [FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)]
+            else:
+                d.integer_range = [IntegerRange(from_value=int(lo), to_value=int(hi), step=1)]
+        if spec.choices:
+            d.additional_constraints = f"one of: {', '.join(spec.choices)}"
+        return d
+
+    def _declare(self, name: str, default=None) -> None:
+        spec = PARAMETER_SPECS[name]
+        value = spec.default if default is None else default
+        self.declare_parameter(name, value, self._descriptor(spec, value))
+        if spec.choices:
+            v = self.get_parameter(name).value
+            if name == "speed_unit":
+                try:
+                    v = normalize_unit(v)
+                except ValueError:
+                    pass
+            if v not in spec.choices:
+                raise ValueError(f"parameter {name}: {v!r} is not one of {', '.join(spec.choices)}")
+
+    def _declare_all(self, case) -> None:
+        derived = {"defect_depth": float(case.defect_depth_m),
+                   "max_speed": float(case.max_speed_hz) * TWO_PI}
+        for spec in PARAMETERS:
+            if spec.name not in ("case", "scenario"):
+                self._declare(spec.name, derived.get(spec.name))
+
+    def _on_set_parameters(self, params):
+        """Accept live changes (see LIVE_PARAMETERS); reject the rest with the reason."""
+        from rcl_interfaces.msg import SetParametersResult
+
+        for prm in params:
+            spec = PARAMETER_SPECS.get(prm.name)
+            if spec is None:
+                continue  # use_sim_time etc.: rclpy's business
+            if not spec.live:
+                return SetParametersResult(
+                    successful=False,
+                    reason=f"{prm.name} is fixed while the node runs (it shapes the stream, the model or the "
+                           f"topics); restart the node with the new value")
+            if spec.choices:
+                v = prm.value
+                try:
+                    v = normalize_unit(v) if prm.name == "speed_unit" else v
+                except ValueError:
+                    pass
+                if v not in spec.choices:
+                    return SetParametersResult(
+                        successful=False, reason=f"{prm.name}: {prm.value!r} is not one of {', '.join(spec.choices)}")
+            if prm.name == "max_speed" and self._speed_rad_s > float(prm.value):
+                return SetParametersResult(
+                    successful=False, reason=f"max_speed: {prm.value:g} rad/s is below the current speed "
+                                             f"{self._speed_rad_s:g} rad/s")
+            if prm.name == "scenario":
+                why = self._check_scenario(str(prm.value))
+                if why is not None:
+                    self.get_logger().warning(f"parameter scenario = {prm.value!r} refused, the node goes on with "
+                                              f"what it runs: {why}")
+                    return SetParametersResult(successful=False, reason=why)
+            if prm.name == "defect_depth" and self._source.scenario is not None:
+                return SetParametersResult(
+                    successful=False, reason=f"defect_depth: scenario {self._source.scenario.name!r} sets the "
+                                             f"defects; set scenario to '' first")
+        return SetParametersResult(successful=True)
+
+    def _check_scenario(self, ref: str) -> str | None:
+        """Load the scenario of a parameter change (kept for the post callback); its one-line error, or None."""
+        from bkabem_core.scenario.timeline import Scenario, ScenarioError
+
+        if not ref:
+            return None
+        try:
+            self._scenario_loaded[ref] = Scenario.load(ref)
+        except ScenarioError as exc:
+            return f"scenario: {exc}"
+        return None
+
+    def _after_set_parameters(self, params) -> None:
+        for prm in params:
+            if prm.name not in LIVE_PARAMETERS:
+                continue
+            self._live[prm.name] = prm.value
+            if prm.name == "speed_unit":
+                self._speed_factor = SPEED_UNITS[normalize_unit(prm.value)]
+            elif prm.name == "max_speed":
+                self._max_speed = float(prm.value)
+            elif prm.name.startswith("noise."):
+                self._apply_noise()
+            elif prm.name == "defect_depth":
+                self._request_depth(float(prm.value))
+            elif prm.name == "scenario":
+                self._source.set_scenario(self._scenario_loaded.pop(prm.value, None) if prm.value else None,
+                                          self._next_index(), float(self._live["scenario_time_scale"]),
+                                          float(self.get_parameter("scenario_start").value))
+                self._scenario_loaded.clear()
+            elif prm.name == "scenario_time_scale":
+                self._source.set_time_scale(float(prm.value), self._next_index())
+            elif prm.name == "spectrum_rate":
+                self._next_spectrum_ns = 0 if self._pending is None else self._pending.stamp_ns
+            self.get_logger().info(f"parameter {prm.name} = {prm.value!r} (live)")
+
+    # ------------------------------------------------------------------ the machine (bkabem_ros.node.source)
+    @property
+    def model(self):
+        """The BKA-BEM model in the signal now."""
+        return self._source.model
+
+    @property
+    def source(self) -> MachineSource:
+        """The machine: model, synthesiser, scenario, message builders."""
+        return self._source
+
+    def _apply_noise(self) -> None:
+        """Noise parameters -> the synthesiser (from its next chunk on)."""
+        live = self._live
+        self._source.set_noise(float(live["noise.acceleration"]), float(live["noise.displacement"]),
+                               float(live["noise.snr_db"]))
+
+    def _next_index(self) -> int:
+        """First sample of the next chunk still to be synthesised (where a change of the machine can begin)."""
+        return 0 if self._pending is None else self._pending.index + self.samples_per_chunk
+
+    # ------------------------------------------------------------------ sinks
+    def add_sink(self, sink: Sink) -> None:
+        """Attach ``sink(topic, type_name, msg, stamp_ns)`` (see the module docstring)."""
+        if not callable(sink):
+            raise TypeError("sink must be callable(topic, type_name, msg, stamp_ns)")
+        self._sinks.append(sink)
+
+    def remove_sink(self, sink: Sink) -> None:
+        self._sinks.remove(sink)
+
+    def _emit(self, topic: str, type_name: str, msg, stamp_ns: int) -> None:
+        for sink in self._sinks:
+            try:
+                sink(topic, type_name, msg, stamp_ns)
+            except Exception as exc:  # noqa: BLE001 - a sink must not stop the stream
+                self._sink_errors += 1
+                self.get_logger().error(f"sink {sink!r} failed on {topic}: {exc!r}", throttle_duration_sec=5.0)
+
+    # ------------------------------------------------------------------ speed input
+    def _on_speed(self, msg) -> None:
+        value = msg.data
+        self._speed_count += 1
+        rad_s = value * self._speed_factor
+        why = check_speed(rad_s, self._max_speed)
+        if why is None:
+            self._speed_rad_s = rad_s
+            self._have_speed = True
+        else:
+            self._speed_rejected += 1
+            self.get_logger().warning(
+                f"speed {value!r} ignored: {why}; keeping {self._speed_rad_s:g} rad/s "
+                f"({self._speed_rejected} rejected so far)", throttle_duration_sec=2.0)
+        if self._sinks:
+            self._emit(self._speed_topic, SPEED_TYPE, msg, self.get_clock().now().nanoseconds)
+        if not self._started and why is None and self._wait_for_speed:
+            self._try_start()
+
+    def _check_speed_publishers(self) -> None:
+        """Warn once per publisher that offers the speed topic with a type other than std_msgs/msg/Float64."""
+        try:
+            infos = self.get_publishers_info_by_topic(self._speed_topic)
+        except Exception:  # noqa: BLE001 - graph queries fail during shutdown
+            return
+        for info in infos:
+            if info.topic_type == SPEED_TYPE:
+                continue
+            who = f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+            key = (who, info.topic_type)
+            if key not in self._wrong_speed_publishers:
+                self._wrong_speed_publishers.add(key)
+                self.get_logger().warning(
+                    f"{self._speed_topic}: publisher {who} offers type {info.topic_type}, not {SPEED_TYPE}; "
+                    f"its messages never reach this node (publish std_msgs/msg/Float64 in {self._speed_unit_name()})")
+
+    def _speed_unit_name(self) -> str:
+        for name, factor in SPEED_UNITS.items():
+            if factor == self._speed_factor:
+                return name
+        return "rad/s"
+
+    @property
+    def speed_rad_s(self) -> float:
+        """Last good speed [rad/s]."""
+        return self._speed_rad_s
+
+    # ------------------------------------------------------------------ stream start
+    def start(self) -> None:
+        """Start the stream now if the clock is valid (and a speed arrived when wait_for_speed), else
+        poll for it on the steady clock."""
+        if not self._try_start() and self._poll_timer is None:
+            from rclpy.clock import Clock, ClockType
+
+            self._poll_timer = self.create_timer(0.02, self._try_start, clock=Clock(clock_type=ClockType.STEADY_TIME))
+            why = "the first speed message" if self._wait_for_speed and not self._have_speed else "/clock (use_sim_time)"
+            self.get_logger().info(f"waiting for {why} before streaming")
+
+    def prime(self) -> None:
+        """Synthesise and encode chunk 0 now (at the current speed), so that :meth:`start` only stamps it.
+
+        The first chunk of a stream costs several times a later one (first knots, spectra, first calls: 1-4 ms
+        against ~0.1-0.3 ms); a fleet process primes all its machines before it starts their streams one after
+        the other within one chunk period. No effect once started, or with ``wait_for_speed`` (chunk 0 must
+        wait for the speed)."""
+        if self._started or self._primed is not None or self._wait_for_speed:
+            return
+        self._primed = self._prepare(0, 0)
+
+    def _try_start(self) -> bool:
+        if self._started:
+            return True
+        if self._wait_for_speed and not self._have_speed:
+            return False
+        now = self.get_clock().now().nanoseconds
+        if now == 0:   # sim time before the first /clock
+            return False
+        if self._poll_timer is not None:
+            self._poll_timer.cancel()
+            self.destroy_timer(self._poll_timer)
+            self._poll_timer = None
+        self._started = True
+        # the timer's phase is its creation time: create it first, then take t0, then synthesise chunk 0
+        self._timer = self.create_timer(self.samples_per_chunk / self.sample_rate, self._on_tick)
+        now = self.get_clock().now().nanoseconds
+        self._last_now_ns = now
+        primed, self._primed = self._primed, None
+        if primed is None:
+            self._pending = self._prepare(0, now)
+        else:                                   # chunk 0 made by prime() with t0 = 0: move it to t0 = now
+            self._t0_ns = now
+            self._restamp(primed)
+            self._next_spectrum_ns += now
+            self._pending = primed
+        self.get_logger().info(f"streaming from t0 = {now / 1e9:.6f} s at {self._speed_rad_s:g} rad/s")
+        return True
+
+    # ------------------------------------------------------------------ production
+    def _prepare(self, index: int, t0_ns: int | None = None) -> _Prepared:
+        """Synthesise the chunk that starts at sample ``index`` and build its messages.
+
+        Called when the chunk's first sample is due (one chunk ahead of its publication). The last good speed
+        becomes the speed at the *end* of this chunk; the synthesiser ramps linearly to it from the previous
+        chunk's end speed (angle and speed continuous), so ``shaft_speed`` (first sample) is that previous speed.
+        A scenario with a speed profile gives that speed instead. A change of the machine (a scenario state, a new
+        scenario, defect_depth) takes effect here, at this chunk's first sample, when its model is ready.
+        """
+        if t0_ns is not None:
+            self._t0_ns = t0_ns
+        n = self.samples_per_chunk
+        stamp = self._t0_ns + int(round(index * 1e9 / self.sample_rate))
+        due = self._t0_ns + int(round((index + n) * 1e9 / self.sample_rate))
+        src = self._source
+        chunk, truth = src.next_chunk(index, self._speed_rad_s / TWO_PI)
+        if int(chunk.first_sample_index) != index:
+            raise RuntimeError(f"synth produced index {chunk.first_sample_index}, expected {index}")
+        self._band.check(src.synth, src.model, max(float(chunk.shaft_speed_hz), float(chunk.shaft_speed_end_hz)),
+                         self._machine_label)
+        speed = float(chunk.shaft_speed_hz) * TWO_PI          # at the first sample
+        # the waveforms straight to CDR (waveform_cdr: the constant part of each stream encoded once); message
+        # objects only for sinks (recorders, viewers), made from the same bytes when one asks for them
+        items = []
+        for b in BEARINGS:
+            for q in QUANTITIES:
+                raw = self._wave_cdr[(b, q)].encode(chunk.samples[chunk.rows(b, q)], first_sample_index=index,
+                                                    shaft_speed=speed, stamp_ns=stamp,
+                                                    ground_truth=truth)
+                items.append((self._wave_pub[(b, q)], WAVEFORM_TYPE, None, raw))
+        rate = float(self._live["spectrum_rate"])
+        if (src.changed or self._last_spectrum_speed is None or speed != self._last_spectrum_speed
+                or (rate > 0 and stamp >= self._next_spectrum_ns)):
+            # spectra and fault frequencies (at most spectrum_rate + speed changes per second): message objects,
+            # serialised now, off the publication path
+            from rclpy.serialization import serialize_message
+
+            for bearing, type_name, msg in src.spectrum_messages(chunk, stamp, truth):
+                pub = self._ff_pub if bearing is None else self._spec_pub[bearing]
+                items.append((pub, type_name, msg, serialize_message(msg)))
+            self._spectra += 1
+            self._last_spectrum_speed = speed
+            if rate > 0:
+                self._next_spectrum_ns = stamp + int(1e9 / rate)
+        return _Prepared(index=index, stamp_ns=stamp, due_ns=due, speed_rad_s=speed, items=items)
+
+    # ------------------------------------------------------------------ publication
+    def _on_tick(self) -> None:
+        now = self.get_clock().now().nanoseconds
+        pend = self._pending
+        period = self.chunk_ns
+        if now < self._last_now_ns - period:      # ROS time jumped back (sim time loop): re-anchor
+            self._reanchor(now)
+            pend = self._pending
+        self._last_now_ns = now
+        behind = (now - pend.due_ns) / period
+        if behind > 50:                            # paused or a big jump forward: do not synthesise a backlog
+            self._reanchor(now)
+            pend = self._pending
+        half = period / 2
+        while pend.due_ns <= now + half:
+            self._start_lateness_ns.append(self.get_clock().now().nanoseconds - pend.due_ns)
+            items = pend.items
+            for pub, _type_name, _msg, raw in items[:N_WAVEFORMS]:
+                pub.publish(raw)
+            self._lateness_ns.append(self.get_clock().now().nanoseconds - pend.due_ns)
+            for pub, _type_name, _msg, raw in items[N_WAVEFORMS:]:      # spectra, fault frequencies
+                pub.publish(raw)
+            self._published_chunks += 1
+            if self._sinks:
+                for pub, type_name, msg, raw in items:
+                    self._emit(pub.topic_name, type_name, _message(pub, msg, raw), pend.stamp_ns)
+            pend = self._pending = self._prepare(pend.index + self.samples_per_chunk)
+            now = self.get_clock().now().nanoseconds
+
+    def _reanchor(self, now: int) -> None:
+        """Keep the index, move t0 so that the pending chunk starts now (after a clock jump or stall)."""
+        pend = self._pending
+        old = pend.stamp_ns
+        self._t0_ns = now - int(round(pend.index * 1e9 / self.sample_rate))
+        self._restamp(pend)
+        self._next_spectrum_ns = now
+        self._reanchors += 1
+        self.get_logger().warning(f"clock jumped from {old / 1e9:.6f} s to {now / 1e9:.6f} s: stamps re-anchored "
+                                  f"at sample {pend.index} (indices stay continuous)")
+
+    def _restamp(self, pend: _Prepared) -> None:
+        """Stamp and due time of a prepared chunk (and its messages) from the current ``_t0_ns``: the stamp is
+        written into the CDR bytes in place of the old one (every message starts with its header), and into the
+        message object where there is one."""
+        from bkabem_ros.messages.convert import time_msg
+        from bkabem_ros.messages.cdr import with_stamp
+
+        pend.stamp_ns = self._t0_ns + int(round(pend.index * 1e9 / self.sample_rate))
+        pend.due_ns = self._t0_ns + int(round((pend.index + self.samples_per_chunk) * 1e9 / self.sample_rate))
+        items = []
+        for pub, type_name, msg, raw in pend.items:
+            if msg is not None:
+                msg.header.stamp = time_msg(pend.stamp_ns)
+            items.append((pub, type_name, msg, with_stamp(raw, pend.stamp_ns)))
+        pend.items = items
+
+    # ------------------------------------------------------------------ live defect depth
+    def _request_depth(self, depth_m: float) -> None:
+        """The case with its first defect at ``depth_m``, made in the model helper and switched to at a chunk border
+        when ready (the stream goes on meanwhile; a newer request replaces an older one still waiting)."""
+        case = self._source.base_case.with_defect_depth(depth_m)
+        self._source.set_case(case, self._next_index(), f"defect_depth {case.dent().depth_m:g} m")
+
+    # ------------------------------------------------------------------ reporting and shutdown
+    def stats(self) -> dict:
+        """Counters and publish lateness in ms: ``lateness_*`` = time the chunk's four waveform messages had been
+        handed to DDS minus the time its last sample was due (node clock); ``start_lateness_*`` = time the
+        publication began minus that due time (the timer's wake-up delay); ``late_chunks`` = chunks handed to DDS a
+        whole chunk period or more after they were due, ``lateness_max_chunk`` = the number of the latest one in the
+        stream (0 = first)."""
+        late = list(self._lateness_ns)
+        start = list(self._start_lateness_ns)
+        return {
+            "machine_id": self.machine_id,
+            "chunks": self._published_chunks,
+            "next_index": None if self._pending is None else self._pending.index,
+            "spectra": self._spectra,
+            "speed_messages": self._speed_count,
+            "speed_rejected": self._speed_rejected,
+            "reanchors": self._reanchors,
+            "sink_errors": self._sink_errors,
+            "speed_publishers_wrong_type": len(self._wrong_speed_publishers),
+            "lateness_ms_p50": _percentile(late, 50) / 1e6,
+            "lateness_ms_p99": _percentile(late, 99) / 1e6,
+            "lateness_ms_max": (max(late) / 1e6) if late else float("nan"),
+            # where it was: the worst chunk's number (0 = the first published) and how many missed their period
+            "lateness_max_chunk": int(np.argmax(late)) if late else None,
+            "late_chunks": sum(1 for v in late if v >= self.chunk_ns),
+            "start_lateness_ms_p50": _percentile(start, 50) / 1e6,
+            "start_lateness_ms_p99": _percentile(start, 99) / 1e6,
+            **self._source.stats(),
+        }
+
+    def destroy_node(self):
+        src = getattr(self, "_source", None)        # not set when __init__ failed (a bad parameter)
+        if src is not None:
+            src.close()
+        return super().destroy_node()
+
+
+# --------------------------------------------------------------------------- running
+def _stats_line(st: dict) -> str:
+    return (f"stats: {st['chunks']} chunks (next index {st['next_index']}), {st['spectra']} spectra, "
+            f"{st['speed_messages']} speed messages ({st['speed_rejected']} rejected), publish lateness "
+            f"p50 {st['lateness_ms_p50']:.3f} ms p99 {st['lateness_ms_p99']:.3f} ms max {st['lateness_ms_max']:.3f} ms "
+            f"at chunk {st['lateness_max_chunk']}, {st['late_chunks']} a period late "
+            f"(start p50 {st['start_lateness_ms_p50']:.3f} ms p99 {st['start_lateness_ms_p99']:.3f} ms)")
+
+
+def _quiet_gc() -> None:
+    """After start-up: move everything allocated so far (model, modules) out of the collector's view, so that
+    a full collection during streaming scans only what the stream allocates (shorter pauses, less jitter)."""
+    import gc
+
+    gc.collect()
+    gc.freeze()
+
+
+def _exit_log(node, st: dict | None = None) -> None:
+    """Final stats line. Not through the node's logger: after SIGINT/SIGTERM rclpy has already shut the
+    context down, and a node logger would try (and fail) to publish on /rosout."""
+    import rclpy.logging
+
+    st = node.stats() if st is None else st
+    rclpy.logging.get_logger("bkabem_exit").info(
+        f"{node.get_fully_qualified_name()} ({st['machine_id']}) shutting down: {_stats_line(st)}")
+
+
+def run(ros_args=None, overrides: dict | None = None, *, node_name: str = "bkabem", namespace: str | None = None,
+        on_node: Callable | None = None) -> int:
+    """Run one node until SIGINT/SIGTERM; returns the exit code (2 for bad parameters or case)."""
+    import sys
+
+    import rclpy
+    from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from bkabem_core.model.case import CaseError
+
+    from bkabem_ros.ros_env import init  # noqa: PLC0415
+
+    init(["bkabem-node", "--ros-args", *(ros_args or [])])   # + the discovery range in force, once
+    node = None
+    cleanup = None
+    try:
+        try:
+            node = VibrationNode(node_name, namespace=namespace,
+                                 parameter_overrides=[Parameter(k, value=v) for k, v in (overrides or {}).items()],
+                                 start=False)
+        except (CaseError, InvalidParameterValueException, InvalidParameterTypeException, ValueError) as exc:
+            sys.stderr.write(f"bkabem node: error: {exc}\n")
+            return 2
+        if on_node is not None:
+            cleanup = on_node(node)
+        _quiet_gc()
+        node.start()
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        try:
+            executor.spin()
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+        _exit_log(node)
+        return 0
+    finally:
+        if cleanup is not None:
+            cleanup()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
