@@ -50,7 +50,7 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402
 
-from bkabem_core.dataset import render as dataset_render # noqa: E402
+from bkabem_core.dataset import render as dataset_render  # noqa: E402
 from bkabem_core.dataset.engine import _task, render_dataset  # noqa: E402
 from bkabem_core.dataset.spec import DatasetSpec  # noqa: E402
 

@@ -35,11 +35,11 @@ for _p in (ROOT, ROOT / "bench"):
         sys.path.insert(0, str(_p))
 
 import numpy as np  # noqa: E402
+from bench_synth import speeds_random_walk  # noqa: E402  (the same speed stream as the synthesis benchmark)
 
 from bkabem_core.model.case import Case  # noqa: E402
 from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
 from bkabem_core.synth.synthesizer import Synthesizer  # noqa: E402
-from bench_synth import speeds_random_walk  # noqa: E402  (the same speed stream as the synthesis benchmark)
 
 FS = 51200.0
 CASES = ("electric_motor_6010", "motor_6010_healthy", "motor_6010_outer", "motor_6010_inner", "motor_6010_ball")

@@ -36,9 +36,9 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 
 from bkabem_core.model.case import Case  # noqa: E402
 from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.synth.floor import FloorTransfer  # noqa: E402
 from bkabem_core.synth.sensors import Accelerometer, AntiAliasFilter  # noqa: E402
 from bkabem_core.synth.synthesizer import Synthesizer  # noqa: E402
-from bkabem_core.synth.floor import FloorTransfer  # noqa: E402
 
 FS = 25600.0
 CHANNEL_SETS = {"acc4": ["acceleration"], "acc+disp8": ["acceleration", "displacement"]}

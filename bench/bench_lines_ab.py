@@ -32,12 +32,12 @@ for _p in (ROOT, ROOT / "bench"):
         sys.path.insert(0, str(_p))
 
 import numpy as np  # noqa: E402
-
 from bench_synth import speeds_random_walk  # noqa: E402
-from bkabem_core.synth import kernel as synth_kernel # noqa: E402
-from bkabem_core.synth import lineknots as synth_lineknots
+
 from bkabem_core.model.case import Case  # noqa: E402
 from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.synth import kernel as synth_kernel  # noqa: E402
+from bkabem_core.synth import lineknots as synth_lineknots
 from bkabem_core.synth.synthesizer import Synthesizer  # noqa: E402
 
 

@@ -42,7 +42,7 @@ if str(ROOT) not in sys.path:
 
 import numpy as np  # noqa: E402
 
-from bkabem_core.synth import kernel as sk # noqa: E402
+from bkabem_core.synth import kernel as sk  # noqa: E402
 
 OLD_REF = "0835588886be0b299f596faa62471cd2f302f5c9"     # 12-bit weight table, ctypes wrapper, numpy table build
 

@@ -138,12 +138,11 @@ def bench_node(rate: float, seconds: float, chunk: float, qos: str, prefix: list
     for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR"):
         os.environ[k] = env[k]
     import rclpy
+    from bkabem_msgs.msg import VibrationWaveform
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from std_msgs.msg import Float64
-
-    from bkabem_msgs.msg import VibrationWaveform
 
     ns = f"/bench{os.getpid()}"
     node_p = Proc((prefix or []) + bkabem("node", "--namespace", ns, "--sample-rate", str(rate),

@@ -38,8 +38,8 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bkabem_ros.recording import mcap_io # noqa: E402
 from bkabem_ros.messages import convert as msgs
+from bkabem_ros.recording import mcap_io  # noqa: E402
 
 FS = 51_200.0
 CHUNK_S = 0.1

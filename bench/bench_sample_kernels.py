@@ -27,9 +27,9 @@ for _p in (ROOT, ROOT / "bench"):
 
 import numpy as np  # noqa: E402
 
-from bkabem_core.synth import kernel as sk # noqa: E402
 from bkabem_core.model.case import Case  # noqa: E402
 from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.synth import kernel as sk  # noqa: E402
 from bkabem_core.synth.synthesizer import Synthesizer  # noqa: E402
 
 FS, M = 51200.0, 5120

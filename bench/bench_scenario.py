@@ -33,8 +33,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
 from bkabem_core.scenario.timeline import Scenario  # noqa: E402
+from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
 
 TEMPLATE = """
 [scenario]

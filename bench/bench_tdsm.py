@@ -19,8 +19,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from bkabem_core.model.case import Case
 from bkabem_core.fe.machine import Machine
+from bkabem_core.model.case import Case
 from bkabem_core.reference.periodic import harmonic_balance
 from bkabem_core.reference.tdsm import Tdsm
 

@@ -17,9 +17,9 @@ import sys
 import numpy as np
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-from bkabem_core.synth import kernel as sk # noqa: E402
 from bkabem_core.model.case import Case  # noqa: E402
 from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.synth import kernel as sk  # noqa: E402
 from bkabem_core.synth.synthesizer import Synthesizer  # noqa: E402
 
 SPEEDS = {"const": (24.0,) * 5, "ramp": (24.0, 24.0, 25.3, 26.1, 25.7, 25.2, 24.1)}

@@ -22,12 +22,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 
 from bkabem_core.bearing.deep_groove import Bearing
-from bkabem_core.model.case import Case
 from bkabem_core.excitation.quasi_static import compute_excitation, quasi_static_excitation
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.fe.machine import Machine
 from bkabem_core.fe.rotor import Mesh, rotor_from_case
+from bkabem_core.model.case import Case
 from bkabem_core.reference.validation import PAPER_OVERRIDES
+from bkabem_core.solve.harmonic import BkaBem
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "method.md"

@@ -43,9 +43,9 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 import threadpoolctl  # noqa: E402
 
-from bkabem_core.model import case as case_module # noqa: E402
-from bkabem_core.dataset import engine as dataset # noqa: E402
+from bkabem_core.dataset import engine as dataset  # noqa: E402
 from bkabem_core.dataset import render as dataset_render
+from bkabem_core.model import case as case_module  # noqa: E402
 from bkabem_core.scenario import timeline as scenario
 from bkabem_core.synth import floor as synth_floor
 

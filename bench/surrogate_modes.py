@@ -340,8 +340,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fmax-hz", type=float, default=2500.0, help="highest frequency listed")
     args = ap.parse_args(argv)
 
-    from bkabem_core.model.case import Case
     from bkabem_core.fe.machine import Machine
+    from bkabem_core.model.case import Case
 
     with open(args.case, "rb") as fh:
         case = tomllib.load(fh)

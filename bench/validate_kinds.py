@@ -30,10 +30,10 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 
 from bkabem_core.model.case import Case  # noqa: E402
-from bkabem_core.solve.harmonic import LOCATIONS, BkaBem  # noqa: E402
-from bkabem_core.solve.improved import HillCorrection  # noqa: E402
-from bkabem_core.reference.tdsm import DIRECTIONS  # noqa: E402
+from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
 from bkabem_core.reference.validation import validate_lines  # noqa: E402
+from bkabem_core.solve.harmonic import BkaBem  # noqa: E402
+from bkabem_core.solve.improved import HillCorrection  # noqa: E402
 
 DOC = ROOT / "docs" / "validation.md"
 BEGIN, END = "<!-- BEGIN kinds -->", "<!-- END kinds -->"

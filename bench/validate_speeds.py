@@ -25,11 +25,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 from tqdm import tqdm
 
-from bkabem_core.model.case import Case
-from bkabem_core.solve.harmonic import LOCATIONS, BkaBem
 from bkabem_core.fe.machine import Machine
+from bkabem_core.model.case import Case
+from bkabem_core.model.vocabulary import LOCATIONS
 from bkabem_core.reference.tdsm import Tdsm
 from bkabem_core.reference.validation import N_LARGEST, QUANTITIES, plot_validation, validate
+from bkabem_core.solve.harmonic import BkaBem
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "validation.md"

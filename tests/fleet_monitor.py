@@ -44,11 +44,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
 
     import rclpy
+    from bkabem_msgs.msg import VibrationWaveform
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from rclpy.serialization import deserialize_message
-
-    from bkabem_msgs.msg import VibrationWaveform
 
     machines = [m for m in args.machines.split(",") if m]
     topics = [t for m in machines for t in waveform_topics(m)]

@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 import scipy.signal as ss
 
-from bkabem_core.analysis import condition
-from bkabem_core.analysis import fault_lines
+from bkabem_core.analysis import condition, fault_lines
 from bkabem_ros.messages import convert as msgs
 
 FS = 25_600.0

@@ -30,9 +30,9 @@ import pyarrow.parquet as pq
 import pytest
 from scipy import signal as sps
 
-from bkabem_core.model.case import Case
 from bkabem_core.dataset.engine import _manifest, read_labels, render_dataset
 from bkabem_core.dataset.spec import DatasetSpec
+from bkabem_core.model.case import Case
 
 REPO = Path(__file__).resolve().parents[1]
 FS = 25600.0
@@ -513,7 +513,6 @@ def test_scenario_runs_label_every_state_and_record_mcap(tmp_path):
     the state column of the file switching at those samples; the MCAP of the run holds the node's waveform
     messages with the same ground truth."""
     from bkabem_core.scenario.timeline import Scenario
-
     from bkabem_ros.recording.dataset_sink import SINK
 
     spec = DatasetSpec.load(_spec(tmp_path, SCENARIO_SPEC))

@@ -22,13 +22,13 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from bkabem_core.model import case as case_module
 from bkabem_core.dataset import engine as dataset
 from bkabem_core.dataset import render as dataset_render
-from bkabem_core.model.case import Case
 from bkabem_core.dataset.engine import _task, render_dataset
 from bkabem_core.dataset.render import RunFile, render_run, run_path
 from bkabem_core.dataset.spec import DatasetSpec
+from bkabem_core.model import case as case_module
+from bkabem_core.model.case import Case
 
 SPEC = """
 [dataset]

@@ -15,10 +15,10 @@ import pytest
 from scipy import signal
 
 from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent
-from bkabem_core.model.case import Case
-from bkabem_core.excitation.quasi_static import quasi_static_excitation
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.excitation.lines import LineSet, union
+from bkabem_core.excitation.quasi_static import quasi_static_excitation
+from bkabem_core.model.case import Case
+from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth.synthesizer import Synthesizer
 
 INCH = 25.4e-3

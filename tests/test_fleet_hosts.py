@@ -30,9 +30,8 @@ import sys
 import warnings
 from pathlib import Path
 
-import pytest
-
 import netns_hosts
+import pytest
 from ros_helpers import Proc, bkabem_cmd, ros_env
 
 MONITOR = Path(__file__).with_name("fleet_monitor.py")

@@ -15,7 +15,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from ros_helpers import bkabem_cmd, ros_env
 
 

@@ -15,7 +15,8 @@ import pytest
 from scipy import signal
 
 from bkabem_core.model.case import Case
-from bkabem_core.solve.harmonic import DIRECTIONS, LOCATIONS, BkaBem
+from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
+from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth.synthesizer import Synthesizer
 
 FS = 51200.0

@@ -12,9 +12,8 @@ from __future__ import annotations
 import os
 import sys
 
-import pytest
-
 import fuzz_cli
+import pytest
 
 SEED = int(os.environ.get("BKABEM_FUZZ_SEED", "14"))
 CLI = [sys.executable, "-m", "bkabem_ros"]

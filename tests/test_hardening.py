@@ -17,9 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from fuzz_cli import CASE_TEXT, read_only_dir
-from ros_helpers import Proc, REPO, bkabem_cmd, ros_env, unique_namespace
+from ros_helpers import REPO, Proc, bkabem_cmd, ros_env, unique_namespace
 
 
 def run(*args, timeout=300, cwd=None, check_one_line=True):

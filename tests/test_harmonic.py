@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from bkabem_core.fe import modal
-from bkabem_core.fe import solvers
-from bkabem_core.solve.harmonic import LOCATIONS, BkaBem
+from bkabem_core.fe import modal, solvers
 from bkabem_core.fe.machine import Machine
 from bkabem_core.fe.solvers import ShaftSolver
+from bkabem_core.model.vocabulary import LOCATIONS
+from bkabem_core.solve.harmonic import BkaBem
 
 
 @pytest.fixture(scope="module")

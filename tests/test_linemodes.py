@@ -4,10 +4,10 @@ complex eigen-decomposition of every line, on the fault library's inner-race and
 import numpy as np
 import pytest
 
-from bkabem_core.model.case import Case
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.fe.linemodes import LineModes
 from bkabem_core.fe.modal import ModalBasis, plane_mask
+from bkabem_core.model.case import Case
+from bkabem_core.solve.harmonic import BkaBem
 
 #: Accepted receptance error of the fast forms against the complex decomposition, relative to the receptance's
 #: largest entry at each frequency (measured: 1.6e-7 at the highest lines, where the pole sum itself has that

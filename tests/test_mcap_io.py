@@ -23,10 +23,10 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from rclpy.serialization import serialize_message  # noqa: E402
-
-from bkabem_ros.recording import mcap_io # noqa: E402
-from bkabem_ros.messages import convert as msgs
 from test_msgs import _truth  # noqa: E402  (a ground truth with two defects, labels)
+
+from bkabem_ros.messages import convert as msgs
+from bkabem_ros.recording import mcap_io  # noqa: E402
 
 T0 = 1_700_000_000_000_000_000
 FS = 51_200.0

@@ -18,12 +18,10 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-
 import rclpy  # noqa: F401,E402  (fail, do not skip, when ROS is missing)
-
 from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
 
-from bkabem_ros.messages import convert as msgs # noqa: E402
+from bkabem_ros.messages import convert as msgs  # noqa: E402
 
 TYPES = ["VibrationWaveform", "VibrationSpectrum", "BearingFaultFrequencies"]
 

@@ -22,7 +22,6 @@ import tempfile
 from pathlib import Path
 
 import pytest
-
 from ros_helpers import REPO, Listener, Proc, bkabem_cmd, ros_env, unique_namespace
 
 CENSUS = Path(__file__).with_name("netns_census.py")

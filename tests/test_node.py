@@ -18,7 +18,6 @@ import time
 import numpy as np
 import pytest
 import rclpy  # noqa: F401  (fail, do not skip, when ROS is missing)
-
 from ros_helpers import Listener, Proc, bkabem_cmd, ros_env, unique_namespace
 
 FS = 25600.0

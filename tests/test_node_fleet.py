@@ -10,7 +10,6 @@ import signal
 import time
 
 import rclpy  # noqa: F401  (fail, do not skip, when ROS is missing)
-
 from ros_helpers import REPO, Listener, Proc, bkabem_cmd
 
 DEPTHS = [0.0, 2e-5, 5e-5]

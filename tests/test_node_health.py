@@ -17,9 +17,8 @@ import time
 
 import numpy as np
 import rclpy  # noqa: F401  (fail, do not skip, when ROS is missing)
-from scipy.signal import hilbert
-
 from ros_helpers import Listener, Proc, bkabem_cmd, unique_namespace
+from scipy.signal import hilbert
 
 FS = 25600.0
 SPEED_HZ = 25.0

@@ -19,7 +19,6 @@ import time
 import numpy as np
 import pytest
 import rclpy  # noqa: F401  (fail, do not skip, when ROS is missing)
-
 from ros_helpers import Listener, Proc, bkabem_cmd, unique_namespace
 from scenario_files import check_truth, defect, scenario_toml, speed_of_timeline
 from scenario_files import parse as _toml
@@ -152,10 +151,9 @@ def test_node_samples_are_an_offline_rendering_with_the_same_state_changes(scena
     """The node's DE acceleration = the synthesiser driven here with the node's settings, switching models at the
     chunks where the node's ground truth says it did: same phases, slip and noise, the same models (made in the
     helper process there, inline here)."""
-    from bkabem_core.scenario.timeline import Scenario
     from bkabem_core.scenario.models import ModelPool
+    from bkabem_core.scenario.timeline import Scenario
     from bkabem_core.synth.synthesizer import Synthesizer
-
     from bkabem_ros.messages.convert import waveform_array
 
     lis, t = scenario_node["lis"], scenario_node["topics"]

@@ -13,7 +13,6 @@ import time
 
 import pytest
 import rclpy  # noqa: F401  (fail, do not skip, when ROS is missing)
-
 from ros_helpers import Listener, Proc, bkabem_cmd, unique_namespace
 
 FS = 12800.0

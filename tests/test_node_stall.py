@@ -13,7 +13,6 @@ import re
 import signal
 
 import numpy as np
-
 from ros_helpers import Listener, Proc, bkabem_cmd, unique_namespace
 
 FS = 25600.0

@@ -18,12 +18,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from ros_helpers import REPO, Listener, Proc, bkabem_cmd, ros_env, unique_namespace
 
-from bkabem_ros.recording import mcap_io
 from bkabem_ros.messages import compat as msg_compat
 from bkabem_ros.messages import convert as msgs
+from bkabem_ros.recording import mcap_io
 
 HISTORY = REPO / "msg_defs" / "history" / "0.1.0"
 EXAMPLE = REPO / "recordings" / "example_runup.mcap"
@@ -103,7 +102,7 @@ def test_the_old_definitions_are_recognised(old_file):
     # today's definitions, in our layout and in rosbags' (no comments): the installed ones
     cur = msgs.message_definition_text("bkabem_msgs/msg/VibrationWaveform")
     assert msg_compat.same_as_installed("bkabem_msgs/msg/VibrationWaveform", cur)
-    from rosbags.typesys import get_types_from_msg, get_typestore, Stores
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     ts = get_typestore(Stores.ROS2_KILTED)
     for name in ("Defect", "GroundTruth", "VibrationWaveform"):
@@ -186,9 +185,8 @@ def test_a_reader_of_the_old_definitions_reads_todays_messages():
     m = oldff["bkabem_msgs/msg/BearingFaultFrequencies"](serialize_message(ff))
     assert (m.defect_race, m.defect_length, m.bsf) == ("ball", 1e-3, 4.0)
     # and today's reader sees the whole ground truth
-    from rclpy.serialization import deserialize_message
-
     from bkabem_msgs.msg import BearingFaultFrequencies
+    from rclpy.serialization import deserialize_message
 
     back = msgs.ground_truth_dict(deserialize_message(serialize_message(ff), BearingFaultFrequencies))
     assert back["defects"][0]["kind"] == "ball" and back["defects"][0]["ball"] == 1 and back["labels"] == {"line": "7"}

@@ -29,9 +29,11 @@ import rclpy  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 
-from bkabem_ros.recording import mcap_io # noqa: E402
 from bkabem_ros.messages import convert as msgs
-from bkabem_ros.recording import replay
+from bkabem_ros.recording import (
+    mcap_io,  # noqa: E402
+    replay,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 T0 = 1_700_000_000_000_000_000

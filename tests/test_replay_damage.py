@@ -19,10 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bkabem_ros.recording import mcap_check
-from bkabem_ros.recording import mcap_io
 from bkabem_ros.messages import convert as msgs
-from bkabem_ros.recording import replay
+from bkabem_ros.recording import mcap_check, mcap_io, replay
 
 ROOT = Path(__file__).resolve().parents[1]
 FS = 10_240.0

@@ -21,13 +21,13 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+from scenario_files import defect, scenario_toml  # noqa: E402
 
-from bkabem_ros.recording import mcap_io # noqa: E402
 from bkabem_ros.messages import convert as msgs
+from bkabem_ros.recording import mcap_io  # noqa: E402
 from bkabem_ros.viewer import blueprint as rerun_blueprint
 from bkabem_ros.viewer import rerun_io
 from bkabem_ros.viewer.screenshots import listening_addresses as _listening  # noqa: E402
-from scenario_files import defect, scenario_toml  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 T0 = 1_700_000_000_000_000_000
@@ -570,8 +570,7 @@ def test_envelope_verdict_says_when_a_line_is_another_bearings_defect():
     machine whose only defect is a DE outer-race dent, the verdict names the DE defect as the source, transmitted;
     on the DE panel it stays the bearing's own finding; with an NDE outer-race defect too, the NDE finding is its
     own and says the DE one adds to it; without ground truth it is the plain finding."""
-    from bkabem_core.analysis import fault_lines
-    from bkabem_core.analysis import health
+    from bkabem_core.analysis import fault_lines, health
 
     fs, n = 8192.0, 8192
     f = np.fft.rfftfreq(n, 1 / fs)[: 1024]
@@ -604,8 +603,7 @@ def test_health_text_says_what_is_in_this_bearing_and_what_is_elsewhere():
     """A panel's ground-truth line names only its own bearing's defects; the other bearing's
     defects are on their own line, so an NDE panel never reads "no defect ... (outer-race
     defect, DE bearing ...)"."""
-    from bkabem_core.analysis import fault_lines
-    from bkabem_core.analysis import health
+    from bkabem_core.analysis import fault_lines, health
 
     de = fault_lines.Defect("outer", "de", 4e-3, 100e-6, -math.pi / 2, "6010", "de_outer_spall")
     nde = fault_lines.Defect("ball", "nde", 1e-3, 20e-6, 0.0, "6010", "nde_ball", ball=2)

@@ -20,7 +20,7 @@ from pathlib import Path  # noqa: E402
 
 import pytest  # noqa: E402
 
-from bkabem_ros.recording import replay # noqa: E402
+from bkabem_ros.recording import replay  # noqa: E402
 from bkabem_ros.viewer import rerun_io
 from bkabem_ros.viewer.blueprint import view_names  # noqa: E402
 from bkabem_ros.viewer.screenshots import (  # noqa: E402
@@ -144,7 +144,6 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
     import time
 
     import numpy as np
-
     from ros_helpers import Proc, bkabem_cmd, unique_namespace
 
     from bkabem_ros.viewer.screenshots import _pixels, _save_png

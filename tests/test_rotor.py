@@ -358,8 +358,8 @@ def test_refined_mesh_keeps_the_case_nodes_and_the_band(case):
 
 @pytest.fixture(scope="module")
 def embedded_machine():
-    from bkabem_core.model.case import Case
     from bkabem_core.fe.machine import Machine
+    from bkabem_core.model.case import Case
 
     return Machine(Case.load())
 

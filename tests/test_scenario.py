@@ -15,15 +15,15 @@ import time
 
 import numpy as np
 import pytest
-
-from bkabem_core.model.case import Case
-from bkabem_core.fe.machine import Machine
-from bkabem_core.scenario.timeline import MAX_STATES, Scenario, ScenarioError, embedded_scenarios
-from bkabem_core.scenario.models import ModelHelper, ModelPool
-from bkabem_core.scenario.run import InlineModels, ScenarioClock, ScenarioDriver, ScenarioRun
-from bkabem_core.synth.synthesizer import Synthesizer
 from scenario_files import check_truth, defect, scenario_toml, speed_of_timeline, truth_of_timeline
 from scenario_files import parse as _toml
+
+from bkabem_core.fe.machine import Machine
+from bkabem_core.model.case import Case
+from bkabem_core.scenario.models import ModelHelper, ModelPool
+from bkabem_core.scenario.run import InlineModels, ScenarioClock, ScenarioDriver, ScenarioRun
+from bkabem_core.scenario.timeline import MAX_STATES, Scenario, ScenarioError, embedded_scenarios
+from bkabem_core.synth.synthesizer import Synthesizer
 
 FS = 12800.0
 CHUNK = 0.1
@@ -467,8 +467,8 @@ def test_synth_cli_too_low_a_rate_for_the_scenario_names_rate(tmp_path, rate):
 def test_every_input_file_kind_refuses_a_too_deep_nesting_with_one_line():
     """Case, scenario, fleet scenario and data-set spec read TOML through one reader (case.parse_toml): a nesting
     too deep for the parser is the key ``toml`` of each file kind's own error, not a RecursionError."""
-    from bkabem_core.model.case import Case, CaseError
     from bkabem_core.dataset.spec import DatasetSpec, DatasetSpecError
+    from bkabem_core.model.case import Case, CaseError
     from bkabem_core.scenario.fleet import FleetScenario
     from bkabem_core.scenario.timeline import Scenario, ScenarioError
 
@@ -485,8 +485,8 @@ def test_every_input_file_kind_finds_an_embedded_name_or_a_path_the_same_way(tmp
     (case.read_input_text): the same errors, each for its own key and error class - an unknown name lists the
     embedded ones, a missing file, a file that is not UTF-8 (key ``toml``), an empty name - and a bare name that
     is a file here is read as that file."""
-    from bkabem_core.model.case import Case, CaseError, embedded_cases
     from bkabem_core.dataset.spec import DatasetSpec, DatasetSpecError, embedded_specs
+    from bkabem_core.model.case import Case, CaseError, embedded_cases
     from bkabem_core.scenario.fleet import FleetScenario
 
     binary = tmp_path / "latin1.toml"

@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bkabem_core.solve.harmonic import DIRECTIONS, TWO_PI
+from bkabem_core.model.vocabulary import DIRECTIONS
+from bkabem_core.solve.harmonic import TWO_PI
 from bkabem_core.synth.synthesizer import (
     ModalSpectrum,
     SpeedProfile,

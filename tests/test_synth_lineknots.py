@@ -7,12 +7,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bkabem_core.synth import kernel as synth_kernel
-from bkabem_core.synth import lineknots as synth_lineknots
 from bkabem_core.model.case import Case
 from bkabem_core.solve.harmonic import TWO_PI, BkaBem
-from bkabem_core.synth.synthesizer import Synthesizer
+from bkabem_core.synth import kernel as synth_kernel
+from bkabem_core.synth import lineknots as synth_lineknots
 from bkabem_core.synth.linesets import ISO_BAND_HZ
+from bkabem_core.synth.synthesizer import Synthesizer
 
 if not synth_lineknots.AVAILABLE:     # the set-up builds them (make install): fail, never skip, when they are missing
     pytest.fail("the C kernels are not built: run `make install`", pytrace=False)

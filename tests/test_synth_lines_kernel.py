@@ -6,12 +6,12 @@ the same samples to float32 rounding, through speed changes with slip, sensor no
 import numpy as np
 import pytest
 
-from bkabem_core.synth import lineknots as synth_lineknots
-from bkabem_core.synth import kernel as sk
 from bkabem_core.model.case import Case
 from bkabem_core.solve.harmonic import BkaBem
-from bkabem_core.synth.synthesizer import Synthesizer
+from bkabem_core.synth import kernel as sk
+from bkabem_core.synth import lineknots as synth_lineknots
 from bkabem_core.synth.linesets import _carrier_sums
+from bkabem_core.synth.synthesizer import Synthesizer
 
 if not sk.LINES_AVAILABLE:     # the set-up builds them (make install): fail, never skip, when they are missing
     pytest.fail("the C line-set kernel is not built: run `make install`", pytrace=False)

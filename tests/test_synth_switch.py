@@ -17,19 +17,19 @@ from contextlib import contextmanager
 
 import numpy as np
 import pytest
+from scenario_files import defect, scenario_toml
 
-from bkabem_core.model.case import Case
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.fe.modal import SpeedCells
-from bkabem_core.scenario.timeline import Scenario
+from bkabem_core.model.case import Case
 from bkabem_core.scenario.models import ModelHelper, ModelPool
 from bkabem_core.scenario.run import BackgroundModels, ScenarioClock, ScenarioDriver, WarmWorker
-from bkabem_core.synth.synthesizer import Synthesizer
+from bkabem_core.scenario.timeline import Scenario
+from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth.floor import BroadbandFloor, FloorTransfer
 from bkabem_core.synth.lineknots import LineSegments
 from bkabem_core.synth.linesets import LineFamilies
 from bkabem_core.synth.switch import WarmModel
-from scenario_files import defect, scenario_toml
+from bkabem_core.synth.synthesizer import Synthesizer
 
 FS = 25600.0
 CHUNK = 0.1

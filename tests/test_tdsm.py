@@ -10,8 +10,8 @@ import pytest
 import scipy.linalg
 from scipy.integrate import solve_ivp
 
-from bkabem_core.reference.periodic import harmonic_balance
 from bkabem_core.fe.rotor import rotor_from_case
+from bkabem_core.reference.periodic import harmonic_balance
 from bkabem_core.reference.tdsm import Tdsm
 
 SPEED = 30.0

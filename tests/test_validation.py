@@ -20,11 +20,12 @@ import json
 import numpy as np
 import pytest
 
-from bkabem_core.solve.harmonic import LOCATIONS, BkaBem
-from bkabem_core.solve.improved import HillCorrection
+from bkabem_core.model.vocabulary import LOCATIONS
 from bkabem_core.reference.periodic import harmonic_balance
 from bkabem_core.reference.tdsm import Tdsm
 from bkabem_core.reference.validation import METHODS, make_method, plot_validation, validate
+from bkabem_core.solve.harmonic import BkaBem
+from bkabem_core.solve.improved import HillCorrection
 
 SPEED = 30.0
 

@@ -12,8 +12,7 @@ import math
 
 import numpy as np
 
-from bkabem_core.analysis import condition
-from bkabem_core.analysis import fault_lines
+from bkabem_core.analysis import condition, fault_lines
 
 __all__ = ["bearing_truth", "envelope_finding", "health_text", "line_sources"]
 

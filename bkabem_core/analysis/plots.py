@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from bkabem_core.excitation.quasi_static import DIRECTIONS, Excitation
-from bkabem_core.solve.harmonic import LOCATIONS, Spectrum, Sweep
+from bkabem_core.excitation.quasi_static import Excitation
+from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
+from bkabem_core.solve.harmonic import Spectrum, Sweep
 
 
 def _pyplot():

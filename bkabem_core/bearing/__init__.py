@@ -1,1 +1,40 @@
-"""bkabem_core/bearing"""
+"""The deep-groove ball bearing: geometry, kinematics, Hertz contact, clearance, defects and ball forces.
+
+Bearing model (module ``deep_groove``)
+======================================
+    Bearing              -- a deep-groove ball bearing, healthy or with defects: ball forces, equilibrium
+    BearingGeometry      -- geometry and material (SI)
+    FaultFrequencies     -- FTF, BPFO, BPFI, BSF [Hz or per shaft Hz]
+    HertzContact         -- Hertz point-contact constants (Brewe-Hamrock)
+    BearingState         -- the bearing at its static equilibrium
+    BearingLinearisation -- lateral stiffness and damping at an equilibrium
+
+Defects (module ``defects``)
+============================
+    Dent                 -- a localised defect (dent, pit, spall): kind, size, angle, edge profile
+    DefectSet            -- the defects of one bearing: the drop every ball feels
+    DefectProfile        -- one defect with its bearing's geometry
+
+Contact forces of the time-domain models (module ``contacts``)
+=============================================================
+    HertzPair            -- nonlinear ball forces of both bearings, tabulated over a ball pass
+    LinearPair           -- the linear counterpart
+"""
+
+from bkabem_core._face import lazy_face
+
+__all__ = ["Bearing", "BearingGeometry", "FaultFrequencies", "HertzContact", "BearingState", "BearingLinearisation", "Dent", "DefectSet", "DefectProfile", "HertzPair", "LinearPair"]
+
+__getattr__, __dir__ = lazy_face(__name__, {
+    "Bearing": "deep_groove",
+    "BearingGeometry": "deep_groove",
+    "FaultFrequencies": "deep_groove",
+    "HertzContact": "deep_groove",
+    "BearingState": "deep_groove",
+    "BearingLinearisation": "deep_groove",
+    "Dent": "defects",
+    "DefectSet": "defects",
+    "DefectProfile": "defects",
+    "HertzPair": "contacts",
+    "LinearPair": "contacts",
+})

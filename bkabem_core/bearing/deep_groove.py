@@ -36,8 +36,16 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from bkabem_core.bearing.defects import (EDGE_PROFILES, KINDS, DefectProfile, DefectSet, Dent, outer_race_drop_m,  # noqa: F401
-                      step_cubic, wrap_to_pi)
+from bkabem_core.bearing.defects import (  # noqa: F401
+    EDGE_PROFILES,
+    KINDS,
+    DefectProfile,
+    DefectSet,
+    Dent,
+    outer_race_drop_m,
+    step_cubic,
+    wrap_to_pi,
+)
 
 TWO_PI = 2.0 * math.pi
 

@@ -34,8 +34,16 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from bkabem_core.dataset.render import (RUNS_DIR, TEMP_MARK, Finisher, check_run_file, commit, fsync_dir, render_run,
-                             run_path)
+from bkabem_core.dataset.render import (
+    RUNS_DIR,
+    TEMP_MARK,
+    Finisher,
+    check_run_file,
+    commit,
+    fsync_dir,
+    render_run,
+    run_path,
+)
 from bkabem_core.dataset.spec import DatasetSpec, Run
 
 ENGINES = ("local", "dask")

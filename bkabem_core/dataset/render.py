@@ -33,13 +33,13 @@ from pathlib import Path
 
 import numpy as np
 
-from bkabem_core.model.case import Case
 from bkabem_core.dataset.spec import Run, parse_fault
-from bkabem_core.scenario.timeline import Scenario, add_frequencies
+from bkabem_core.model.case import Case
 from bkabem_core.scenario.models import ModelPool
+from bkabem_core.scenario.timeline import Scenario, add_frequencies
+from bkabem_core.synth.profile import SpeedProfile, parse_profile
 from bkabem_core.synth.sensors import Accelerometer, AntiAliasFilter
 from bkabem_core.synth.synthesizer import Synthesizer
-from bkabem_core.synth.profile import SpeedProfile, parse_profile
 
 #: Models a worker keeps (each ~10-50 MB for the fault library's motor; a scenario run has ~20 states).
 POOL_SIZE = 24
@@ -173,8 +173,8 @@ def _chunks(run: Run):
     t0 = time.perf_counter()
     profile = _profile(p)
     if run.is_scenario:
-        from bkabem_core.scenario.timeline import Scenario
         from bkabem_core.scenario.run import ScenarioRun
+        from bkabem_core.scenario.timeline import Scenario
 
         scenario = Scenario.load(run.scenario_path or p["scenario"])
         # spectrum "exact": one solve per chunk border (~1 ms), not a modal form per state (~1 s each to set up)

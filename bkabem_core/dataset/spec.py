@@ -46,6 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from bkabem_core.model.case import Case, CaseError, InputFileError, parse_toml, read_input_text
+from bkabem_core.model.vocabulary import BEARINGS
 
 SCHEMA_VERSION = 1
 #: Version of the run files' layout and of the run hash; part of every run hash.
@@ -53,7 +54,6 @@ FORMAT_VERSION = 1
 MAX_RUNS = 1_000_000
 SAMPLINGS = ("grid", "random")
 KINDS = ("outer", "inner", "ball")
-BEARINGS = ("de", "nde")
 QUANTITY_NAMES = ("acceleration", "displacement", "velocity")
 COMPRESSIONS = ("none", "snappy", "zstd", "lz4")
 ACCELEROMETERS = ("none", "stud", "adhesive", "magnet", "probe")

@@ -1,1 +1,38 @@
-"""bkabem_core/excitation"""
+"""The bearing excitation of BKA-BEM and the machine baseline, as sets of lines.
+
+Lines (module ``lines``)
+========================
+    LineSet               -- lines with integer coefficients on the base phases and complex amplitudes
+    union                 -- one set holding every line of several sets
+    lines_from_grid       -- lines of a function sampled on a 2-torus (2-D FFT)
+
+Quasi-static excitation (module ``quasi_static``)
+=================================================
+    Excitation            -- the rotor-housing relative displacement one bearing imposes, as lines
+    quasi_static_excitation -- a bearing's excitation from its quasi-static equilibrium over a ball pitch
+    torus_path            -- the quasi-static path of a moving defect on the torus of its phases
+    FourDofModel          -- the paper's 4-DOF rotor + housing model of one bearing
+    compute_excitation    -- the 4-DOF excitation (integrated, then BPFO orders)
+    rates_per_hz          -- rates of the base phases per shaft Hz
+
+Machine baseline (module ``baseline``)
+======================================
+    baseline_forces       -- unbalance, misalignment, electrical lines as force lines on the FE rotor
+"""
+
+from bkabem_core._face import lazy_face
+
+__all__ = ["LineSet", "union", "lines_from_grid", "Excitation", "quasi_static_excitation", "torus_path", "FourDofModel", "compute_excitation", "rates_per_hz", "baseline_forces"]
+
+__getattr__, __dir__ = lazy_face(__name__, {
+    "LineSet": "lines",
+    "union": "lines",
+    "lines_from_grid": "lines",
+    "Excitation": "quasi_static",
+    "quasi_static_excitation": "quasi_static",
+    "torus_path": "quasi_static",
+    "FourDofModel": "quasi_static",
+    "compute_excitation": "quasi_static",
+    "rates_per_hz": "quasi_static",
+    "baseline_forces": "baseline",
+})

@@ -38,8 +38,8 @@ from scipy.integrate import odeint
 
 from bkabem_core.bearing.deep_groove import TWO_PI, Bearing, BearingState
 from bkabem_core.excitation.lines import LineSet, lines_from_grid, union
+from bkabem_core.model.vocabulary import DIRECTIONS
 
-DIRECTIONS = ("vertical", "horizontal")
 METHODS = ("quasi_static", "four_dof")
 
 

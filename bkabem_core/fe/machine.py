@@ -27,11 +27,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from bkabem_core.bearing.deep_groove import Bearing, BearingLinearisation, BearingState
-from bkabem_core.model.case import Case
 from bkabem_core.excitation.quasi_static import Excitation, compute_excitation, quasi_static_excitation
 from bkabem_core.fe.rotor import Mesh, Rotor, mesh_for, rotor_from_case
-
-BEARINGS = ("de", "nde")
+from bkabem_core.model.case import Case
+from bkabem_core.model.vocabulary import BEARINGS
 
 
 @dataclass

@@ -15,7 +15,15 @@ from typing import Iterable, Mapping, Sequence
 import numpy as np
 import scipy.linalg
 
-from bkabem_core.fe.elements import POINT_DIRECTIONS, SHAFT_DIRECTIONS, Disk, LinearBearing, Material, PointMass, ShaftElement
+from bkabem_core.fe.elements import (
+    POINT_DIRECTIONS,
+    SHAFT_DIRECTIONS,
+    Disk,
+    LinearBearing,
+    Material,
+    PointMass,
+    ShaftElement,
+)
 
 __all__ = [
     "Material",

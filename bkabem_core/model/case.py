@@ -19,9 +19,9 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
-from bkabem_core.model import plausibility
 from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent
 from bkabem_core.excitation.quasi_static import FourDofParameters
+from bkabem_core.model import plausibility
 
 DEFAULT_CASE = "electric_motor_6010"
 #: Version of the case format this code reads; older files are migrated (:func:`migrate_v1`, :func:`migrate_v2`).

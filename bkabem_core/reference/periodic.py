@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bkabem_core.fe.modal import ModalBasis
 from bkabem_core.bearing.contacts import HertzPair
+from bkabem_core.fe.modal import ModalBasis
 from bkabem_core.reference.tdsm import Tdsm
 
 TWO_PI = 2.0 * math.pi

@@ -60,17 +60,16 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
-from bkabem_core.bearing.deep_groove import TWO_PI
 from bkabem_core.bearing.contacts import HertzPair, LinearPair
-from bkabem_core.model.case import Case
-from bkabem_core.fe.machine import BEARINGS, Machine
+from bkabem_core.bearing.deep_groove import TWO_PI
+from bkabem_core.fe.machine import Machine
 from bkabem_core.fe.rotor import Rotor, rotor_from_case
+from bkabem_core.model.case import Case
+from bkabem_core.model.vocabulary import BEARINGS, DIRECTIONS, LOCATIONS
 
 __all__ = ["Tdsm", "TdsmResult", "StaticEquilibrium", "HertzPair", "LinearPair", "LOCATIONS", "DIRECTIONS",
            "BEARINGS"]
 
-LOCATIONS = ("de_rotor", "de_housing", "nde_rotor", "nde_housing")
-DIRECTIONS = ("vertical", "horizontal")
 _DIR_DOF = {"vertical": "y", "horizontal": "x"}
 
 

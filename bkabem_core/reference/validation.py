@@ -37,10 +37,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bkabem_core.model.case import Case
-from bkabem_core.solve.harmonic import LOCATIONS, BkaBem, Spectrum
-from bkabem_core.solve.improved import HillCorrection
+from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
 from bkabem_core.reference.periodic import harmonic_balance
-from bkabem_core.reference.tdsm import DIRECTIONS, Tdsm
+from bkabem_core.reference.tdsm import Tdsm
+from bkabem_core.solve.harmonic import BkaBem, Spectrum
+from bkabem_core.solve.improved import HillCorrection
 
 __all__ = ["validate", "plot_validation", "ValidationResult", "make_method", "METHODS", "PAPER_OVERRIDES",
            "DEFAULT_SPEED_HZ", "DEFAULT_DURATION_S", "N_LARGEST", "validate_lines", "LineValidation"]

@@ -29,8 +29,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bkabem_core.model.case import Case, CaseError, parse_toml
-from bkabem_core.scenario.timeline import SCHEMA_VERSION, Scenario, ScenarioError, _number, _string, _table, read_scenario_text
 from bkabem_core.scenario.run import TIME_SCALE_RANGE
+from bkabem_core.scenario.timeline import (
+    SCHEMA_VERSION,
+    Scenario,
+    ScenarioError,
+    _number,
+    _string,
+    _table,
+    read_scenario_text,
+)
 
 _ENTRY_KEYS = ("case", "scenario", "scenario_time_scale", "scenario_start_s", "scenario_start_h", "labels")
 

@@ -31,9 +31,9 @@ import threading
 import time
 from collections import OrderedDict
 
+from bkabem_core.fe.machine import Machine
 from bkabem_core.model.case import Case
 from bkabem_core.solve.harmonic import BkaBem
-from bkabem_core.fe.machine import Machine
 
 #: Models a pool keeps (each holds its line modes: ~10-50 MB for the fault library's motor).
 POOL_SIZE = 4

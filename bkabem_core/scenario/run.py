@@ -32,9 +32,9 @@ import threading
 import time
 from typing import Callable, Iterator
 
-from bkabem_core.solve.harmonic import BkaBem
-from bkabem_core.scenario.timeline import Scenario, ScenarioState
 from bkabem_core.scenario.models import ModelHelper, ModelPool
+from bkabem_core.scenario.timeline import Scenario, ScenarioState
+from bkabem_core.solve.harmonic import BkaBem
 
 #: Time scales a clock accepts (scenario seconds per stream second).
 TIME_SCALE_RANGE = (1e-3, 1e7)

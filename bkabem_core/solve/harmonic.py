@@ -44,17 +44,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bkabem_core.excitation.baseline import baseline_forces
 from bkabem_core.bearing.deep_groove import FaultFrequencies
-from bkabem_core.model.case import Case
-from bkabem_core.excitation.quasi_static import DIRECTIONS, Excitation, rates_per_hz
+from bkabem_core.excitation.baseline import baseline_forces
 from bkabem_core.excitation.lines import LineSet, union
-from bkabem_core.fe.machine import BEARINGS, Machine
+from bkabem_core.excitation.quasi_static import Excitation, rates_per_hz
+from bkabem_core.fe.machine import Machine
 from bkabem_core.fe.modal import LineModes, ModalBasis, OrderModalForm, SpeedCells  # noqa: F401  (SpeedCells: for synth)
 from bkabem_core.fe.rotor import Rotor
 from bkabem_core.fe.solvers import ShaftSolver, solve_direct
+from bkabem_core.model.case import Case
+from bkabem_core.model.vocabulary import BEARINGS, DIRECTIONS, LOCATIONS
 
-LOCATIONS = ("de_rotor", "de_housing", "nde_rotor", "nde_housing")
 _DIR_DOF = {"vertical": "y", "horizontal": "x"}
 TWO_PI = 2.0 * math.pi
 SOLVERS = ("modal", "block", "direct")

@@ -54,12 +54,12 @@ import time
 import numpy as np
 import scipy.sparse
 
-from bkabem_core.bearing.deep_groove import Bearing
 from bkabem_core.bearing.contacts import HertzPair
+from bkabem_core.bearing.deep_groove import Bearing
 from bkabem_core.excitation.quasi_static import quasi_static_path_m, torus_grid, torus_path
-from bkabem_core.solve.harmonic import BkaBem, Spectrum
-from bkabem_core.fe.machine import BEARINGS
 from bkabem_core.fe.modal import LineModes
+from bkabem_core.model.vocabulary import BEARINGS
+from bkabem_core.solve.harmonic import BkaBem, Spectrum
 
 TWO_PI = 2.0 * math.pi
 #: Largest rank-1 lattice of the improved method for a non-order line set (points per ball-force evaluation).

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bkabem_core.excitation.quasi_static import DIRECTIONS
+from bkabem_core.model.vocabulary import DIRECTIONS
 
 
 @dataclass

@@ -13,11 +13,11 @@ import sys
 
 import numpy as np
 
-from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.solve.harmonic import TWO_PI, SpeedCells
-from bkabem_core.synth.sensors import chain_gains
+from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth.linesets import ModalSpectrum, _Amplitudes
 from bkabem_core.synth.profile import SpeedProfile, SynthError
+from bkabem_core.synth.sensors import chain_gains
 
 
 class KnotSpectrum:

@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.solve.harmonic import TWO_PI
+from bkabem_core.synth import kernel as synth_kernel
 
 _EXT = synth_kernel._EXT
 #: True if the extension module has the line-set knot and segment calls.

@@ -37,12 +37,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bkabem_core.model.vocabulary import BEARINGS, DIRECTIONS, LOCATIONS
+from bkabem_core.solve.harmonic import TWO_PI, BkaBem
 from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth import lineknots as synth_lineknots
-from bkabem_core.solve.harmonic import DIRECTIONS, LOCATIONS, TWO_PI, BkaBem
-from bkabem_core.synth.sensors import chain_gains
 from bkabem_core.synth.lineknots import LineKnots, LineSegments, band_rms_lines
 from bkabem_core.synth.profile import SynthError
+from bkabem_core.synth.sensors import chain_gains
 
 PASS = float(synth_kernel.PASS_UNITS)
 
@@ -259,7 +260,6 @@ class LineFamilies:
         return t - math.floor(t)
 
 
-BEARINGS = ("de", "nde")
 #: quantity -> (unit, power of (i omega) applied to the displacement amplitude, scale to the unit)
 QUANTITIES = {
     "acceleration": ("m/s^2", 2, 1.0),

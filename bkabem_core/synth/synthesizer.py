@@ -47,18 +47,29 @@ from typing import Iterator
 
 import numpy as np
 
+from bkabem_core.model.vocabulary import BEARINGS, DIRECTIONS, LOCATIONS
+from bkabem_core.solve.harmonic import TWO_PI, BkaBem
 from bkabem_core.synth import kernel as synth_kernel
-from bkabem_core.solve.harmonic import DIRECTIONS, LOCATIONS, TWO_PI, BkaBem  # noqa: F401  (LOCATIONS re-exported)
-from bkabem_core.synth.sensors import Accelerometer, AntiAliasFilter
 from bkabem_core.synth.features import _FOLD, Chunk, _moment_features, waveform_features  # noqa: F401  (re-exported)
-from bkabem_core.synth.linesets import (ISO_BAND_HZ, BEARINGS, DEFAULT_QUANTITIES, QUANTITIES, Channel, ExactSpectrum,  # noqa: F401
-                          LineSetPath, ModalSpectrum, _Amplitudes, _combination, _Knot, make_channels)
-from bkabem_core.synth.profile import SpeedProfile, SynthError, _finite, parse_profile  # noqa: F401  (re-exported)
 from bkabem_core.synth.floor import FloorPath
 from bkabem_core.synth.knots import KnotSpectrum
-from bkabem_core.synth.switch import SwitchPath, WarmModel
+from bkabem_core.synth.linesets import (
+    DEFAULT_QUANTITIES,
+    ISO_BAND_HZ,
+    QUANTITIES,
+    Channel,
+    ExactSpectrum,
+    LineSetPath,
+    ModalSpectrum,
+    _Amplitudes,
+    _combination,
+    _Knot,
+    make_channels,
+)
+from bkabem_core.synth.profile import SpeedProfile, SynthError, _finite, parse_profile  # noqa: F401  (re-exported)
 from bkabem_core.synth.randomness import NoisePath, _NoiseBlocks, _SlipWalk, noise_key  # noqa: F401
-
+from bkabem_core.synth.sensors import Accelerometer, AntiAliasFilter
+from bkabem_core.synth.switch import SwitchPath, WarmModel
 
 MAX_SAMPLE_RATE_HZ = 1.0e6
 MAX_SLIP = 0.1

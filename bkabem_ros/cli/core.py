@@ -76,7 +76,7 @@ def _excitation_table(ex, max_rows: int = 24) -> str:
 
 
 def _spectrum_table(sp, max_rows: int = 12) -> str:
-    from bkabem_core.solve.harmonic import LOCATIONS
+    from bkabem_core.model.vocabulary import LOCATIONS
 
     ff = sp.fault_frequencies_hz
     lines = [f"BKA-BEM spectrum at {sp.speed_hz:g} Hz shaft speed ({sp.speed_hz * 60:.0f} rpm): FTF {ff.ftf:.3f} Hz, "
@@ -104,7 +104,8 @@ def _spectrum_table(sp, max_rows: int = 12) -> str:
 # --------------------------------------------------------------------------- commands
 def cmd_excitation(args) -> int:
     case = _load_case(args.case)
-    from bkabem_core.fe.machine import BEARINGS, Machine
+    from bkabem_core.fe.machine import Machine
+    from bkabem_core.model.vocabulary import BEARINGS
 
     machine = Machine(case, mesh=None)
     names = BEARINGS if args.all_bearings else machine.excited_bearings()
@@ -196,8 +197,7 @@ def _sweep_fields(sw, si: int, li: int, di: int) -> dict:
 
 def _write_sweep_json(out, sw, speeds, elapsed: float) -> None:
     """The ``--json`` document (architecture.md's fields), written row by row: no Python lists of the whole sweep."""
-    from bkabem_core.excitation.quasi_static import DIRECTIONS
-    from bkabem_core.solve.harmonic import LOCATIONS
+    from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
 
     acc, disp = sw.acceleration, sw.displacement
     rms_a, rms_d = sw.rms("acceleration"), sw.rms("displacement")
@@ -232,8 +232,8 @@ def cmd_sweep(args) -> int:
     speeds = np.linspace(args.from_hz, args.to_hz, args.steps)
     _check_speeds(case, speeds, "--to-hz")
     model = _model(case)
-    from bkabem_core.excitation.quasi_static import DIRECTIONS
-    from bkabem_core.solve.harmonic import LOCATIONS, Sweep
+    from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
+    from bkabem_core.solve.harmonic import Sweep
 
     progress = not (args.json or args.csv or args.jsonl) and sys.stderr.isatty()
     t0 = time.perf_counter()
@@ -449,7 +449,7 @@ def add_parsers(sub) -> None:
     d.add_argument("--speeds", type=finite_float("--speeds", 0.0), nargs="+", default=[10.0, 25.0, 50.0],
                    help="shaft speeds [Hz] for the spectrum tables")
     d.add_argument("--recordings", default="recordings", help="folder for demo.mcap and demo.rrd")
-    from bkabem_ros.cli.demo import add_run_up_arguments    # options only; rclpy is imported when it runs
+    from bkabem_ros.cli.demo import add_run_up_arguments  # options only; rclpy is imported when it runs
 
     add_run_up_arguments(d)
     d.add_argument("--no-ros", action="store_true", help="core part only (no ROS 2 node run)")

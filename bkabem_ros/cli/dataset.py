@@ -46,7 +46,7 @@ def dataset_main(args) -> int:
         raise UsageError("--scheduler: only with --engine dask")
     sinks = ()
     if spec.mcap:
-        from bkabem_ros.recording.dataset_sink import SINK       # rclpy only serialises the messages: no ROS graph is joined
+        from bkabem_ros.recording.dataset_sink import SINK  # rclpy only serialises the messages: no ROS graph is joined
 
         sinks = (SINK,)
     text = None

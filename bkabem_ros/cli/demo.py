@@ -281,7 +281,6 @@ def add_parser(sub, add_case=None):
 
 def main(args) -> int:
     from bkabem_core.model.case import Case
-
     from bkabem_ros.cli.base import UsageError, check_output_dir
 
     top = Case.load(args.case).max_speed_hz

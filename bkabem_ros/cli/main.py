@@ -30,8 +30,8 @@ from threadpoolctl import threadpool_limits
 from bkabem_ros.cli import core as core_cli
 from bkabem_ros.cli import dataset as dataset_cli
 from bkabem_ros.cli import synth as synth_cli
-from bkabem_ros.cli.ros import add_ros_commands
 from bkabem_ros.cli.base import Parser, add_debug, add_ros_options, run_command
+from bkabem_ros.cli.ros import add_ros_commands
 
 __all__ = ["build_parser", "main"]
 

@@ -68,7 +68,6 @@ def add_parser(sub, add_case=None):
 
 def main(args) -> int:
     from bkabem_ros.cli.base import UsageError, output_path
-
     from bkabem_ros.recording import mcap_io
 
     say = (lambda text: None) if args.quiet else (lambda text: print(text, flush=True))

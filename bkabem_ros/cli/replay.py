@@ -17,9 +17,7 @@ __all__ = ["add_parser", "main"]
 
 def add_parser(sub, add_case=None):
     """Register ``bkabem replay`` on an argparse subparsers object."""
-    from bkabem_ros.cli.base import finite_float
-
-    from bkabem_ros.cli.base import output_path
+    from bkabem_ros.cli.base import finite_float, output_path
     from bkabem_ros.viewer.rerun_io import DEFAULT_CONNECT_URL
 
     p = sub.add_parser("replay", help="republish an MCAP recording on ROS 2 and/or convert it for Rerun",
@@ -62,9 +60,7 @@ def main(args) -> int:
     from pathlib import Path
 
     from bkabem_ros.cli.base import UsageError
-
-    from bkabem_ros.recording import mcap_check
-    from bkabem_ros.recording import mcap_io
+    from bkabem_ros.recording import mcap_check, mcap_io
     from bkabem_ros.recording import replay as rp
 
     say = (lambda text: None) if args.quiet else (lambda text: print(text, flush=True))

@@ -13,9 +13,7 @@ import importlib
 import importlib.util
 from pathlib import Path
 
-
-from bkabem_ros.cli.base import (UsageError, check_parameter_ranges, fail, finite_float, output_path,  # noqa: F401
-                       pos_int)
+from bkabem_ros.cli.base import UsageError, check_parameter_ranges, fail, finite_float, output_path, pos_int  # noqa: F401
 
 
 def _shorthand(p) -> None:
@@ -140,9 +138,8 @@ def add_ros_commands(sub, add_case) -> None:
     n.set_defaults(func=cmd_node, ros_network=True)
 
     from bkabem_ros.fleet import discovery
-    from bkabem_ros.node import echo
     from bkabem_ros.fleet import launcher as fleet
-    from bkabem_ros.node import speed
+    from bkabem_ros.node import echo, speed
 
     speed.add_parser(sub, add_case)
     echo.add_parser(sub, add_case)

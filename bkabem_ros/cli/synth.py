@@ -40,8 +40,8 @@ from pathlib import Path
 import numpy as np
 
 from bkabem_core.synth.synthesizer import SynthError, Synthesizer, parse_profile
-
 from bkabem_ros.cli.base import UsageError, output_path, writing
+
 _UNIT_SUFFIX = {"m/s^2": "m_s2", "m": "m", "mm/s": "mm_s"}
 #: Bounds of the options (beyond them the samples overflow float32 or the output does not fit a disk):
 MAX_SECONDS = 1e5                   # ~28 h of signal
@@ -300,8 +300,8 @@ def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_
 
 def _scenario_run(st, args):
     """(ScenarioRun, its chunk iterator, metadata, title) of ``--scenario`` (raises UsageError)."""
-    from bkabem_core.scenario.timeline import Scenario, ScenarioError
     from bkabem_core.scenario.run import ScenarioRun
+    from bkabem_core.scenario.timeline import Scenario, ScenarioError
 
     try:
         scenario = Scenario.load(st["scenario"])

@@ -43,7 +43,6 @@ import subprocess
 import sys
 import time
 
-
 #: A host runs tens of machines in real time (BENCHMARKS.md); beyond these the plan itself becomes the problem
 #: (the workers' argument lists, thousands of DDS participants).
 MAX_MACHINES = 1000
@@ -147,9 +146,7 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
     from rclpy.parameter import Parameter
 
     from bkabem_core.model.case import CaseError
-
     from bkabem_ros.node.vibration_node import VibrationNode, _exit_log, _quiet_gc
-
     from bkabem_ros.ros_env import init  # noqa: PLC0415
 
     init(["bkabem-fleet", "--ros-args", *ros_args])   # + the discovery range in force, once
@@ -315,10 +312,9 @@ def add_parser(sub, add_case):
 
 
 def main(args) -> int:
-    from bkabem_ros.cli.base import fail
-
     import math
 
+    from bkabem_ros.cli.base import fail
     from bkabem_ros.ros_env import check_names
 
     depths = None
@@ -342,7 +338,6 @@ def main(args) -> int:
             fail("fleet", "--scenario: give --scenario or --case/--defect-depths, not both (the scenario assigns "
                           "the machines' cases)")
         from bkabem_core.scenario.timeline import ScenarioError
-
         from bkabem_ros.fleet import plan as fleet_plan
 
         try:

@@ -27,13 +27,17 @@ from typing import Any
 
 import numpy as np
 
-from bkabem_core.scenario.timeline import Scenario
+from bkabem_core.model.vocabulary import BEARINGS
 from bkabem_core.scenario.run import BackgroundModels, ScenarioClock, ScenarioDriver
-
-from bkabem_ros.messages.convert import fault_frequencies_message, ground_truth_message, spectrum_message, waveform_message
+from bkabem_core.scenario.timeline import Scenario
+from bkabem_ros.messages.convert import (
+    fault_frequencies_message,
+    ground_truth_message,
+    spectrum_message,
+    waveform_message,
+)
 
 TWO_PI = 2.0 * math.pi
-BEARINGS = ("de", "nde")
 QUANTITIES = ("acceleration", "displacement")
 CHANNELS = ("vertical", "horizontal")
 WAVEFORM_TYPE = "bkabem_msgs/msg/VibrationWaveform"

@@ -216,7 +216,6 @@ def add_parser(sub, add_case=None):
 
 def main(args) -> int:
     from bkabem_ros.cli.base import fail
-
     from bkabem_ros.ros_env import check_names
 
     try:

@@ -52,12 +52,21 @@ from typing import Any, Callable
 
 import numpy as np
 
+from bkabem_core.model.vocabulary import BEARINGS
 from bkabem_ros.node.band import BandWatch, start_note, start_refusal
 from bkabem_ros.node.params import LIVE_PARAMETERS, PARAMETER_SPECS, PARAMETERS, ParamSpec  # noqa: F401  (re-exported)
+from bkabem_ros.node.source import (
+    CHANNELS,
+    FAULT_TYPE,
+    QUANTITIES,
+    SPECTRUM_TYPE,
+    TWO_PI,
+    WAVEFORM_TYPE,
+    MachineSource,
+    parse_labels,
+    prepare_model,
+)
 from bkabem_ros.node.speed import SPEED_UNITS, check_speed, normalize_unit
-
-from bkabem_ros.node.source import (BEARINGS, CHANNELS, FAULT_TYPE, QUANTITIES, SPECTRUM_TYPE, TWO_PI,  # noqa: F401
-                          WAVEFORM_TYPE, MachineSource, parse_labels, prepare_model)
 
 SPEED_TYPE = "std_msgs/msg/Float64"
 N_WAVEFORMS = len(BEARINGS) * len(QUANTITIES)   # waveform messages per chunk (first in a chunk's items)
@@ -167,11 +176,9 @@ class VibrationNode(_node_base()):
         self._scenario_loaded: dict[str, Scenario] = {}     # parameter callback -> post callback
 
         # -- publishers and the speed subscription
-        from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy,
-                               qos_profile_sensor_data)
-        from std_msgs.msg import Float64
-
         from bkabem_msgs.msg import BearingFaultFrequencies, VibrationSpectrum, VibrationWaveform
+        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+        from std_msgs.msg import Float64
 
         depth = int(p["qos_depth"])
         if p["qos"] == "reliable":
@@ -196,8 +203,8 @@ class VibrationNode(_node_base()):
         for b in BEARINGS:
             for q in QUANTITIES:
                 self._wave_pub[(b, q)] = pub(VibrationWaveform, f"vibration/{b}/{q}")
-        from bkabem_ros.messages.convert import SI_UNITS
         from bkabem_ros.messages.cdr import WaveformEncoder
+        from bkabem_ros.messages.convert import SI_UNITS
 
         self._wave_cdr = {(b, q): WaveformEncoder(machine_id=self.machine_id, location=b, quantity=q,
                                                   unit=SI_UNITS[q], channel_names=CHANNELS,
@@ -627,8 +634,8 @@ class VibrationNode(_node_base()):
         """Stamp and due time of a prepared chunk (and its messages) from the current ``_t0_ns``: the stamp is
         written into the CDR bytes in place of the old one (every message starts with its header), and into the
         message object where there is one."""
-        from bkabem_ros.messages.convert import time_msg
         from bkabem_ros.messages.cdr import with_stamp
+        from bkabem_ros.messages.convert import time_msg
 
         pend.stamp_ns = self._t0_ns + int(round(pend.index * 1e9 / self.sample_rate))
         pend.due_ns = self._t0_ns + int(round((pend.index + self.samples_per_chunk) * 1e9 / self.sample_rate))
@@ -722,7 +729,6 @@ def run(ros_args=None, overrides: dict | None = None, *, node_name: str = "bkabe
     from rclpy.parameter import Parameter
 
     from bkabem_core.model.case import CaseError
-
     from bkabem_ros.ros_env import init  # noqa: PLC0415
 
     init(["bkabem-node", "--ros-args", *(ros_args or [])])   # + the discovery range in force, once

@@ -17,12 +17,11 @@ import os
 from pathlib import Path
 
 from bkabem_core.dataset.render import TEMP_MARK, commit, fsync_file
-
-from bkabem_ros.recording.mcap_io import McapRecorder
+from bkabem_core.model.vocabulary import BEARINGS
 from bkabem_ros.messages.convert import ground_truth_message, waveform_message
+from bkabem_ros.recording.mcap_io import McapRecorder
 
 TWO_PI = 2.0 * math.pi
-BEARINGS = ("de", "nde")
 QUANTITIES = ("acceleration", "displacement")
 WAVEFORM_TYPE = "bkabem_msgs/msg/VibrationWaveform"
 

@@ -116,11 +116,12 @@ def _read_exact(fh, n: int) -> bytes:
 
 def verify(path) -> Integrity:
     """Check ``path`` (see the module docstring). Raises only ``OSError`` (unreadable file)."""
+    from io import BytesIO
+
     from mcap.data_stream import ReadDataStream
     from mcap.opcode import Opcode
     from mcap.records import Chunk, DataEnd, Footer, Statistics
     from mcap.stream_reader import breakup_chunk
-    from io import BytesIO
 
     path = Path(path)
     size = path.stat().st_size

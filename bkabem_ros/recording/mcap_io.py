@@ -33,8 +33,20 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from bkabem_ros.messages import convert as msgs
-from bkabem_ros.recording.mcap_read import (Channels, Message, RawMessage, _decoder, _open_reader, _schema_texts,  # noqa: F401
-                        file_metadata, iter_messages, iter_raw, message_class, scan, summary)
+from bkabem_ros.recording.mcap_read import (  # noqa: F401
+    Channels,
+    Message,
+    RawMessage,
+    _decoder,
+    _open_reader,
+    _schema_texts,
+    file_metadata,
+    iter_messages,
+    iter_raw,
+    message_class,
+    scan,
+    summary,
+)
 
 __all__ = [
     "DEFAULT_QOS",

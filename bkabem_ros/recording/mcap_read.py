@@ -82,7 +82,8 @@ def iter_raw(path, topics: Iterable[str] | None = None, *,
 
 
 def _iter_raw_stream(path, wanted, start_time_ns) -> Iterator[RawMessage]:
-    from mcap.records import Channel, Message as McapMessage, Schema  # noqa: PLC0415
+    from mcap.records import Channel, Schema  # noqa: PLC0415
+    from mcap.records import Message as McapMessage
     from mcap.stream_reader import StreamReader  # noqa: PLC0415
 
     schemas: dict[int, Schema] = {}

@@ -259,7 +259,7 @@ def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
             attached.mcap = sink
             log.info(f"recording to {record} (chunks <= {chunk_duration_s:g} s)")
     if rerun_save or rerun_connect:
-        from bkabem_ros.viewer import rerun_io # noqa: PLC0415
+        from bkabem_ros.viewer import rerun_io  # noqa: PLC0415
 
         def speed_scale():
             try:

@@ -25,10 +25,9 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from bkabem_ros.recording import mcap_check
-from bkabem_ros.recording import mcap_io
 from bkabem_ros.messages import compat as msg_compat
 from bkabem_ros.messages import convert as msgs
+from bkabem_ros.recording import mcap_check, mcap_io
 
 #: After --wait-subscribers sees every publisher matched: time for the readers to match back [s].
 DISCOVERY_SETTLE_S = 0.25

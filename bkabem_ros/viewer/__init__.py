@@ -1,1 +1,8 @@
-"""bkabem_ros/viewer"""
+"""The Rerun view: logging the node's streams, the blueprint, and the headless viewer's screenshots.
+
+    rerun_io     -- ``RerunLogger`` / ``RerunSink``
+    blueprint    -- the layout: tabs, views, units
+    screenshots  -- the real viewer run headless: views, legends, screenshots (``make screenshots``)
+"""
+
+__all__: list[str] = []

@@ -49,9 +49,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from bkabem_core.analysis import condition
-from bkabem_core.analysis import fault_lines
-from bkabem_core.analysis import health
+from bkabem_core.analysis import condition, fault_lines, health
 from bkabem_ros.messages import convert as msgs
 from bkabem_ros.viewer.blueprint import DISPLAY_UNITS, TIMELINE, blueprint
 

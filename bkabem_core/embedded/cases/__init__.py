@@ -1,1 +1,1 @@
-"""bkabem_core/embedded/cases"""
+"""The embedded cases: one TOML file per machine (``Case.load(name)``)."""

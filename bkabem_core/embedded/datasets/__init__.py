@@ -1,1 +1,1 @@
-"""bkabem_core/embedded/datasets"""
+"""The embedded data-set specs (``DatasetSpec.load(name)``)."""

@@ -1,1 +1,1 @@
-"""bkabem_core/embedded/scenarios"""
+"""The embedded scenarios: machine and fleet scenarios (``Scenario.load(name)``)."""
