@@ -10,13 +10,14 @@ STAMP  := $(VENV)/.bkabem-installed
 # tiny matrices: one BLAS thread is faster and does not thrash 2-core machines
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: all install ros viewer demo test bench screenshots clean help
+.PHONY: all install ros viewer demo test unit bench screenshots clean help
 
 all: test
 
 help:
 	@echo "make demo    - install everything into $(VENV) and run the main job on the embedded case"
-	@echo "make test    - install everything into $(VENV) and run the tests"
+	@echo "make test    - install everything into $(VENV) and run the tests (unit, then integration)"
+	@echo "make unit    - the fast tier only: tests/unit (no processes, no DDS; about a minute)"
 	@echo "make bench   - run the benchmarks (results: BENCHMARKS.md)"
 	@echo "make screenshots - run the demo and a scenario node, regenerate the Rerun viewer screenshots in docs/img"
 
@@ -43,6 +44,9 @@ demo: install
 
 test: install
 	$(BIN)/python -m pytest
+
+unit: $(STAMP)
+	$(BIN)/python -m pytest -q tests/unit
 
 screenshots: install
 	$(BIN)/python -m bkabem_ros.viewer.screenshots --docs docs/img

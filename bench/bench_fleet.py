@@ -19,7 +19,7 @@ machine then delays it less).
 A size that does not start within 300 s (a saturated host) is recorded as not on time and the run goes on.
 Runs are interleaved (repeat, N, variant) so that the machine's other load hits all variants alike; the load
 average is recorded per run. ``--monitor`` adds one subscriber process on the same host that reads every waveform
-stream (``tests/fleet_monitor.py``, reliable) and reports gaps; its CPU is counted separately.
+stream (``tests/integration/fleet_monitor.py``, reliable) and reports gaps; its CPU is counted separately.
 """
 
 from __future__ import annotations

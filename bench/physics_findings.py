@@ -192,7 +192,7 @@ def paper_numbers(case):
     dom_h = ", ".join(f"{f:g} Hz: {dominant(f, 1)}" for f in (15, 30, 50))
     rows = [
         ("BPFO at 1 Hz", "6.0598 Hz", f"{b.fault_multipliers().bpfo:.4f} Hz", "textbook kinematics, nominal contact angle"),
-        ("impulses per cage period", "14", "14", "one per ball pass (tests/test_excitation.py)"),
+        ("impulses per cage period", "14", "14", "one per ball pass (tests/unit/test_excitation.py)"),
         ("Table 1 k_v / k_h", "1.18e8 / 6.90e7 N/m", f"{lin.stiffness_vertical_n_m:.3g} / {lin.stiffness_horizontal_n_m:.3g} N/m",
          "the clearance bearing at 804 N + 390 N axial (the load the paper's 4-DOF model carries)"),
         ("Table 1 c_v / c_h", "2.95e3 / 1.72e3 N s/m", "550 N s/m (both)",

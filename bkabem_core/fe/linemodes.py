@@ -33,7 +33,7 @@ whose eigenpairs are found by the fixed-point (Jacobi) iteration from ``x = e_r`
 every entry (converged, not truncated: the result is the exact eigen-decomposition to that tolerance). A line whose
 iteration does not converge in ``max_sweeps``, loses a pole, or merges two, is decomposed exactly instead (and
 becomes an anchor). Measured against the complex exact decomposition over every line of the fault library
-(tests/test_faults.py): receptances within 1e-7 of the exact ones at every speed up to the case's maximum.
+(tests/unit/test_faults.py): receptances within 1e-7 of the exact ones at every speed up to the case's maximum.
 
 Units: SI (m, s, N, rad).
 """

@@ -4,7 +4,7 @@
     Ritz reduction of the FE model: its undamped modes (bearings and supports included) up to a cut-off above the
     highest frequency the model serves, plus one static residual vector per input force pattern (the static
     response minus its modal part), M-orthonormalised. The static response is then exact, and the modes above
-    the cut-off respond quasi-statically; the error against the full FE is tested (tests/test_harmonic.py).
+    the cut-off respond quasi-statically; the error against the full FE is tested (tests/unit/test_harmonic.py).
 ``LineModes`` (:mod:`bkabem_core.fe.linemodes`)
     The reduced model diagonalised along every line (the poles and residues the forms below use).
 ``OrderModalForm``

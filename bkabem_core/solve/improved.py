@@ -22,7 +22,7 @@ of a plain spectrum, because almost everything it needs does not depend on the s
 
 Starting from the quasi-static path is what makes one step enough: that path is exact at low frequency, and the
 dynamic deviation from it is small. The result agrees with the full harmonic balance (and so with the TDSM) to
-about 0.1 dB (tests/test_validation.py, docs/validation.md).
+about 0.1 dB (tests/integration/test_validation.py, docs/validation.md).
 
 Any line set
 ------------
@@ -41,7 +41,7 @@ and ``k`` becomes ``y``:
   evaluation and one FFT per speed, whatever the number of phases. ``w`` is chosen so that no two lines share a bin.
 
 For an order set (r = 1, ``w = 1``, ``n = n_time``) every step is the orders method's, point for point: both give
-the same spectrum to round-off (tests/test_hill.py).
+the same spectrum to round-off (tests/integration/test_hill.py).
 
 Units: SI (m, s, N, rad).
 """

@@ -61,7 +61,7 @@ normals are standard normal to the ziggurat's 22-bit grid (docstring of ``_synth
 of the transfer, product and FFT lies far below the int16 step (3e-5 of the frame's largest value) the frames are
 stored at anyway: against a float64 transcription of the definition with the same normals the stored frames are off
 by at most 0.504 of a step (0.5 is the rounding; RMS 0.289 = 1/sqrt(12), the quantisation alone; 4 and 8 channels,
-2 seeds). tests/test_floor.py holds them to that transcription (half a step plus float32 rounding), their
+2 seeds). tests/unit/test_floor.py holds them to that transcription (half a step plus float32 rounding), their
 periodogram to the PSD, and the floor's third-octave bands to the FE receptance.
 
 Units: forces N, densities N/sqrt(Hz), frequencies Hz, samples in the channels' units.

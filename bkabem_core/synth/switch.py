@@ -13,7 +13,7 @@ the model to a *shadow* of the synthesiser (a shallow copy that records every at
 the fused kernels' plan, the spectrum at the current speed (cached as that speed's knot) and the speed cells within
 one ``max_speed_step_hz`` of it, and returns a :class:`WarmModel` that holds the recorded attributes only.
 ``set_model(warm)`` then installs them (a dictionary update, ~10 us). The samples are those of ``set_model(model)``
-bit for bit: the same code makes the same numbers, only earlier (tested: tests/test_synth_switch.py).
+bit for bit: the same code makes the same numbers, only earlier (tested: tests/unit/test_synth_switch.py).
 
 A warm model belongs to the synthesiser that made it and to the settings it had then (rate, channels, seed, noise,
 slip, sensors, spectrum method, for an order set the running stream's table size, ...): if they changed before the

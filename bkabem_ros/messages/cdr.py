@@ -14,7 +14,7 @@ subscribers receive the same message as before.
 The layout is the one Fast DDS's ``rmw_fastrtps`` writes for ROS 2 (plain CDR, XCDR version 1, little endian):
 a 4-byte encapsulation header ``00 01 00 00``, then the fields in order, each aligned to its own size counted from
 the end of that header; strings are a ``uint32`` length that includes the terminating NUL, the bytes, the NUL;
-sequences a ``uint32`` count and the elements. ``tests/test_msgs.py`` checks that the bytes equal
+sequences a ``uint32`` count and the elements. ``tests/integration/test_msgs.py`` checks that the bytes equal
 ``serialize_message`` of the same message for many field values (string lengths that move every alignment), so a
 change of the message definition or of the rmw's encoding fails there, not silently on the wire.
 """

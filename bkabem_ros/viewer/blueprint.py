@@ -22,7 +22,7 @@ truth of this bearing, what the envelope spectrum shows and whose line it is, th
 defects, the machine) and the machine's tabs: fault frequencies (1x, FTF, BPFO, BPFI, BSF, 2xBSF:
 the marker key) and shaft speed over the whole run. The bottom row is as tall as the fault-frequency
 legend's six entries need at 1600 x 900 (every legend entry of every view shows whole at 1920 x 1080
-and 1600 x 900: ``HeadlessViewer.legend_problems``, tests/test_rerun_viewer.py). The recording opens
+and 1600 x 900: ``HeadlessViewer.legend_problems``, tests/integration/test_rerun_viewer.py). The recording opens
 following its latest data (the end of a file), paused there once the user scrubs, so every view has
 data from the start.
 """

@@ -492,7 +492,7 @@ def scenario_recording(rrd, scenario: str = SCENARIO_SHOT[1], time_scale: float 
                        start_s: float = SCENARIO_SHOT[3], seconds: float = SCENARIO_SHOT[4]) -> Path:
     """Run ``bkabem node --scenario`` for ``seconds`` of wall time (after its first chunk) and save its
     ``.rrd`` (on this host only, a random ROS domain; the node's own defaults otherwise as in
-    tests/test_rerun_viewer.py)."""
+    tests/integration/test_rerun_viewer.py)."""
     rrd = Path(rrd)
     rrd.parent.mkdir(parents=True, exist_ok=True)
     env = dict(os.environ, ROS_DOMAIN_ID=str(random.SystemRandom().randrange(1, 100)),

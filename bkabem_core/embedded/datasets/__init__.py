@@ -1,1 +1,2 @@
 """The embedded data-set specs (``DatasetSpec.load(name)``)."""
+__all__: list[str] = []

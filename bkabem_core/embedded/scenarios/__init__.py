@@ -1,1 +1,2 @@
 """The embedded scenarios: machine and fleet scenarios (``Scenario.load(name)``)."""
+__all__: list[str] = []

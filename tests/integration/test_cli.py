@@ -1,0 +1,90 @@
+"""The bkabem CLI: JSON contract field names, human tables, bad input -> one line on stderr, exit 2."""
+
+import csv
+import io
+import json
+import subprocess
+import sys
+
+import pytest
+
+pytestmark = pytest.mark.slow
+
+CLI = [sys.executable, "-m", "bkabem_ros"]
+
+
+def run(*args, check=True):
+    p = subprocess.run(CLI + list(args), capture_output=True, text=True, timeout=300)
+    if check and p.returncode != 0:
+        raise AssertionError(f"rc={p.returncode}\n{p.stderr}")
+    return p
+
+
+def test_excitation_json_contract():
+    d = json.loads(run("excitation", "--json").stdout)
+    for key in ("bpfo_per_hz", "reference_speed_hz", "dc_m", "orders", "amplitude_m", "phase_rad",
+                "peak_to_peak_m", "clearance_m"):
+        assert key in d
+    assert set(d["dc_m"]) == {"vertical", "horizontal"}
+    assert len(d["amplitude_m"]["vertical"]) == len(d["orders"]) == len(d["phase_rad"]["horizontal"])
+    assert d["orders"][0] == 1 and d["bpfo_per_hz"] == pytest.approx(6.0598, abs=1e-4)
+
+
+def test_spectrum_json_contract_and_png(tmp_path):
+    png = tmp_path / "s.png"
+    d = json.loads(run("spectrum", "--speed-hz", "25", "--json", "--png", str(png)).stdout)
+    for loc in ("de_rotor", "de_housing", "nde_rotor", "nde_housing"):
+        for direction in ("vertical", "horizontal"):
+            e = d[loc][direction]
+            assert len(e["frequency_hz"]) == len(e["displacement_m"]) == len(e["acceleration_m_s2"]) \
+                == len(e["phase_rad"])
+    assert d["fault_frequencies_hz"]["bpfo"] == pytest.approx(25 * 6.059846, rel=1e-6)
+    assert png.stat().st_size > 10_000
+
+
+def test_sweep_csv_and_json(tmp_path):
+    out = run("sweep", "--from-hz", "10", "--to-hz", "30", "--steps", "3", "--csv").stdout
+    rows = list(csv.DictReader(io.StringIO(out)))
+    assert {r["speed_hz"] for r in rows} == {"10", "20", "30"}
+    assert set(rows[0]) == {"speed_hz", "order", "frequency_hz", "location", "direction", "displacement_m",
+                            "acceleration_m_s2", "phase_rad"}
+    d = json.loads(run("sweep", "--from-hz", "10", "--to-hz", "30", "--steps", "3", "--json",
+                       "--png", str(tmp_path / "w.png")).stdout)
+    assert d["speeds_hz"] == [10.0, 20.0, 30.0]
+    assert len(d["de_housing"]["vertical"]["rms_acceleration_m_s2"]) == 3
+    assert (tmp_path / "w.png").exists()
+
+
+def test_human_readable_tables():
+    out = run("spectrum", "--speed-hz", "50").stdout
+    assert "BPFO 302.992 Hz" in out and "de_housing" in out
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["spectrum", "--speed-hz", "nan"], "--speed-hz must be finite"),
+    (["spectrum", "--speed-hz", "-3"], "--speed-hz must be >= 0"),
+    (["spectrum", "--speed-hz", "fast"], "--speed-hz must be a number"),
+    (["spectrum"], "--speed-hz"),
+    (["sweep", "--from-hz", "10", "--to-hz", "5", "--steps", "3"], "--to-hz"),
+    (["sweep", "--from-hz", "1", "--to-hz", "5", "--steps", "0"], "--steps must be >= 1"),
+    (["sweep", "--from-hz", "1", "--to-hz", "5", "--steps", "3", "--json", "--csv"], "not allowed"),
+    (["nonsense"], "invalid choice"),
+    (["spectrum", "--speed-hz", "5", "--case", "/nonexistent.toml"], "file not found"),
+])
+def test_bad_arguments_one_line_exit_2(args, fragment):
+    p = run(*args, check=False)
+    assert p.returncode == 2
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1, p.stderr
+    assert fragment in lines[0]
+
+
+def test_bad_case_file_exit_2(tmp_path):
+    bad = tmp_path / "bad.toml"
+    from importlib import resources
+
+    text = resources.files("bkabem_core.embedded").joinpath("cases", "electric_motor_6010.toml").read_text()
+    bad.write_text(text.replace("depth_m = 50.0e-6", "depth_m = -50.0e-6"))
+    p = run("excitation", "--case", str(bad), check=False)
+    assert p.returncode == 2
+    assert p.stderr.strip().count("\n") == 0 and "defects[0].depth_m" in p.stderr and "must be >= 0" in p.stderr
