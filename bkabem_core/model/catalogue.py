@@ -301,7 +301,8 @@ def _suffixes(norm: str, start: int, asked: str, base: str) -> tuple[str, ...]:
             continue
         m = _SUFFIX_RE.match(norm, i)
         if m is None:
-            rest = re.match(r"[^ /\-]+", norm[i:]).group(0)
+            first = max(start, *(norm.rfind(c, 0, i) + 1 for c in _SEPARATORS))
+            rest = re.match(r"[^ /\-]+", norm[first:]).group(0)      # the whole word: "NSK", not "SK" after "N"
             raise CatalogueError(f"designation {asked!r}: suffix {rest!r} is not one that keeps the {base} row's "
                                  f"geometry (seals and shields such as 2RS1, 2Z, ZZ, LLU; snap rings N, NR; "
                                  f"clearance classes {', '.join(CLEARANCE_CLASSES)}){_nearest(norm)}")

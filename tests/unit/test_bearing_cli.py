@@ -104,3 +104,13 @@ def test_a_bearing_without_a_bore_still_shows_its_multipliers(capsys):
     assert rc == 0 and "not known (the bore is not published)" in out
     bpfo = float(next(x for x in out.splitlines() if x.strip().startswith("BPFO")).split()[-1])
     assert 25 * bpfo == pytest.approx(81.125, rel=0.005) and math.isfinite(bpfo)    # MFPT: BPFO 81.125 Hz at 25 Hz
+
+
+@pytest.mark.parametrize("designation", ["62\x01", "6205" * 3000, "ünïcode", "nan", "0.0", "/C3", "C3", "(MFPT)",
+                                         "6205 NSK (KAIST) 2RS", "6205//C3", "-6205", "6205-", "6205 NSK (KAIST)/C3"])
+def test_hostile_designations_exit_0_or_2_with_one_line(capsys, designation):
+    rc, out, err = bkabem(capsys, "bearing", "--json", "--", designation)
+    assert (rc, err) == (0, "") or (rc == 2 and out == "" and err.count("\n") == 1), (rc, err[:200])
+    if rc == 0:
+        json.loads(out)
+    assert "NSK" not in err or "suffix 'NSK'" in err                  # the whole word, not 'SK' after a snap ring 'N'
