@@ -235,7 +235,9 @@ def designations(status: str | None = None) -> tuple[str, ...]:
 def lookup(designation: str) -> CatalogueBearing:
     """The catalogue bearing of ``designation`` (module docstring: exact keys first, then a series row with
     suffixes); :class:`CatalogueError` naming the designation, the reason and the nearest keys otherwise."""
-    if not isinstance(designation, str) or not designation.strip():
+    if not isinstance(designation, str):
+        raise CatalogueError(f'designation must be a string such as "6205" (got {designation!r})')
+    if not designation.strip():
         raise CatalogueError("empty designation")
     norm = _norm(designation)
     rows = _rows()

@@ -238,6 +238,7 @@ def test_rig_keys_match_loosely_and_take_a_clearance_suffix():
     ("6205/C7", ["suffix 'C7'"]),
     ("NICE", ["unknown designation", "NICE (MFPT)"]),
     ("", ["empty designation"]),
+    (6205, ['a string such as "6205"', "6205"]),
     ("6205-2Z-C3 (MCC5-THU)/C4", ["contradicts"]),
 ])
 def test_unknown_designations_are_refused_with_near_matches(text, words):
