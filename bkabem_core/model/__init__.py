@@ -1,4 +1,5 @@
-"""The case of a machine: its TOML file validated key by key, the plausibility bounds, the shared vocabulary.
+"""The case of a machine: its TOML file validated key by key, the plausibility bounds, the bearing catalogue,
+the shared vocabulary.
 
 Case files
 ==========
@@ -14,6 +15,14 @@ Plausibility (module ``plausibility``)
     problem          -- the first implausible value of a case, or None
     BOUNDS           -- the bounds, each with its reason
 
+Bearing catalogue (module ``catalogue``)
+========================================
+    CatalogueBearing -- a deep-groove ball bearing by designation: geometry, ratings, sources (SI)
+    CatalogueError   -- a designation or clearance class the catalogue does not have
+    lookup           -- the catalogue bearing of a designation (``lookup("6205-2RS1/C3")``)
+    designations     -- the catalogue's keys (optionally of one geometry status)
+    radial_clearance_m -- ISO 5753-1 radial internal clearance (min, max) [m] of a bore and class
+
 Vocabulary (module ``vocabulary``)
 ==================================
     BEARINGS         -- bearing positions: ``de``, ``nde``
@@ -23,7 +32,8 @@ Vocabulary (module ``vocabulary``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "problem", "BOUNDS", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
+__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "problem", "BOUNDS",
+           "CatalogueBearing", "CatalogueError", "lookup", "designations", "radial_clearance_m", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Case": "case",
@@ -34,6 +44,11 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "SCHEMA_VERSION": "case",
     "problem": "plausibility",
     "BOUNDS": "plausibility",
+    "CatalogueBearing": "catalogue",
+    "CatalogueError": "catalogue",
+    "lookup": "catalogue",
+    "designations": "catalogue",
+    "radial_clearance_m": "catalogue",
     "BEARINGS": "vocabulary",
     "DIRECTIONS": "vocabulary",
     "LOCATIONS": "vocabulary",

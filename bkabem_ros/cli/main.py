@@ -27,6 +27,7 @@ import sys
 
 from threadpoolctl import threadpool_limits
 
+from bkabem_ros.cli import bearing as bearing_cli
 from bkabem_ros.cli import core as core_cli
 from bkabem_ros.cli import dataset as dataset_cli
 from bkabem_ros.cli import synth as synth_cli
@@ -44,6 +45,7 @@ def build_parser() -> Parser:
     core_cli.add_parsers(sub)
     synth_cli.add_parser(sub)
     dataset_cli.add_parser(sub)
+    bearing_cli.add_parser(sub)
     add_ros_commands(sub, core_cli.add_case)
     for sp in sub.choices.values():
         add_debug(sp)
