@@ -110,7 +110,7 @@ def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor:
     mon = None
     if monitor:
         names = ",".join(f"bm_{i:0{max(2, len(str(n - 1)))}d}" for i in range(n))
-        mon = subprocess.Popen([sys.executable, str(REPO / "tests" / "fleet_monitor.py"), "--machines", names,
+        mon = subprocess.Popen([sys.executable, str(REPO / "tests" / "integration" / "fleet_monitor.py"), "--machines", names,
                                 "--seconds", str(seconds + 4), "--settle", "2"], env=env, cwd=str(REPO),
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         time.sleep(4.0)
