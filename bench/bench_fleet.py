@@ -1,7 +1,7 @@
 """Fleet capacity of one host: machines -> CPU -> publish lateness, this checkout and others, in one run.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_fleet.py --machines 16,32,48,64,100,128 --repeats 3 \\
-        --seconds 15 --baseline /tmp/base [--variants before,after] [--monitor] [--json F] [--png F]
+        --seconds 15 --baseline DIR [--variants before,after] [--monitor] [--json F] [--png F]
 
 Each run: ``bkabem fleet --machines N --processes 2 --seconds 100000 --ros-args -r speed:=/bench/speed`` (25.6 kHz,
 8 channels per machine: DE/NDE x acceleration/displacement x vertical/horizontal, 0.1 s chunks, default
@@ -199,7 +199,7 @@ def summarize(rows: list[dict]) -> list[dict]:
 
 
 def markdown(summary: list[dict]) -> str:
-    """The summary as the BENCHMARKS.md table (one row per variant and size)."""
+    """The summary as a Markdown table (one row per variant and size)."""
     def f(v, nd=1):
         return "–" if v is None else f"{v:.{nd}f}"
 

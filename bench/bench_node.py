@@ -1,4 +1,4 @@
-"""Benchmark of the bkabem ROS 2 node (issue 5): CPU, publish jitter, losses, speed-change latency, fleet size.
+"""Benchmark of the bkabem ROS 2 node: CPU, publish jitter, losses, speed-change latency, fleet size.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_node.py [--seconds 60] [--rates 25600,51200]
         [--chunk 0.1] [--qos reliable] [--fleet 1,2,4,8] [--fleet-seconds 20] [--json FILE]

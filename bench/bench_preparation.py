@@ -1,6 +1,6 @@
 """Preparation and new-speed cost of BKA-BEM per defect kind, this checkout against a baseline checkout, same run.
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_preparation.py --baseline /tmp/base --repeat 5
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_preparation.py --baseline DIR --repeat 5
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_preparation.py --repeat 1 --improved --json out.json
 
 Each measurement is a fresh process (``python -c`` with ``PYTHONPATH`` set to the checkout, the compiled kernels

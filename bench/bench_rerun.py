@@ -6,7 +6,7 @@ The data is ``bench/bench_record.py``'s node pattern (0.1 s chunks of 4 ``Vibrat
 2 x 5120 float32 samples: DE/NDE x acceleration/displacement, sines + Gaussian noise; spectra and
 fault frequencies at 1 Hz; speed at 50 Hz), built once per process before timing. Each run is a
 fresh process that imports ``bkabem_ros`` from the tree under test (this one, or ``--baseline``,
-e.g. ``git worktree add --detach /tmp/bk_base main``), feeds the data through ``RerunSink`` ->
+e.g. ``git worktree add --detach ../bkabem-base main``), feeds the data through ``RerunSink`` ->
 ``RerunLogger`` -> ``.rrd`` as fast as it can, closes the file, and reports process CPU seconds
 (all threads, Rerun's encoder included) per second of data = the fraction of one core that
 logging costs in real time, and the file size per recorded second. The one-off set-up (logger

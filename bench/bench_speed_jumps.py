@@ -1,4 +1,4 @@
-"""Benchmark (issue 14, item 2): publish lateness of the node under speed jumps, to and from 0 included.
+"""Benchmark: publish lateness of the node under speed jumps, to and from 0 included.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_speed_jumps.py [--repeats 3] [--json FILE]
         [--baseline DIR]      # also run an older checkout (DIR on PYTHONPATH, `python -m bkabem_core.cli`)

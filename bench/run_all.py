@@ -78,18 +78,25 @@ def eq(bound, text):
 
 
 def row(case: str, quantity: str, value, fmt: str, unit: str = "", target: Target | None = None, note: str = ""):
-    """One table row; ``value`` a number (or None), shown as ``fmt.format(value) + unit`` and ``note``."""
+    """One table row; ``value`` a number (or None), shown as ``fmt.format(value)``, its unit and ``note``."""
     if value is not None:
         value = float(value)
-    shown = "—" if value is None else fmt.format(value) + (f" {unit}" if unit else "")
-    if note:
-        shown += f" ({note})"
-    out = {"case": case, "quantity": quantity, "value": value, "shown": shown}
+    out = {"case": case, "quantity": quantity, "value": value, "fmt": fmt, "unit": unit, "note": note}
     if target is not None:
         out["target"] = target.text
         m = target.met(value)
         out["met"] = None if m is None else bool(m)
     return out
+
+
+def shown(r: dict) -> str:
+    """The value column of a row: number, unit (``1200x``, ``4.7 x real time``, ``0.8 s``) and note."""
+    if "shown" in r:                                           # a row of an older record
+        return r["shown"]
+    unit = r.get("unit", "")
+    sep = "" if unit.startswith("x") and " " not in unit[:2] else " "
+    text = "—" if r["value"] is None else r["fmt"].format(r["value"]) + (f"{sep}{unit}" if unit else "")
+    return text + (f" ({r['note']})" if r.get("note") else "")
 
 
 def med(xs):
@@ -130,7 +137,7 @@ def read_preparation(d, _args):
         wall = med(x["wall_s"] for x in rs)
         exc = med(x["parts"].get("excitation") for x in rs)
         setup = med(x["parts"].get("solver_setup") for x in rs)
-        out.append(row(case, "excitation: quasi-static solution of every bearing, lines", exc, "{:.2f}", "s"))
+        out.append(row(case, "excitation of every bearing (quasi-static solutions, lines)", exc, "{:.2f}", "s"))
         out.append(row(case, "preparation `BkaBem(case)` (excitation, FE, modal basis, line modes)", wall,
                        "{:.2f}", "s", le(2.0, "<= 2 s per defect kind") if single else None,
                        note=f"solver set-up {setup:.2f} s" + ("" if single else "; two moving defects at once")))
@@ -620,7 +627,8 @@ def render_area(area: str, records: dict) -> str:
             continue
         tag = tags.setdefault(name, f"[{len(tags) + 1}]")
         if "error" in rec:
-            rows.append({"case": f"step `{name}`", "quantity": "failed", "shown": rec["error"], "by": tag})
+            rows.append({"case": f"step `{name}`", "quantity": "failed", "value": None, "fmt": "", "note": rec["error"],
+                         "by": tag})
         else:
             rows += [dict(r, by=tag) for r in rec["rows"].get(ref, [])]
     for name, tag in tags.items():
@@ -634,7 +642,7 @@ def render_area(area: str, records: dict) -> str:
     out = ["| case | quantity | value | target | met | by |", "|---|---|---|---|---|---|"]
     for r in rows:
         met = {True: "yes", False: "**no**", None: ""}[r.get("met")] if "target" in r else ""
-        out.append(f"| {r['case']} | {r['quantity']} | {r['shown']} | {r.get('target', '')} | {met} | {r['by']} |")
+        out.append(f"| {r['case']} | {r['quantity']} | {shown(r)} | {r.get('target', '')} | {met} | {r['by']} |")
     return "\n".join(out) + "\n\n" + "\n".join(notes)
 
 
