@@ -512,10 +512,14 @@ def machine() -> dict:
 
 
 def commit() -> str:
+    """The code's commit, ``-dirty`` if tracked files differ from it (the run's own outputs left aside)."""
     try:
-        out = subprocess.run(["git", "describe", "--always", "--dirty", "--exclude", "*"], cwd=ROOT,
-                             capture_output=True, text=True, timeout=10)
-        return out.stdout.strip() or "unknown"
+        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
+                             timeout=10).stdout.strip()
+        changed = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".",
+                                  ":!BENCHMARKS.md", ":!bench/records.json"], cwd=ROOT, capture_output=True,
+                                 text=True, timeout=10).stdout.strip()
+        return (rev or "unknown") + ("-dirty" if changed else "")
     except (OSError, subprocess.SubprocessError):
         return "unknown"
 
