@@ -124,7 +124,7 @@ def pct(a, q):
 
 def parse_exit_stats(lines) -> dict:
     for ln in lines:
-        m = re.search(r"(\d+) chunks .*lateness p50 ([-\d.]+) ms p99 ([-\d.]+) ms max ([-\d.]+) ms "
+        m = re.search(r"(\d+) chunks .*lateness p50 ([-\d.]+) ms p99 ([-\d.]+) ms max ([-\d.]+) ms.*?"
                       r"\(start p50 ([-\d.]+) ms p99 ([-\d.]+) ms\)", ln)
         if m:
             return {"chunks": int(m.group(1)), "p50_ms": float(m.group(2)), "p99_ms": float(m.group(3)),
