@@ -18,7 +18,7 @@ help:
 	@echo "make demo    - install everything into $(VENV) and run the main job on the embedded case"
 	@echo "make test    - install everything into $(VENV) and run the tests (unit, then integration)"
 	@echo "make unit    - the fast tier only: tests/unit (no processes, no DDS; about a minute)"
-	@echo "make bench   - regenerate BENCHMARKS.md (bench/run_all.py, ~15-25 min; AREAS=core,synthesis for some)"
+	@echo "make bench   - regenerate BENCHMARKS.md (bench/run_all.py, ~7-20 min; AREAS=core,synthesis for some)"
 	@echo "make screenshots - run the demo and a scenario node, regenerate the Rerun viewer screenshots in docs/img"
 
 $(BIN)/python:

@@ -1,6 +1,6 @@
 """Regenerate BENCHMARKS.md: run each area's benchmark scripts with short settings, read their JSON, write the tables.
 
-    .venv/bin/python bench/run_all.py                        # every default area (~15-25 min on 2 cores)
+    .venv/bin/python bench/run_all.py                        # every default area (~7 min on 2 quiet cores, 10-20 busy)
     .venv/bin/python bench/run_all.py --areas core,synthesis # re-measure these areas, keep the others' records
     .venv/bin/python bench/run_all.py --list                 # the areas, their steps and commands
     .venv/bin/python bench/run_all.py --render               # rewrite BENCHMARKS.md from bench/records.json only
