@@ -18,7 +18,7 @@ help:
 	@echo "make demo    - install everything into $(VENV) and run the main job on the embedded case"
 	@echo "make test    - install everything into $(VENV) and run the tests (unit, then integration)"
 	@echo "make unit    - the fast tier only: tests/unit (no processes, no DDS; about a minute)"
-	@echo "make bench   - run the benchmarks (results: BENCHMARKS.md)"
+	@echo "make bench   - regenerate BENCHMARKS.md (bench/run_all.py, ~7-20 min; AREAS=core,synthesis for some)"
 	@echo "make screenshots - run the demo and a scenario node, regenerate the Rerun viewer screenshots in docs/img"
 
 $(BIN)/python:
@@ -52,7 +52,7 @@ screenshots: install
 	$(BIN)/python -m bkabem_ros.viewer.screenshots --docs docs/img
 
 bench: install
-	$(BIN)/python bench/bench_core.py
+	$(BIN)/python bench/run_all.py $(if $(AREAS),--areas $(AREAS))
 
 clean:
 	rm -rf build out .pytest_cache

@@ -1,8 +1,8 @@
-"""Benchmark of the BKA-BEM core. Not a test: run it, read the table, update BENCHMARKS.md.
+"""Benchmark of the BKA-BEM core (bench/run_all.py puts its numbers in BENCHMARKS.md).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_core.py [--repeats 5]
 
-Measures, in one process on the embedded case (targets of the physics issue):
+Measures, in one process on the embedded case (the core's targets):
   * one-time preparation: machine + excitation of both bearings + modal basis + one eigen-decomposition per order
     (BkaBem construction), target <= 2 s; and a model made `like` it for another defect (FE reused)
   * spectrum at a new speed, all kept orders, all outputs (the reduced modal form), target <= 1 ms median

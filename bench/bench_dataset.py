@@ -1,6 +1,6 @@
-"""Data sets (issue 15): the whole path of a run, synthesis + writing, per core, for every fault kind.
+"""Data sets: the whole path of a run, synthesis + writing, per core, for every fault kind.
 
-    flock /work/notes/bench.lock .venv/bin/python bench/bench_dataset.py --repeat 3          # BENCHMARKS.md table
+    .venv/bin/python bench/bench_dataset.py --repeat 3                                   # the full table
     .venv/bin/python bench/bench_dataset.py --repeat 1 --seconds 2 --kinds outer --json out.json
 
 Per fault kind (the fault library's motor with the spec's 2 mm x 50 um DE defect, or healthy), one process on one

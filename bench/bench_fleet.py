@@ -1,7 +1,7 @@
-"""Fleet capacity of one host (issue 15): machines -> CPU -> publish lateness, before and after, in one run.
+"""Fleet capacity of one host: machines -> CPU -> publish lateness, this checkout and others, in one run.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_fleet.py --machines 16,32,48,64,100,128 --repeats 3 \\
-        --seconds 15 --baseline /tmp/base [--variants before,after] [--monitor] [--json F] [--png F]
+        --seconds 15 --baseline DIR [--variants before,after] [--monitor] [--json F] [--png F]
 
 Each run: ``bkabem fleet --machines N --processes 2 --seconds 100000 --ros-args -r speed:=/bench/speed`` (25.6 kHz,
 8 channels per machine: DE/NDE x acceleration/displacement x vertical/horizontal, 0.1 s chunks, default
@@ -110,7 +110,7 @@ def one_run(n: int, variant: str, seconds: float, baseline: str | None, monitor:
     mon = None
     if monitor:
         names = ",".join(f"bm_{i:0{max(2, len(str(n - 1)))}d}" for i in range(n))
-        mon = subprocess.Popen([sys.executable, str(REPO / "tests" / "fleet_monitor.py"), "--machines", names,
+        mon = subprocess.Popen([sys.executable, str(REPO / "tests" / "integration" / "fleet_monitor.py"), "--machines", names,
                                 "--seconds", str(seconds + 4), "--settle", "2"], env=env, cwd=str(REPO),
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         time.sleep(4.0)
@@ -199,7 +199,7 @@ def summarize(rows: list[dict]) -> list[dict]:
 
 
 def markdown(summary: list[dict]) -> str:
-    """The summary as the BENCHMARKS.md table (one row per variant and size)."""
+    """The summary as a Markdown table (one row per variant and size)."""
     def f(v, nd=1):
         return "–" if v is None else f"{v:.{nd}f}"
 
@@ -222,13 +222,13 @@ def plot(summary: list[dict], path: str) -> None:
     import matplotlib.pyplot as plt
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
-    styles = {"before": ("tab:red", "o", "main before issue 15 (SingleThreadedExecutor)"),
-              "mid": ("tab:orange", "^", "issue 15 hosts part (EventsExecutor, spread start)"),
-              "after": ("tab:blue", "s", "issue 15 capacity (CDR fast path, primed start, shared response)"),
-              "after-single": ("tab:gray", "^", "issue 15 with --executor single"),
-              "before-rt": ("salmon", "v", "main before issue 15, chrt -f 10"),
-              "mid-rt": ("gold", "<", "issue 15 hosts part, chrt -f 10"),
-              "after-rt": ("tab:cyan", "D", "issue 15 capacity, chrt -f 10")}
+    styles = {"before": ("tab:red", "o", "--baseline checkout"),
+              "mid": ("tab:orange", "^", "--mid checkout"),
+              "after": ("tab:blue", "s", "this checkout"),
+              "after-single": ("tab:gray", "^", "this checkout, --executor single"),
+              "before-rt": ("salmon", "v", "--baseline checkout, chrt -f 10"),
+              "mid-rt": ("gold", "<", "--mid checkout, chrt -f 10"),
+              "after-rt": ("tab:cyan", "D", "this checkout, chrt -f 10")}
     for v, (c, mk, label) in styles.items():
         rs = sorted((s for s in summary if s["variant"] == v), key=lambda s: s["machines"])
         if not rs:

@@ -1,6 +1,6 @@
-"""The broadband floor's set-up (issue 15): what a new seed costs, against what the whole floor costs.
+"""The broadband floor's set-up: what a new seed costs, against what the whole floor costs.
 
-    flock /work/notes/bench.lock .venv/bin/python bench/bench_floor.py              # BENCHMARKS.md numbers
+    .venv/bin/python bench/bench_floor.py                                            # the default settings
     .venv/bin/python bench/bench_floor.py --repeat 3 --json out.json
 
 The fault library's healthy motor at 25.6 kHz with a stud accelerometer and the anti-alias filter, 4 channels

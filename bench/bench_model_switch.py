@@ -1,6 +1,6 @@
 """Model switches on the node's path: what the chunk at a switch costs against an ordinary chunk.
 
-    flock /work/notes/bench.lock env OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_model_switch.py --repeat 3
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_model_switch.py --repeat 3 [--json FILE]
 
 Per pair of the fault library's cases (``motor_6010_healthy -> motor_6010_inner``, ``inner -> ball``, ``outer ->
 inner``): a :class:`bkabem_ros.node.source.MachineSource` as the node makes it (25.6 kHz, the node's default chunk
@@ -111,6 +111,7 @@ def main() -> int:
     ap.add_argument("--timeout", type=float, default=120.0, help="longest wait for a model [s]")
     ap.add_argument("--pairs", default=",".join(f"{a}-{b}" for a, b in PAIRS),
                     help="comma-separated src-dst pairs of motor_6010_* cases")
+    ap.add_argument("--json", default=None, help="also write every run's row here")
     args = ap.parse_args()
     pairs = [tuple(p.split("-")) for p in args.pairs.split(",") if p]
     rows = []
@@ -120,6 +121,8 @@ def main() -> int:
             print(json.dumps(row), flush=True)
             rows.append(row)
     ModelHelper.shared().close()
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
     print(f"\n{ROOT}  load {os.getloadavg()[0]:.2f}  (medians of {args.repeat})")
     print(f"{'pair':16s} {'ord A':>8s} {'ord B':>8s} {'wait max':>9s} {'switch':>8s} {'next':>7s} {'ratio':>7s} "
           f"{'warm':>6s} {'warming max':>11s}")

@@ -1,4 +1,4 @@
-"""Benchmark of the bkabem ROS 2 node (issue 5): CPU, publish jitter, losses, speed-change latency, fleet size.
+"""Benchmark of the bkabem ROS 2 node: CPU, publish jitter, losses, speed-change latency, fleet size.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_node.py [--seconds 60] [--rates 25600,51200]
         [--chunk 0.1] [--qos reliable] [--fleet 1,2,4,8] [--fleet-seconds 20] [--json FILE]
@@ -124,7 +124,7 @@ def pct(a, q):
 
 def parse_exit_stats(lines) -> dict:
     for ln in lines:
-        m = re.search(r"(\d+) chunks .*lateness p50 ([-\d.]+) ms p99 ([-\d.]+) ms max ([-\d.]+) ms "
+        m = re.search(r"(\d+) chunks .*lateness p50 ([-\d.]+) ms p99 ([-\d.]+) ms max ([-\d.]+) ms.*?"
                       r"\(start p50 ([-\d.]+) ms p99 ([-\d.]+) ms\)", ln)
         if m:
             return {"chunks": int(m.group(1)), "p50_ms": float(m.group(2)), "p99_ms": float(m.group(3)),

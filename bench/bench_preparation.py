@@ -1,12 +1,14 @@
 """Preparation and new-speed cost of BKA-BEM per defect kind, this checkout against a baseline checkout, same run.
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_preparation.py --baseline /tmp/base --repeat 5
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_preparation.py --baseline DIR --repeat 5
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_preparation.py --repeat 1 --improved --json out.json
 
 Each measurement is a fresh process (``python -c`` with ``PYTHONPATH`` set to the checkout, the compiled kernels
 of this checkout's build copied in if the baseline has none), the two checkouts alternating, so that both see the
 same machine load. Per case: ``BkaBem(case)`` wall and CPU time (process time: both worker threads), its stages
 (``preparation_time_s``), the line-mode statistics, and ``model.response([f])`` at 200 random speeds in 5-75 Hz
-(median). Medians over ``--repeat``; the ratio baseline / this checkout. ``inner+ball``: two moving defects at
+(median). Medians over ``--repeat``; the ratio baseline / this checkout (without ``--baseline``: this checkout
+only). ``inner+ball``: two moving defects at
 once (``validate_kinds.kind_case``: the inner-race case with the ball defect in the NDE bearing). ``--improved``
 also times, in this checkout, ``HillCorrection`` of the model without baseline (preparation, spectrum at 5 speeds
 in 15-50 Hz, median).
@@ -74,22 +76,24 @@ def run(tree: Path, name: str, improved: bool = False) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--baseline", type=Path, required=True, help="another checkout (e.g. git archive of main)")
+    ap.add_argument("--baseline", type=Path, default=None, help="another checkout (e.g. git archive of main)")
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--json", type=Path)
     ap.add_argument("--improved", action="store_true",
                     help="also time the improved method (HillCorrection of the model without baseline), this checkout")
     args = ap.parse_args(argv)
-    base = args.baseline.resolve()
-    for so in (ROOT / "bkabem_core").glob("*.so"):            # the same compiled kernels in both
-        if not (base / "bkabem_core" / so.name).exists():
-            shutil.copy2(so, base / "bkabem_core" / so.name)
+    base = args.baseline.resolve() if args.baseline else None
+    for so in (ROOT / "bkabem_core").rglob("*.so") if base else ():     # the same compiled kernels in both
+        dst = base / so.relative_to(ROOT)
+        if dst.parent.is_dir() and not dst.exists():
+            shutil.copy2(so, dst)
+    trees = ((("baseline", base),) if base else ()) + (("this", ROOT),)
     results = {}
     for name in args.cases.split(","):
-        runs = {"baseline": [], "this": []}
+        runs = {label: [] for label, _ in trees}
         for _ in range(args.repeat):
-            for label, tree in (("baseline", base), ("this", ROOT)):
+            for label, tree in trees:
                 runs[label].append(run(tree, name, args.improved and label == "this"))
         results[name] = runs
         med = {k: {q: statistics.median(r[q] for r in v) for q in ("wall_s", "cpu_s", "new_speed_us")}
@@ -101,12 +105,14 @@ def main(argv=None) -> int:
         hill_txt = (f" | improved ({hills[0]['method']}): preparation "
                     f"{statistics.median(h['preparation_s'] for h in hills):.2f} s, spectrum "
                     f"{statistics.median(h['spectrum_ms'] for h in hills):.1f} ms" if hills else "")
-        print(f"{name}: {runs['this'][0]['lines']} lines | preparation wall {med['baseline']['wall_s']:.2f} -> "
-              f"{med['this']['wall_s']:.2f} s ({med['baseline']['wall_s'] / med['this']['wall_s']:.2f}x), cpu "
-              f"{med['baseline']['cpu_s']:.2f} -> {med['this']['cpu_s']:.2f} s | excitation / solver set-up "
-              f"{part['baseline']['excitation']:.2f} / {part['baseline']['solver_setup']:.2f} -> "
+        b = med.get("baseline", med["this"])                     # without a baseline: "x -> x", ratio 1
+        pb = part.get("baseline", part["this"])
+        print(f"{name}: {runs['this'][0]['lines']} lines | preparation wall {b['wall_s']:.2f} -> "
+              f"{med['this']['wall_s']:.2f} s ({b['wall_s'] / med['this']['wall_s']:.2f}x), cpu "
+              f"{b['cpu_s']:.2f} -> {med['this']['cpu_s']:.2f} s | excitation / solver set-up "
+              f"{pb['excitation']:.2f} / {pb['solver_setup']:.2f} -> "
               f"{part['this']['excitation']:.2f} / {part['this']['solver_setup']:.2f} s | new speed "
-              f"{med['baseline']['new_speed_us']:.0f} -> {med['this']['new_speed_us']:.0f} us | "
+              f"{b['new_speed_us']:.0f} -> {med['this']['new_speed_us']:.0f} us | "
               f"line modes: {st.get('exact')} exact, {st.get('refined')} refined, "
               f"{st.get('sweeps_mean', 0):.1f} sweeps{hill_txt}", flush=True)
     if args.json:

@@ -1,6 +1,6 @@
 """Benchmark: cost of MCAP recording and Rerun logging at the full 51.2 kHz x 8 channel rate.
 
-    .venv/bin/python bench/bench_record.py [--seconds 20] [--node-seconds 20] [--repeats 3]
+    .venv/bin/python bench/bench_record.py [--seconds 20] [--node-seconds 20] [--repeats 3] [--json FILE]
 
 Parts
 -----
@@ -220,6 +220,7 @@ def main() -> int:
     ap.add_argument("--seconds", type=float, default=20.0, help="seconds of data for parts 1-2")
     ap.add_argument("--node-seconds", type=float, default=20.0, help="seconds per node run (part 3); 0: skip")
     ap.add_argument("--repeats", type=int, default=3, help="alternating plain/mcap node runs (part 3)")
+    ap.add_argument("--json", default=None, help="also write the results here")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="bkabem_bench_") as d:
         tmp = Path(d)
@@ -230,6 +231,8 @@ def main() -> int:
             result["node"] = bench_node(args.node_seconds, tmp, args.repeats)
     result["machine"] = {"cpus": os.cpu_count(), "load_avg_1min": round(os.getloadavg()[0], 2)}
     print(json.dumps(result, indent=1))
+    if args.json:
+        Path(args.json).write_text(json.dumps(result, indent=1))
     return 0
 
 

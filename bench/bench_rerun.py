@@ -1,12 +1,12 @@
 """Benchmark: the cost of Rerun logging at 51.2 kHz x 8 channels, this tree against a baseline tree.
 
-    .venv/bin/python bench/bench_rerun.py [--seconds 10] [--repeats 3] [--baseline /path/to/main-checkout]
+    .venv/bin/python bench/bench_rerun.py [--seconds 10] [--repeats 3] [--baseline /path/to/main-checkout] [--json F]
 
 The data is ``bench/bench_record.py``'s node pattern (0.1 s chunks of 4 ``VibrationWaveform`` of
 2 x 5120 float32 samples: DE/NDE x acceleration/displacement, sines + Gaussian noise; spectra and
 fault frequencies at 1 Hz; speed at 50 Hz), built once per process before timing. Each run is a
 fresh process that imports ``bkabem_ros`` from the tree under test (this one, or ``--baseline``,
-e.g. ``git worktree add --detach /tmp/bk_base main``), feeds the data through ``RerunSink`` ->
+e.g. ``git worktree add --detach ../bkabem-base main``), feeds the data through ``RerunSink`` ->
 ``RerunLogger`` -> ``.rrd`` as fast as it can, closes the file, and reports process CPU seconds
 (all threads, Rerun's encoder included) per second of data = the fraction of one core that
 logging costs in real time, and the file size per recorded second. The one-off set-up (logger
@@ -87,6 +87,7 @@ def main(argv=None) -> int:
     p.add_argument("--seconds", type=float, default=10.0, help="seconds of data per run (default 10)")
     p.add_argument("--repeats", type=int, default=3, help="runs per tree (default 3)")
     p.add_argument("--baseline", type=Path, default=None, help="another checkout to compare with")
+    p.add_argument("--json", type=Path, default=None, help="also write the summary and the runs here")
     args = p.parse_args(argv)
     trees = {"this tree": ROOT}
     if args.baseline is not None:
@@ -117,6 +118,8 @@ def main(argv=None) -> int:
         summary["ratio this/baseline"] = {"cpu": t["cpu_percent_median"] / b["cpu_percent_median"],
                                           "size": t["mb_per_recorded_s"] / b["mb_per_recorded_s"]}
     print(json.dumps(summary, indent=1))
+    if args.json:
+        args.json.write_text(json.dumps({"summary": summary, "runs": res, "seconds": args.seconds}, indent=1))
     return 0
 
 

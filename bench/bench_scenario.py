@@ -1,7 +1,7 @@
-"""Scenarios (issue 12): the model of a scenario state from nothing against one made like the previous state's,
+"""Scenarios: the model of a scenario state from nothing against one made like the previous state's,
 the cost of handing a model over from the helper process, and an offline run to failure.
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_scenario.py --repeat 3          # table for BENCHMARKS.md
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_scenario.py --repeat 3          # the full table
 
 Per defect kind (a DE outer-race, a DE inner-race dent, a defect on ball 2 of the DE bearing of the fault library's
 ``motor_6010_healthy``, growing linearly with ``size_step`` 0.25):

@@ -1,6 +1,6 @@
-"""Benchmark (issue 14, item 2): publish lateness of the node under speed jumps, to and from 0 included.
+"""Benchmark: publish lateness of the node under speed jumps, to and from 0 included.
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_speed_jumps.py [--repeats 3]
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_speed_jumps.py [--repeats 3] [--json FILE]
         [--baseline DIR]      # also run an older checkout (DIR on PYTHONPATH, `python -m bkabem_core.cli`)
 
 For each code version and scenario, real processes on loopback: ``bkabem node`` (25.6 kHz, 0.1 s chunks,
@@ -16,6 +16,7 @@ repeats of each statistic, and the ratio of the worst lateness to that of ``stea
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import random
 import re
@@ -75,12 +76,14 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--baseline", default=None, help="checkout of an older version (its bkabem_core.cli)")
+    ap.add_argument("--json", default=None, help="also write the medians per version and scenario here")
     a = ap.parse_args(argv)
     versions = [("this", [sys.executable, "-m", "bkabem_ros"], None)]
     if a.baseline:
         versions.insert(0, ("baseline", [sys.executable, "-m", "bkabem_core.cli"], a.baseline))
     print(f"{'version':9s} {'scenario':9s} {'p50 ms':>8s} {'p99 ms':>8s} {'max ms':>8s} {'max/steady':>10s}  "
           f"(median of {a.repeats})")
+    out = []
     for name, cli, pp in versions:
         env = _env(pp)
         res = {}
@@ -91,6 +94,10 @@ def main(argv=None) -> int:
         for sc in SCENARIOS:
             p50, p99, mx = (statistics.median(x[i] for x in res[sc]) for i in range(3))
             print(f"{name:9s} {sc:9s} {p50:8.2f} {p99:8.2f} {mx:8.2f} {mx / steady_max:10.1f}", flush=True)
+            out.append({"version": name, "scenario": sc, "profile": SCENARIOS[sc], "repeats": a.repeats,
+                        "p50_ms": p50, "p99_ms": p99, "max_ms": mx, "max_over_steady": mx / steady_max})
+    if a.json:
+        Path(a.json).write_text(json.dumps(out, indent=1))
     return 0
 
 

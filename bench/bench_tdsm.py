@@ -2,7 +2,7 @@
 
     OPENBLAS_NUM_THREADS=1 PYTHONPATH=. python3 bench/bench_tdsm.py [--steps 20000] [--repeats 5] [--json FILE]
 
-Prints markdown tables (used in BENCHMARKS.md, "## TDSM and validation (issue 3)"). The machine is shared:
+Prints markdown tables (bench/run_all.py puts them in BENCHMARKS.md, "TDSM and validation"). The machine is shared:
 the medians are what to quote, the spread says how noisy the run was.
 """
 

@@ -3,7 +3,7 @@ every number the paper states next to ours. Rewrites the ``findings`` and ``pape
 
     OPENBLAS_NUM_THREADS=1 PYTHONPATH=. python3 bench/physics_findings.py        # ~1 min
 
-"The earlier model" is the model schema 1 described (what main computed before the physics issue): Table 1's
+"The earlier model" is the model schema 1 described (what the code computed before the physics review): Table 1's
 bearings in the FE, the 4-DOF excitation with the whole 82 kg on the DE bearing only, Eq. 5 as printed, the cubic
 dent edge, no axial load, no shaft damping, one FE element per case element. It is the current code with these
 keys (``EARLIER`` below), so both columns come from the same implementation.
@@ -130,10 +130,10 @@ def findings(case):
         "4. dent edge unphysical at high orders",
         f"10 % cubic edge: a ball unloads over {cub.dent_entry_ramp_rad * cub.outer_race_radius_m * 1e3:.2f} mm; "
         f"against the ball-over-edge path (4-DOF, 82 kg) orders 10-20 {band_db(e_c, e_b, 10, 20):+.1f} dB, "
-        f"20-30 {band_db(e_c, e_b, 20, 30):+.1f} dB, 30-50 {band_db(e_c, e_b, 30, 50):+.1f} dB (the issue's 7-8 dB "
+        f"20-30 {band_db(e_c, e_b, 20, 30):+.1f} dB, 30-50 {band_db(e_c, e_b, 30, 50):+.1f} dB (the review's 7-8 dB "
         f"on orders 10-30 we do not reproduce: {band_db(e_c, e_b, 10, 30):+.1f} dB over that band)",
         f"the ball centre's path over the sharp edges: entry ramp {ball.dent_entry_ramp_rad * ball.outer_race_radius_m * 1e3:.2f} "
-        f"mm, ~sqrt(2 R_x h) with R_x = 4.95 mm (the issue's ~0.3 mm would be sqrt(2 r_b h) for a ~10 um deep dent); "
+        f"mm, ~sqrt(2 R_x h) with R_x = 4.95 mm (the review's ~0.3 mm would be sqrt(2 r_b h) for a ~10 um deep dent); "
         f"the cubic edge is one key away (`dent.edge`); at the case's own load it would be "
         f"{band_db(n_c, n_b, 10, 30):+.1f} dB on orders 10-30"))
     # 5. NDE excitation, 4-DOF ringing

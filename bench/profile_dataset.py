@@ -1,7 +1,7 @@
-"""Data sets (issue 15): where a worker's task spends a run, piece by piece (perf_counter around each piece).
+"""Data sets: where a worker's task spends a run, piece by piece (perf_counter around each piece).
 
-    flock /work/notes/bench.lock .venv/bin/python bench/profile_dataset.py --kinds inner,ball
-    flock /work/notes/bench.lock .venv/bin/python bench/profile_dataset.py --kinds inner --code /tmp/main
+    .venv/bin/python bench/profile_dataset.py --kinds inner,ball
+    .venv/bin/python bench/profile_dataset.py --kinds inner --code DIR        # another checkout's code
 
 The runs of ``bench_dataset.py`` (10 s at 25.6 kHz in 1-s chunks, constant speeds 15-35 Hz, a seed each, 5 runs per
 task) rendered by :func:`bkabem_core.dataset.engine._task` ``--passes`` times; each piece's time per run, the minimum and

@@ -2,7 +2,7 @@
 
 Regenerates the numbers and the figure of docs/surrogate_motor.md from the case file:
 
-    cd /work/main && python3 bench/surrogate_modes.py                  # tables + docs/img/surrogate_motor.png
+    .venv/bin/python bench/surrogate_modes.py                         # tables + docs/img/surrogate_motor.png
     python3 bench/surrogate_modes.py --case FILE --png OUT.png --speed-hz 50 --fmax-hz 2500
     python3 bench/surrogate_modes.py --no-plot
 

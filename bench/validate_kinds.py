@@ -1,4 +1,4 @@
-"""TDSM vs plain and improved BKA-BEM for every defect kind (issue 12): the "kinds" block of docs/validation.md.
+"""TDSM vs plain and improved BKA-BEM for every defect kind: the "kinds" block of docs/validation.md.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/validate_kinds.py                 # rewrites the block
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/validate_kinds.py --speeds 30 --no-write
@@ -94,7 +94,7 @@ def main(argv=None) -> int:
                              improved_ms=1e3 * r.wall_time_s["improved_spectrum"]))
             print(kind, f, {f"{w[0]}/{q[0]}": round(float(v.max()), 2) for (w, q), v in e.items()}, flush=True)
     out = [BEGIN, "",
-           f"Command: `OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/validate_kinds.py` ({time.strftime('%Y-%m-%d')}). "
+           "Command: `OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/validate_kinds.py`. "
            "Plain and improved BKA-BEM against the TDSM of the same machine for each defect kind of the fault library "
            "(`motor_6010_{outer,inner,ball}`: 2 mm x 50 um outer/inner-race dents, 1.5 mm x 50 um on ball 1, DE "
            "bearing) and for two moving defects at once (`inner+ball`: the inner-race dent in the DE bearing and the "
@@ -119,7 +119,7 @@ def main(argv=None) -> int:
                    f"{r['plain_ms']:.2f} | {r['improved_ms']:.1f} | {r['err_all']['plain']:.2f} / "
                    f"{r['err_all']['improved']:.2f} |")
     out += ["", "Per kind, over its speeds, locations and directions (the criteria: the largest lines within "
-            f"{PLAIN_DB:g} dB plain, {IMPROVED_DB:g} dB improved; issue 11's for the plain method: median <= 3 dB, "
+            f"{PLAIN_DB:g} dB plain, {IMPROVED_DB:g} dB improved; the validation's for the plain method: median <= 3 dB, "
             "worst <= 5 dB). Where the plain method is worst in acceleration: the location, the line "
             "(coefficients on shaft, cage, spin, line phase) and the improved method's error on the same line.", "",
             "| kind | plain median [dB] | plain worst, displacement [dB] | plain worst, acceleration [dB] | "
@@ -150,7 +150,7 @@ def main(argv=None) -> int:
             a, b = text.index(BEGIN), text.index(END) + len(END)
             text = text[:a] + block + text[b:]
         else:
-            text = text.rstrip() + "\n\n## Every defect kind (issue 12)\n\n" + block + "\n"
+            text = text.rstrip() + "\n\n## Every defect kind\n\n" + block + "\n"
         DOC.write_text(text)
     return 0
 
