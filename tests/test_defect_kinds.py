@@ -56,7 +56,7 @@ def test_a_name_gives_its_kind_or_a_clear_refusal():
     for k in kinds():
         assert kind(k.name) is k and find(k.name) is k
     assert find("cage") is None
-    with pytest.raises(ValueError, match="must be one of outer, inner, ball"):
+    with pytest.raises(ValueError, match=f"must be one of {', '.join(KINDS)} "):
         kind("cage")
     with pytest.raises(ValueError, match="race"):
         Dent(1e-3, 1e-5, 0.0, race="cage")
