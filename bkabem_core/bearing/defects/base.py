@@ -50,6 +50,8 @@ class Dent:
         ``"ball"`` (the ball-over-edge path) or ``"cubic"``.
     ball_index : int
         Kinds on a ball: which ball (0-based, ball 1 at ``first_ball_angle`` when the cage angle is 0).
+    own : tuple of (str, object)
+        Any other keys only its kind has (``DefectKind.own_keys``), as ``((key, value), ...)``.
     """
 
     length_m: float
@@ -60,6 +62,7 @@ class Dent:
     race: str = KINDS[0]
     edge: str = "ball"
     ball_index: int = 0
+    own: tuple = ()
 
     def __post_init__(self):
         if self.edge not in EDGE_PROFILES:

@@ -226,12 +226,13 @@ class DefectKind(ABC):
         return self.check_size(table, bearing)
 
     def dent_fields(self, table: dict) -> dict:
-        """Fields of a :class:`~bkabem_core.bearing.defects.base.Dent` its own keys fill."""
-        return {}
+        """Fields of a :class:`~bkabem_core.bearing.defects.base.Dent` its own keys fill (by default ``own``, the
+        pairs in :attr:`own_keys` order)."""
+        return {"own": tuple((k.name, table[k.name]) for k in self.own_keys)} if self.own_keys else {}
 
     def table_fields(self, dent) -> dict:
         """Its own keys of a ``[[defects]]`` table (or ground-truth entry) describing ``dent``."""
-        return {}
+        return dict(dent.own)
 
     # ------------------------------------------------------------------ words
     def part_name(self, fields: Mapping) -> str:
