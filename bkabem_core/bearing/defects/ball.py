@@ -47,8 +47,9 @@ class Ball(DefectKind):
     def surface_radius_m(self, geometry: ContactGeometry) -> float:
         return geometry.ball_radius_m
 
-    def edge_drop_m(self, psi, geometry: ContactGeometry, depth_m: float, contact: str):
-        return bridged_drop_m(geometry.ball_radius_m * np.asarray(psi, dtype=float), geometry.rx_m(contact), depth_m)
+    def edge_drop_m(self, psi, dent, geometry: ContactGeometry, contact: str):
+        arc = geometry.ball_radius_m * np.asarray(psi, dtype=float)
+        return bridged_drop_m(arc, geometry.rx_m(contact), dent.depth_m)
 
     def drop_m(self, profiles, beta_rad, shaft_angle_rad, spin_angle_rad):
         spin = np.broadcast_to(np.asarray(spin_angle_rad, dtype=float), beta_rad.shape[:-1])

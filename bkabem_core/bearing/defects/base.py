@@ -105,7 +105,7 @@ class DefectProfile:
         self.half_angle_rad = dent.length_m / (2.0 * self.kind.surface_radius_m(geometry))
         a = self.half_angle_rad
         self.edge_rad = dent.edge_fraction * a if dent.edge == "cubic" else 0.0
-        edge_depth = {c: float(self.kind.edge_drop_m(np.array(a), geometry, dent.depth_m, c))
+        edge_depth = {c: float(self.kind.edge_drop_m(np.array(a), dent, geometry, c))
                       for c in self.kind.contacts}
         if dent.edge == "cubic":
             self._cubic_depth = {c: self.kind.cubic_depth_m(dent, geometry, d) for c, d in edge_depth.items()}
@@ -128,7 +128,7 @@ class DefectProfile:
         a = self.half_angle_rad
         if self.dent.edge == "cubic":
             return self._cubic_depth[contact] * (1.0 - step_cubic(rel, a - self.edge_rad, a))
-        return np.where(rel < a, self.kind.edge_drop_m(a - rel, self.geometry, self.dent.depth_m, contact), 0.0)
+        return np.where(rel < a, self.kind.edge_drop_m(a - rel, self.dent, self.geometry, contact), 0.0)
 
     def entry_ramp_rad(self) -> float:
         """Angle on its surface over which the drop goes from 0 to its largest value at each edge [rad] (at the first
@@ -136,7 +136,7 @@ class DefectProfile:
         if self.dent.edge == "cubic":
             return self.edge_rad
         psi = np.linspace(0.0, self.half_angle_rad, 2049)
-        prof = self.kind.edge_drop_m(psi, self.geometry, self.dent.depth_m, self.kind.contacts[0])
+        prof = self.kind.edge_drop_m(psi, self.dent, self.geometry, self.kind.contacts[0])
         full = np.nonzero(prof >= prof[-1] * (1.0 - 1e-9))[0]
         return float(psi[full[0]]) if full.size else float(self.half_angle_rad)
 

@@ -41,8 +41,8 @@ class InnerRace(RaceDefect):
     def surface_radius_m(self, geometry: ContactGeometry) -> float:
         return geometry.inner_race_radius_m
 
-    def edge_drop_m(self, psi, geometry: ContactGeometry, depth_m: float, contact: str):
-        return inner_race_drop_m(psi, geometry.inner_race_radius_m, geometry.ball_radius_m, depth_m)
+    def edge_drop_m(self, psi, dent, geometry: ContactGeometry, contact: str):
+        return inner_race_drop_m(psi, geometry.inner_race_radius_m, geometry.ball_radius_m, dent.depth_m)
 
     def centre_rad(self, angle_rad: float, shaft_angle_rad):
         return angle_rad + np.asarray(shaft_angle_rad, dtype=float)[..., None]

@@ -32,8 +32,8 @@ class OuterRace(RaceDefect):
     def surface_radius_m(self, geometry: ContactGeometry) -> float:
         return geometry.outer_race_radius_m
 
-    def edge_drop_m(self, psi, geometry: ContactGeometry, depth_m: float, contact: str):
-        return outer_race_drop_m(psi, geometry.outer_race_radius_m, geometry.ball_radius_m, depth_m)
+    def edge_drop_m(self, psi, dent, geometry: ContactGeometry, contact: str):
+        return outer_race_drop_m(psi, geometry.outer_race_radius_m, geometry.ball_radius_m, dent.depth_m)
 
     def cubic_depth_m(self, dent, geometry: ContactGeometry, edge_depth_m: float) -> float:
         rb = geometry.ball_radius_m

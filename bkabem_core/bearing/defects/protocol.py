@@ -188,9 +188,10 @@ class DefectKind(ABC):
         """Radius of the surface the pit is cut in, in the rolling direction [m] (half-angle = l / (2 R))."""
 
     @abstractmethod
-    def edge_drop_m(self, psi, geometry: ContactGeometry, depth_m: float, contact: str):
-        """The ``"ball"`` (sharp-edge) profile: drop of the ball centre [m] at an angle ``psi`` [rad] on the pit's
-        surface inside the nearer edge, at ``contact`` (one of :attr:`contacts`)."""
+    def edge_drop_m(self, psi, dent, geometry: ContactGeometry, contact: str):
+        """The ``"ball"`` (sharp-edge) profile of ``dent`` (its depth, and any keys of its own): drop of the ball
+        centre [m] at an angle ``psi`` [rad] on the pit's surface inside the nearer edge, at ``contact`` (one of
+        :attr:`contacts`); at most the depth."""
 
     def cubic_depth_m(self, dent, geometry: ContactGeometry, edge_depth_m: float) -> float:
         """Largest drop of the ``"cubic"`` profile [m] at a contact whose ``"ball"`` profile reaches
