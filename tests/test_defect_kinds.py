@@ -32,8 +32,10 @@ def cwru_6205() -> BearingGeometry:
 
 
 def _dent(k: DefectKind, **kw) -> Dent:
+    """A defect of kind ``k``, its own keys at their defaults."""
+    own = k.dent_fields({o.name: o.default for o in k.own_keys})
     return Dent(length_m=kw.pop("length_m", 0.8e-3), depth_m=kw.pop("depth_m", 20e-6),
-                angle_rad=kw.pop("angle_rad", 0.3), race=k.name, **kw)
+                angle_rad=kw.pop("angle_rad", 0.3), race=k.name, **own, **kw)
 
 
 # --------------------------------------------------------------------------- the registry
