@@ -21,7 +21,7 @@ from pathlib import Path
 
 from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent
 from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
-from bkabem_core.bearing.defects.registry import KINDS, kind, kinds, own_keys
+from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, moving_kinds, own_keys, periodic_kinds
 from bkabem_core.excitation.quasi_static import FourDofParameters
 from bkabem_core.model import plausibility
 
@@ -215,8 +215,7 @@ TOP_LEVEL = ("case", "bearing", "defects", "baseline", "excitation", "bearings",
 #: keys a section may leave out (their default: 0 = off), so that cases written before them stay valid
 _OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz",)}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
-_KIND_KEYS = {key.name: tuple(k.name for k in kinds() if any(o.name == key.name for o in k.own_keys))
-              for key in own_keys()}
+_KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
 #: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)
 BASELINE_OFF = {"unbalance_grade_mm_s": 0.0, "unbalance_phase_deg": 0.0, "misalignment_force_n": 0.0,
                 "misalignment_node": 1, "electrical_force_n": 0.0, "line_frequency_hz": 50.0}
@@ -442,8 +441,8 @@ def _check_cross(raw: dict, source: str) -> None:
     if raw["bearings"]["de"]["rotor_node"] == raw["bearings"]["nde"]["rotor_node"]:
         raise CaseError("bearings.nde.rotor_node", "DE and NDE bearings must sit on different shaft nodes", source)
     if raw["excitation"]["method"] == "four_dof" and any(not kind(d["race"]).periodic for d in raw["defects"]):
-        periodic = " and ".join(k.adjective for k in kinds() if k.periodic)
-        moving = " and ".join(k.adjective for k in kinds() if not k.periodic)
+        periodic = " and ".join(k.adjective for k in periodic_kinds())
+        moving = " and ".join(k.adjective for k in moving_kinds())
         raise CaseError("excitation.method", f"'four_dof' models {periodic} dents only; {moving} defects need "
                         f"'quasi_static'", source)
     if raw["baseline"]["misalignment_node"] not in shaft_nodes:

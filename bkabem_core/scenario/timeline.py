@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
-from bkabem_core.bearing.defects.registry import KINDS, kind, kinds, own_keys
+from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, own_keys
 from bkabem_core.model.case import Case, CaseError, InputFileError, embedded_names, parse_toml, read_input_text
 
 SCHEMA_VERSION = 1
@@ -400,7 +400,7 @@ class Scenario:
         for o in own_keys():
             if o.name not in mine:
                 if o.name in d:
-                    having = " or ".join(repr(x.name) for x in kinds() if any(y.name == o.name for y in x.own_keys))
+                    having = " or ".join(repr(x.name) for x in kinds_with(o.name))
                     raise ScenarioError(f"{key}.{o.name}", f"only for race = {having} (this one is {k.name!r})",
                                         source)
                 continue

@@ -23,7 +23,7 @@ from pathlib import Path
 
 from bkabem_core.bearing.defects.protocol import DefectKey, DefectKind
 
-__all__ = ["KINDS", "find", "kind", "kinds", "moving_kinds", "own_keys", "periodic_kinds"]
+__all__ = ["KINDS", "find", "kind", "kinds", "kinds_with", "moving_kinds", "own_keys", "periodic_kinds"]
 
 _PACKAGE = __name__.rpartition(".")[0]
 #: Modules of the package that are not kinds and import this registry (so are not imported by it).
@@ -88,3 +88,8 @@ def own_keys() -> tuple[DefectKey, ...]:
         for key in k.own_keys:
             out.setdefault(key.name, key)
     return tuple(out.values())
+
+
+def kinds_with(key: str) -> tuple[DefectKind, ...]:
+    """The kinds that have the own key ``key`` (a ``[[defects]]`` key only some kinds have)."""
+    return tuple(k for k in _KINDS if any(o.name == key for o in k.own_keys))
