@@ -4,10 +4,12 @@ for them: all from the messages as recorded (``BearingFaultFrequencies``), data-
 A run carries a list of defects (:class:`Defect`: kind, bearing, size) and the bearing's
 fault-frequency lines (:data:`LINES`: 1x, FTF, BPFO, BPFI, BSF, 2xBSF, each a multiple of the
 shaft speed). :func:`marker_plan` turns them into the markers of one spectrum view: every line at
-its fundamental, and the lines a defect of the run excites (:data:`DEFECT_LINE`: outer race ->
-BPFO, inner race -> BPFI, ball -> 2xBSF, cage -> FTF) also at harmonics 2 and 3. So a spectrum
-whose every line is a BPFO multiple gets three BPFO markers, not fifty, and a run with several
-defects (in DE, NDE or both) marks each defect's line without any change here.
+its fundamental, and the line a defect of the run excites (its kind's, from the registry of
+:mod:`bkabem_core.bearing.defects`: outer race -> BPFO, inner race -> BPFI, ball -> 2xBSF) also
+at its kind's marked harmonics (2 and 3). So a spectrum whose every line is a BPFO multiple gets
+three BPFO markers, not fifty, and a run with several defects (in DE, NDE or both) marks each
+defect's line without any change here. A kind bkabem does not know (a message of another tool)
+is named as it is and marked as BPFO.
 
 The messages carry the ground truth (``bkabem_msgs/GroundTruth``, 0.2.0): every defect, the
 baseline, the scenario state. :func:`defects_from_message` and :func:`truth_from_message` are
@@ -20,8 +22,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["DEFECT_LINE", "LINES", "LINE_COLORS", "Defect", "Marker", "Truth", "defects_from_message",
-           "describe_defect", "describe_truth", "line_frequencies", "marker_plan", "truth_from_message"]
+from bkabem_core.bearing.defects.registry import find
+
+__all__ = ["LINES", "LINE_COLORS", "Defect", "Marker", "Truth", "defects_from_message", "describe_defect",
+           "describe_truth", "line_frequencies", "marker_plan", "truth_from_message"]
 
 #: Fault-frequency lines in display order.
 LINES = ("1x", "FTF", "BPFO", "BPFI", "BSF", "2xBSF")
@@ -37,22 +41,18 @@ LINE_COLORS = {
 #: Colour names for the key in the health panel.
 LINE_COLOR_NAMES = {"1x": "grey", "FTF": "violet", "BPFO": "red", "BPFI": "green", "BSF": "yellow",
                     "2xBSF": "cyan"}
-#: The line a defect of each kind excites (its fundamental fault frequency).
-DEFECT_LINE = {"outer": "BPFO", "inner": "BPFI", "ball": "2xBSF", "cage": "FTF"}
-#: Kinds as an engineer names them.
-DEFECT_NAMES = {"outer": "outer-race", "inner": "inner-race", "ball": "ball", "cage": "cage"}
-#: Harmonics marked for a line a defect excites (the others: the fundamental only).
+#: The line of a defect whose kind bkabem does not know, and its marked harmonics.
+UNKNOWN_KIND_LINE = "BPFO"
 DEFECT_HARMONICS = (1, 2, 3)
-#: Where a defect of each kind sits, as a diagnostics engineer says it (series names: "DE outer race depth [µm]").
-DEFECT_PLACES = {"outer": "outer race", "inner": "inner race", "ball": "ball", "cage": "cage"}
 
 
 @dataclass(frozen=True)
 class Defect:
-    """One simulated defect: ``kind`` ("outer", "inner", "ball", "cage"), ``bearing`` ("de" or
-    "nde"), ``length_m`` along the raceway, ``depth_m``, ``angle_rad`` (position of the dent
-    centre from +x towards +y), ``designation`` of the bearing (e.g. "6010"), its ``name`` in
-    the scenario or case, ``ball`` (1..z for a ball defect, else 0)."""
+    """One simulated defect: ``kind`` (a name of the defect-kind registry: "outer", "inner",
+    "ball"), ``bearing`` ("de" or "nde"), ``length_m`` along the raceway, ``depth_m``,
+    ``angle_rad`` (position of the dent centre from +x towards +y), ``designation`` of the
+    bearing (e.g. "6010"), its ``name`` in the scenario or case, ``ball`` (1..z for a ball
+    defect, else 0)."""
 
     kind: str
     bearing: str
@@ -65,8 +65,33 @@ class Defect:
 
     @property
     def line(self) -> str:
-        """The fault-frequency line this defect excites (see :data:`DEFECT_LINE`)."""
-        return DEFECT_LINE.get(self.kind, "BPFO")
+        """The fault-frequency line this defect excites (its kind's strike line)."""
+        k = find(self.kind)
+        return k.line if k is not None else UNKNOWN_KIND_LINE
+
+    @property
+    def harmonics(self) -> tuple[int, ...]:
+        """Harmonics of :attr:`line` a spectrum marks (its kind's)."""
+        k = find(self.kind)
+        return k.marked_harmonics if k is not None else DEFECT_HARMONICS
+
+    @property
+    def envelope_lines(self) -> tuple[str, ...]:
+        """The lines it shows in an envelope spectrum (its kind's: a ball defect 2xBSF and BSF)."""
+        k = find(self.kind)
+        return k.envelope_lines if k is not None else (self.line,)
+
+    @property
+    def place(self) -> str:
+        """Where it is, for people: "outer race", "inner race", "ball 3"; an unknown kind by its name."""
+        k = find(self.kind)
+        return k.place_of(vars(self)) if k is not None else self.kind
+
+    @property
+    def words(self) -> str:
+        """As in "<words> defect": "outer-race", "ball 3"; an unknown kind by its name."""
+        k = find(self.kind)
+        return k.adjective_of(vars(self)) if k is not None else self.kind
 
 
 @dataclass(frozen=True)
@@ -152,17 +177,15 @@ def defects_from_message(msg) -> list[Defect]:
 
 
 def defect_place(d: Defect) -> str:
-    """Where the defect is, for people: ``"outer race"``, ``"inner race"``, ``"ball 3"``, ``"cage"``."""
-    if d.kind == "ball" and d.ball:
-        return f"ball {d.ball}"
-    return DEFECT_PLACES.get(d.kind, d.kind)
+    """Where the defect is, for people: ``"outer race"``, ``"inner race"``, ``"ball 3"``."""
+    return d.place
 
 
 def describe_defect(d: Defect) -> str:
     """One line for people, e.g. ``outer-race defect, DE bearing 6010, 2.00 mm x 50 um at -90 deg``
     (a ball defect: ``ball 3 defect, ...``)."""
     size = f"{d.length_m * 1e3:.2f} mm x {d.depth_m * 1e6:.0f} um" if d.length_m or d.depth_m else "size n/a"
-    what = f"ball {d.ball}" if d.kind == "ball" and d.ball else DEFECT_NAMES.get(d.kind, d.kind)
+    what = d.words
     felt = "" if d.depth_m > 0 else " (depth 0: no ball feels it)"
     return (f"{what} defect, {d.bearing.upper()} bearing"
             f"{' ' + d.designation if d.designation else ''}, {size} at {math.degrees(d.angle_rad):.0f} deg{felt}")
@@ -200,17 +223,21 @@ def describe_truth(t: Truth) -> list[str]:
 
 
 def marker_plan(lines: dict[str, float], defects: list[Defect], f_max: float,
-                harmonics: tuple[int, ...] = DEFECT_HARMONICS) -> list[Marker]:
+                harmonics: tuple[int, ...] | None = None) -> list[Marker]:
     """Markers for a spectrum shown up to ``f_max`` [Hz]: every line of ``lines`` at its
-    fundamental; the lines excited by ``defects`` also at ``harmonics``. Lines at 0 Hz (speed
-    0) and markers above ``f_max`` are left out."""
-    excited = {d.line for d in defects if d.depth_m > 0}
+    fundamental; the lines excited by ``defects`` also at ``harmonics`` (default: each defect
+    kind's marked harmonics). Lines at 0 Hz (speed 0) and markers above ``f_max`` are left
+    out."""
+    excited: dict[str, set] = {}
+    for d in defects:
+        if d.depth_m > 0:
+            excited.setdefault(d.line, set()).update(d.harmonics if harmonics is None else harmonics)
     out = []
     for name in LINES:
         f = float(lines.get(name, 0.0))
         if not f > 0:
             continue
-        for h in (harmonics if name in excited else (1,)):
+        for h in (sorted(excited[name]) if name in excited else (1,)):
             if h * f <= f_max:
                 out.append(Marker(name, h, h * f, LINE_COLORS[name]))
     return out

@@ -17,21 +17,16 @@ from bkabem_core.analysis import condition, fault_lines
 __all__ = ["bearing_truth", "envelope_finding", "health_text", "line_sources"]
 
 
-#: Lines a defect of each kind shows in an envelope spectrum (a ball defect strikes both races:
-#: 2xBSF, and BSF when the two strikes differ).
-_ENVELOPE_LINES = {"outer": ("BPFO",), "inner": ("BPFI",), "ball": ("2xBSF", "BSF"), "cage": ("FTF",)}
-
-
 def _defect_words(d) -> str:
-    what = f"ball {d.ball}" if d.kind == "ball" and d.ball else fault_lines.DEFECT_NAMES.get(d.kind, d.kind)
-    return f"{d.bearing.upper()} {what} defect"
+    return f"{d.bearing.upper()} {d.words} defect"
 
 
 def line_sources(name: str, loc: str, defects) -> tuple[list, list]:
-    """The defects of the ground truth whose fault line ``name`` is: (this bearing's, the other
-    bearings'). An envelope line of another bearing's defect is transmitted (shaft, housing,
-    frame), not a fault of this one."""
-    hit = [d for d in defects or () if name in _ENVELOPE_LINES.get(d.kind, (d.line,))]
+    """The defects of the ground truth whose fault line ``name`` is (one of the lines its kind
+    shows in an envelope spectrum: a ball defect strikes both races, 2xBSF, and BSF when the two
+    strikes differ): (this bearing's, the other bearings'). An envelope line of another bearing's
+    defect is transmitted (shaft, housing, frame), not a fault of this one."""
+    hit = [d for d in defects or () if name in d.envelope_lines]
     return [d for d in hit if d.bearing == loc], [d for d in hit if d.bearing != loc]
 
 
@@ -174,8 +169,11 @@ def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], i
         out.append(line)
     lines = h.get("lines") or run_lines
     if lines:
-        excited = {d.line for d in defects}
+        excited: dict[str, set] = {}
+        for d in defects:
+            excited.setdefault(d.line, set()).update(d.harmonics)
         key = ", ".join(f"{name} {lines[name]:.1f} Hz {fault_lines.LINE_COLOR_NAMES[name]}"
-                        + (" (x1-3)" if name in excited else "") for name in fault_lines.LINES if name in lines)
+                        + (f" (x{min(excited[name])}-{max(excited[name])})" if name in excited else "")
+                        for name in fault_lines.LINES if name in lines)
         out.append(f"- markers (below the zero line of the spectra): {key}")
     return "\n".join(out).rstrip()

@@ -9,8 +9,8 @@ Bearing model (module ``deep_groove``)
     BearingState         -- the bearing at its static equilibrium
     BearingLinearisation -- lateral stiffness and damping at an equilibrium
 
-Defects (module ``defects``)
-============================
+Defects (package ``defects``: module ``base``; the kinds, one module each, in its registry)
+===========================================================================================
     Dent                 -- a localised defect (dent, pit, spall): kind, size, angle, edge profile
     DefectSet            -- the defects of one bearing: the drop every ball feels
     DefectProfile        -- one defect with its bearing's geometry
@@ -32,9 +32,9 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "HertzContact": "deep_groove",
     "BearingState": "deep_groove",
     "BearingLinearisation": "deep_groove",
-    "Dent": "defects",
-    "DefectSet": "defects",
-    "DefectProfile": "defects",
+    "Dent": "defects.base",
+    "DefectSet": "defects.base",
+    "DefectProfile": "defects.base",
     "HertzPair": "contacts",
     "LinearPair": "contacts",
 })

@@ -55,13 +55,13 @@ class HertzPair:
         self._moving = []                     # (bearing index, DefectSet) of defects that are not BPFO-periodic
         for i, b in enumerate(bearings):
             ar0[:, i, :] = b._ar0
-            outer = [d for d in b.defects if d.race == "outer"]
-            if b.dent is not None and len(outer) == len(b.defects):
+            periodic = b.periodic_defects
+            if b.dent is not None and len(periodic) == len(b.defects):
                 ar0[:, i, :] -= b.dent_depth_m(beta)
             elif b.defect_set:
-                if outer:
-                    ar0[:, i, :] -= type(b)(b.geometry, defects=outer).dent_depth_m(beta)
-                moving = type(b)(b.geometry, defects=[d for d in b.defects if d.race != "outer"]).defect_set
+                if periodic:
+                    ar0[:, i, :] -= type(b)(b.geometry, defects=periodic).dent_depth_m(beta)
+                moving = type(b)(b.geometry, defects=b.moving_defects).defect_set
                 if moving:
                     self._moving.append((i, moving))
         self.ar0 = ar0                                                       # A_r at u = 0 [m]
@@ -101,8 +101,9 @@ class HertzPair:
 
     @property
     def periodic(self) -> bool:
-        """Whether the ball forces repeat every BPFO period (outer-race and healthy bearings); inner-race and ball
-        defects move with the shaft and the ball spin, so their drops come from :meth:`ar0_rows`."""
+        """Whether the ball forces repeat every BPFO period (healthy bearings and periodic kinds: the outer race);
+        other kinds (inner race, ball) move with the shaft and the ball spin, so their drops come from
+        :meth:`ar0_rows`."""
         return not self._moving
 
     def bake_phases(self, shaft_angles_rad, spin_angles_rad) -> "HertzPair":

@@ -36,16 +36,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from bkabem_core.bearing.defects import (  # noqa: F401
-    EDGE_PROFILES,
-    KINDS,
-    DefectProfile,
-    DefectSet,
-    Dent,
-    outer_race_drop_m,
-    step_cubic,
-    wrap_to_pi,
-)
+from bkabem_core.bearing.defects.base import DefectProfile, DefectSet, Dent
+from bkabem_core.bearing.defects.profiles import ContactGeometry, wrap_to_pi  # noqa: F401  (wrap_to_pi: for users)
+from bkabem_core.bearing.defects.registry import kind
 
 TWO_PI = 2.0 * math.pi
 
@@ -303,10 +296,10 @@ class Bearing:
         self._k = self.contact.k_total_n_m15
         self._ball_offsets = TWO_PI * np.arange(g.n_balls) / g.n_balls + g.first_ball_angle_rad
         self._rb = 0.5 * d
-        radii = (self.outer_race_radius_m, self.inner_race_radius_m, self._rb, self.contact.rx_outer_m,
-                 self.contact.rx_inner_m)
-        self.defect_set = DefectSet(self.defects, *radii, g.n_balls)
-        self._profile = DefectProfile(self.dent, *radii) if self.dent is not None else None
+        self.contact_geometry = ContactGeometry(self.outer_race_radius_m, self.inner_race_radius_m, self._rb,
+                                                self.contact.rx_outer_m, self.contact.rx_inner_m, g.n_balls)
+        self.defect_set = DefectSet(self.defects, self.contact_geometry)
+        self._profile = DefectProfile(self.dent, self.contact_geometry) if self.dent is not None else None
         if self._profile is not None:
             self._dent_half_angle = self._profile.half_angle_rad
             self._dent_edge = self._profile.edge_rad
@@ -318,6 +311,17 @@ class Bearing:
     def has_defect(self) -> bool:
         """Whether any ball feels a defect (some defect with depth > 0)."""
         return bool(self.defect_set)
+
+    @property
+    def periodic_defects(self) -> tuple:
+        """Its defects whose kinds repeat with the ball pass (BPFO orders: a pit in the outer race), depth-0 ones
+        included."""
+        return tuple(d for d in self.defects if kind(d.race).periodic)
+
+    @property
+    def moving_defects(self) -> tuple:
+        """Its other defects (phases of their own: inner race, ball), depth-0 ones included."""
+        return tuple(d for d in self.defects if not kind(d.race).periodic)
 
     # ------------------------------------------------------------------ kinematics
     def fault_multipliers(self) -> FaultFrequencies:
@@ -414,21 +418,15 @@ class Bearing:
     def shortest_defect_event_s(self, shaft_speed_hz: float) -> float:
         """Shortest time a ball takes over an entry ramp of any of its defects at a shaft speed [s] (inf: none).
 
-        The rate of each kind's relative motion: outer race the cage, inner race shaft minus cage, ball the spin
-        (BSF); the time-domain model's step must resolve it."""
+        The rate of each kind's relative motion (its ``surface_rate_per_hz``: outer race the cage, inner race shaft
+        minus cage, ball the spin); the time-domain model's step must resolve it."""
         fm = self.fault_multipliers()
-        rate = {"outer": fm.ftf, "inner": 1.0 - fm.ftf, "ball": fm.bsf}
         out = math.inf
         for p in self.defect_set.profiles:
             ramp = p.entry_ramp_rad()
             edge = ramp if ramp > 0.0 else 0.25 * p.half_angle_rad
-            out = min(out, edge / (TWO_PI * rate[p.kind] * abs(shaft_speed_hz)))
+            out = min(out, edge / (TWO_PI * p.kind.surface_rate_per_hz(fm) * abs(shaft_speed_hz)))
         return out
-
-    def _ball_drop(self, psi):
-        """Radial drop [m] of a ball centre at angular distance ``psi`` [rad] inside the nearer sharp edge of the
-        (first) outer-race dent (:func:`bkabem_core.bearing.defects.outer_race_drop_m`)."""
-        return outer_race_drop_m(psi, self.outer_race_radius_m, self._rb, self.dent.depth_m)
 
     def dent_depth_m(self, ball_angle_rad, shaft_angle_rad=0.0, spin_angle_rad=0.0):
         """Radial drop of the ball centre [m] at ball attitude angles [rad] (paper Eqs. 1-2; :class:`Dent`).
@@ -441,7 +439,7 @@ class Bearing:
         beta = np.asarray(ball_angle_rad, dtype=float)
         if not self.defect_set:
             return np.zeros(beta.shape)
-        if "ball" in self.defect_set.kinds:
+        if self.defect_set.per_ball:
             return self.defect_set.drop_m(beta, shaft_angle_rad, spin_angle_rad)
         return self.defect_set.drop_m(beta[..., None], shaft_angle_rad, spin_angle_rad)[..., 0]
 

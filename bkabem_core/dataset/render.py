@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bkabem_core.bearing.defects.registry import own_keys
 from bkabem_core.dataset.spec import Run, parse_fault
 from bkabem_core.model.case import Case
 from bkabem_core.scenario.models import ModelPool
@@ -245,7 +246,8 @@ def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tupl
         pre = f"d{i}_"
         row.update({pre + "name": d.get("name", ""), pre + "kind": d["kind"], pre + "bearing": d["bearing"],
                     pre + "length_m": d["length_m"], pre + "depth_m": d["depth_m"],
-                    pre + "angle_deg": math.degrees(d["angle_rad"]), pre + "ball": d.get("ball"),
+                    pre + "angle_deg": math.degrees(d["angle_rad"]),
+                    **{pre + k.name: d.get(k.name) for k in own_keys()},      # a ball defect's ball number
                     pre + "edge": d["edge"], pre + "fault_frequency": d["fault_frequency"],
                     pre + "fault_multiplier": d["fault_multiplier"],
                     pre + "fault_frequency_hz": d["fault_frequency_hz"],

@@ -45,6 +45,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
+from bkabem_core.bearing.defects.registry import KINDS, kind, own_keys
 from bkabem_core.model.case import Case, CaseError, InputFileError, parse_toml, read_input_text
 from bkabem_core.model.vocabulary import BEARINGS
 
@@ -53,7 +55,6 @@ SCHEMA_VERSION = 1
 FORMAT_VERSION = 1
 MAX_RUNS = 1_000_000
 SAMPLINGS = ("grid", "random")
-KINDS = ("outer", "inner", "ball")
 QUANTITY_NAMES = ("acceleration", "displacement", "velocity")
 COMPRESSIONS = ("none", "snappy", "zstd", "lz4")
 ACCELEROMETERS = ("none", "stud", "adhesive", "magnet", "probe")
@@ -82,7 +83,7 @@ class Parameter:
 
 
 PARAMETERS: dict[str, Parameter] = {
-    "fault": Parameter("str", "", "healthy", doc="healthy, or defects joined by '+': outer, inner, ball, each "
+    "fault": Parameter("str", "", "healthy", doc=f"healthy, or defects joined by '+': {', '.join(KINDS)}, each "
                        "optionally with its bearing (nde:inner); e.g. 'outer+inner', 'de:outer+nde:ball'"),
     "bearing": Parameter("str", "", "de", choices=BEARINGS, doc="bearing of the defects that name none"),
     "length_m": Parameter("float", "m", 2.0e-3, 0.0, 20e-3, strict_lo=True, doc="defect length (along the race)"),
@@ -90,8 +91,8 @@ PARAMETERS: dict[str, Parameter] = {
     "angle_deg": Parameter("float", "deg", -90.0, -360.0, 360.0,
                            doc="defect position: outer race fixed (-90 = bottom, in the load zone), inner race at "
                                "shaft angle 0"),
-    "ball": Parameter("int", "", 1, 1, None, doc="ball number of a ball defect (1..n_balls)"),
-    "edge": Parameter("str", "", "ball", choices=("ball", "cubic"), doc="edge profile of the defects"),
+    **{k.name: Parameter(k.type, k.unit, k.default, k.lo, None, doc=k.doc) for k in own_keys()},
+    "edge": Parameter("str", "", EDGE_PROFILES[0], choices=EDGE_PROFILES, doc="edge profile of the defects"),
     "speed_hz": Parameter("float", "Hz", 25.0, 0.0, None, strict_lo=True,
                           doc="constant shaft speed (or give profile)"),
     "profile": Parameter("str", "", None, doc="speed profile over run time: constant:F, ramp:F0:F1:T, "
@@ -121,7 +122,8 @@ PARAMETERS: dict[str, Parameter] = {
     "scenario_start_s": Parameter("float", "s", 0.0, 0.0, None, doc="scenario time of the first sample"),
 }
 #: Parameters that describe the defects or the load (not with a scenario, which has its own).
-MACHINE_PARAMETERS = ("fault", "bearing", "length_m", "depth_m", "angle_deg", "ball", "edge", "load_factor")
+MACHINE_PARAMETERS = ("fault", "bearing", "length_m", "depth_m", "angle_deg", *(k.name for k in own_keys()), "edge",
+                      "load_factor")
 SCENARIO_ONLY = ("time_scale", "scenario_start_s")
 
 _TOP = ("dataset", "run", "grid", "random", "output")
@@ -207,14 +209,15 @@ def parse_fault(text: str, bearing: str, key: str = "fault", source: str = "") -
     out = []
     for tok in s.split("+"):
         tok = tok.strip()
-        b, _, kind = tok.rpartition(":")
+        b, _, name = tok.rpartition(":")
         b = b or bearing
-        if kind not in KINDS or b not in BEARINGS:
-            raise DatasetSpecError(key, f"{text!r}: each defect is outer, inner or ball, optionally as de:KIND or "
-                                   f"nde:KIND, joined by '+'; or 'healthy' (got {tok!r})", source)
-        if (b, kind) in out:
-            raise DatasetSpecError(key, f"{text!r}: names the {kind} defect of the {b.upper()} bearing twice", source)
-        out.append((b, kind))
+        if name not in KINDS or b not in BEARINGS:
+            raise DatasetSpecError(key, f"{text!r}: each defect is {', '.join(KINDS[:-1])} or {KINDS[-1]}, "
+                                   f"optionally as de:KIND or nde:KIND, joined by '+'; or 'healthy' (got {tok!r})",
+                                   source)
+        if (b, name) in out:
+            raise DatasetSpecError(key, f"{text!r}: names the {name} defect of the {b.upper()} bearing twice", source)
+        out.append((b, name))
     return out
 
 
@@ -489,7 +492,7 @@ class DatasetSpec:
                     raise DatasetSpecError(key(k), "only with a scenario" + where, src)
                 params[k] = None
             if params["fault"] == "healthy":
-                for k in ("length_m", "depth_m", "angle_deg", "ball", "edge", "bearing"):
+                for k in ("length_m", "depth_m", "angle_deg", *(o.name for o in own_keys()), "edge", "bearing"):
                     params[k] = None                    # no defect: sizes would be labels of nothing
             case = self._run_case(params, keys, where)
             machine_hash = case.case_hash
@@ -544,18 +547,22 @@ class DatasetSpec:
         fkey = keys.get("fault", "run.fault")
         defects = parse_fault(params["fault"], params["bearing"] or "de", fkey, src)
         tables = []
-        z = int(self.base_case.raw["bearing"]["n_balls"])
-        for b, kind in defects:
-            t = {"bearing": b, "race": kind, "length_m": params["length_m"], "depth_m": params["depth_m"],
+        bearing = self.base_case.raw["bearing"]
+        used = set()
+        for b, name in defects:
+            k = kind(name)
+            t = {"bearing": b, "race": name, "length_m": params["length_m"], "depth_m": params["depth_m"],
                  "angle_deg": params["angle_deg"], "edge": params["edge"], "edge_fraction": 0.1}
-            if kind == "ball":
-                if params["ball"] > z:
-                    raise DatasetSpecError(keys.get("ball", "run.ball"), f"must be a ball number 1..{z} (got "
-                                           f"{params['ball']})" + where, src)
-                t["ball"] = params["ball"]
+            for o in k.own_keys:                     # the keys only this kind has (a ball defect's ball number)
+                reason = k.check_own_key(o.name, params[o.name], bearing)
+                if reason:
+                    raise DatasetSpecError(keys.get(o.name, f"run.{o.name}"), reason + where, src)
+                t[o.name] = params[o.name]
+                used.add(o.name)
             tables.append(t)
-        if not any(k == "ball" for _, k in defects):
-            params["ball"] = None
+        for o in own_keys():
+            if o.name not in used:
+                params[o.name] = None
         ident = _canonical([tables, params["load_factor"]])
         case = self._cases.get(ident)
         if case is None:

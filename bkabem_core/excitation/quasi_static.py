@@ -37,10 +37,17 @@ import numpy as np
 from scipy.integrate import odeint
 
 from bkabem_core.bearing.deep_groove import TWO_PI, Bearing, BearingState
+from bkabem_core.bearing.defects.registry import kind as defect_kind
+from bkabem_core.bearing.defects.registry import periodic_kinds
 from bkabem_core.excitation.lines import LineSet, lines_from_grid, union
 from bkabem_core.model.vocabulary import DIRECTIONS
 
 METHODS = ("quasi_static", "four_dof")
+
+
+def _periodic_words() -> str:
+    """The kinds the 4-DOF model takes, for people: "outer-race"."""
+    return " and ".join(k.adjective for k in periodic_kinds())
 
 
 @dataclass(frozen=True)
@@ -355,24 +362,23 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
     pitch = TWO_PI / z
     theta = pitch * np.arange(n) / n
     load = (0.0, -float(radial_load_n))
-    kinds = bearing.defect_set.kinds
-    outer = Bearing(g, defects=[d for d in bearing.defects if d.race == "outer"]) if kinds != ("outer",) \
-        else bearing
+    moving = bearing.defect_set.moving
+    # the bearing without its moving defects: ball passage and periodic kinds, exactly BPFO orders
+    outer = Bearing(g, defects=bearing.periodic_defects) if moving or not bearing.defect_set else bearing
     path, state, iterations = quasi_static_path_m(outer, load, axial_load_n, theta, film_m)
     rel = np.vstack([path[:, 1], path[:, 0]])                     # vertical, horizontal
     all_orders, amp, pha, dc, off, keep = _orders_from_record(rel, 1, relative_amplitude_threshold, max_order)
     rates = rates_per_hz(fm)
     lines = None
     tori = {}
-    if any(k != "outer" for k in kinds):
-        # inner-race and ball defects: the difference they make, on a 2-torus of their phases (module docstring)
+    if moving:
+        # moving kinds (inner race, ball): the difference they make, on a 2-torus of their phases
         base = LineSet.from_orders(all_orders, amp.T * np.exp(1j * pha.T), z, rates, DIRECTIONS, dc=dc)
         parts = [base]
-        for kind in ("inner", "ball"):
-            if kind in kinds:
-                slow = n_slow if n_slow > 0 else max(32, 1 << math.ceil(math.log2(4 * z)))
-                parts.append(_difference_lines(bearing, outer, kind, load, axial_load_n, n, slow, film_m, rates,
-                                               keep=tori))
+        for kind in moving:
+            slow = n_slow if n_slow > 0 else max(32, 1 << math.ceil(math.log2(4 * z)))
+            parts.append(_difference_lines(bearing, outer, kind.name, load, axial_load_n, n, slow, film_m, rates,
+                                           keep=tori))
         every = union(parts)
         lines = every.select(relative_amplitude_threshold, max_order * fm.bpfo if max_order > 0 else 0.0)
         order_like = (lines.coefficients[:, [0, 2, 3]] == 0).all(axis=1) & (lines.coefficients[:, 1] % z == 0)
@@ -426,13 +432,14 @@ def rates_per_hz(fault_multipliers) -> np.ndarray:
 class TorusPath:
     """The quasi-static path of a bearing with a moving defect on the 2-torus of the defect's own angles.
 
-    Grid ``(a, b) = 2 pi (i / n_fast, j / n_slow)``: inner race ``a = psi = z (theta_shaft - theta_cage)``,
-    ``b = theta_shaft``; ball ``a = theta_spin``, ``b = theta_cage`` (:func:`_difference_lines`).
+    Grid ``(a, b) = 2 pi (i / n_fast, j / n_slow)`` of the kind's torus
+    (:class:`~bkabem_core.bearing.defects.protocol.TorusGrid`): e.g. inner race ``a = psi = z (theta_shaft -
+    theta_cage)``, ``b = theta_shaft``; ball ``a = theta_spin``, ``b = theta_cage`` (:func:`_difference_lines`).
 
     Attributes
     ----------
     kind : str
-        ``"inner"`` or ``"ball"``.
+        The name of a moving kind (``"inner"``, ``"ball"``).
     phase_map : ndarray of int (2, 4)
         Coefficients of ``a`` and ``b`` on the base phases (shaft, cage, spin, line).
     cage, shaft, spin : ndarray (n_fast, n_slow) [rad]
@@ -446,7 +453,7 @@ class TorusPath:
     touched : ndarray of bool (n_fast, n_slow)
         Where a ball meets the defect (elsewhere ``path`` is exactly the base).
     bearing : Bearing
-        The bearing with its outer-race defects and the defects of this kind.
+        The bearing with its periodic (outer-race) defects and the defects of this kind.
     """
 
     kind: str
@@ -461,34 +468,18 @@ class TorusPath:
     bearing: Bearing
 
 
-def torus_grid(kind: str, n_balls: int, n_fast: int, n_slow: int):
-    """The grid of a moving defect's torus (:class:`TorusPath`): ``(phase_map (2, 4), cage, shaft, spin)``, the base
-    phases [rad] at ``(a, b) = 2 pi (i / n_fast, j / n_slow)`` (n_fast, n_slow)."""
-    z = int(n_balls)
-    i, j = np.meshgrid(np.arange(n_fast), np.arange(n_slow), indexing="ij")          # (n_fast, n_slow)
-    a, b = TWO_PI * i / n_fast, TWO_PI * j / n_slow
-    if kind == "inner":
-        return np.array([[z, -z, 0, 0], [1, 0, 0, 0]]), b - a / z, b, np.zeros_like(a)
-    if kind == "ball":
-        return np.array([[0, 0, 1, 0], [0, 1, 0, 0]]), b, np.zeros_like(a), a
-    raise ValueError(f"kind: 'inner' or 'ball' (got {kind!r})")
-
-
 def torus_path(bearing: Bearing, base: Bearing, kind: str, load, axial_load_n: float, n_fast: int, n_slow: int,
                film_m: float = 0.0) -> TorusPath:
-    """The quasi-static path of ``bearing``'s defects of ``kind`` on their torus (:class:`TorusPath`), ``base``
-    the bearing without them. Only the grid points where a ball meets a defect are solved (batched Newton)."""
+    """The quasi-static path of ``bearing``'s defects of ``kind`` (a moving kind's name) on their torus
+    (:class:`TorusPath`, :meth:`~bkabem_core.bearing.defects.protocol.DefectKind.torus`), ``base`` the bearing
+    without them. Only the grid points where a ball meets a defect are solved (batched Newton)."""
     z = bearing.geometry.n_balls
     if n_fast % n_slow:
         raise ValueError(f"samples: {n_fast} per ball pass must be a multiple of the {n_slow} slow samples")
-    i, j = np.meshgrid(np.arange(n_fast), np.arange(n_slow), indexing="ij")          # (n_fast, n_slow)
-    with_kind = Bearing(bearing.geometry, defects=[d for d in bearing.defects if d.race in ("outer", kind)])
-    step = n_fast // n_slow
-    phase_map, cage, shaft, spin = torus_grid(kind, z, n_fast, n_slow)
-    if kind == "inner":
-        u_index = (z * j * step - i) % n_fast                   # z theta_cage on the base's grid (exact)
-    else:
-        u_index = (z * j * step) % n_fast
+    with_kind = Bearing(bearing.geometry, defects=[d for d in bearing.defects
+                                                   if d.race == kind or defect_kind(d.race).periodic])
+    grid = defect_kind(kind).torus(z, n_fast, n_slow)
+    phase_map, cage, shaft, spin, u_index = grid.phase_map, grid.cage, grid.shaft, grid.spin, grid.base_index
     # the base's path on its own grid (one ball pitch, the excitation's cage angles): exact at these points
     pitch = TWO_PI / z
     ref_1d, _, _ = quasi_static_path_m(base, load, axial_load_n, pitch * np.arange(n_fast) / n_fast, film_m)
@@ -730,9 +721,9 @@ def compute_excitation(bearing: Bearing, params: FourDofParameters, axial_load_n
     Excitation
     """
     t_start = time.perf_counter()
-    if any(p.kind != "outer" for p in bearing.defect_set.profiles):
-        raise ValueError("the 4-DOF excitation models outer-race dents only (excitation.method = 'quasi_static' "
-                         "takes every kind)")
+    if bearing.defect_set.moving:
+        raise ValueError(f"the 4-DOF excitation models {_periodic_words()} dents only (excitation.method = "
+                         f"'quasi_static' takes every kind)")
     model = FourDofModel(bearing, params, axial_load_n)
     t, rel, n_steps = model.integrate()
     all_orders, amp, pha, dc, off, keep = _orders_from_record(rel, params.record_cage_periods * model.z,

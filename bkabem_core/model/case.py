@@ -20,6 +20,8 @@ from importlib import resources
 from pathlib import Path
 
 from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent
+from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
+from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, moving_kinds, own_keys, periodic_kinds
 from bkabem_core.excitation.quasi_static import FourDofParameters
 from bkabem_core.model import plausibility
 
@@ -126,13 +128,13 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     },
     "defects[]": {
         "bearing": ("str", ("in", {"de", "nde"})),
-        "race": ("str", ("in", {"outer", "inner", "ball"})),
+        "race": ("str", ("in", set(KINDS))),
         "length_m": ("float", _POS),
         "depth_m": ("float", _NONNEG),
         "angle_deg": ("float", ("range", -360.0, 360.0)),
-        "edge": ("str", ("in", {"ball", "cubic"})),
+        "edge": ("str", ("in", set(EDGE_PROFILES))),
         "edge_fraction": ("float", ("range", 0.0, 1.0)),
-        "ball": ("int", ("ge", 1)),
+        **{k.name: k.schema for k in own_keys()},           # the keys only some kinds have (a ball defect's ball)
     },
     "baseline": {
         "unbalance_grade_mm_s": ("float", _NONNEG),
@@ -213,7 +215,7 @@ TOP_LEVEL = ("case", "bearing", "defects", "baseline", "excitation", "bearings",
 #: keys a section may leave out (their default: 0 = off), so that cases written before them stay valid
 _OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz",)}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
-_KIND_KEYS = {"ball": ("ball",)}
+_KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
 #: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)
 BASELINE_OFF = {"unbalance_grade_mm_s": 0.0, "unbalance_phase_deg": 0.0, "misalignment_force_n": 0.0,
                 "misalignment_node": 1, "electrical_force_n": 0.0, "line_frequency_hz": 50.0}
@@ -350,13 +352,13 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
     if not _type_ok("table[]", raw["defects"]):
         raise CaseError("defects", "must be an array of tables ([[defects]])", source)
     for i, d in enumerate(raw["defects"]):
-        kind = d.get("race") if isinstance(d, dict) else None
-        optional = tuple(k for k, kinds in _KIND_KEYS.items() if kind not in kinds)
+        race = d.get("race") if isinstance(d, dict) else None
+        optional = tuple(k for k, names in _KIND_KEYS.items() if race not in names)
         _check_table(f"defects[{i}]", d, SCHEMA["defects[]"], source, optional=optional)
         for k in optional:
             if k in d:
                 raise CaseError(f"defects[{i}].{k}", f"only for race = {' or '.join(map(repr, _KIND_KEYS[k]))} "
-                                f"(this one is {kind!r})", source)
+                                f"(this one is {race!r})", source)
     # bearings.de / bearings.nde
     if "bearings" not in raw:
         raise CaseError("bearings", "missing section", source)
@@ -397,29 +399,11 @@ def _check_cross(raw: dict, source: str) -> None:
     if b["n_balls"] * b["ball_diameter_m"] >= math.pi * b["pitch_diameter_m"]:
         raise CaseError("bearing.n_balls", f"{b['n_balls']} balls of {b['ball_diameter_m']} m do not fit on the "
                         f"pitch circle of {b['pitch_diameter_m']} m", source)
-    # defect lengths against their surface
-    z_b = b["n_balls"]
-    r_out = (b["pitch_diameter_m"] + b["ball_diameter_m"] + b["diametral_clearance_m"] / 2.0) / 2.0
-    r_in = (b["pitch_diameter_m"] - b["ball_diameter_m"] - b["diametral_clearance_m"] / 2.0) / 2.0
+    # each defect against its bearing: its kind's own keys (a ball number) and its size against its surface
     for i, d in enumerate(raw["defects"]):
-        key = f"defects[{i}]"
-        if d["race"] == "ball":
-            if d["ball"] > z_b:
-                raise CaseError(f"{key}.ball", f"must be a ball number 1..{z_b} (got {d['ball']})", source)
-            if d["length_m"] >= b["ball_diameter_m"] * math.pi / 4:
-                raise CaseError(f"{key}.length_m", f"must be shorter than a quarter of the ball's circumference "
-                                f"({b['ball_diameter_m'] * math.pi / 4 * 1e3:.2f} mm): a longer pit meets both "
-                                f"races at once, outside this model (got {d['length_m'] * 1e3:g} mm)", source)
-            continue
-        radius = r_out if d["race"] == "outer" else r_in
-        circ = 2.0 * math.pi * radius
-        if d["length_m"] >= circ:
-            raise CaseError(f"{key}.length_m", f"must be shorter than the {d['race']}-race circumference "
-                            f"{circ * 1e3:.1f} mm (got {d['length_m'] * 1e3:g} mm)", source)
-        if d["length_m"] >= circ / z_b:
-            raise CaseError(f"{key}.length_m", f"must be shorter than one ball pitch along the {d['race']} race "
-                            f"({circ / z_b * 1e3:.2f} mm): longer spalls are outside this model "
-                            f"(got {d['length_m'] * 1e3:g} mm)", source)
+        problem = kind(d["race"]).check_table(d, b)
+        if problem is not None:
+            raise CaseError(f"defects[{i}].{problem[0]}", problem[1], source)
     # rotor geometry
     r = raw["rotor"]
     z = r["node_positions_m"]
@@ -456,9 +440,11 @@ def _check_cross(raw: dict, source: str) -> None:
                             f"({housing_nodes[name]}, got {e['housing_node']})", source)
     if raw["bearings"]["de"]["rotor_node"] == raw["bearings"]["nde"]["rotor_node"]:
         raise CaseError("bearings.nde.rotor_node", "DE and NDE bearings must sit on different shaft nodes", source)
-    if raw["excitation"]["method"] == "four_dof" and any(d["race"] != "outer" for d in raw["defects"]):
-        raise CaseError("excitation.method", "'four_dof' models outer-race dents only; inner-race and ball defects "
-                        "need 'quasi_static'", source)
+    if raw["excitation"]["method"] == "four_dof" and any(not kind(d["race"]).periodic for d in raw["defects"]):
+        periodic = " and ".join(k.adjective for k in periodic_kinds())
+        moving = " and ".join(k.adjective for k in moving_kinds())
+        raise CaseError("excitation.method", f"'four_dof' models {periodic} dents only; {moving} defects need "
+                        f"'quasi_static'", source)
     if raw["baseline"]["misalignment_node"] not in shaft_nodes:
         raise CaseError("baseline.misalignment_node", f"must be a shaft node 1..{n_nodes} "
                         f"(got {raw['baseline']['misalignment_node']})", source)
@@ -546,8 +532,7 @@ class Case:
                 continue
             out.append(Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]),
                             angle_rad=math.radians(d["angle_deg"]), edge_fraction=float(d["edge_fraction"]),
-                            bearing=d["bearing"], race=d["race"], edge=d["edge"],
-                            ball_index=int(d.get("ball", 1)) - 1))
+                            bearing=d["bearing"], race=d["race"], edge=d["edge"], **kind(d["race"]).dent_fields(d)))
         return out
 
     def dent(self) -> Dent:
@@ -556,7 +541,7 @@ class Case:
         found = self.defects()
         if found:
             return found[0]
-        return Dent(length_m=0.0, depth_m=0.0, angle_rad=0.0, bearing="de", race="outer")
+        return Dent(length_m=0.0, depth_m=0.0, angle_rad=0.0, bearing="de")
 
     @property
     def defect_depth_m(self) -> float:
@@ -650,16 +635,14 @@ class Case:
         """
         g = self.bearing_geometry()
         fm = Bearing(g).fault_multipliers()
-        name = {"outer": "bpfo", "inner": "bpfi", "ball": "bsf"}
-        strike = {"outer": fm.bpfo, "inner": fm.bpfi, "ball": 2.0 * fm.bsf}
         defects = []
         for d in self.defects():
+            k = kind(d.race)
             entry = {"kind": d.race, "bearing": d.bearing, "race": d.race, "length_m": d.length_m,
                      "depth_m": d.depth_m, "angle_rad": d.angle_rad, "edge": d.edge,
-                     "fault_frequency": name[d.race], "fault_multiplier": getattr(fm, name[d.race]),
-                     "strike_multiplier": strike[d.race]}
-            if d.race == "ball":
-                entry["ball"] = d.ball_index + 1
+                     "fault_frequency": k.fault_frequency, "fault_multiplier": k.fault_multiplier(fm),
+                     "strike_multiplier": k.strike_multiplier(fm)}
+            entry.update(k.table_fields(d))
             defects.append(entry)
         first = defects[0] if defects else None
         return {

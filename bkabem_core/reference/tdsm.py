@@ -62,6 +62,7 @@ import scipy.linalg
 
 from bkabem_core.bearing.contacts import HertzPair, LinearPair
 from bkabem_core.bearing.deep_groove import TWO_PI
+from bkabem_core.bearing.defects.registry import kind as defect_kind
 from bkabem_core.fe.machine import Machine
 from bkabem_core.fe.rotor import Rotor, rotor_from_case
 from bkabem_core.model.case import Case
@@ -365,11 +366,11 @@ class Tdsm:
         self.bpfo_period_s = 1.0 / self.bpfo_hz
         if max_step_s is None:
             max_step_s = self.MAX_STEP_S
-            moving = [b for b in self.bearings if any(p.kind != "outer" for p in b.defect_set.profiles)]
-            for b in moving:                 # inner-race and ball defects: their own relative speeds
+            moving = [b for b in self.bearings if b.defect_set.moving]
+            for b in moving:                 # moving kinds (inner race, ball): their own relative speeds
                 max_step_s = min(max_step_s, b.shortest_defect_event_s(speed_hz) / self.STEPS_PER_DENT_EDGE)
             faulty = [b for b in self.bearings if b.dent is not None and b.dent_effective_depth_m > 0.0
-                      and b.dent.race == "outer"]
+                      and defect_kind(b.dent.race).periodic]
             if faulty:
                 ramp = faulty[0].dent_entry_ramp_rad
                 edge = ramp if ramp > 0.0 else 0.25 * faulty[0].dent_half_angle_rad

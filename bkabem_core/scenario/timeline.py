@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
+from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, own_keys
 from bkabem_core.model.case import Case, CaseError, InputFileError, embedded_names, parse_toml, read_input_text
 
 SCHEMA_VERSION = 1
@@ -39,7 +41,6 @@ MAX_STATES = 500
 LOAD_FACTOR_RANGE = (0.1, 10.0)
 DEFAULT_SIZE_STEP = 0.1
 GROWTH = ("linear", "exponential")
-KIND_FREQUENCY = {"outer": "bpfo", "inner": "bpfi", "ball": "bsf"}
 _HOURS = 3600.0
 
 
@@ -127,9 +128,10 @@ class DefectTrack:
     name : str
         Its name in the scenario (``[[defects]] name``), unique: the id in the ground truth.
     bearing, race : str
-        ``"de"``/``"nde"``; ``"outer"``, ``"inner"``, ``"ball"``.
-    ball : int or None
-        Ball number 1..z (``race = "ball"``).
+        ``"de"``/``"nde"``; its kind (:data:`~bkabem_core.bearing.defects.registry.KINDS`).
+    own : tuple of (str, object)
+        The keys only its kind has, as in a case's ``[[defects]]`` (a ball defect: ``(("ball", 3),)``, the ball
+        number 1..z).
     angle_deg, edge, edge_fraction
         As in a case's ``[[defects]]`` (deg; ``"ball"``/``"cubic"``; -).
     time_s : tuple of float
@@ -146,7 +148,7 @@ class DefectTrack:
     name: str
     bearing: str
     race: str
-    ball: int | None
+    own: tuple
     angle_deg: float
     edge: str
     edge_fraction: float
@@ -264,7 +266,7 @@ def _label(defects, load_factor: float) -> str:
     for d in defects:
         if d["depth_m"] <= 0:
             continue
-        what = f"ball {d['ball']}" if d["race"] == "ball" else d["race"]
+        what = kind(d["race"]).label_of(d)
         parts.append(f"{d['bearing'].upper()} {what} {d['length_m'] * 1e3:.2f} mm x {d['depth_m'] * 1e6:.0f} um")
     text = " + ".join(parts) if parts else "healthy"
     if load_factor != 1.0:
@@ -274,8 +276,8 @@ def _label(defects, load_factor: float) -> str:
 
 # --------------------------------------------------------------------------- the scenario
 _SCENARIO_KEYS = ("name", "description", "schema_version", "case", "duration_s", "duration_h", "size_step")
-_DEFECT_KEYS = ("name", "bearing", "race", "ball", "angle_deg", "edge", "edge_fraction", "time_s", "time_h",
-                "length_m", "depth_m", "growth")
+_DEFECT_KEYS = ("name", "bearing", "race", *(k.name for k in own_keys()), "angle_deg", "edge", "edge_fraction",
+                "time_s", "time_h", "length_m", "depth_m", "growth")
 _TOP = ("scenario", "speed", "load", "defects", "labels")
 
 
@@ -389,11 +391,31 @@ class Scenario:
             t, f = [0.0] + t, [1.0] + f
         return tuple(t), tuple(f)
 
+    def _own_keys(self, key: str, d: dict, k, source: str) -> tuple:
+        """The keys only kind ``k`` has of the ``[[defects]]`` table ``d`` (checked against the case's bearing), as
+        ``((key, value), ...)``; a key of another kind is refused."""
+        bearing = self.case.raw["bearing"]
+        mine = {o.name: o for o in k.own_keys}
+        out = []
+        for o in own_keys():
+            if o.name not in mine:
+                if o.name in d:
+                    having = " or ".join(repr(x.name) for x in kinds_with(o.name))
+                    raise ScenarioError(f"{key}.{o.name}", f"only for race = {having} (this one is {k.name!r})",
+                                        source)
+                continue
+            if o.name not in d:
+                raise ScenarioError(f"{key}.{o.name}", f"missing ({o.doc})", source)
+            reason = k.check_own_key(o.name, d[o.name], bearing)
+            if reason:
+                raise ScenarioError(f"{key}.{o.name}", reason, source)
+            out.append((o.name, d[o.name]))
+        return tuple(out)
+
     def _tracks(self, defects, source: str) -> tuple:
         if not isinstance(defects, list) or not all(isinstance(d, dict) for d in defects):
             raise ScenarioError("defects", "must be an array of tables ([[defects]])", source)
         out, names = [], set()
-        z = int(self.case.raw["bearing"]["n_balls"])
         for i, d in enumerate(defects):
             key = f"defects[{i}]"
             _table(key, d, source, _DEFECT_KEYS)
@@ -405,18 +427,10 @@ class Scenario:
                 raise ScenarioError(f"{key}.name", f"must be a unique, non-empty name (got {name!r})", source)
             names.add(name)
             bearing = _string(f"{key}.bearing", d["bearing"], source, ("de", "nde"))
-            race = _string(f"{key}.race", d["race"], source, ("outer", "inner", "ball"))
-            ball = None
-            if race == "ball":
-                if "ball" not in d:
-                    raise ScenarioError(f"{key}.ball", f"missing (ball number 1..{z} of a ball defect)", source)
-                ball = d["ball"]
-                if isinstance(ball, bool) or not isinstance(ball, int) or not 1 <= ball <= z:
-                    raise ScenarioError(f"{key}.ball", f"must be a ball number 1..{z} (got {ball!r})", source)
-            elif "ball" in d:
-                raise ScenarioError(f"{key}.ball", f"only for race = 'ball' (this one is {race!r})", source)
+            race = _string(f"{key}.race", d["race"], source, KINDS)
+            own = self._own_keys(key, d, kind(race), source)
             angle = _number(f"{key}.angle_deg", d.get("angle_deg", 0.0), source, -360.0, 360.0)
-            edge = _string(f"{key}.edge", d.get("edge", "ball"), source, ("ball", "cubic"))
+            edge = _string(f"{key}.edge", d.get("edge", EDGE_PROFILES[0]), source, EDGE_PROFILES)
             edge_fraction = _number(f"{key}.edge_fraction", d.get("edge_fraction", 0.1), source, 0.0, 1.0)
             growth = _string(f"{key}.growth", d.get("growth", "linear"), source, GROWTH)
             tname, t = _time_points(key, d, source, self.duration_s)
@@ -431,7 +445,7 @@ class Scenario:
                     if len(vals) > 1 and any(v <= 0 for v in vals):
                         raise ScenarioError(f"{key}.{k}", "must be > 0 everywhere with growth = 'exponential' "
                                             "(geometric between points)", source)
-            out.append(DefectTrack(name=name, bearing=bearing, race=race, ball=ball, angle_deg=angle, edge=edge,
+            out.append(DefectTrack(name=name, bearing=bearing, race=race, own=own, angle_deg=angle, edge=edge,
                                    edge_fraction=edge_fraction, time_s=tuple(t), length_m=tuple(length),
                                    depth_m=tuple(depth), growth=growth, key=key))
         return tuple(out)
@@ -463,8 +477,7 @@ class Scenario:
                 continue
             d = {"name": tr.name, "bearing": tr.bearing, "race": tr.race, "length_m": size[0], "depth_m": size[1],
                  "angle_deg": tr.angle_deg, "edge": tr.edge, "edge_fraction": tr.edge_fraction}
-            if tr.ball is not None:
-                d["ball"] = tr.ball
+            d.update(tr.own)
             out.append(d)
         return out
 

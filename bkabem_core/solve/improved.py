@@ -56,7 +56,7 @@ import scipy.sparse
 
 from bkabem_core.bearing.contacts import HertzPair
 from bkabem_core.bearing.deep_groove import Bearing
-from bkabem_core.excitation.quasi_static import quasi_static_path_m, torus_grid, torus_path
+from bkabem_core.excitation.quasi_static import quasi_static_path_m, torus_path
 from bkabem_core.fe.modal import LineModes
 from bkabem_core.model.vocabulary import BEARINGS
 from bkabem_core.solve.harmonic import BkaBem, Spectrum
@@ -259,8 +259,8 @@ class _LatticeHill:
         # the lattice of S and of every phase the ball forces depend on (so that the samples below are exact)
         gens = [cs, np.array([[0, z, 0, 0]])]
         for s in sites:
-            for kind in (k for k in ("inner", "ball") if s.bearing.defect_set and k in s.bearing.defect_set.kinds):
-                gens.append(torus_grid(kind, z, 1, 1)[0])
+            for kind in s.bearing.defect_set.moving:
+                gens.append(kind.phase_map(z))
         self.basis = lattice_basis(np.concatenate(gens))                 # (r, 4)
         y = lattice_coordinates(cs, self.basis)                          # (|S|, r)
         self.rank = self.basis.shape[0]
@@ -300,7 +300,7 @@ class _LatticeHill:
         np.add.at(grid, k_pitch[on_pitch] % n0, u_pitch[on_pitch])
         u_tr = (np.fft.ifft(grid, axis=0) * n0).real + self._u_s
         theta0 = TWO_PI / z * np.arange(n0) / n0
-        outer = tuple(Bearing(b.geometry, defects=[d for d in b.defects if d.race == "outer"]) for b in bearings)
+        outer = tuple(Bearing(b.geometry, defects=b.periodic_defects) for b in bearings)
         _, kt_pitch = HertzPair(outer, theta0, axial_m=axial).forces_many(u_tr)
         spec_pitch = np.fft.fft(kt_pitch, axis=0) / n0
         self._t = []
@@ -473,18 +473,18 @@ def _stiffness_tori(site, load_n: float, n_fast: int, n_slow: int, excitation=No
     where no ball meets the defect). The torus paths of the bearing's ``excitation`` are used where it has them on
     this grid (the same paths its lines came from), else they are solved here."""
     b = site.bearing
-    if not b.defect_set or not any(k in b.defect_set.kinds for k in ("inner", "ball")):
+    if not b.defect_set.moving:
         return []
     g = b.geometry
     z = g.n_balls
     load = (0.0, -float(load_n))
     axial = site.axial_load_n
-    outer = Bearing(g, defects=[d for d in b.defects if d.race == "outer"])
+    outer = Bearing(g, defects=b.periodic_defects)
     theta = TWO_PI / z * np.arange(n_fast) / n_fast
     cached = getattr(excitation, "torus_paths", None) or {}
     tori = []
     kt = e_z = None
-    for kind in (k for k in ("inner", "ball") if k in b.defect_set.kinds):
+    for kind in (k.name for k in b.defect_set.moving):
         tp = cached.get(kind)
         if tp is None or tp.path.shape[:2] != (n_fast, n_slow):
             tp = torus_path(b, outer, kind, load, axial, n_fast, n_slow)

@@ -29,6 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from bkabem_core.bearing.defects.registry import find
+from bkabem_core.bearing.defects.registry import kind as defect_kind
 from bkabem_ros.messages import convert as msgs
 
 #: rosidl's names of float element types -> (array.array code, numpy dtype)
@@ -155,12 +157,11 @@ def _truth_from_defect_fields(m) -> None:
     from bkabem_msgs.msg import Defect, GroundTruth  # noqa: PLC0415
 
     speed_hz = float(m.shaft_speed) / (2 * np.pi)
-    ratio = float(m.bpfo) / speed_hz if speed_hz > 0 else 0.0
-    multiplier = {"outer": ratio, "inner": float(m.bpfi) / speed_hz if speed_hz > 0 else 0.0,
-                  "ball": float(m.bsf) / speed_hz if speed_hz > 0 else 0.0}.get(m.defect_race, ratio)
-    strike = 2 * multiplier if m.defect_race == "ball" else multiplier
-    name = {"outer": "bpfo", "inner": "bpfi", "ball": "bsf"}.get(m.defect_race, "bpfo")
-    d = Defect(name="defects[0]", kind=m.defect_race or "outer", bearing=m.defect_bearing or "de",
+    kind = find(m.defect_race) or defect_kind("outer")        # 0.1.0 wrote outer-race dents only
+    name = kind.fault_frequency
+    multiplier = float(getattr(m, name)) / speed_hz if speed_hz > 0 else 0.0
+    strike = kind.strikes * multiplier
+    d = Defect(name="defects[0]", kind=m.defect_race or kind.name, bearing=m.defect_bearing or "de",
                bearing_designation=m.bearing_designation, length=float(m.defect_length),
                depth=float(m.defect_depth), angle=float(m.defect_angle), fault_frequency=name,
                fault_multiplier=multiplier, strike_multiplier=strike, strike_frequency=strike * speed_hz)

@@ -30,6 +30,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from bkabem_core.bearing.defects.registry import KINDS
+
 __all__ = [
     "LOCATIONS",
     "QUANTITIES",
@@ -55,8 +57,8 @@ LOCATIONS = ("de", "nde")
 QUANTITIES = ("acceleration", "velocity", "displacement")
 #: SI unit string used when ``unit`` is not given, per quantity.
 SI_UNITS = {"acceleration": "m/s^2", "velocity": "m/s", "displacement": "m"}
-#: Allowed ``defect_race`` / ``Defect.kind`` values.
-RACES = ("outer", "inner", "ball")
+#: Allowed ``defect_race`` / ``Defect.kind`` values: the defect kinds of bkabem_core.
+RACES = KINDS
 
 _PRIMITIVES = frozenset({
     "bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16",
@@ -306,7 +308,7 @@ def fault_frequencies_message(
     defect_length: float,
     defect_depth: float,
     defect_angle: float,
-    defect_race: str = "outer",
+    defect_race: str = KINDS[0],
     stamp: Any = None,
     frame_id: str = "",
     ground_truth=None,
@@ -331,8 +333,8 @@ def fault_frequencies_message(
         Dent depth (m), >= 0.
     defect_angle : float
         Angular position of the dent centre from +x (horizontal) towards +y (up) (rad).
-    defect_race : {"outer", "inner", "ball"}
-        Which race has the defect (``"ball"``: a rolling element).
+    defect_race : str
+        The defect's kind (:data:`RACES`: ``"outer"``, ``"inner"``, ``"ball"``: a rolling element).
     stamp : int or Time, optional
         Time the shaft speed applies to (see :func:`time_msg`).
     frame_id : str

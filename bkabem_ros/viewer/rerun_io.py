@@ -19,8 +19,8 @@ The messages are SI; the viewer shows engineers' units, named in every series an
 ``/<loc>/iso_velocity/zones``                  the zone limits A/B, B/C, C/D [mm/s]
 ``/<loc>/trend/impulsiveness``                 per window: kurtosis and crest factor [-]
 ``/<loc>/trend/ground_truth/<place>_depth``     per fault-frequency message: the depth [µm] of the defect
-                                               at ``<place>`` (``outer_race``, ``inner_race``, ``ball_3``,
-                                               ``cage``), series "DE outer race depth [µm]"; a second
+                                               at ``<place>`` (its kind's: ``outer_race``, ``inner_race``,
+                                               ``ball_3``), series "DE outer race depth [µm]"; a second
                                                defect at the same place adds its name
 ``/<loc>/trend/ground_truth/no_defect``         0 [µm] while the bearing has had no defect (not an empty plot)
 ``/<loc>/envelope/<channel>``                  per window: envelope spectrum (``BarChart``, Hz)
@@ -622,7 +622,7 @@ class RerunLogger:
         for path, d in seen.items():
             cur = now.get(path)
             self._series(path, [self._truth_names[path]],
-                         [fault_lines.LINE_COLORS[fault_lines.DEFECT_LINE.get(d.kind, "BPFO")]], widths=[2.0])
+                         [fault_lines.LINE_COLORS[d.line]], widths=[2.0])
             self._scalars(path, [cur.depth_m * 1e6 if cur is not None else 0.0], stamp)
         for loc in ("de", "nde"):           # a bearing without a defect (yet): a 0 line says so, not an empty plot
             if any(path.startswith(f"/{loc}/trend/ground_truth/") for path in seen):

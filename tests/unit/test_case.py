@@ -62,7 +62,7 @@ def test_user_case_by_path(tmp_path):
      "shaft node"),
     (lambda: _sub(r"^\[\[defects\]\]", "[defects]"), "defects", "array of tables"),
     (lambda: _sub(r'^method = "quasi_static"', 'method = "four_dof"').replace('race = "outer"', 'race = "inner"'),
-     "excitation.method", "outer-race dents only"),
+     "excitation.method", "outer-race"),
     (lambda: _sub(r"^rotor_node = 5", "rotor_node = 40"), "bearings.de.rotor_node", "shaft node"),
     (lambda: _sub(r"^max_order = 50", "max_order = -1"), "excitation.max_order", ">= 0"),
     (lambda: _sub(r"^ehl_film = false", "ehl_film = 0"), "bearing.ehl_film", "true or false"),
