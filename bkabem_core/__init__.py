@@ -2,8 +2,9 @@
 
 The packages follow the pipeline, each standing on the ones before it::
 
-    model       the case (a TOML file, validated), its plausibility bounds, the shared vocabulary
-    bearing     the deep-groove ball bearing: geometry, kinematics, Hertz contact, defects, contact forces
+    bearing     the deep-groove ball bearing: geometry, kinematics, Hertz contact, defect kinds, contact forces
+    model       the machine described: the case (a TOML file, validated), the bearing catalogue, plausibility
+                bounds, the shared vocabulary
     excitation  each bearing's quasi-static excitation as lines; the machine baseline (unbalance, ...)
     fe          the finite-element rotor-bearing-housing model, the machine, its modal form and solvers
     solve       the BKA-BEM harmonic solve at any speed, and the improved method (time-varying stiffness)

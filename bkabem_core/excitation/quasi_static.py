@@ -95,6 +95,13 @@ class FourDofParameters:
     relative_amplitude_threshold: float = 1.0e-3
     max_order: int = 0
 
+    @classmethod
+    def from_case(cls, case) -> "FourDofParameters":
+        """The 4-DOF model's parameters of a case (``[excitation]``; the bearing damper from ``[bearing]``)."""
+        e = case.raw["excitation"]
+        fields = {k: e[k] for k in cls.__dataclass_fields__ if k in e}
+        return cls(bearing_damping_n_s_m=float(case.raw["bearing"]["damping_n_s_m"]), **fields)
+
 
 @dataclass
 class Excitation:

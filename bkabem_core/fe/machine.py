@@ -27,7 +27,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from bkabem_core.bearing.deep_groove import Bearing, BearingLinearisation, BearingState
-from bkabem_core.excitation.quasi_static import Excitation, compute_excitation, quasi_static_excitation
+from bkabem_core.excitation.quasi_static import (
+    Excitation,
+    FourDofParameters,
+    compute_excitation,
+    quasi_static_excitation,
+)
 from bkabem_core.fe.rotor import Mesh, Rotor, mesh_for, rotor_from_case
 from bkabem_core.model.case import Case
 from bkabem_core.model.vocabulary import BEARINGS
@@ -190,7 +195,7 @@ class Machine:
             return quasi_static_excitation(site.bearing, w, site.axial_load_n, int(ex["samples_per_ball_pass"]),
                                            float(ex["relative_amplitude_threshold"]), int(ex["max_order"]),
                                            float(ex["reference_speed_hz"]), location=name)
-        params = dataclasses.replace(self.case.four_dof_parameters(), rotor_mass_kg=w / self.case.gravity_m_s2)
+        params = dataclasses.replace(FourDofParameters.from_case(self.case), rotor_mass_kg=w / self.case.gravity_m_s2)
         return compute_excitation(site.bearing, params, site.axial_load_n, location=name)
 
     def excitations(self) -> dict[str, Excitation]:

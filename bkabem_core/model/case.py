@@ -22,7 +22,6 @@ from pathlib import Path
 from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent
 from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
 from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, moving_kinds, own_keys, periodic_kinds
-from bkabem_core.excitation.quasi_static import FourDofParameters
 from bkabem_core.model import plausibility
 
 DEFAULT_CASE = "electric_motor_6010"
@@ -560,12 +559,6 @@ class Case:
         """The bearing at ``location`` (``"de"``/``"nde"``; default: the faulty one) with its defects, if any."""
         loc = self.faulty_bearing if location is None else location
         return Bearing(self.bearing_geometry(), defects=self.defects(loc))
-
-    def four_dof_parameters(self) -> FourDofParameters:
-        """The 4-DOF model's parameters (``[excitation]``; the bearing damper from ``[bearing]``)."""
-        e = self.raw["excitation"]
-        fields = {k: e[k] for k in FourDofParameters.__dataclass_fields__ if k in e}
-        return FourDofParameters(bearing_damping_n_s_m=float(self.raw["bearing"]["damping_n_s_m"]), **fields)
 
     def axial_load_n(self, location: str) -> float:
         """Axial load of bearing ``location`` [N]."""
