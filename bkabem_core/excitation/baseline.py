@@ -15,6 +15,14 @@ pattern on the FE model with its own line (:mod:`bkabem_core.excitation.lines`),
     Alignment Handbook*, 3rd ed., ch. 2; ISO 18436-2 training material): modelled as a 2x force of the given
     amplitude rotating with the shaft at the coupling node. A model, not a coupling law: set the amplitude from
     the coupling's radial stiffness times the offset.
+``coupling_force_n``, ``coupling_phase_deg`` (optional, 0 = off)
+    The running-speed force of the coupling to the driven machine: the radial force a flexible coupling exerts
+    when its halves run out or sit offset (the coupling's radial stiffness times the eccentricity it takes up),
+    rotating with the shaft at ``misalignment_node``; speed-independent. Besides its 1x line through the FE, it
+    is a load that turns with the shaft in each bearing (:meth:`bkabem_core.fe.machine.Machine.rotating_loads_n`):
+    with the light static loads of small machines it swings the load zone once per turn and modulates every
+    ball's contact, so the bearing's lines gain sidebands at the shaft frequency and a healthy bearing gains its
+    ball passage relative to the turning load, at BPFI (McFadden & Smith 1984; Randall & Antoni 2011, section 2).
 ``electrical_force_n``, ``line_frequency_hz``
     An induction motor's unbalanced magnetic pull pulsates at twice the supply frequency (100 Hz at 50 Hz),
     independent of the speed (Finley, Hodowanec & Holter, "An analytical approach to solving motor vibration
@@ -35,7 +43,8 @@ from bkabem_core.excitation.lines import LineSet
 
 TWO_PI = 2.0 * math.pi
 #: Force patterns of the baseline, in the order BkaBem appends them to its input patterns.
-PATTERNS = ("unbalance.x", "unbalance.y", "misalignment.x", "misalignment.y", "electrical.y")
+PATTERNS = ("unbalance.x", "unbalance.y", "misalignment.x", "misalignment.y", "coupling.x", "coupling.y",
+            "electrical.y")
 
 
 def unbalance_eccentricity_m(case) -> float:
@@ -83,6 +92,14 @@ def baseline_forces(case, rotor, rates_per_hz) -> tuple[LineSet, dict]:
             v[idx(int(b["misalignment_node"]), axis)] = 1.0
             patterns[f"misalignment.{axis}"] = v
         rows.append(((2, 0, 0, 0), {"misalignment.x": f_mis, "misalignment.y": -1j * f_mis}, 0))
+    f_cp = float(b.get("coupling_force_n", 0.0))
+    if f_cp > 0.0:
+        for axis in ("x", "y"):
+            v = np.zeros(rotor.ndof)
+            v[idx(int(b["misalignment_node"]), axis)] = 1.0
+            patterns[f"coupling.{axis}"] = v
+        a = f_cp * np.exp(1j * math.radians(b.get("coupling_phase_deg", 0.0)))
+        rows.append(((1, 0, 0, 0), {"coupling.x": a, "coupling.y": -1j * a}, 0))
     f_el = float(b["electrical_force_n"])
     if f_el > 0.0 and disks:
         core = [d for d in disks if str(d["name"]).startswith("core")] or list(disks)

@@ -286,12 +286,13 @@ def _orders_from_record(rel: np.ndarray, periods: int, threshold: float, max_ord
 # --------------------------------------------------------------------------- quasi-static
 def quasi_static_path_m(bearing: Bearing, radial_load_n, axial_load_n: float, cage_angles_rad,
                         film_m: float = 0.0, tol_m: float = 1e-15, max_iter: int = 100, shaft_angles_rad=0.0,
-                        spin_angles_rad=0.0):
+                        spin_angles_rad=0.0, turning_load_n: complex = 0j):
     """Static equilibrium ``e(theta)`` [m] (N, 2: e_x, e_y) of the bearing with its defects at each cage angle.
 
     Solves ``F(e, theta; e_z0) + W = 0`` for all angles at once (batched damped Newton with the analytic 2 x 2
     tangent), the axial displacement held at ``e_z0``, its static value under the axial load. ``shaft_angles_rad``
-    and ``spin_angles_rad`` (broadcast with the cage angles) place inner-race and ball defects.
+    and ``spin_angles_rad`` (broadcast with the cage angles) place inner-race and ball defects and turn the load
+    ``turning_load_n`` [N] that turns with the shaft: the load is ``W + (Re, Im)(R exp(i theta_shaft))``.
 
     Returns
     -------
@@ -306,6 +307,9 @@ def quasi_static_path_m(bearing: Bearing, radial_load_n, axial_load_n: float, ca
     theta = np.asarray(cage_angles_rad, dtype=float)
     shape = np.broadcast_shapes(theta.shape, np.shape(shaft_angles_rad), np.shape(spin_angles_rad))
     theta = np.broadcast_to(theta, shape)
+    if turning_load_n != 0:
+        turn = complex(turning_load_n) * np.exp(1j * np.broadcast_to(np.asarray(shaft_angles_rad, float), shape))
+        w = (w[0] + turn.real, w[1] + turn.imag)
     ex = np.full(shape, e0[0])
     ey = np.full(shape, e0[1])
     for it in range(1, max_iter + 1):
@@ -329,7 +333,7 @@ def quasi_static_path_m(bearing: Bearing, radial_load_n, axial_load_n: float, ca
 def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n: float = 0.0,
                             samples_per_ball_pass: int = 2048, relative_amplitude_threshold: float = 1e-3,
                             max_order: int = 0, reference_speed_hz: float = 1.0, location: str = "",
-                            film_m: float = 0.0, n_slow: int = 0) -> Excitation:
+                            film_m: float = 0.0, n_slow: int = 0, rotating_load_n: complex = 0j) -> Excitation:
     """Excitation of one bearing from its quasi-static equilibrium over one ball pitch (no inertia).
 
     Parameters
@@ -352,6 +356,14 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
         Inner-race and ball defects: samples of the slow angle of their 2-torus (shaft angle, cage angle); 0 =
         the next power of 2 >= 4 z (64 for 14 balls: sidebands up to twice the ball passage). The fast angle has
         ``samples_per_ball_pass`` samples.
+    rotating_load_n : complex
+        The load on the shaft that turns with it (:meth:`bkabem_core.fe.machine.Machine._turning_loads`):
+        ``(Re, Im)(R exp(i theta_shaft))`` [N] on top of the static load. With it the bearing's state depends on
+        the shaft angle too: the races and their defects are solved on the inner race's torus (the ball-set
+        position relative to the shaft, and the shaft angle), giving sidebands at the shaft frequency around every
+        line and the ball passage relative to the turning load at BPFI. Its pure shaft orders are left out: the FE
+        carries the force itself (the baseline's coupling line). Ball defects add their lines under the static
+        load.
 
     Returns
     -------
@@ -378,7 +390,21 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
     rates = rates_per_hz(fm)
     lines = None
     tori = {}
-    if moving:
+    if rotating_load_n != 0:
+        base = _turning_lines(bearing, load, complex(rotating_load_n), axial_load_n, n, n_slow, film_m, rates)
+        parts = [base]
+        race = Bearing(g, defects=[d for d in bearing.defects if defect_kind(d.race).periodic or d.race == "inner"])
+        for kind in moving:
+            if kind.name != "inner":
+                slow = n_slow if n_slow > 0 else max(32, 1 << math.ceil(math.log2(4 * z)))
+                parts.append(_difference_lines(bearing, race, kind.name, load, axial_load_n, n, slow, film_m,
+                                               rates, keep=tori))
+        lines = union(parts).select(relative_amplitude_threshold, max_order * fm.bpfo if max_order > 0 else 0.0)
+        order_like = (lines.coefficients[:, [0, 2, 3]] == 0).all(axis=1) & (lines.coefficients[:, 1] % z == 0)
+        keep = np.zeros(all_orders.size, bool)
+        keep[np.isin(all_orders, lines.coefficients[order_like, 1] // z)] = True
+        dc = lines.dc
+    elif moving:
         # moving kinds (inner race, ball): the difference they make, on a 2-torus of their phases
         base = LineSet.from_orders(all_orders, amp.T * np.exp(1j * pha.T), z, rates, DIRECTIONS, dc=dc)
         parts = [base]
@@ -420,6 +446,62 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
         rates_per_hz=rates,
         torus_paths=tori,
     )
+
+
+def _turning_lines(bearing: Bearing, load, turning_load_n: complex, axial_load_n: float, n_fast: int, n_slow: int,
+                   film_m: float, rates) -> LineSet:
+    """Lines of the bearing's races and their defects (every kind but the ball's) under a load that turns with the
+    shaft, on a 2-torus whose slow angle is the shaft angle ``b = theta_shaft`` (where the turning load points)
+    and whose fast angle is the ball-set position: relative to the outer race ``a = z theta_cage`` (healthy races,
+    outer-race defects), or relative to the shaft ``a = z (theta_shaft - theta_cage)`` when an inner-race defect
+    turns with the shaft (its lines need it fast; an outer-race defect in the same bearing would not be resolved
+    then, and is refused). Every grid point is solved (batched Newton); the pure shaft orders are dropped (the FE
+    carries the turning force as a line of its own), and lines below ``_NEGLIGIBLE_M`` (round-off of a nearly
+    uniform bearing) too."""
+    z = bearing.geometry.n_balls
+    slow = n_slow if n_slow > 0 else max(64, 1 << math.ceil(math.log2(8 * z)))
+    if n_fast % slow:
+        raise ValueError(f"samples: {n_fast} per ball pass must be a multiple of the {slow} slow samples")
+    kinds = {d.race for d in bearing.defects if d.race != "ball"}
+    race = Bearing(bearing.geometry, defects=[d for d in bearing.defects if d.race in kinds])
+    if "inner" in kinds:
+        if len(kinds) > 1:
+            raise ValueError("a load that turns with the shaft and both an inner-race and another race defect in one "
+                             "bearing: not resolved on one 2-torus")
+        grid = defect_kind("inner").torus(z, n_fast, slow)
+        phase_map, cage, shaft = grid.phase_map, grid.cage, grid.shaft
+    else:
+        i, j = np.meshgrid(np.arange(n_fast), np.arange(slow), indexing="ij")
+        phase_map = np.array([[0, z, 0, 0], [1, 0, 0, 0]])
+        cage, shaft = TWO_PI * i / (n_fast * z), TWO_PI * j / slow
+    # the races without defects: smooth along the ball-set position, solved on a coarse grid of it
+    coarse = min(n_fast, _TURNING_BASE_SAMPLES)
+    step = n_fast // coarse
+    healthy = Bearing(bearing.geometry)
+    base, _, _ = quasi_static_path_m(healthy, load, axial_load_n, cage[::step], film_m,
+                                     shaft_angles_rad=shaft[::step], turning_load_n=turning_load_n)
+    parts = [lines_from_grid(base[..., ::-1], phase_map, rates, DIRECTIONS)]      # (vertical, horizontal)
+    if race.defects:
+        # what the defects add: nonzero only where a ball meets one, solved there on the fine grid
+        beta = race.ball_angles_rad(cage)
+        touched = np.any(race.defect_set.drop_m(beta, shaft, np.zeros_like(shaft)) > 0.0, axis=-1)
+        diff = np.zeros(cage.shape + (2,))
+        if touched.any():
+            with_d, _, _ = quasi_static_path_m(race, load, axial_load_n, cage[touched], film_m,
+                                               shaft_angles_rad=shaft[touched], turning_load_n=turning_load_n)
+            without, _, _ = quasi_static_path_m(healthy, load, axial_load_n, cage[touched], film_m,
+                                                shaft_angles_rad=shaft[touched], turning_load_n=turning_load_n)
+            diff[touched] = with_d - without
+        parts.append(lines_from_grid(diff[..., ::-1], phase_map, rates, DIRECTIONS))
+    out = union(parts)
+    keep = ~(out.coefficients[:, 1:] == 0).all(axis=1) & (np.abs(out.amplitude).max(axis=1) >= _NEGLIGIBLE_M)
+    return out.subset(keep)
+
+
+#: Samples per ball pass of a healthy bearing's path under a turning load (it is smooth along the ball passage).
+_TURNING_BASE_SAMPLES = 128
+#: Lines of a quasi-static path below this are round-off, not physics (1e-15 m: 1e-6 m/s^2 at 5 kHz).
+_NEGLIGIBLE_M = 1.0e-15
 
 
 def _reference_path(base: Bearing, load, axial_load_n: float, cage, film_m: float, ref):

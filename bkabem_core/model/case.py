@@ -143,6 +143,8 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "electrical_force_n": ("float", _NONNEG),
         "line_frequency_hz": ("float", _POS),
         "broadband_force_n_per_sqrt_hz": ("float", _NONNEG),
+        "coupling_force_n": ("float", _NONNEG),
+        "coupling_phase_deg": ("float", ("range", -360.0, 360.0)),
     },
     "excitation": {
         "method": ("str", ("in", {"quasi_static", "four_dof"})),
@@ -212,7 +214,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
 }
 TOP_LEVEL = ("case", "bearing", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating")
 #: keys a section may leave out (their default: 0 = off), so that cases written before them stay valid
-_OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz",)}
+_OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz", "coupling_force_n", "coupling_phase_deg")}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
 _KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
 #: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)

@@ -69,6 +69,7 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "baseline.unbalance_grade_mm_s": (0.0, 4000.0, "ISO 21940-11 balance grades are G 0.4 .. G 4000 mm/s (0 = off; "
                                                    "electric motors G 2.5-6.3)"),
     "baseline.misalignment_force_n": (0.0, 1e6, "misalignment forces are 0 .. 1 MN"),
+    "baseline.coupling_force_n": (0.0, 1e6, "coupling forces are 0 .. 1 MN"),
     "baseline.electrical_force_n": (0.0, 1e6, "magnetic pull forces are 0 .. 1 MN"),
     "baseline.broadband_force_n_per_sqrt_hz": (0.0, 100.0, "broadband bearing forces are 0 .. 100 N/sqrt(Hz) "
                                                           "(roughness of a new bearing: ~0.01-0.05; docs/faults.md)"),
