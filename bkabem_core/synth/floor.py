@@ -79,7 +79,7 @@ import numpy as np
 import scipy.fft
 
 from bkabem_core.synth import kernel as synth_kernel
-from bkabem_core.synth.sensors import chain_gains
+from bkabem_core.synth.sensors import SensorChain
 
 FRAME_BITS = 15                 # frame length L = 2^15 samples (0.64 s at 51.2 kHz: 1.56 Hz line spacing)
 N_FRAMES = 4
@@ -145,14 +145,14 @@ class FloorTransfer:
     _lock = threading.Lock()
 
     def __init__(self, model, combination, cindex, power, scale, housing_cols, sample_rate_hz: float,
-                 accelerometer=None, anti_alias=None):
+                 sensors: SensorChain = SensorChain()):
         self.sample_rate_hz = fs = float(sample_rate_hz)
         n = 1 << FRAME_BITS
         self.frame_length = n
         self.half = n // 2
         f = np.arange(1, n // 2) * fs / n
         h = np.einsum("uo,foi->fui", combination, receptance(model, f))       # (F, U, 4) [m/N]
-        gains = chain_gains(f, housing_cols, accelerometer, anti_alias, combination.shape[0])
+        gains = sensors.gains(f, housing_cols, combination.shape[0])
         if gains is not None:
             h = h * gains[:, :, None]
         iw = 2j * np.pi * f
@@ -188,7 +188,7 @@ class FloorTransfer:
 
     @classmethod
     def shared(cls, model, combination, cindex, power, scale, housing_cols, sample_rate_hz: float,
-               accelerometer=None, anti_alias=None) -> "FloorTransfer":
+               sensors: SensorChain = SensorChain()) -> "FloorTransfer":
         """The transfer of these arguments, made once per machine structure (:meth:`structure_key`) and arguments
         in the process (an LRU of :attr:`CACHE` per structure) and kept while a model of that structure lives: the
         same arrays for every floor of them, whichever of the machine's models asks."""
@@ -196,7 +196,7 @@ class FloorTransfer:
             a = np.ascontiguousarray(a)
             return a.shape, a.dtype.str, a.tobytes()
         key = (key_of(combination), key_of(cindex), key_of(power), key_of(scale), key_of(housing_cols),
-               float(sample_rate_hz), accelerometer, anti_alias)
+               float(sample_rate_hz), sensors)
         structure = cls.structure_key(model)
         with cls._lock:                     # a fleet's machines may bind from several threads: one making each
             users = cls._users.setdefault(structure, set())
@@ -207,7 +207,7 @@ class FloorTransfer:
             made = lru.get(key)
             if made is None:
                 made = lru[key] = cls(model, combination, cindex, power, scale, housing_cols, sample_rate_hz,
-                                      accelerometer, anti_alias)
+                                      sensors)
                 while len(lru) > cls.CACHE:
                     lru.popitem(last=False)
             else:
@@ -270,16 +270,16 @@ class BroadbandFloor:
         Combinations that are housing displacements (the accelerometer acts there).
     sample_rate_hz : float
     seed : int
-    accelerometer, anti_alias : sensors or None
+    sensors : SensorChain
+        The measurement chain (:mod:`bkabem_core.synth.sensors`).
 
     The seed-independent part is the process's :meth:`FloorTransfer.shared` one; a floor of another seed is
     :meth:`reseeded` (its frames only: ~2.5 ms instead of ~80 ms for the whole floor at 4 channels).
     """
 
     def __init__(self, model, density_n_rthz: float, combination, cindex, power, scale, housing_cols,
-                 sample_rate_hz: float, seed: int, accelerometer=None, anti_alias=None):
-        path = FloorTransfer.shared(model, combination, cindex, power, scale, housing_cols, sample_rate_hz,
-                                    accelerometer, anti_alias)
+                 sample_rate_hz: float, seed: int, sensors: SensorChain = SensorChain()):
+        path = FloorTransfer.shared(model, combination, cindex, power, scale, housing_cols, sample_rate_hz, sensors)
         self._seeded(path, density_n_rthz, seed)
 
     def _seeded(self, path: FloorTransfer, density_n_rthz: float, seed: int) -> None:
@@ -350,41 +350,3 @@ class BroadbandFloor:
         out = self._buf[:n]
         synth_kernel.floor_render(n0, n, self.half, self.frames, self.window, self.grains(n0, n), out, self.scale)
         return out
-
-
-class FloorPath:
-    """The :class:`~bkabem_core.synth.synthesizer.Synthesizer`'s methods for the broadband floor (a mixin: it reads the
-    synthesiser's state; knots are :class:`~bkabem_core.synth.linesets._Knot`)."""
-
-    def _floor_source(self):
-        """The :class:`~bkabem_core.synth.floor.BroadbandFloor` of this synthesiser (made when first needed)."""
-        if self._floor is None:
-            self._floor = BroadbandFloor(self._model, self.floor_density, self._comb, self._cindex, self._power,
-                                         self._scale, self._housing_cols, self.sample_rate_hz, self.seed,
-                                         self.accelerometer, self.anti_alias)
-        return self._floor
-
-    def _floor_block(self, n0: int, n: int):
-        """The floor of samples [n0, n0 + n) in the samples' dtype, or None (off)."""
-        if self.floor_density <= 0:
-            return None
-        x = self._floor_source().render(n0, n)
-        return x if self.dtype == np.float32 else x.astype(self.dtype)
-
-    def _floor_part(self, a: "_Knot", b: "_Knot", lo: int, hi: int):
-        """The floor of samples [lo, hi) of the segment a-b for the line-set kernel: its source (rendered inside the
-        pass) where the segment is one line set at full level, else the samples, faded (:meth:`_floor_faded`)."""
-        fl = self._floor_source()
-        if a.amp.fade == 1.0 and b.amp.fade == 1.0 and a.amp.families is b.amp.families \
-                and a.amp.fbuf is not None:
-            return fl.source(lo, hi - lo)
-        return self._floor_faded(fl.render(lo, hi - lo), a, b, lo)
-
-    def _floor_faded(self, x: np.ndarray, a: "_Knot", b: "_Knot", lo: int) -> np.ndarray:
-        """The floor under the low-speed fade of the lines (no rolling, no roughness excitation at standstill):
-        linear in time from knot a's fade to knot b's, as the lines' amplitudes."""
-        fa, fb = a.amp.fade, b.amp.fade
-        if fa == 1.0 and fb == 1.0:
-            return x
-        s = (np.arange(lo, lo + x.shape[0]) - a.x) / max(b.x - a.x, 1)
-        return np.ascontiguousarray(x * (fa + (fb - fa) * s)[:, None], dtype=x.dtype)

@@ -425,7 +425,30 @@ def noise_add(x: np.ndarray, key: int, n0: int, sigma, off=None, acc=None, extra
 
 
 #: True if the line-set kernels (family tables by FFT, one call per segment over all families) are built.
-LINES_AVAILABLE = bool(AVAILABLE and "lines_segment" in _FNS)
+LINES_AVAILABLE = bool(AVAILABLE and hasattr(_EXT, "lines_knot"))
+if LINES_AVAILABLE:
+    lines_knot_plan, lines_knot = _EXT.lines_knot_plan, _EXT.lines_knot
+    lines_segment_plan, lines_render = _EXT.lines_segment_plan, _EXT.lines_render
+
+
+def band_rms_lines(va: np.ndarray, vb: np.ndarray, nu: np.ndarray, mu: np.ndarray, f: float, band_hz,
+                   s: float) -> tuple:
+    """RMS [mm/s] of the blend ``va + s (vb - va)`` of two knots' housing velocities (L, 8) (4 rows, Re | Im) over
+    the lines whose frequency ``nu f + mu`` [Hz] is in ``band_hz`` (inclusive): ``sqrt(0.5 sum_k |v_k|^2)`` per
+    row, a tuple of 4 floats. In C when built, else :func:`band_rms_lines_reference`."""
+    if not LINES_AVAILABLE:
+        return band_rms_lines_reference(va, vb, nu, mu, f, band_hz, s)
+    return _EXT.band_rms_lines(va, vb, nu, mu, float(f), float(band_hz[0]), float(band_hz[1]), float(s))
+
+
+def band_rms_lines_reference(va, vb, nu, mu, f: float, band_hz, s: float) -> tuple:
+    """:func:`band_rms_lines` in numpy."""
+    freq = nu * float(f) + mu
+    band = (freq >= band_hz[0]) & (freq <= band_hz[1])
+    v = va[band]
+    v = v + float(s) * (vb[band] - v)
+    p = np.einsum("ij,ij->j", v, v)
+    return tuple(np.sqrt(0.5 * (p[:4] + p[4:])).tolist())
 
 
 def family_tables(y: np.ndarray, plan: dict, table: np.ndarray, work: np.ndarray) -> None:

@@ -26,7 +26,7 @@ KNOWN_BACK_ARROWS = {("bkabem_core.model.case", "bkabem_core.bearing.deep_groove
 #: the synthesiser's kernel bindings, being rebuilt with the synthesiser.
 KNOWN_LONG_MODULES = {"bkabem_core.synth.kernel"}
 #: classes past one sitting, to be split by concern.
-KNOWN_LONG_CLASSES = {("bkabem_core.synth.synthesizer", "Synthesizer"), ("bkabem_core.reference.tdsm", "Tdsm"),
+KNOWN_LONG_CLASSES = {("bkabem_core.reference.tdsm", "Tdsm"),
                       ("bkabem_core.bearing.deep_groove", "Bearing"), ("bkabem_ros.node.vibration_node", "VibrationNode"),
                       ("bkabem_ros.viewer.rerun_io", "RerunLogger")}
 
