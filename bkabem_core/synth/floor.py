@@ -51,13 +51,13 @@ L / 2^15 as many of them. With 2^13 the 250-Hz band of nde_horizontal_accelerati
 receptance (test_floor: 1 dB; a spread of ~sqrt(2 / lines) in power), so the frames keep their 2^17 lines.
 
 A seed's frames (:meth:`FloorTransfer.frames`), float32 throughout: the amplitudes' normals come from the sensor
-noise's ziggurat (``_synthnoise.h``: 8 a line, the real then the imaginary parts of the four force pairs, stream
+noise's ziggurat (``kernels/synth_noise.c``: 8 a line, the real then the imaginary parts of the four force pairs, stream
 :func:`frame_keys`, one per seed and frame), multiplied by the complex64 transfer and summed over the pairs in one C pass
-(``_synthfloor.h``), one float32 real inverse FFT (scipy.fft), then the scales and the int16 rounding in one C pass:
+(``kernels/synth_floor.c``), one float32 real inverse FFT (scipy.fft), then the scales and the int16 rounding in one C pass:
 ~2.5 ms a seed at 4 channels, ~4 ms at 8 (BENCHMARKS.md). Until issue 15f the normals were numpy's float64
 (``SeedSequence([seed, _TAG, frame])``) and the product, FFT and scale pass float64: ~11 and ~17 ms, a third of a
 data-set run's 35 ms. The change gives every seed other samples (other normals), but the same process: the
-normals are standard normal to the ziggurat's 22-bit grid (docstring of ``_synthnoise.h``), and float32's rounding
+normals are standard normal to the ziggurat's 22-bit grid (``kernels/synth_noise.h``), and float32's rounding
 of the transfer, product and FFT lies far below the int16 step (3e-5 of the frame's largest value) the frames are
 stored at anyway: against a float64 transcription of the definition with the same normals the stored frames are off
 by at most 0.504 of a step (0.5 is the rounding; RMS 0.289 = 1/sqrt(12), the quantisation alone; 4 and 8 channels,
@@ -249,7 +249,7 @@ class FloorTransfer:
 
 def frame_keys(seed: int) -> list:
     """The 64-bit keys of the normals of the ``N_FRAMES`` frames of a floor of ``seed`` (the sensor noise's
-    generator, ``_synthnoise.h``): one ``SeedSequence([seed, _TAG])``, its first N_FRAMES words (another tag than
+    generator, ``kernels/synth_noise.c``): one ``SeedSequence([seed, _TAG])``, its first N_FRAMES words (another tag than
     the sensor noise's :func:`~bkabem_core.synth.randomness.noise_key`, so the streams are independent; one sequence
     and not one per frame: each costs ~0.15 ms)."""
     return [int(k) for k in np.random.SeedSequence([int(seed), _TAG]).generate_state(N_FRAMES, np.uint64)]
@@ -265,7 +265,7 @@ class BroadbandFloor:
         One-sided force spectral density of every force pair [N/sqrt(Hz)] (> 0).
     combination, cindex, power, scale : ndarray
         The synthesiser's displacement combinations (U, 8), each channel's row, power of (i omega) and unit scale
-        (:func:`bkabem_core.synth.linesets._combination`).
+        (:class:`bkabem_core.synth.channels.ChannelMap`).
     housing_cols : ndarray of int
         Combinations that are housing displacements (the accelerometer acts there).
     sample_rate_hz : float
@@ -339,7 +339,7 @@ class BroadbandFloor:
         return arr
 
     def source(self, n0: int, n: int) -> tuple:
-        """What the line-set kernel needs to render samples [n0, n0 + n) itself (``synth_kernel.lines_segment``):
+        """What the line-set kernel needs to render samples [n0, n0 + n) itself (:meth:`~bkabem_core.synth.render.FusedLines.segment`):
         (frames, window, grains, half, scale)."""
         return self.frames, self.window, self.grains(n0, n), self.half, self.scale
 

@@ -93,7 +93,7 @@ class SlipWalk:
         """Per ``kappa`` the (m,) int64 phase offsets of a segment's samples j0..j0+m-1 (ball passes since the knot
         ``u = (c2 xi + c1) xi + u_frac``, speed >= 0 so u is monotonic), ``rint(frac(kappa W(u)) 2^52) 2^10``: the
         Hermite warp of :meth:`warp` (Horner form per pass interval) and the fixed-point conversion in one C pass
-        for all factors (:func:`synth_kernel.slip_warp`, vectorised: ~5 us per 0.1-s chunk)."""
+        for all factors (:func:`~bkabem_core.synth.kernel.slip_warp`)."""
         w, jw0 = self.window(u_int, j0, m, c1, c2, u_frac)
         kap = list(kappas)
         rows = []
@@ -112,7 +112,7 @@ class SlipWalk:
 
 
 def noise_key(seed: int) -> int:
-    """The 64-bit key of the sensor-noise stream of ``seed`` (``_synthnoise.h``: the sample loop makes the normals
+    """The 64-bit key of the sensor-noise stream of ``seed`` (``kernels/synth_noise.c``: the sample loops make the normals
     of absolute sample n from it, in blocks of 256 samples)."""
     return int(np.random.SeedSequence([int(seed), NoiseBlocks._TAG]).generate_state(1, np.uint64)[0])
 

@@ -123,7 +123,7 @@ def test_int16_frames_and_the_c_render_equal_the_numpy_render(healthy, monkeypat
     c_out = fl.render(n0, n).copy()
     parts = np.concatenate([fl.render(n0, 4001).copy(), fl.render(n0 + 4001, n - 4001).copy()])
     np.testing.assert_array_equal(parts, c_out)
-    monkeypatch.setattr(synth_kernel, "_FNS", {k: v for k, v in synth_kernel._FNS.items() if k != "floor_render"})
+    monkeypatch.setattr(synth_kernel, "AVAILABLE", False)                # the numpy fallback
     ref = np.empty_like(c_out)
     synth_kernel.floor_render(n0, n, fl.half, fl.frames, fl.window, fl.grains(n0, n), ref, fl.scale)
     np.testing.assert_array_equal(c_out, ref)
@@ -135,7 +135,7 @@ def test_int16_frames_and_the_c_render_equal_the_numpy_render(healthy, monkeypat
 def _frames_by_the_definition(fl):
     """The floor's frames as the module docstring defines them, in float64 by the first implementation's
     operations: per frame the complex amplitudes of the four force pairs (the frame's normals, taken from the
-    sensor noise's generator here: ``synth_kernel.noise_fill`` of ``frame_keys``, 8 a line), through the transfer
+    sensor noise's generator here: the sample loop's normals of ``frame_keys``, 8 a line), through the transfer
     (einsum), the one-sided spectrum's complex inverse FFT (real part). Returns (N_FRAMES, L, C) float64."""
     from bkabem_core.synth import kernel as synth_kernel
     from bkabem_core.synth.floor import N_FRAMES, frame_keys
@@ -144,7 +144,10 @@ def _frames_by_the_definition(fl):
     t = fl.transfer.astype(np.complex128)
     frames = np.empty((N_FRAMES, n, t.shape[1]))
     for i in range(N_FRAMES):
-        z = synth_kernel.noise_fill(frame_keys(fl.seed)[i], 0, t.shape[0], 8).astype(np.float64)
+        z = np.empty((t.shape[0], 8), np.float32)                      # a zero table, sigma 1: the normals
+        synth_kernel.segment(0, 1 << 40, 0, None, np.zeros((67, 8), np.float32), None, 0.0, 0.0, z,
+                             noise=(frame_keys(fl.seed)[i], 0, np.ones(8, np.float32), None))
+        z = z.astype(np.float64)
         a = fl.density * np.sqrt(fs / n) * (z[:, :4] + 1j * z[:, 4:])
         spec = np.zeros((n, t.shape[1]), complex)
         spec[1:n // 2] = np.einsum("fci,fi->fc", t, a)
@@ -231,8 +234,7 @@ def test_the_frames_kernels_equal_their_numpy_fallbacks(healthy, monkeypatch):
     x[0, 7, 1] = 0.0
     x[:, :, 2] = 0.0                                                    # a channel without floor: scale 1
     q, scale = synth_kernel.floor_quantise(x)
-    monkeypatch.setattr(synth_kernel, "_FNS", {k: v for k, v in synth_kernel._FNS.items()
-                                                if k not in ("floor_spectrum", "floor_quantise")})
+    monkeypatch.setattr(synth_kernel, "AVAILABLE", False)                # the numpy fallbacks
     ref = np.empty_like(c_out)
     synth_kernel.floor_spectrum(12345, by_input, 0.25, ref)
     np.testing.assert_allclose(c_out, ref, rtol=0, atol=1e-6 * np.abs(ref).max())

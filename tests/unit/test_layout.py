@@ -23,8 +23,8 @@ CORE_ORDER = ("model", "bearing", "excitation", "fe", "solve", "reference", "syn
 #: the case builds bearing and 4-DOF objects itself (to be inverted: the physics builds itself from the case).
 KNOWN_BACK_ARROWS = {("bkabem_core.model.case", "bkabem_core.bearing.deep_groove"),
                      ("bkabem_core.model.case", "bkabem_core.excitation.quasi_static")}
-#: the synthesiser's kernel bindings, being rebuilt with the synthesiser.
-KNOWN_LONG_MODULES = {"bkabem_core.synth.kernel"}
+#: none left.
+KNOWN_LONG_MODULES: set[str] = set()
 #: classes past one sitting, to be split by concern.
 KNOWN_LONG_CLASSES = {("bkabem_core.reference.tdsm", "Tdsm"),
                       ("bkabem_core.bearing.deep_groove", "Bearing"), ("bkabem_ros.node.vibration_node", "VibrationNode"),
