@@ -58,8 +58,8 @@ ATTR void moments_##NAME##_##SUF(const int C, int c0, int nb, const T *restrict 
 #include <immintrin.h>
 /* The common case, 8 float32 channels with AVX2, in one 8-lane float vector per moment: a block's sums (<= BLOCK
  * samples of d = x - (float) off) are taken in float and added to the double accumulators once per block, shifted
- * by e = (float) off - off exactly (binomial expansion in double): relative round-off ~1e-6 of a sum; the double
- * 4-lane path above costs ~2x the whole sample loop. Extremes are those of x itself, so max/min of d are exact:
+ * by e = (float) off - off exactly (binomial expansion in double): relative round-off ~1e-6 of a sum (why not the
+ * double path: docs/performance.md). Extremes are those of x itself, so max/min of d are exact:
  * (double) max x - off. */
 typedef float v8f __attribute__((vector_size(32)));
 typedef int32_t v8i __attribute__((vector_size(32)));
@@ -129,8 +129,8 @@ INLINE void moments_one_##SUF(const int C, int c, int nb, const T *restrict x, c
     a[0] = s1, a[1] = s2, a[2] = s3, a[3] = s4, a[4] = hi, a[5] = lo;                                               \
 }                                                                                                                   \
                                                                                                                     \
-/* Moments of a block: channel groups of 4 in 256-bit vectors where AVX2 is there, else of 2 (4-lane vectors in the \
- * SSE2 build spill: ~4x slower), then single channels. Not inlined: called once per block, dispatched on the CPU.  \
+/* Moments of a block: channel groups of 4 in 256-bit vectors where AVX2 is there, else of 2 (4-lane vectors would  \
+ * spill in the SSE2 build), then single channels. Not inlined: called once per block, dispatched on the CPU.  \
  * Written for C = 8 and any C. */                                                                                  \
 MOMENTS_GROUP(T, SUF, pair, 2, v2d, v2l, v2##SUF, INLINE)                                                           \
 NOINLINE void moments_base_##SUF(const int C, int nb, const T *restrict x, const double *restrict off,       \

@@ -21,7 +21,7 @@ typedef struct {
     const float *sigma_f;         /* NULL (both): no noise, only the extra part */
     const double *sigma_d;
     const void *extra;            /* optional m x C block (out's dtype) added too, row 0 = the call's sample 0: the
-                                   * broadband floor (synth_floor.py) */
+                                   * broadband floor (synth_floor.h) */
     const int16_t *frames;        /* or (float32, the line-set kernel) the floor itself, rendered per block from its */
     const float *win;             /* frames (F x L x C int16), sine window (2 S), grains (G x 3: grain, frame, */
     const int64_t *grains;        /* offset) and scale per channel, as synth_floor_render: no m x C buffer written */

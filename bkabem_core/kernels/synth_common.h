@@ -95,7 +95,7 @@ INLINE void phase_block(const int has_warp, int nb, uint64_t *pu, uint64_t *pd, 
 }
 
 /* Cubic B-spline weights of a block from the fractions (the sequence of the header; numpy:
- * synth_kernel._weights_from_fraction). A plain loop of T operations that the vectoriser maps to the target's
+ * bkabem_core/synth/kernel.py, _weights_from_fraction). A plain loop of T operations that the vectoriser maps to the target's
  * vectors; its vector body and scalar tail round alike (no contraction: -ffp-contract=off), so a sample's weights
  * do not depend on its position in the block. */
 #define WEIGHT_BLOCK(T)                                                                                             \

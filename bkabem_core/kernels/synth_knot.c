@@ -116,7 +116,7 @@ static CLONES void knot_stages4_r2(int64_t N, double *restrict re, double *restr
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(BKABEM_NO_SIMD)
 #define HAVE_KNOT_AVX512 (synth_isa_cap >= 2 && __builtin_cpu_supports("avx512f"))
 /* knot_stages for C = 8 with AVX-512 (32 vector registers): two stages per pass, each group's four rows loaded into
- * locals (16 registers), its four butterflies, stored back. (With AVX2's 16 registers this spills: 3x slower.) */
+ * locals (16 registers), its four butterflies, stored back (AVX2's 16 registers would spill). */
 typedef double knot_v8d __attribute__((vector_size(64)));
 #define KNOT_V8_BFLY(AR, AI, BR, BI, WR, WI)                                                                        \
     do {                                                                                                            \

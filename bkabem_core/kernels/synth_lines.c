@@ -23,7 +23,7 @@
 #include "synth_slip.h"
 
 /* One segment of a line set: m samples x C channels into out (written). Per family f (F of them): phases[f] =
- * {phase0, dphase0, ddphase} of the family phase and {...} of its carrier (uint64, the order path's fixed point),
+ * {phase0, dphase0, ddphase} of the family phase and {...} of its carrier (uint64, the sample loop's fixed point),
  * log2 of its table size lg[f], carrier[f], its tables at offset off_t[f] in ta (knot a) and tb (knot b; NULL: no
  * blend), its slip offsets rows wp[f], wq[f] of warp (m int64 each; -1: none). dc: static part per channel.
  * xi0, blend_scale as in segment. acc/off: features (optional); na: noise (optional). Returns 0 or -1. */

@@ -99,8 +99,8 @@ static inline __attribute__((always_inline)) FMA_TARGET void group8_rows(
     const float *restrict A, const float *restrict B, int64_t NT, const float *restrict CQ,
     const float *restrict SQ, float *restrict blk)
 {
-    /* one family over the block (samples independent: the loop keeps many in flight; a loop over the families
-     * inside the sample loop chained every family's multiply-adds on one accumulator and ran ~1.5x slower) */
+    /* one family over the block (samples independent: the loop keeps many in flight, where a loop over the
+     * families inside the sample loop would chain every family's multiply-adds on one accumulator) */
     for (int j = 0; j < nb; ++j) {
         const int64_t r = (int64_t)idx[j] * 8;
         const __m256 w0 = _mm256_broadcast_ss(W0 + j), w1 = _mm256_broadcast_ss(W1 + j);

@@ -23,46 +23,41 @@ vertical, Table 1 of the paper): ~5e-8 m x 1.2e8 N/m ~ 6 N RMS spread over 0-25 
 fault-library cases use 0.01 N/sqrt(Hz) (a quiet, new bearing; docs/faults.md); it is a level to set per machine,
 not a law.
 
-Realisation (the synthesiser's fast path): ``N_FRAMES`` periodic frames of ``L = 2^FRAME_BITS`` samples, each an exact
-sample of the process (complex Gaussian line amplitudes on the FFT grid f_k = k fs / L with E|A_k|^2 =
-2 S_F^2 fs / L per input, through the receptance, one real inverse FFT of the Hermitian half per frame, once per
-seed: :meth:`BroadbandFloor.reseeded`; the seed-independent part, state space, receptance, measurement chain,
-transfer and window, is a :class:`FloorTransfer` made once per machine structure (the standstill modal basis: every
-defect model of one machine has the same) and channel set in the process and shared by every floor of them, so a
-data set's next run or defect, a fleet's next machine or a scenario's next state pays its frames only,
-~2.5 ms at 4 channels and ~4 ms at 8 instead of ~80 and ~130 ms for the whole floor on the 2-core VM), and the output
-is an overlap of *grains*: grain g covers samples [g S, g S + 2 S), S = L / 2, reading frame
-``2 (g mod 2) + (h_g mod 2)`` from offset ``h_g / 2 mod L`` (``h_g`` a hash of seed and g) under the sine window
-``sin(pi t / 2 S)``. Two grains overlap at every sample, from different frames (one even, one odd grain), and their
-windows' squares add to 1, so the floor is Gaussian with the PSD above (smeared by the window, ~1.5 lines),
-stationary, not periodic, seeded and a function of the absolute sample index only (any chunking gives the same
-samples; continuous: each grain fades in and out from 0). Cost per sample: two taps of 8 channels
-(``synth_kernel.floor_render``), added inside the sample loop with the noise.
+Realisation: ``N_FRAMES`` periodic frames of ``L = 2^FRAME_BITS`` samples, each an exact sample of the process
+(complex Gaussian line amplitudes on the FFT grid f_k = k fs / L with E|A_k|^2 = 2 S_F^2 fs / L per input, through
+the receptance, one real inverse FFT of the Hermitian half per frame, once per seed: :meth:`BroadbandFloor.reseeded`;
+the seed-independent part, state space, receptance, measurement chain, transfer and window, is a
+:class:`FloorTransfer` made once per machine structure (the standstill modal basis: every defect model of one
+machine has the same) and channel set in the process and shared by every floor of them, so a data set's next run or
+defect, a fleet's next machine or a scenario's next state makes its frames only), and the output is an overlap of
+*grains*: grain g covers samples [g S, g S + 2 S), S = L / 2, reading frame ``2 (g mod 2) + (h_g mod 2)`` from offset
+``h_g / 2 mod L`` (``h_g`` a hash of seed and g) under the sine window ``sin(pi t / 2 S)``. Two grains overlap at
+every sample, from different frames (one even, one odd grain), and their windows' squares add to 1, so the floor is
+Gaussian with the PSD above (smeared by the window, ~1.5 lines), stationary, not periodic, seeded and a function of
+the absolute sample index only (any chunking gives the same samples; continuous: each grain fades in and out from
+0). Per sample: two taps of every channel (``kernels/synth_floor.c``), added inside the sample loop with the noise.
 
 Storage: int16 with one scale per channel (max |x| of the frames / 32767: quantisation ~-87 dB below the floor's
 RMS, white; >= 53 dB under the floor in every third-octave band from 200 Hz to 20 kHz; float16 would give 46 dB and
 loses displacements of ~1e-9 m to underflow): 4 x 2^15 x 8 x 2 B = 2 MB read at two taps a sample, half the bytes
-of the float32 frames, whose memory traffic made the floor the largest kernel of a noisy chunk (~45 us).
-Why not shorter frames (in L2): the frames' resolution would still be enough (fs / 2^13 = 6.25 Hz, against the
-narrowest half-power bandwidth 2 zeta f of the machine's in-band modes, 33 Hz for its 23-Hz shaft mode, 83 Hz and
-more for the ~1.5 % damped modes from 2.2 kHz), but the frames are the floor's only randomness: its long-run
-spectrum is the 4 frames' periodograms, N_FRAMES x L / 2 complex amplitudes per input, and a third-octave band holds
-L / 2^15 as many of them. With 2^13 the 250-Hz band of nde_horizontal_acceleration came out 1.13 dB off the FE
-receptance (test_floor: 1 dB; a spread of ~sqrt(2 / lines) in power), so the frames keep their 2^17 lines.
+of float32 frames (the render is bound by its memory traffic). Why not shorter frames (in L2): the frames' resolution
+would still be enough (fs / 2^13 = 6.25 Hz, against the narrowest half-power bandwidth 2 zeta f of the machine's
+in-band modes, 33 Hz for its 23-Hz shaft mode, 83 Hz and more for the ~1.5 % damped modes from 2.2 kHz), but the
+frames are the floor's only randomness: its long-run spectrum is the 4 frames' periodograms, N_FRAMES x L / 2
+complex amplitudes per input, and a third-octave band holds L / 2^15 as many of them. With 2^13 the 250-Hz band of
+nde_horizontal_acceleration came out 1.13 dB off the FE receptance (test_floor: 1 dB; a spread of ~sqrt(2 / lines)
+in power), so the frames keep their 2^17 lines.
 
 A seed's frames (:meth:`FloorTransfer.frames`), float32 throughout: the amplitudes' normals come from the sensor
-noise's ziggurat (``kernels/synth_noise.c``: 8 a line, the real then the imaginary parts of the four force pairs, stream
-:func:`frame_keys`, one per seed and frame), multiplied by the complex64 transfer and summed over the pairs in one C pass
-(``kernels/synth_floor.c``), one float32 real inverse FFT (scipy.fft), then the scales and the int16 rounding in one C pass:
-~2.5 ms a seed at 4 channels, ~4 ms at 8 (BENCHMARKS.md). Until issue 15f the normals were numpy's float64
-(``SeedSequence([seed, _TAG, frame])``) and the product, FFT and scale pass float64: ~11 and ~17 ms, a third of a
-data-set run's 35 ms. The change gives every seed other samples (other normals), but the same process: the
-normals are standard normal to the ziggurat's 22-bit grid (``kernels/synth_noise.h``), and float32's rounding
-of the transfer, product and FFT lies far below the int16 step (3e-5 of the frame's largest value) the frames are
-stored at anyway: against a float64 transcription of the definition with the same normals the stored frames are off
-by at most 0.504 of a step (0.5 is the rounding; RMS 0.289 = 1/sqrt(12), the quantisation alone; 4 and 8 channels,
-2 seeds). tests/unit/test_floor.py holds them to that transcription (half a step plus float32 rounding), their
-periodogram to the PSD, and the floor's third-octave bands to the FE receptance.
+noise's generator (``kernels/synth_noise.c``: 8 a line, the real then the imaginary parts of the four force pairs,
+stream :func:`frame_keys`, one per seed and frame), multiplied by the complex64 transfer and summed over the pairs in
+one C pass (``kernels/synth_floor.c``), one float32 real inverse FFT (scipy.fft), then the scales and the int16
+rounding in one C pass. The normals are standard normal to the generator's 22-bit grid (``kernels/synth_noise.h``),
+and float32's rounding of the transfer, product and FFT lies far below the int16 step (3e-5 of the frame's largest
+value) the frames are stored at anyway: against a float64 transcription of the definition with the same normals the
+stored frames are off by at most 0.504 of a step (0.5 is the rounding; RMS 0.289 = 1/sqrt(12), the quantisation
+alone; 4 and 8 channels, 2 seeds). tests/unit/test_floor.py holds them to that transcription (half a step plus
+float32 rounding), their periodogram to the PSD, and the floor's third-octave bands to the FE receptance.
 
 Units: forces N, densities N/sqrt(Hz), frequencies Hz, samples in the channels' units.
 """
@@ -129,7 +124,7 @@ class FloorTransfer:
     channel factor), and the grains' window. Made once per machine structure and channel set (:meth:`shared`) and
     shared, read only, by every :class:`BroadbandFloor` of them, whatever its defects, seed or level: a data set's
     runs (one seed each), a fleet's machines and a scenario's states pay only their own frames (:meth:`frames`;
-    ~1/6 of the whole floor).
+    a sixth of the whole floor's work).
     Memory: (4, F, C) complex64, 2 MB at 4 channels, once per process instead of once per synthesiser.
 
     Parameters: those of :class:`BroadbandFloor` without the density and seed.
@@ -177,7 +172,7 @@ class FloorTransfer:
         """Digest of what the transfer takes of the model: its standstill structure, the reduced modal basis (M, K,
         C, the force pairs' inputs, the outputs). The defects of a machine excite it but do not change it, so the
         models of one machine (a scenario's states, a fleet's or a data set's defect kinds and sizes) have one key
-        (~0.1 ms against ~80-150 ms for the transfer)."""
+        (a digest instead of the transfer)."""
         b = model.basis
         h = hashlib.blake2b(digest_size=20)
         for a in (b.M, b.K, b.C, b.inputs[:, :4], b.outputs):
@@ -251,7 +246,7 @@ def frame_keys(seed: int) -> list:
     """The 64-bit keys of the normals of the ``N_FRAMES`` frames of a floor of ``seed`` (the sensor noise's
     generator, ``kernels/synth_noise.c``): one ``SeedSequence([seed, _TAG])``, its first N_FRAMES words (another tag than
     the sensor noise's :func:`~bkabem_core.synth.randomness.noise_key`, so the streams are independent; one sequence
-    and not one per frame: each costs ~0.15 ms)."""
+    and not one per frame)."""
     return [int(k) for k in np.random.SeedSequence([int(seed), _TAG]).generate_state(N_FRAMES, np.uint64)]
 
 
@@ -274,7 +269,7 @@ class BroadbandFloor:
         The measurement chain (:mod:`bkabem_core.synth.sensors`).
 
     The seed-independent part is the process's :meth:`FloorTransfer.shared` one; a floor of another seed is
-    :meth:`reseeded` (its frames only: ~2.5 ms instead of ~80 ms for the whole floor at 4 channels).
+    :meth:`reseeded` (its frames only).
     """
 
     def __init__(self, model, density_n_rthz: float, combination, cindex, power, scale, housing_cols,

@@ -116,7 +116,7 @@ def carrier_sums(families: list) -> np.ndarray:
     or -1, -1: its carrier's cos / sin from its own phase. A group is what the C kernel evaluates together (one
     phase ``p``, table size and slip factor); the carriers of an inner race's BPFI families are the shaft orders
     1, 2, 3, ..., a ball's spin families the cage orders: only the first needs its own cos / sin (the others by the
-    angle addition, 6 operations a sample against ~40). The carrier's rate, fixed part and slip factor are linear in
+    angle addition: 6 operations a sample instead of a phase and two polynomials). The carrier's rate, fixed part and slip factor are linear in
     ``q``, so the sum's phase is the family's own (to the fixed point's rounding). Each family's sources are taken
     among those already available, the shallowest pair first (each addition adds a float32 rounding or two), the
     rest from their own phase."""

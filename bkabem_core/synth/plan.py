@@ -193,7 +193,7 @@ class Plan:
     def knots_between(self, fa: float, fb: float, max_knots: int) -> int:
         """Segments between knots of speeds fa and fb [Hz]: the speed moves by at most ``max_speed_step_hz`` per
         segment, and with ``band_limit="taper"`` by at most 2 % where a line is near the taper (0.8 .. 0.95 of
-        Nyquist; outside that range a change from standstill would ask for ~1250 knots); at most ``max_knots``."""
+        Nyquist; outside that range a change from standstill would ask for a thousand knots); at most ``max_knots``."""
         n = math.ceil(abs(fb - fa) / self.settings.max_speed_step_hz - 1e-12)
         if self.settings.band_limit == "taper":
             near_lo, near_hi = self.lines.taper_speeds_hz(self.settings.sample_rate_hz)

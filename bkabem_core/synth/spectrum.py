@@ -5,12 +5,12 @@ Two methods, both within the stated bound of each other (docs/synthesis.md):
 ``"modal"``
     The model's order-wise pole-residue form in 0.5-Hz cells of shaft speed
     (:class:`~bkabem_core.fe.modal.SpeedCells`: a Chebyshev interpolant of the far poles, the near poles exactly,
-    the interpolation error bounded per pole to 2e-6 of the output's reference; ~7-13 us an evaluation). The
+    the interpolation error bounded per pole to 2e-6 of the output's reference). The
     speed-locked lines come from the cells, the fixed-frequency lines (the electrical line) from their dense solve.
     Checked once against the exact response at 25 Hz (every line within 1e-5 of the combination's largest); a
     check that fails falls back to ``"exact"``. Kept on the model: synthesisers of one model share the cells.
 ``"exact"``
-    :meth:`BkaBem.response <bkabem_core.solve.harmonic.BkaBem.response>` at every knot (~0.6-1 ms for 50 lines),
+    :meth:`BkaBem.response <bkabem_core.solve.harmonic.BkaBem.response>` at every knot,
     cached per speed and shared by every synthesiser of the model in the process.
 
 :func:`choose_method` is ``spectrum="auto"``'s rule. Units: speeds in Hz, amplitudes in m, costs in s.
@@ -164,7 +164,7 @@ class LineSpectrum:
 
 #: cost model of ``spectrum="auto"`` for a rendered profile [s]: one exact solve per knot of a new speed; one modal
 #: evaluation per knot; the modal form's set-up per line, scaled with the cube of the model's DOFs; one speed cell
-#: per line (measured on the embedded 60-DOF case of 50 BPFO orders, BENCHMARKS.md)
+#: per line (measured on the embedded 60-DOF case of 50 BPFO orders)
 COST_EXACT_S, COST_MODAL_S, COST_MODAL_SETUP_PER_LINE_S, COST_CELL_PER_LINE_S = 0.6e-3, 0.01e-3, 0.036, 0.08e-3
 
 
