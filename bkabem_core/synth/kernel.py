@@ -285,22 +285,27 @@ def noise_add(x: np.ndarray, key: int, n0: int, sigma, off=None, acc=None, extra
 FEATURE_NAMES = ("mean", "rms", "peak", "peak_to_peak", "crest_factor", "kurtosis")
 
 
+def features_into_reference(acc: np.ndarray, n: int, off, out: np.ndarray) -> None:
+    """:data:`features_into` in numpy (``features._moment_features``)."""
+    s = acc[:, :4] / float(n)
+    f = _moment_features(s[:, 0], s[:, 1], s[:, 2], s[:, 3], acc[:, 4].copy(), acc[:, 5].copy(),
+                         np.asarray(off, dtype=np.float64))
+    for i, name in enumerate(FEATURE_NAMES):
+        out[i] = f[name]
+
+
+#: ``features_into(acc, n, off, out)``: the chunk features (rows :data:`FEATURE_NAMES` of ``out`` (6, C) float64) from
+#: the accumulators ``acc`` (C, 6) of ``n`` samples per channel taken about ``off`` (C,): the C function when built
+#: (the arrays checked there), else :func:`features_into_reference`.
+features_into = _EXT.features if AVAILABLE else features_into_reference
+
+
 def features_from_acc(acc: np.ndarray, n: int, off) -> dict:
     """The dict of ``waveform_features`` (mean, rms, peak, peak_to_peak, crest_factor, kurtosis) from the
-    accumulators of ``n`` samples per channel taken about ``off`` (C,), float64 (C,) arrays (views of one block).
-    In C when the kernel is built, else :func:`features_from_acc_reference`."""
-    if not AVAILABLE:
-        return features_from_acc_reference(acc, n, off)
+    accumulators of ``n`` samples per channel taken about ``off`` (C,) (:data:`features_into`)."""
     out = np.empty((6, acc.shape[0]))
-    _EXT.features(acc, int(n), np.ascontiguousarray(off, dtype=np.float64), out)     # checks the arrays
+    features_into(acc, int(n), np.ascontiguousarray(off, dtype=np.float64), out)
     return dict(zip(FEATURE_NAMES, out))
-
-
-def features_from_acc_reference(acc: np.ndarray, n: int, off) -> dict:
-    """:func:`features_from_acc` in numpy (``features._moment_features``)."""
-    s = acc[:, :4] / float(n)
-    return _moment_features(s[:, 0], s[:, 1], s[:, 2], s[:, 3], acc[:, 4].copy(), acc[:, 5].copy(),
-                            np.asarray(off, dtype=np.float64))
 
 
 # ----------------------------------------------------------------------------------------- slip, carriers
@@ -357,24 +362,21 @@ def carrier_mix_reference(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: n
     out += x - y
 
 
-def band_rms_lines(va: np.ndarray, vb: np.ndarray, nu: np.ndarray, mu: np.ndarray, f: float, band_hz,
-                   s: float) -> tuple:
-    """RMS [mm/s] of the blend ``va + s (vb - va)`` of two knots' housing velocities (L, 8) (4 rows, Re | Im) over
-    the lines whose frequency ``nu f + mu`` [Hz] is in ``band_hz`` (inclusive): ``sqrt(0.5 sum_k |v_k|^2)`` per
-    row, a tuple of 4 floats. In C when built, else :func:`band_rms_lines_reference`."""
-    if not AVAILABLE:
-        return band_rms_lines_reference(va, vb, nu, mu, f, band_hz, s)
-    return _EXT.band_rms_lines(va, vb, nu, mu, float(f), float(band_hz[0]), float(band_hz[1]), float(s))
-
-
-def band_rms_lines_reference(va, vb, nu, mu, f: float, band_hz, s: float) -> tuple:
-    """:func:`band_rms_lines` in numpy."""
+def band_rms_lines_reference(va, vb, nu, mu, f: float, lo_hz: float, hi_hz: float, s: float) -> tuple:
+    """:data:`band_rms_lines` in numpy."""
     freq = nu * float(f) + mu
-    band = (freq >= band_hz[0]) & (freq <= band_hz[1])
+    band = (freq >= lo_hz) & (freq <= hi_hz)
     v = va[band]
     v = v + float(s) * (vb[band] - v)
     p = np.einsum("ij,ij->j", v, v)
     return tuple(np.sqrt(0.5 * (p[:4] + p[4:])).tolist())
+
+
+#: ``band_rms_lines(va, vb, nu, mu, f, lo_hz, hi_hz, s)``: the RMS [mm/s] of the blend ``va + s (vb - va)`` of two
+#: knots' housing velocities (L, 8) (4 rows, Re | Im) over the lines whose frequency ``nu f + mu`` [Hz] is in
+#: [lo_hz, hi_hz]: ``sqrt(0.5 sum_k |v_k|^2)`` per row, a tuple of 4 floats. The C function when built, else
+#: :func:`band_rms_lines_reference`.
+band_rms_lines = _EXT.band_rms_lines if AVAILABLE else band_rms_lines_reference
 
 
 # ----------------------------------------------------------------------------------------- broadband floor

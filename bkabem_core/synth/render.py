@@ -1,4 +1,4 @@
-"""From knots to samples: the line kernels a plan chooses once, and the samples and metadata of a chunk.
+"""From knots to samples: the line kernels a plan chooses once.
 
 A knot's amplitudes become one spline table (pair) per family of the line set (:mod:`bkabem_core.synth.lines`);
 a segment between two knots renders every family at its own fixed-point phase, blending the two knots' tables
@@ -22,18 +22,15 @@ Units: speeds in Hz, phases in turns, amplitudes in the channels' units, velocit
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from bkabem_core.solve.harmonic import TWO_PI
 from bkabem_core.synth import kernel as synth_kernel
-from bkabem_core.synth.features import Chunk
 from bkabem_core.synth.lines import carrier_sums
 
 PASS = float(synth_kernel.PASS_UNITS)
-#: ISO 10816 evaluation band for velocity RMS [Hz]
-ISO_BAND_HZ = (10.0, 1000.0)
 _MASK64 = (1 << 64) - 1
 
 
@@ -288,112 +285,3 @@ class LoopLines:
                              scratch[2], None, None)
             synth_kernel.carrier_mix(scratch[2], scratch[0], scratch[1], out)
         return False
-
-
-def _segment_swap(a, b, lo: int, hi: int, out: np.ndarray, walk) -> None:
-    """A segment across a model switch (two line sets: knot a's and knot b's): each knot's lines rendered on their
-    own at the common phases, blended linearly in time as the tables of one model are (the 2^-16 steps of the
-    sample loop): phase continuous, the amplitudes move from one model to the other over the segment."""
-    other = np.empty_like(out)
-    for side, dest in ((a, out), (b, other)):
-        side.amp.lines.segment(replace(a, amp=side.amp), replace(b, amp=side.amp), lo, hi, dest, None, None, walk,
-                               None)
-    xi = np.arange(lo - a.x, hi - a.x, dtype=np.float64) * (65536.0 / (b.x - a.x))
-    w = (np.clip(np.floor(xi), 0.0, 65536.0) / 65536.0).astype(out.dtype)
-    other -= out
-    other *= w[:, None]
-    out += other
-
-
-def _floor_faded(x: np.ndarray, a, b, lo: int) -> np.ndarray:
-    """The floor under the low-speed fade of the lines (no rolling, no roughness excitation at standstill):
-    linear in time from knot a's fade to knot b's, as the lines' amplitudes."""
-    fa, fb = a.amp.fade, b.amp.fade
-    if fa == 1.0 and fb == 1.0:
-        return x
-    s = (np.arange(lo, lo + x.shape[0]) - a.x) / max(b.x - a.x, 1)
-    return np.ascontiguousarray(x * (fa + (fb - fa) * s)[:, None], dtype=x.dtype)
-
-
-def _floor_part(floor, a, b, lo: int, hi: int):
-    """The floor of samples [lo, hi) of the segment a-b for the fused kernel: its source (rendered inside the pass)
-    where the segment is one line set at full level, else the samples, faded."""
-    if a.amp.fade == 1.0 and b.amp.fade == 1.0 and a.amp.lines is b.amp.lines and a.amp.lines.renders_floor:
-        return floor.source(lo, hi - lo)
-    return _floor_faded(floor.render(lo, hi - lo), a, b, lo)
-
-
-def render_samples(plan, stream, n0: int, n: int, acc) -> np.ndarray:
-    """The (n, C) samples of [n0, n0 + n) of ``plan`` over the stream's knots (they cover the range), with sensor
-    noise and the broadband floor; their features accumulated into ``acc`` (None: none). With the C kernels the
-    noise and the floor are added inside the sample loop or one pass after it per segment; without them, numpy's
-    noise and the floor after all segments, then the features."""
-    segments = stream.segments(n0, n)
-    out = np.empty((n, len(plan.channels)), dtype=plan.settings.dtype)
-    noise, off, walk = plan.noise, plan.dc_off, stream.walk
-    floor_on = plan.floor_density > 0
-    lazy = floor_on and plan.lines_kernel.renders_floor     # the fused kernel renders the floor per block itself
-    floor = plan.floor_block(n0, n) if floor_on and not lazy else None
-    fused = synth_kernel.AVAILABLE and (noise.on or floor_on)
-    late = not fused and (noise.on or floor is not None)  # numpy: added, moments taken, at the end
-    seg_acc = None if late else acc
-    for a, b, lo, hi in segments:
-        dest = out[lo - n0:hi - n0]
-        args = None
-        if fused:
-            args = noise.segment(a, b, lo) if noise.on else (noise.key, lo, None)
-            if lazy:
-                args = args + (_floor_part(plan.floor, a, b, lo, hi),)
-            else:
-                args = args + (None if floor is None else _floor_faded(floor[lo - n0:hi - n0], a, b, lo),)
-        if a.amp.lines is not b.amp.lines:
-            _segment_swap(a, b, lo, hi, dest, walk)            # a model switch between line sets
-        elif a.amp.lines.segment(a, b, lo, hi, dest, seg_acc, off, walk, args):
-            continue                                            # noise and features in the same pass
-        if args is not None:                                    # the families' sum first, then one pass
-            synth_kernel.noise_add(dest, args[0], lo, args[2], off, seg_acc, args[3])
-        elif seg_acc is not None:
-            plan.accumulate(dest, off, seg_acc)
-    if late:
-        if noise.on:
-            noise.add(out, n0, segments)
-        if floor is not None:
-            out += floor
-        if acc is not None:
-            plan.accumulate(out, off, acc)
-    return out
-
-
-def iso_velocity(plan, f: float, a, b, s: float) -> dict:
-    """ISO 10816 velocity RMS [mm/s] in 10-1000 Hz per housing and direction at shaft speed ``f`` [Hz], from the
-    line amplitudes of knots a and b blended by ``s`` (linear in time, as the samples); noise and slip smearing
-    excluded."""
-    if a.amp.lines is not b.amp.lines:                      # just switched models: the new one
-        a = b
-    r = synth_kernel.band_rms_lines(a.amp.v_iso, b.amp.v_iso, plan.lines.nu, plan.lines.mu, f, ISO_BAND_HZ, s)
-    return {"de": {"vertical": r[0], "horizontal": r[1], "overall": max(r[0], r[1])},
-            "nde": {"vertical": r[2], "horizontal": r[3], "overall": max(r[2], r[3])}}
-
-
-def make_chunk(plan, stream, n0: int, n: int, out: np.ndarray, acc) -> Chunk:
-    """The :class:`Chunk` of samples ``out`` of [n0, n0 + n): speed, angles, features, ground truth."""
-    fs = plan.settings.sample_rate_hz
-    bpfo, nb = plan.lines.bpfo_per_hz, plan.lines.n_balls
-    f0, ui, uf, *_ = stream.state_at(n0, bpfo, fs)
-    f_end, *_ = stream.state_at(n0 + n, bpfo, fs)
-    passes = ui + uf
-    cage = (TWO_PI * (passes / nb)) % TWO_PI
-    shaft = (TWO_PI * (passes / bpfo)) % TWO_PI
-    feats = {}
-    if acc is not None:
-        feats = synth_kernel.features_from_acc(acc, n, plan.dc_off)
-        f, _, _, a, b, s = stream.state_at(n0 + 0.5 * n, bpfo, fs)
-        feats["iso10816_velocity_rms_mm_s"] = iso_velocity(plan, f, a, b, s)
-    gt = dict(plan.ground_truth)
-    gt["shaft_speed_hz"] = f0
-    fm = plan.model.fault_multipliers
-    gt["fault_frequencies_hz"] = {"ftf": fm.ftf * f0, "bpfo": fm.bpfo * f0, "bpfi": fm.bpfi * f0, "bsf": fm.bsf * f0}
-    return Chunk(samples=out.T, first_sample_index=int(n0), t0_s=n0 / fs, sample_rate_hz=fs,
-                 channel_names=plan.channels.names, units=plan.channels.units, shaft_speed_hz=float(f0),
-                 shaft_speed_end_hz=float(f_end), cage_angle_rad=float(cage), shaft_angle_rad=float(shaft),
-                 features=feats, ground_truth=gt)

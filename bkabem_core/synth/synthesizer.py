@@ -13,11 +13,11 @@ updates arriving between chunks). The method, its error bounds and the realism o
 * **Knots.** The complex amplitudes ``Y`` (per channel) are evaluated at *knots*: every chunk border in streaming,
   every ``knot_s`` of run time and every profile breakpoint when rendering a profile, plus subdivisions so that the
   speed moves by at most ``max_speed_step_hz`` between knots. Between knots amplitudes are linear in time.
-* **Spectrum at a knot** (:mod:`bkabem_core.synth.spectrum`): ``"modal"``, the model's order-wise pole-residue form
+* **Spectrum at a knot** (:mod:`bkabem_core.synth.plan`): ``"modal"``, the model's order-wise pole-residue form
   in 0.5-Hz speed cells (every line within 1e-5 of the channel's largest, against :meth:`BkaBem.response`, at
   shaft speeds >= ``min_speed_hz``, tested); ``"exact"``, :meth:`BkaBem.response` at every knot; ``"auto"``
   (default), modal when streaming and the cheaper of the two for a rendered profile.
-* **Wavetables** (:mod:`bkabem_core.synth.lines`, :mod:`bkabem_core.synth.render`). The lines are grouped into
+* **Wavetables** (:mod:`bkabem_core.synth.lines`, :mod:`bkabem_core.synth.render`, :mod:`bkabem_core.synth.stream`). The lines are grouped into
   families of harmonics of one phase (BPFO orders are one family of the ball-pass phase); at each knot every family
   is tabulated over one turn of its phase as the coefficients of a periodic cubic B-spline (the spline's droop
   pre-emphasised, so every line comes out exact), by an FFT. Samples evaluate the spline at the family's
@@ -42,16 +42,13 @@ from typing import Iterator
 import numpy as np
 
 from bkabem_core.solve.harmonic import BkaBem
-from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth.channels import DEFAULT_QUANTITIES
 from bkabem_core.synth.features import Chunk, waveform_features  # noqa: F401  (re-exported)
-from bkabem_core.synth.plan import Plan
+from bkabem_core.synth.plan import Plan, choose_method
 from bkabem_core.synth.profile import SpeedProfile, SynthError, _finite, parse_profile  # noqa: F401  (re-exported)
 from bkabem_core.synth.randomness import SlipWalk
-from bkabem_core.synth.render import make_chunk, render_samples
 from bkabem_core.synth.sensors import Accelerometer, AntiAliasFilter
 from bkabem_core.synth.settings import Settings
-from bkabem_core.synth.spectrum import choose_method
 from bkabem_core.synth.stream import Stream
 from bkabem_core.synth.switch import WarmModel
 
@@ -115,7 +112,8 @@ class Synthesizer:
     broadband_floor : bool
         Add the case's broadband floor (``baseline.broadband_force_n_per_sqrt_hz``: random force pairs across the
         bearings through the machine's receptance, :mod:`bkabem_core.synth.floor`) when the case sets one (default
-        True); its frames are made by :meth:`prepare` or the first chunk.
+        True); made with the plan (at construction and at a model switch; the transfer is shared by the models of one
+        machine).
     kernel : {"auto", "loop", "reference"}
         Which sample kernels (:class:`~bkabem_core.synth.settings.Settings`); the samples agree to float32 rounding.
     """
@@ -271,8 +269,8 @@ class Synthesizer:
         """Switch to another model (e.g. a new defect depth) from the next knot on (``synth.model = m`` does the
         same). Phase stays continuous; the amplitudes move from the old to the new spectrum over one segment.
 
-        A bare model's plan is made now and its set-up by the next chunk (the floor's transfer, the first knot's
-        spectrum; with the modal spectrum its speed cells). Where the next chunk must not wait, pass
+        A bare model's plan is made now (its line kernels, its floor), the first knot's spectrum by the next chunk
+        (with the modal spectrum its speed cells). Where the next chunk must not wait, pass
         ``self.warm(model)`` made earlier (off the streaming thread: :mod:`bkabem_core.synth.switch`): then this
         only swaps the plan in, and the samples are the same. A warm model that no longer fits (other settings,
         spent) is made afresh."""
@@ -316,10 +314,10 @@ class Synthesizer:
         return WarmModel(self, plan, key, f, time.perf_counter() - t0)
 
     def prepare(self) -> None:
-        """Make the spectrum method ready now, so that the first chunk carries no set-up: the broadband floor's
-        frames, and with ``"modal"`` or ``"auto"`` (modal when streaming) the speed cells of the lines up to the
-        case's ``operating.max_speed_hz`` (or the rate's limit if lower). Once per model: synthesisers of one
-        model share them; cells above are made when first used."""
+        """Make the spectrum method ready now, so that the first chunk carries no set-up: with ``"modal"`` or
+        ``"auto"`` (modal when streaming) the speed cells of the lines up to the case's ``operating.max_speed_hz``
+        (or the rate's limit if lower). Once per model: synthesisers of one model share them; cells above are made
+        when first used."""
         if self.settings.spectrum == "auto":
             self._plan = self._plan.with_method("modal")
         self._plan.prepare(0.0, min(self.case.max_speed_hz, self.max_speed_for_rate_hz()))
@@ -360,15 +358,9 @@ class Synthesizer:
             self._plan.check_band(f0, "initial_speed_hz")
             stream.append(n0, f0, self._plan, self.max_knots_per_step)
         stream.append(n0 + n, f, self._plan, self.max_knots_per_step)
-        chunk = self._chunk(n0, n)
+        chunk = stream.chunk(self._plan, n0, n, self.compute_features)
         stream.next_index = n0 + n
         return chunk
-
-    def _chunk(self, n0: int, n: int) -> Chunk:
-        self._stream.drop_before(n0)
-        acc = synth_kernel.new_acc(len(self.channel_names)) if self.compute_features else None
-        out = render_samples(self._plan, self._stream, n0, n, acc)
-        return make_chunk(self._plan, self._stream, n0, n, out, acc)
 
     # ------------------------------------------------------------------ profiles
     def render(self, profile, seconds: float, progress=None) -> Iterator[Chunk]:
@@ -410,7 +402,7 @@ class Synthesizer:
                 if bi < len(breaks) and breaks[bi] < nxt:
                     nxt = breaks[bi]
                 stream.append(nxt, float(profile.speed_hz(nxt / fs)), plan, self.max_knots_per_step)
-            yield self._chunk(n0, n)
+            yield stream.chunk(plan, n0, n, self.compute_features)
             n0 += n
             stream.next_index = n0
             if progress is not None:

@@ -260,7 +260,6 @@ def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last(mon
     other, other2 = BkaBem(machine), BkaBem(machine)
     key, okey = FloorTransfer.structure_key(healthy), FloorTransfer.structure_key(other)
     assert FloorTransfer.structure_key(inner) == key != okey == FloorTransfer.structure_key(other2)
-    s1, s2, s3, s4 = (Synthesizer(m, **kw) for m in (healthy, inner, other, other2))
     made = []
     real_init = FloorTransfer.__init__
 
@@ -268,12 +267,11 @@ def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last(mon
         made.append(1)
         real_init(self, *a, **k)
     monkeypatch.setattr(FloorTransfer, "__init__", counting)
-    s1.floor
+    s1 = Synthesizer(healthy, **kw)                         # the plan makes its floor
     assert len(made) == 1
-    s2.floor
+    s2 = Synthesizer(inner, **kw)
     assert len(made) == 1                                   # the inner-race model makes none
-    s3.floor
-    s4.floor
+    s3, s4 = Synthesizer(other, **kw), Synthesizer(other2, **kw)
     assert len(made) == 2                                   # the other structure one, for both its models
     assert s1.floor.path is s2.floor.path is not s3.floor.path
     assert s3.floor.path is s4.floor.path

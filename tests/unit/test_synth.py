@@ -15,8 +15,8 @@ import pytest
 from bkabem_core.model.vocabulary import DIRECTIONS
 from bkabem_core.solve.harmonic import TWO_PI
 from bkabem_core.synth.channels import _combination, make_channels
+from bkabem_core.synth.plan import LineSpectrum, choose_method
 from bkabem_core.synth.randomness import SlipWalk
-from bkabem_core.synth.spectrum import LineSpectrum, choose_method
 from bkabem_core.synth.synthesizer import (
     SpeedProfile,
     SynthError,
@@ -507,7 +507,7 @@ def test_synthesisers_of_one_model_share_the_exact_response_and_give_the_same_sa
     exact-response cache, so a speed step that several of them follow is solved once per process; sharing changes
     no sample: a run served from a cache that other synthesisers filled (and used) equals, bit for bit, the same
     run with a cache of its own."""
-    from bkabem_core.synth.spectrum import ExactSpectrum
+    from bkabem_core.synth.plan import ExactSpectrum
 
     kw = dict(sample_rate_hz=25600, chunk_s=0.1, seed=5, spectrum="exact", band_limit="taper", features=False)
     ExactSpectrum._shared.pop(id(model), None)

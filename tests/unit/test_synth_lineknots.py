@@ -14,7 +14,8 @@ import pytest
 from bkabem_core.model.case import Case
 from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth import kernel as synth_kernel
-from bkabem_core.synth.render import ISO_BAND_HZ, FusedLines, LoopLines
+from bkabem_core.synth.render import FusedLines, LoopLines
+from bkabem_core.synth.stream import ISO_BAND_HZ
 from bkabem_core.synth.synthesizer import Synthesizer
 
 if not synth_kernel.LINES_AVAILABLE:     # the set-up builds them (make install): fail, never skip, when missing
@@ -102,7 +103,7 @@ def test_segment_is_the_numpy_segment(models, kind):
         for _ in range(3):
             lo = ka.x + int(rng.integers(0, kb.x - ka.x - 1))
             hi = min(kb.x, lo + int(rng.integers(1, 3000)))
-            floor = plan.floor.render(lo, hi - lo).copy()
+            floor = plan.floor.render(lo, hi - lo).copy()                  # (the plan's floor: made with it)
             noise = plan.noise.segment(ka, kb, lo)
             out, acc = np.empty((hi - lo, 8), np.float32), synth_kernel.new_acc(8)
             assert plan.lines_kernel.segment(ka, kb, lo, hi, out, acc, plan.dc_off, walk, noise + (floor,))
@@ -128,9 +129,9 @@ def test_iso_velocity_of_the_lines_is_the_numpy_one(models):
         va, vb = a.v_iso[:, :4] + 1j * a.v_iso[:, 4:], b.v_iso[:, :4] + 1j * b.v_iso[:, 4:]
         v = (va + t * (vb - va))[band]
         ref = np.sqrt(0.5 * np.sum(np.abs(v) ** 2, axis=0)) if v.size else np.zeros(4)
-        got = synth_kernel.band_rms_lines(a.v_iso, b.v_iso, nu, mu, f, ISO_BAND_HZ, t)
+        got = synth_kernel.band_rms_lines(a.v_iso, b.v_iso, nu, mu, f, *ISO_BAND_HZ, t)
         np.testing.assert_allclose(got, ref, rtol=1e-13, atol=0.0)
-        np.testing.assert_allclose(synth_kernel.band_rms_lines_reference(a.v_iso, b.v_iso, nu, mu, f, ISO_BAND_HZ, t),
+        np.testing.assert_allclose(synth_kernel.band_rms_lines_reference(a.v_iso, b.v_iso, nu, mu, f, *ISO_BAND_HZ, t),
                                    ref, rtol=1e-13, atol=0.0)
 
 
