@@ -205,7 +205,7 @@ class Synthesizer:
     highest_order = property(lambda self: self._plan.lines.highest_order)
     table_size = property(lambda self: self._plan.lines.families.table_size)
     floor_density = property(lambda self: self._plan.floor_density)
-    floor = property(lambda self: self._plan.floor, doc="The broadband floor (made on first use; None: none).")
+    floor = property(lambda self: self._plan.floor, doc="The broadband floor (made with the plan; None: none).")
     spectrum_method = property(lambda self: self._plan.spectrum.method)
 
     def ground_truth(self) -> dict:
