@@ -373,14 +373,14 @@ def synth_main(args) -> int:
             chunks = ((ch, None) for ch in synth.render(st["profile"], st["seconds"]))
         except SynthError as exc:
             raise UsageError(str(_rename(exc))) from None
-        title = f"{case.name} ({synth._gt_base['case_hash']}): {st['profile'].spec}"
+        title = f"{case.name} ({synth.ground_truth()['case_hash']}): {st['profile'].spec}"
     fs = synth.sample_rate_hz
     n_total = int(round(st["seconds"] * fs))
     out = st["out"]
     out.parent.mkdir(parents=True, exist_ok=True)
     meta = {"command": "bkabem synth", "profile": None if st["profile"] is None else st["profile"].to_dict(),
             "seconds": st["seconds"], "n_samples": n_total, "synthesizer": synth.info(),
-            "ground_truth": dict(synth._gt_base), "units": dict(zip(synth.channel_names, synth.units)),
+            "ground_truth": synth.ground_truth(), "units": dict(zip(synth.channel_names, synth.units)),
             "sample_time": "sample i is at i / sample_rate_hz seconds; cage angle 0 at t = 0"}
     if run is not None:
         meta.update(scen_meta)

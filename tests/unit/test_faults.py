@@ -420,7 +420,7 @@ def test_prepare_makes_the_speed_cells_of_any_line_set(models):
     s = Synthesizer(models["healthy"], sample_rate_hz=FS)
     s.prepare()
     assert s.spectrum_method == "modal"
-    assert len(s._cells) == len(range(int(models["healthy"].case.max_speed_hz // 0.5) + 1))
+    assert len(s._plan.spectrum.cells) == len(range(int(models["healthy"].case.max_speed_hz // 0.5) + 1))
     a = s.line_spectrum(25.0)["amplitude"]
     exact = Synthesizer(models["healthy"], sample_rate_hz=FS, spectrum="exact").line_spectrum(25.0)["amplitude"]
     assert np.max(np.abs(a - exact)) <= 1e-5 * np.abs(exact).max()

@@ -1,13 +1,13 @@
 /*
- * The shared ground of the synthesiser's C kernels (_synthloop.c and its headers): fixed-point and block constants,
- * function attributes, vector types, the instruction-set cap, and the per-block helpers more than one file uses
- * (phase_block, WEIGHT_BLOCK, blend_weight; with AVX2 + FMA the 8-sample phases Phase8 and prologue8_fma; the carrier
- * cos / sin carrier_cos_sin). Every header includes it and nothing else of the extension (beyond the headers it
- * names itself), so the includes go one way: _synthloop.c -> headers -> _synthbase.h. Included once per build
- * (one translation unit): static definitions are fine here.
+ * The ground every unit of the synthesiser's kernels stands on: fixed-point and block constants, function
+ * attributes, vector types, the instruction-set cap of the run-time dispatch, and the per-block helpers of every
+ * sample loop (phase_block, WEIGHT_BLOCK, blend_weight; with AVX2 + FMA the 8-sample phases Phase8 and
+ * prologue8_fma; the carrier's cos / sin carrier_cos_sin). Inline definitions only: every unit that includes this
+ * compiles its own copy, so the loops keep their constants (channel counts, options) folded in. The arithmetic
+ * they implement, and why it is shaped so, is docs/performance.md.
  */
-#ifndef BKABEM_SYNTHBASE_H
-#define BKABEM_SYNTHBASE_H
+#ifndef BKABEM_SYNTH_COMMON_H
+#define BKABEM_SYNTH_COMMON_H
 
 #include <math.h>
 #include <stdint.h>
@@ -27,7 +27,7 @@
 #define NOINLINE
 #endif
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(BKABEM_NO_SIMD)
 #define CLONES __attribute__((target_clones("avx2", "default")))
 #else
 #define CLONES
@@ -45,13 +45,10 @@ typedef float v4f32 __attribute__((vector_size(16)));
 typedef double v2f64 __attribute__((vector_size(16)));
 typedef double v4f64 __attribute__((vector_size(32)));
 
-/* Highest instruction set the run-time dispatch of the fast paths may choose (tests lower it to cover the others):
- * 2 AVX-512 (knot table), 1 AVX2 + FMA, 0 baseline. Process-wide; not meant to change while kernels run. */
-static int isa_cap = 2;
-/* 1: the line-set kernel's vector code as it was before the rows took two families a pass and two 4-channel samples a
- * register (one family a pass, one sample a register), and 4-channel noise through the 8-lane buffer: the tests'
- * reference for the newer code, which must give the same bits (synth_set_reference_paths). */
-static int reference_paths = 0;
+/* Highest instruction set the run-time dispatch of the kernels may choose (tests lower it to cover the others):
+ * 2 AVX-512 (the knot FFT), 1 AVX2 + FMA, 0 baseline. Process-wide (synth_common.c); not meant to change while
+ * kernels run. */
+extern int synth_isa_cap;
 
 /* Phases of samples j = 0 .. nb-1 of a block, from the phase u and increment d of sample 0 (advanced to sample nb on
  * return): the row idx[j] = (V_j >> fb) & mask and the fraction frac[j] = (V_j >> (fb - 24)) & (2^24 - 1), as
@@ -98,7 +95,7 @@ INLINE void phase_block(const int has_warp, int nb, uint64_t *pu, uint64_t *pd, 
 }
 
 /* Cubic B-spline weights of a block from the fractions (the sequence of the header; numpy:
- * synth_kernel._weights_from_fraction). A plain loop of T operations that the vectoriser maps to the target's
+ * bkabem_core/synth/kernel.py, _weights_from_fraction). A plain loop of T operations that the vectoriser maps to the target's
  * vectors; its vector body and scalar tail round alike (no contraction: -ffp-contract=off), so a sample's weights
  * do not depend on its position in the block. */
 #define WEIGHT_BLOCK(T)                                                                                             \
@@ -126,13 +123,13 @@ INLINE double blend_weight(double v)
     return (double)(int32_t)v * (1.0 / BLEND_LEVELS);
 }
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(BKABEM_NO_SIMD)
 #include <immintrin.h>
 #define FMA_TARGET __attribute__((target("avx2,fma")))
 
 /* The phases of 8 consecutive samples j .. j+7 in two 4-lane uint64 vectors (ua: j .. j+3, ub: j+4 .. j+7) from the
  * phase u and increment d of sample j, and their advance by 8 samples (U + 8 D + 28 dd, D + 8 dd): lane by lane
- * the integers of u += d, d += dd (prologue8_fma, and the carriers of _synthrows.h). */
+ * the integers of u += d, d += dd (prologue8_fma, and the carriers of synth_rows.c). */
 typedef struct { __m256i ua, ub, da, db, dd8, dd28; } Phase8;
 static inline __attribute__((always_inline, target("avx2"))) Phase8 phase8_start(uint64_t u, uint64_t d, uint64_t dd)
 {

@@ -1,58 +1,10 @@
-/*
- * Sensor noise of the synthesiser, generated inside the sample loop (included by _synthloop.c).
- *
- * Why: a noisy 0.1-s chunk of 8 channels at 51.2 kHz needs 40 960 normal numbers. A scalar ziggurat (~4 ns a
- * number) took ~160-200 us per chunk; the branch-free Box-Muller that replaced it (8 lanes of logf, sqrt, sinf, cosf
- * polynomials) ~1 ns a number, ~40 us per chunk, still the largest kernel of a noisy run. Here the normals come
- * from a ziggurat whose common case is 8 lanes wide: a table look-up (eight 64-bit loads from an 8-KB table that
- * stays in L1: AVX2's gathers cost more on AMD Zen 4), one multiply and one compare per normal; the rare lanes
- * outside their layer's rectangle (0.43 %) are finished one by one. The normals of a block are made while the
- * block is in L1 and added (sigma z) in the same pass, before the features of the block are accumulated.
- *
- * Stream. Sample n (absolute sample index of the run) belongs to noise block b = n / NOISE_BLOCK (256 samples).
- * Block b has its own xoshiro256++ generators (Blackman & Vigna 2018), NOISE_LANES = 4 of them, seeded from
- * x = mix64(key ^ mix64(b + golden)) by 16 consecutive splitmix64 outputs (lane l word i = output 4 l + i). One
- * step of the four generators makes four 64-bit words = eight 32-bit words (32-bit word k = half k % 2 of lane
- * k / 2, low half first: the words' order in memory); a sample with C channels takes S = ceil(C / 8) steps, its
- * channel c the 32-bit word c % 8 of step c / 8. (xoshiro256++ and not 256+: the low bits of 256+ are weak linear
- * bits, and here the low bits of each half pick the layer.)
- *
- * Normals: the ziggurat of Marsaglia & Tsang (2000, "The ziggurat method for generating random variables") with
- * 1024 layers of equal area V under f(x) = exp(-x^2 / 2) (R = 4.038849846109505 closes them; V = R f(R) +
- * sqrt(pi/2) erfc(R / sqrt 2); x_0 = V / f(R) the base strip's width, x_1 = R, x_{i+1} from V = x_i (f(x_{i+1}) -
- * f(x_i)), x_1024 = 0), in Doornik's (2005) form with the layer and the uniform from different bits of one word w
- * (32 bits):
- *     i = w & 1023,   U = (2 j + 1) 2^-22 with j = (int32) w >> 10   (U in (-1, 1), symmetric, exact in float)
- *     fast:  |U| < r_i = x_{i+1} / x_i (float)   ->   z = U x_i (float)              (99.57 % of the words)
- * and otherwise, in double, with uniforms from a second stream seeded by the sample and channel alone
- * (h = mix64(key ^ (64 n + c) salt), then splitmix64: so the value still depends on (key, n, c) only, any
- * chunking or segment split gives the same noise):
- *     i = 0 (base strip beyond R): the tail by Marsaglia's method, a = -ln(u1) / R, b = -ln(u2) until 2 b > a^2,
- *                                  z = +-(R + a) with the sign of U;
- *     i > 0 (the wedge): x = U x_i, accepted if f(x_{i+1}) + u (f(x_i) - f(x_{i+1})) < f(x), z = x;
- *     rejected: the next word of the second stream (its top 32 bits) starts again from the fast test.
- * Exact: the law is the normal's up to the 22-bit grid of U in each layer (steps of x_i 2^-21: 2e-6 at the base
- * edge, 4x float32's ulp there; far below what any record of sensor noise resolves) and the float rounding of r_i
- * (a sliver of relative width 2^-24 on a layer's edge). 1024 layers and not Marsaglia's 128 or 256: the rare
- * lanes cost ~25 ns each (log, exp, the second stream's seed), 1.5 % of them (256 layers) made the generator no
- * faster than the Box-Muller it replaced; the table's size does not matter to loads from L1. The AVX2 code and the
- * scalar code take the same operations, so they give the same bits (tested; and against a numpy transcription,
- * synth_noise.noise_reference).
- *
- * Cost: ~0.7 ns a normal with AVX2 here (Zen 4; the table loads most of it), with the rare lanes; Box-Muller ~1 ns.
- */
-#ifndef BKABEM_SYNTHNOISE_H
-#define BKABEM_SYNTHNOISE_H
-
-#include "_synthbase.h"
+/* The sensor noise's generator (synth_noise.h). */
+#include "synth_noise.h"
 
 #include <math.h>
-#include <stdint.h>
 #include <string.h>
 
-#define NOISE_BLOCK 256                 /* samples per seeded noise block (absolute sample index / 256) */
-#define NOISE_LANES 4                   /* xoshiro256++ generators per block, one 64-bit word each per step */
-#define NOISE_MAX_C 64                  /* channels a noisy call may have (the block buffer is on the stack) */
+#include "synth_common.h"
 
 static inline uint64_t noise_mix64(uint64_t z)
 {
@@ -162,7 +114,7 @@ static NOINLINE float zn_slow(uint64_t key, int64_t n, int c, uint32_t w)
 }
 
 /* Normals of samples n0 .. n0 + nb - 1 (absolute indices), C channels, into Z (nb x C, row-major), scalar. */
-static void noise_fill_scalar(uint64_t key, int64_t n0, int nb, int C, float *Z)
+void noise_fill_scalar(uint64_t key, int64_t n0, int nb, int C, float *Z)
 {
     const int S = (C + 7) / 8;
     int j = 0;
@@ -191,9 +143,8 @@ static void noise_fill_scalar(uint64_t key, int64_t n0, int nb, int C, float *Z)
     }
 }
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(BKABEM_NO_SIMD)
 #include <immintrin.h>
-#define NOISE_AVX2 1
 #define NOISE_TARGET __attribute__((target("avx2,fma")))
 
 static inline __attribute__((always_inline)) NOISE_TARGET __m256i noise_step_avx2(__m256i *s0, __m256i *s1,
@@ -252,7 +203,7 @@ static NOINLINE void zn_fix8(uint64_t key, int64_t n, const uint32_t *w, int bad
     } while (0)
 
 /* noise_fill_scalar for C = 8 with AVX2: the same bits. */
-static NOINLINE NOISE_TARGET void noise_fill8_avx2(uint64_t key, int64_t n0, int nb, float *Z)
+NOINLINE NOISE_TARGET void noise_fill8_avx2(uint64_t key, int64_t n0, int nb, float *Z)
 {
     int j = 0;
     while (j < nb) {
@@ -286,7 +237,7 @@ static NOINLINE NOISE_TARGET void noise_fill8_avx2(uint64_t key, int64_t n0, int
 
 /* x[i][c] = (x[i][c] + sigma[c] z[i][c]) (+ extra[i][c]) for 8 float32 channels, nb samples from absolute sample
  * n0 within one noise block: the product, then the sums (noise_add_block's order), without a buffer of normals. */
-static NOINLINE NOISE_TARGET void noise_add8_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x,
+NOINLINE NOISE_TARGET void noise_add8_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x,
                                                   const float *extra)
 {
     __m256i s0, s1, s2, s3;
@@ -339,7 +290,7 @@ static inline __attribute__((always_inline)) NOISE_TARGET __m128 zn_fast4(__m128
 /* noise_add8_avx2 for 4 channels (the acc4 set): a sample's normals are words 0 .. 3 of its step (as
  * noise_fill_narrow_avx2 keeps them), x + sigma z then + extra in 128-bit lanes: the generic path's values, in one
  * pass without the 8-channel buffer and its per-sample copies. */
-static NOINLINE NOISE_TARGET void noise_add4_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x,
+NOINLINE NOISE_TARGET void noise_add4_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x,
                                                   const float *extra)
 {
     __m256i s0, s1, s2, s3;
@@ -371,11 +322,10 @@ static NOINLINE NOISE_TARGET void noise_add4_avx2(uint64_t key, int64_t n0, int 
         _mm_storeu_ps(x + 4 * i, v);
     }
 }
-#define HAVE_NOISE_AVX2 (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
 
 /* Any C <= 8 with AVX2: the 8 normals of each sample's step, the first C kept (the same bits as the scalar code:
  * a slow lane's value depends on its channel only, so computing the unused ones changes nothing). */
-static void noise_fill_narrow_avx2(uint64_t key, int64_t n0, int nb, int C, float *Z)
+void noise_fill_narrow_avx2(uint64_t key, int64_t n0, int nb, int C, float *Z)
 {
     float Z8[NOISE_BLOCK * 8];
     for (int j = 0; j < nb; j += NOISE_BLOCK) {
@@ -385,24 +335,20 @@ static void noise_fill_narrow_avx2(uint64_t key, int64_t n0, int nb, int C, floa
     }
 }
 #else
-#define NOISE_AVX2 0
-#define HAVE_NOISE_AVX2 0
-static void noise_fill8_avx2(uint64_t key, int64_t n0, int nb, float *Z)
+void noise_fill8_avx2(uint64_t key, int64_t n0, int nb, float *Z)
 {
     noise_fill_scalar(key, n0, nb, 8, Z);
 }
-static void noise_fill_narrow_avx2(uint64_t key, int64_t n0, int nb, int C, float *Z)
+void noise_fill_narrow_avx2(uint64_t key, int64_t n0, int nb, int C, float *Z)
 {
     noise_fill_scalar(key, n0, nb, C, Z);
 }
-static void noise_add8_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x, const float *extra)
+void noise_add8_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x, const float *extra)
 {
     (void)key, (void)n0, (void)nb, (void)sigma, (void)x, (void)extra;
 }
-static void noise_add4_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x, const float *extra)
+void noise_add4_avx2(uint64_t key, int64_t n0, int nb, const float *sigma, float *x, const float *extra)
 {
     (void)key, (void)n0, (void)nb, (void)sigma, (void)x, (void)extra;
 }
-#endif
-
 #endif

@@ -1,22 +1,19 @@
 /*
- * Pole-residue sum of the order-wise modal form (bkabem_core/solve/harmonic.py, OrderModalForm), in its
+ * Pole-residue sum of the order-wise modal form (bkabem_core/fe/modal.py, OrderModalForm), in its
  * mode-acceleration form:
  *
  *     X[k][u] = X0[k][u] + i w[k] sum_r E'[k][r][u] / (i w[k] - lambda[k][r]),     u = 0..7
  *
  * for K orders and R poles per order, 8 outputs (fewer are zero-padded by the caller); X0 is the exact static
- * response and E' = E / lambda, all in double. Why C: BKA-BEM evaluates this at every new shaft speed, K R 8 =
- * 50 x 128 x 8 complex multiply-adds on the embedded case: numpy's batched matmul plus the Cauchy factors take
- * ~50 us, this loop ~40 us (BENCHMARKS.md). (Float32 residues, once used to halve the memory traffic, lose
- * 2e-5 of a channel's largest order on the reduced model, whose static residual vectors make the pole sum
- * cancel more: double it is.)
- * Loaded with ctypes; the module init below only exists so that setuptools builds and installs it.
+ * response and E' = E / lambda, all in double (float32 residues lose 2e-5 of a channel's largest order on the
+ * reduced model, whose static residual vectors make the pole sum cancel). Bound by py_modalsum.c.
  *
  * Layout (C-contiguous; real and imaginary parts in separate arrays so that the 8 outputs of a pole are two
  * 4-wide vectors): w[K] [rad/s]; lam_re, lam_im [K][R] double; e_re, e_im [K][R][8] double; x0_re, x0_im [K][8]
  * double; results x_re, x_im [K][8] double. GCC builds an AVX2 and a baseline clone, picked at load time.
  */
-#include <Python.h>
+#include "modalsum.h"
+
 #include <stdint.h>
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
@@ -47,11 +44,10 @@ typedef double v4 __attribute__((vector_size(32)));
     } while (0)
 
 /* Longest pole list per order the stack buffers hold (2 x ndof; 60 DOF -> 120). */
-#define MAXR 1024
+#define MAXR MODAL_MAXR
 
 /* The Cauchy factors g_r = 1 / (i w - lambda_r) of an order first (a loop without carried dependency: divisions
- * vectorise), then the sum over poles two at a time into two accumulator sets (instruction-level parallelism):
- * 30 % faster than one pass with a division per pole. */
+ * vectorise), then the sum over poles two at a time into two accumulator sets (instruction-level parallelism). */
 CLONES
 int modal_sum8(int nk, int nr, const double *w, const double *lam_re, const double *lam_im,
                const double *e_re, const double *e_im, const double *x0_re, const double *x0_im,
@@ -91,32 +87,28 @@ int modal_sum8(int nk, int nr, const double *w, const double *lam_re, const doub
 }
 
 /*
- * Speed-cell form (harmonic.SpeedCells): within one cell of shaft speed, t in [-1, 1], every order's response is
+ * Speed-cell form (fe/modal.py, SpeedCells): within one cell of shaft speed, t in [-1, 1], every order's response is
  *
  *     X[k][u] = sum_d c[k][d][u] T_d(t) + sum_{near poles of k} E[k][r][u] / (i w[k] - lambda[k][r])
  *
  * (Chebyshev interpolant of the direct term plus all far poles, and the few poles near the cell exactly; the
- * interpolation error is bounded per pole when the cell is made, see harmonic.py). Everything in double: the cost
- * is (D + 1) complex multiply-adds per order and output plus the near poles (~30 in all on the embedded case),
- * a few us instead of the full sum's 50-90 us.
+ * interpolation error is bounded per pole when the cell is made, see fe/modal.py). Everything in double: the cost
+ * is (D + 1) complex multiply-adds per order and output plus the near poles.
  *
- * One header of int64 per cell (few ctypes arguments: each costs ~0.3 us, as much as the sum of a few orders):
- * hdr = {K, nd, nu, w_per_hz, coef_re, coef_im, near_start, near_lr, near_li, near_er, near_ei} (the last eight
- * addresses) with w_per_hz [K] (rad/s per Hz of shaft speed); coef_re, coef_im [K][nd][8]; near_start [K + 1]
- * int32 (poles of order k: near_start[k] .. near_start[k+1] - 1 of the packed arrays); near_lr, near_li [n_near];
- * near_er, near_ei [n_near][8]. Result x: K x nu complex double, interleaved (numpy complex128, nu <= 8).
+ * A cell (ModalCell, made once per cell by py_modalsum.c): K orders, nd Chebyshev coefficients, nu outputs;
+ * w_per_hz [K] (rad/s per Hz of shaft speed); coef_re, coef_im [K][nd][8]; near_start [K + 1] int32 (poles of order
+ * k: near_start[k] .. near_start[k+1] - 1 of the packed arrays); near_lr, near_li [n_near]; near_er, near_ei
+ * [n_near][8]. Result x: K x nu complex double, interleaved (numpy complex128, nu <= 8).
  */
-#define MAXD 64
+#define MAXD MODAL_MAXD
 
 CLONES
-int cell_sum8(const int64_t *hdr, double f, double t, double *x)
+int cell_sum8(const ModalCell *c, double f, double t, double *x)
 {
-    const int nk = (int)hdr[0], nd = (int)hdr[1], nu = (int)hdr[2];
-    const double *wph = (const double *)(intptr_t)hdr[3];
-    const double *coef_re = (const double *)(intptr_t)hdr[4], *coef_im = (const double *)(intptr_t)hdr[5];
-    const int *near_start = (const int *)(intptr_t)hdr[6];
-    const double *near_lr = (const double *)(intptr_t)hdr[7], *near_li = (const double *)(intptr_t)hdr[8];
-    const double *near_er = (const double *)(intptr_t)hdr[9], *near_ei = (const double *)(intptr_t)hdr[10];
+    const int nk = c->nk, nd = c->nd, nu = c->nu;
+    const double *wph = c->w_per_hz, *coef_re = c->coef_re, *coef_im = c->coef_im;
+    const int *near_start = c->near_start;
+    const double *near_lr = c->near_lr, *near_li = c->near_li, *near_er = c->near_er, *near_ei = c->near_ei;
     double tc[MAXD], xr[8], xi[8];
     if (nd < 1 || nd > MAXD || nu < 1 || nu > 8) return -1;
     tc[0] = 1.0;
@@ -153,8 +145,3 @@ int cell_sum8(const int64_t *hdr, double f, double t, double *x)
     }
     return 0;
 }
-
-static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_modalsum",
-                                       "C kernel loaded with ctypes (see bkabem_core/solve/harmonic.py)", -1, NULL};
-
-PyMODINIT_FUNC PyInit__modalsum(void) { return PyModule_Create(&moduledef); }

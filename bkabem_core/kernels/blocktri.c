@@ -1,11 +1,8 @@
 /*
  * Batched complex block-tridiagonal solver with 4 x 4 blocks (the shaft matrix of a 4-DOF/node beam model).
  *
- * Why C: the BKA-BEM spectrum needs ~50 systems of 14 blocks each per speed. LAPACK's banded zgbsv spends
- * ~2 ms on them on the project machine (unblocked, bandwidth 7), a numpy block-Thomas sweep ~3 ms in call
- * overhead, numpy's batched dense solve ~14 ms; this loop does the ~3k complex multiply-adds per system
- * directly (docs/method.md, BENCHMARKS.md). Loaded with ctypes; the module init below only exists so that
- * setuptools can build and install it as an ordinary extension module.
+ * The exact reference solver of the FE model (bkabem_core/fe/solvers.py, ShaftSolver; why a loop of its own and
+ * not LAPACK's banded solver: docs/performance.md). Bound by py_blocktri.c.
  *
  * Layout (all C-contiguous, complex double): for system b of B,
  *   D[b][i][4][4]  diagonal blocks, i = 0..nb-1
@@ -15,12 +12,10 @@
  * Block LU (Thomas) with partial pivoting inside each 4 x 4 block. Returns the number of systems whose
  * smallest pivot was zero (their flag in bad[b] is 1 and their solution is not valid).
  */
-#include <Python.h>
-#include <complex.h>
+#include "blocktri.h"
+
 #include <math.h>
 #include <string.h>
-
-typedef double complex cplx;
 
 static inline double mag1(cplx z) { return fabs(creal(z)) + fabs(cimag(z)); }   /* LAPACK's |re|+|im| */
 
@@ -114,22 +109,8 @@ static double solve_one(int nb, const cplx *Db, const cplx *Ub, const cplx *Lb, 
     return worst;
 }
 
-int bt_solve(int nb, int nbatch, const cplx *D, const cplx *U, const cplx *L, cplx *f,
-             cplx *X, cplx *g, int *bad, double min_pivot_ratio)
-{
-    int n_bad = 0;
-    for (int b = 0; b < nbatch; ++b) {
-        double worst = solve_one(nb, D + (size_t)b * nb * 16, U + (size_t)b * (nb - 1) * 16,
-                                 L + (size_t)b * (nb - 1) * 16, f + (size_t)b * nb * 4,
-                                 X + (size_t)b * (nb - 1) * 16, g + (size_t)b * nb * 4);
-        bad[b] = !(worst >= min_pivot_ratio);
-        n_bad += bad[b];
-    }
-    return n_bad;
-}
-
 /*
- * Same solve, with the blocks built here from the real coefficient blocks of K, M, C, G:
+ * The batch's solve, with the blocks built here from the real coefficient blocks of K, M, C, G:
  *   Z = K - w^2 M + i w (C + W G)      (w = excitation frequency, W = shaft speed, both rad/s, per system)
  * and the housing DOFs (no of them) condensed into the shaft node they touch:
  *   Z_node += -z_so z_os^T / z_oo,   f_node += -z_so f_o / z_oo,   x_o = (f_o - z_os . x_node) / z_oo.
@@ -185,8 +166,3 @@ int bt_solve_coef(int nb, int nbatch, const double *coef_d, const double *coef_u
     }
     return n_bad;
 }
-
-static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_blocktri",
-                                       "C kernel loaded with ctypes (see bkabem_core/solve/harmonic.py)", -1, NULL};
-
-PyMODINIT_FUNC PyInit__blocktri(void) { return PyModule_Create(&moduledef); }

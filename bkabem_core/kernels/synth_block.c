@@ -1,19 +1,12 @@
-/*
- * Per-block pieces of every sample loop (the order segment of _synthloop.c and the line-set segment of
- * _synthlines.h): the running moments of the chunk features (moments_f32 / _f64), the sensor noise and the extra
- * part added to a block (noise_add_block_f32 / _f64, NoiseArgs), and the block lengths aligned to the noise blocks.
- */
-#ifndef BKABEM_SYNTHBLOCK_H
-#define BKABEM_SYNTHBLOCK_H
+/* Per-block pieces of every sample loop (synth_block.h). */
+#include "synth_block.h"
 
-#include "_synthbase.h"
-#include "_synthnoise.h"
+#include <string.h>
 
 /* d > hi ? d : hi and d < lo ? d : lo lane by lane (as maxpd / minpd with d first). Macros: no vector arguments
  * cross a function boundary (-Wpsabi). */
 #define VSEL_MAX(VL, a, b) ((__typeof__(a))((((a) > (b)) & (VL)(a)) | (~((a) > (b)) & (VL)(b))))
 #define VSEL_MIN(VL, a, b) ((__typeof__(a))((((a) < (b)) & (VL)(a)) | (~((a) < (b)) & (VL)(b))))
-
 
 /* Running moments of rows x[0 .. nb-1] (row stride C) of channels c0 .. c0+W-1 into acc, in W-lane double vectors 
  * VD (the compiler does not vectorise loop-carried sums by itself: that would reorder them). */
@@ -44,11 +37,10 @@ ATTR void moments_##NAME##_##SUF(const int C, int c0, int nb, const T *restrict 
     }                                                                                                               \
 }
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
-#define HAVE_AVX2 __builtin_cpu_supports("avx2")
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(BKABEM_NO_SIMD)
 #define MOMENTS_AVX2(T, SUF)                                                                                        \
     MOMENTS_GROUP(T, SUF, quad, 4, v4d, v4l, v4##SUF, static inline __attribute__((always_inline, target("avx2")))) \
-    static NOINLINE __attribute__((target("avx2"))) void moments_avx2_##SUF(                                        \
+    NOINLINE __attribute__((target("avx2"))) void moments_avx2_##SUF(                                        \
         const int C, int nb, const T *restrict x, const double *restrict off, double *restrict acc)                \
     {                                                                                                               \
         int c = 0;                                                                                                  \
@@ -57,22 +49,21 @@ ATTR void moments_##NAME##_##SUF(const int C, int c0, int nb, const T *restrict 
         for (; c < C; ++c) moments_one_##SUF(C, c, nb, x, off, acc);                                                \
     }
 #else
-#define HAVE_AVX2 0
-#define MOMENTS_AVX2(T, SUF) static void moments_avx2_##SUF(const int C, int nb, const T *restrict x,                 \
+#define MOMENTS_AVX2(T, SUF) void moments_avx2_##SUF(const int C, int nb, const T *restrict x,                 \
                                                             const double *restrict off, double *restrict acc)        \
     { moments_base_##SUF(C, nb, x, off, acc); }
 #endif
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(BKABEM_NO_SIMD)
 #include <immintrin.h>
 /* The common case, 8 float32 channels with AVX2, in one 8-lane float vector per moment: a block's sums (<= BLOCK
  * samples of d = x - (float) off) are taken in float and added to the double accumulators once per block, shifted
- * by e = (float) off - off exactly (binomial expansion in double): relative round-off ~1e-6 of a sum; the double
- * 4-lane path above costs ~2x the whole sample loop. Extremes are those of x itself, so max/min of d are exact:
+ * by e = (float) off - off exactly (binomial expansion in double): relative round-off ~1e-6 of a sum (why not the
+ * double path: docs/performance.md). Extremes are those of x itself, so max/min of d are exact:
  * (double) max x - off. */
 typedef float v8f __attribute__((vector_size(32)));
 typedef int32_t v8i __attribute__((vector_size(32)));
-static NOINLINE __attribute__((target("avx2"))) void moments8_f32_avx2(int nb, const float *restrict x,
+NOINLINE __attribute__((target("avx2"))) void moments8_f32_avx2(int nb, const float *restrict x,
                                                                       const double *restrict off,
                                                                       double *restrict acc)
 {
@@ -108,44 +99,13 @@ static NOINLINE __attribute__((target("avx2"))) void moments8_f32_avx2(int nb, c
         a[5] = w < a[5] ? w : a[5];
     }
 }
-#define HAVE_MOMENTS8_F32 __builtin_cpu_supports("avx2")
 #else
-#define HAVE_MOMENTS8_F32 0
-static void moments8_f32_avx2(int nb, const float *x, const double *off, double *acc) { (void)nb, (void)x, (void)off, (void)acc; }
+void moments8_f32_avx2(int nb, const float *x, const double *off, double *acc) { (void)nb, (void)x, (void)off, (void)acc; }
 #endif
 
 /* W consecutive values of x (T) as a W-lane double vector d; VT the W-lane vector of T. */
 #define LOADV_f32(d, VT, p) do { VT t_; memcpy(&t_, (p), sizeof t_); (d) = __builtin_convertvector(t_, __typeof__(d)); } while (0)
 #define LOADV_f64(d, VT, p) memcpy(&(d), (p), sizeof(d))
-
-/* Sensor noise added inside a segment call (_synthnoise.h): stream key, absolute index of the call's sample 0, and
- * the standard deviation per channel (float for float32 output, double for float64). With noise, the loop's blocks
- * are aligned to the noise blocks (absolute multiples of BLOCK = NOISE_BLOCK), so each block seeds its generators
- * once; the per-sample work does not depend on the block position, so the samples do not change. */
-typedef struct {
-    uint64_t key;
-    int64_t n0;
-    const float *sigma_f;         /* NULL (both): no noise, only the extra part */
-    const double *sigma_d;
-    const void *extra;            /* optional m x C block (out's dtype) added too, row 0 = the call's sample 0: the
-                                   * broadband floor (synth_floor.py) */
-    const int16_t *frames;        /* or (float32, the line-set kernel) the floor itself, rendered per block from its */
-    const float *win;             /* frames (F x L x C int16), sine window (2 S), grains (G x 3: grain, frame, */
-    const int64_t *grains;        /* offset) and scale per channel, as synth_floor_render: no m x C buffer written */
-    int64_t n_grains, half, frame_length;   /* and read back */
-    const float *floor_scale;
-} NoiseArgs;
-
-/* Samples of the next block: up to BLOCK, and with noise up to the next absolute multiple of BLOCK. */
-INLINE int64_t block_length(const int noise, int64_t left, int64_t n_abs)
-{
-    int64_t nb = left < BLOCK ? left : BLOCK;
-    if (noise) {
-        const int64_t r = BLOCK - (int64_t)(((uint64_t)n_abs) % BLOCK);
-        nb = nb < r ? nb : r;
-    }
-    return nb;
-}
 
 /* The block kernels, written once for T = float and T = double. */
 #define SYNTH_BLOCK_KERNELS(T, SUF)                                                                                 \
@@ -169,11 +129,11 @@ INLINE void moments_one_##SUF(const int C, int c, int nb, const T *restrict x, c
     a[0] = s1, a[1] = s2, a[2] = s3, a[3] = s4, a[4] = hi, a[5] = lo;                                               \
 }                                                                                                                   \
                                                                                                                     \
-/* Moments of a block: channel groups of 4 in 256-bit vectors where AVX2 is there, else of 2 (4-lane vectors in the \
- * SSE2 build spill: ~4x slower), then single channels. Not inlined: called once per block, dispatched on the CPU.  \
+/* Moments of a block: channel groups of 4 in 256-bit vectors where AVX2 is there, else of 2 (4-lane vectors would  \
+ * spill in the SSE2 build), then single channels. Not inlined: called once per block, dispatched on the CPU.  \
  * Written for C = 8 and any C. */                                                                                  \
 MOMENTS_GROUP(T, SUF, pair, 2, v2d, v2l, v2##SUF, INLINE)                                                           \
-static NOINLINE void moments_base_##SUF(const int C, int nb, const T *restrict x, const double *restrict off,       \
+NOINLINE void moments_base_##SUF(const int C, int nb, const T *restrict x, const double *restrict off,       \
                                         double *restrict acc)                                                       \
 {                                                                                                                   \
     int c = 0;                                                                                                      \
@@ -181,35 +141,27 @@ static NOINLINE void moments_base_##SUF(const int C, int nb, const T *restrict x
     for (; c < C; ++c) moments_one_##SUF(C, c, nb, x, off, acc);                                                    \
 }                                                                                                                   \
 MOMENTS_AVX2(T, SUF)                                                                                                \
-INLINE void moments_##SUF(const int C, int nb, const T *restrict x, const double *restrict off,                     \
-                          double *restrict acc)                                                                     \
-{                                                                                                                   \
-    if (sizeof(T) == 4 && C == 8 && nb > 0 && HAVE_MOMENTS8_F32)                                                   \
-        moments8_f32_avx2(nb, (const float *)(const void *)x, off, acc);                                            \
-    else if (HAVE_AVX2) moments_avx2_##SUF(C, nb, x, off, acc);                                                     \
-    else moments_base_##SUF(C, nb, x, off, acc);                                                                    \
-}                                                                                                                   \
                                                                                                                     \
 /* x[j][c] += sigma[c] z[j][c] for the nb samples of a block from absolute sample n (one noise block at most): the  \
  * product in T, then the sum (the numpy reference's order). */                                                     \
-static void noise_add_block_##SUF(const int C, int nb, const NoiseArgs *na, int64_t n, T *restrict x,              \
+void noise_add_block_##SUF(const int C, int nb, const NoiseArgs *na, int64_t n, T *restrict x,              \
                                   const T *restrict extra)                                                          \
 {                                                                                                                   \
     const T *sig = sizeof(T) == 4 ? (const T *)(const void *)na->sigma_f : (const T *)(const void *)na->sigma_d;   \
-    if (sig != NULL && sizeof(T) == 4 && C == 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) {  /* fused, no buffer */     \
+    if (sig != NULL && sizeof(T) == 4 && C == 8 && synth_isa_cap >= 1 && HAVE_NOISE_AVX2) {  /* fused, no buffer */     \
         noise_add8_avx2(na->key, n, nb, (const float *)(const void *)sig, (float *)(void *)x,                      \
                         (const float *)(const void *)extra);                                                        \
         return;                                                                                                     \
     }                                                                                                               \
-    if (sig != NULL && sizeof(T) == 4 && C == 4 && isa_cap >= 1 && HAVE_NOISE_AVX2 && !reference_paths) {        \
+    if (sig != NULL && sizeof(T) == 4 && C == 4 && synth_isa_cap >= 1 && HAVE_NOISE_AVX2) {        \
         noise_add4_avx2(na->key, n, nb, (const float *)(const void *)sig, (float *)(void *)x,                      \
                         (const float *)(const void *)extra);                                                        \
         return;                                                                                                     \
     }                                                                                                               \
     if (sig != NULL) {                                                                                              \
         float Z[BLOCK * NOISE_MAX_C];                                                                               \
-        if (C == 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill8_avx2(na->key, n, nb, Z);                        \
-        else if (C < 8 && isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill_narrow_avx2(na->key, n, nb, C, Z);           \
+        if (C == 8 && synth_isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill8_avx2(na->key, n, nb, Z);                        \
+        else if (C < 8 && synth_isa_cap >= 1 && HAVE_NOISE_AVX2) noise_fill_narrow_avx2(na->key, n, nb, C, Z);           \
         else noise_fill_scalar(na->key, n, nb, C, Z);                                                               \
         for (int j = 0; j < nb; ++j)                                                                                \
             for (int c = 0; c < C; ++c) {                                                                           \
@@ -223,5 +175,3 @@ static void noise_add_block_##SUF(const int C, int nb, const NoiseArgs *na, int6
 
 SYNTH_BLOCK_KERNELS(float, f32)
 SYNTH_BLOCK_KERNELS(double, f64)
-
-#endif

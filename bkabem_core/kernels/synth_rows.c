@@ -1,30 +1,24 @@
 /*
- * The rows of a line set's families for 8 (and 4) float32 channels with AVX2 + FMA (included by _synthlines.h; needs
- * only _synthbase.h): families that share one phase are evaluated together, and the carriers' cos / sin are computed
- * 8 samples at a time.
+ * The rows of a line set's families for 8 (and 4) float32 channels with AVX2 + FMA (synth_rows.h): families that
+ * share one phase are evaluated together, and the carriers' cos / sin are computed 8 samples at a time.
  *
- * Why: an inner-race line set has 6 carrier families on the one BPFI phase with one table size, a ball set 5 + 2 on
- * the cage phase (spin carriers); one family at a time computed the same row indices and spline weights for each
- * (prologue8_fma: ~5 operations a sample) and loaded and stored the block accumulator once per family, and the
- * carriers' cos / sin were scalar (carrier_cos_sin: ~20 dependent operations a sample and family, ~100 us of a
- * ball chunk). Here a group of families with the same phase (phase0, dphase0, ddphase), table size and slip row
- * takes one prologue (rows, spline and blend weights into small arrays), then each family's taps over the block
- * as lines_family8_fma did (fused multiply-adds). A group moves its families' contributions together, so the sum
- * over families is in another order than the generic path's (float rounding, as the fast path's FMA already is).
+ * A group of families with the same phase (phase0, dphase0, ddphase), table size and slip row takes one prologue
+ * (rows, spline and blend weights into small arrays, prologue8_fma), then each family's taps over the block with
+ * fused multiply-adds, two families a pass. A group moves its families' contributions together, so the sum over
+ * families is in another order than the generic path's (float rounding, as the fused multiply-adds already are).
  *
- * Carrier cos / sin (carrier8_avx2): carrier_cos_sin of _synthbase.h on 8 lanes, the same operations (separate
+ * Carrier cos / sin (carrier8_avx2): carrier_cos_sin of synth_common.h on 8 lanes, the same operations (separate
  * multiplies and adds, octant from 24 bits of the turn, quadrant by swap and sign), so the same bits.
  */
-#ifndef BKABEM_SYNTHROWS_H
-#define BKABEM_SYNTHROWS_H
+#include "synth_rows.h"
 
-#include "_synthbase.h"
+#include <string.h>
 
-#define GROUP_MAX 8                             /* families per group (their carriers' cos / sin on the stack) */
+#include "synth_common.h"
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(SYNTHLOOP_NO_CLONES)
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(BKABEM_NO_SIMD)
 /* cos and sin of the carrier phases u_j (+ wc[j]) of a block, u, d advanced to sample nb (carrier_cos_sin's bits). */
-static NOINLINE __attribute__((target("avx2"))) void carrier8_avx2(int nb, uint64_t *pu, uint64_t *pd, uint64_t dd,
+NOINLINE __attribute__((target("avx2"))) void carrier8_avx2(int nb, uint64_t *pu, uint64_t *pd, uint64_t dd,
                                                                    const int64_t *restrict wc, float *restrict co,
                                                                    float *restrict si)
 {
@@ -105,8 +99,8 @@ static inline __attribute__((always_inline)) FMA_TARGET void group8_rows(
     const float *restrict A, const float *restrict B, int64_t NT, const float *restrict CQ,
     const float *restrict SQ, float *restrict blk)
 {
-    /* one family over the block (samples independent: the loop keeps many in flight; a loop over the families
-     * inside the sample loop chained every family's multiply-adds on one accumulator and ran ~1.5x slower) */
+    /* one family over the block (samples independent: the loop keeps many in flight, where a loop over the
+     * families inside the sample loop would chain every family's multiply-adds on one accumulator) */
     for (int j = 0; j < nb; ++j) {
         const int64_t r = (int64_t)idx[j] * 8;
         const __m256 w0 = _mm256_broadcast_ss(W0 + j), w1 = _mm256_broadcast_ss(W1 + j);
@@ -314,7 +308,7 @@ static inline __attribute__((always_inline)) FMA_TARGET void group4x2_rows2(
         else R1(0, 0, GROUP_ARGS1(NULL, 0), blk);                                                                   \
     } while (0)
 
-static NOINLINE FMA_TARGET void lines_group8_fma(int lanes, int nb, int64_t k0, uint64_t *u, uint64_t *d,
+NOINLINE FMA_TARGET void lines_group8_fma(int lanes, int nb, int64_t k0, uint64_t *u, uint64_t *d,
                                                 uint64_t dd,
                                                 const int64_t *w, int fb, uint64_t mask, double xi0,
                                                 double blend_scale, int nf, const float *const *A,
@@ -331,14 +325,6 @@ static NOINLINE FMA_TARGET void lines_group8_fma(int lanes, int nb, int64_t k0, 
         if (blend) prologue8_fma(0, 1, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
         else prologue8_fma(0, 0, nb, k0, u, d, dd, NULL, fb, mask, xi0, blend_scale, idx, W0, W1, W2, W3, sw);
     }
-    if (reference_paths) {                             /* one family a pass, one sample a register */
-        for (int k = 0; k < nf; ++k) {
-            const int pair = 0;
-            if (lanes == 4) GROUP_CALL(group4_rows, group4_rows2);
-            else GROUP_CALL(group8_rows, group8_rows2);
-        }
-        return;
-    }
     for (int k = 0; k < nf; k += 2) {                         /* the families in pairs (the last one alone) */
         const int pair = k + 1 < nf;
         if (lanes == 4) GROUP_CALL(group4x2_rows, group4x2_rows2);
@@ -349,14 +335,12 @@ static NOINLINE FMA_TARGET void lines_group8_fma(int lanes, int nb, int64_t k0, 
 #undef GROUP_CALL
 #undef GROUP_ARGS1
 #undef GROUP_ARGS2
-#define HAVE_GROUP8 HAVE_FMA_PATH
 #else
-#define HAVE_GROUP8 0
-static void carrier8_avx2(int nb, uint64_t *pu, uint64_t *pd, uint64_t dd, const int64_t *wc, float *co, float *si)
+void carrier8_avx2(int nb, uint64_t *pu, uint64_t *pd, uint64_t dd, const int64_t *wc, float *co, float *si)
 {
     (void)nb, (void)pu, (void)pd, (void)dd, (void)wc, (void)co, (void)si;
 }
-static void lines_group8_fma(int lanes, int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd, const int64_t *w,
+void lines_group8_fma(int lanes, int nb, int64_t k0, uint64_t *u, uint64_t *d, uint64_t dd, const int64_t *w,
                              int fb,
                              uint64_t mask, double xi0, double blend_scale, int nf, const float *const *A,
                              const float *const *B, const int64_t *NT, const int *car, float (*CQ)[BLOCK],
@@ -370,7 +354,7 @@ static void lines_group8_fma(int lanes, int nb, int64_t k0, uint64_t *u, uint64_
 /* Groups of the families of a line set: families f and g are in one group if their phases (phase0, dphase0,
  * ddphase), table sizes and slip rows are equal, at most GROUP_MAX a group; group q holds first[q] .. (its members
  * in member[], in the families' order). Returns the number of groups. */
-static int lines_groups(int64_t F, const uint64_t *phases, const int64_t *lg, const int64_t *wp, int *start,
+int lines_groups(int64_t F, const uint64_t *phases, const int64_t *lg, const int64_t *wp, int *start,
                         int *member)
 {
     int taken[64] = {0}, n = 0, p = 0;
@@ -389,5 +373,3 @@ static int lines_groups(int64_t F, const uint64_t *phases, const int64_t *lg, co
     start[n] = p;
     return n;
 }
-
-#endif
