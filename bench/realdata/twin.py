@@ -225,10 +225,21 @@ def base_case_ref(base: str, overrides: dict, folder: Path) -> str:
 
 
 # --------------------------------------------------------------------------- rendering one run
+def label_multipliers(row: dict) -> dict:
+    """The fault multipliers [per shaft Hz] of a labels row (``bpfo``, ``bpfi``, ``ftf``, ``bsf``)."""
+    return {k: float(row[f"{k}_per_hz"]) for k in ("bpfo", "bpfi", "ftf", "bsf")}
+
+
+def label_mains_hz(row: dict) -> float:
+    """The twin's supply frequency [Hz] from a labels row (its electrical lines sit at its multiples)."""
+    return float(row.get("baseline_line_frequency_hz") or 50.0)
+
+
 def synthesize(cond: Condition, twin: str, seed: int, speed_hz: float, sample_rate_hz: float,
                duration_s: float) -> dict:
     """The twin's DE and FE acceleration [g] for ``cond`` at ``speed_hz`` [Hz], ``sample_rate_hz`` [Hz] and
-    ``duration_s`` [s], with ``seed`` (slip, noise, the broadband floor): ``{"DE": array, "FE": array}``.
+    ``duration_s`` [s], with ``seed`` (slip, noise, the broadband floor): ``{"DE": array, "FE": array,
+    "mult": the twin bearing's fault multipliers, "mains_hz": its supply frequency, "label": the labels row}``.
 
     Rendered by the product's data-set renderer (``bkabem_core.dataset``: the spec validates the run, the run's
     case is built as ``bkabem dataset`` builds it, models are pooled in this process), into a temporary folder
@@ -247,5 +258,7 @@ def synthesize(cond: Condition, twin: str, seed: int, speed_hz: float, sample_ra
                        "sample_rate_hz": float(sample_rate_hz), "quantities": ["acceleration"]}}
         spec = DatasetSpec(raw, source="twin adapter")
         out = render_run(spec.runs[0], tmp)
-        table = pq.read_table(Path(tmp) / out["labels"][0]["file"], columns=list(CHANNELS.values()))
-        return {ch: table.column(col).to_numpy().astype(np.float64) / G for ch, col in CHANNELS.items()}
+        row = out["labels"][0]
+        table = pq.read_table(Path(tmp) / row["file"], columns=list(CHANNELS.values()))
+        sig = {ch: table.column(col).to_numpy().astype(np.float64) / G for ch, col in CHANNELS.items()}
+    return {**sig, "mult": label_multipliers(row), "mains_hz": label_mains_hz(row), "label": row}
