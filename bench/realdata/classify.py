@@ -36,6 +36,14 @@ FEATURE_NAMES = tuple(
     + ["log kurtosis", "crest", "log RMS", "log(1 + band K)"]
     + [f"{BROAD_BANDS[i][0] / 1e3:g}-{BROAD_BANDS[i][1] / 1e3:g} kHz share" for i in _SHAPE])
 
+#: Feature sets compared: every textbook feature, and the issue's own set (the envelope line levels, kurtosis and
+#: crest factor: no absolute level, no spectral shape, which carry the machine's structure rather than the fault).
+FEATURE_SETS = {
+    "all features": tuple(range(len(FEATURE_NAMES))),
+    "envelope, kurtosis, crest": tuple(i for i, n in enumerate(FEATURE_NAMES)
+                                       if n.endswith(("fixed", "kurtogram")) or n in ("log kurtosis", "crest")),
+}
+
 
 def features(d: dict) -> np.ndarray:
     """The feature vector (:data:`FEATURE_NAMES`) of a :func:`realdata.diagnostics.diagnose` result."""

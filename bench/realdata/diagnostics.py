@@ -74,8 +74,9 @@ def moments(x: np.ndarray) -> dict:
 
 
 def welch_psd(x: np.ndarray, fs: float, resolution_hz: float = 1.0):
-    """One-sided Welch PSD [g^2/Hz]: Hann segments of fs / resolution samples, 50 % overlap, mean removed."""
-    n = int(round(fs / resolution_hz))
+    """One-sided Welch PSD [g^2/Hz]: Hann segments of fs / resolution samples (at most half the signal, so that a
+    short excerpt still averages three segments), 50 % overlap, mean removed."""
+    n = min(int(round(fs / resolution_hz)), len(x) // 2)
     return signal.welch(x, fs, window="hann", nperseg=n, noverlap=n // 2, detrend="constant", scaling="density")
 
 

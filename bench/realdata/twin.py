@@ -260,5 +260,9 @@ def synthesize(cond: Condition, twin: str, seed: int, speed_hz: float, sample_ra
         out = render_run(spec.runs[0], tmp)
         row = out["labels"][0]
         table = pq.read_table(Path(tmp) / row["file"], columns=list(CHANNELS.values()))
+        for col in CHANNELS.values():
+            unit = (table.schema.field(col).metadata or {}).get(b"unit", b"").decode()
+            if unit != "m/s^2":
+                raise ValueError(f"twin channel {col}: unit {unit!r}, expected 'm/s^2'")
         sig = {ch: table.column(col).to_numpy().astype(np.float64) / G for ch, col in CHANNELS.items()}
     return {**sig, "mult": label_multipliers(row), "mains_hz": label_mains_hz(row), "label": row}
