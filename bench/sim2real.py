@@ -44,12 +44,31 @@ for p in (str(ROOT), str(HERE)):
         sys.path.insert(0, p)
 
 from realdata import report  # noqa: E402
-from realdata.classify import (CLASSES, FEATURE_NAMES, FEATURE_SETS, LogisticRegression,  # noqa: E402
-                               NearestCentroid, confusion, features, grouped_folds, per_class_accuracy)
+from realdata.classify import (  # noqa: E402
+    CLASSES,
+    FEATURE_NAMES,
+    FEATURE_SETS,
+    LogisticRegression,
+    NearestCentroid,
+    confusion,
+    features,
+    grouped_folds,
+    per_class_accuracy,
+)
 from realdata.diagnostics import G, decimate, diagnose, estimate_speed  # noqa: E402
 from realdata.records import EFFECTIVE_6205, LOAD_HP_OF_RPM, RecordError, scan  # noqa: E402
-from realdata.twin import (CHANNELS, LIBRARY, Condition, base_case_ref, case_toml, check_twin, default_twin,  # noqa: E402
-                           label_mains_hz, label_multipliers, twin_run)
+from realdata.twin import (  # noqa: E402
+    CHANNELS,
+    LIBRARY,
+    Condition,
+    base_case_ref,
+    case_toml,
+    check_twin,
+    default_twin,
+    label_mains_hz,
+    label_multipliers,
+    twin_run,
+)
 
 FS = 12000.0
 RPM_OF_LOAD = {hp: rpm for rpm, hp in LOAD_HP_OF_RPM.items()}
@@ -190,7 +209,8 @@ def twin_table(sets: list[Path], workers: int) -> dict:
     y = np.array([CLASSES.index(r["fault"]) for _, r in jobs])
     # the runs whose condition the measured records have: outer race at 6 o'clock, 0 or 1 hp
     speeds = {round(RPM_OF_LOAD[hp] / 60.0, 2) for hp in (0, 1)}
-    like = np.array([round(r["shaft_hz"], 2) in speeds and (r["fault"] != "outer" or abs((r.get("d0_angle_deg") or 0.0) + 90.0) < 1e-6)
+    like = np.array([round(r["shaft_hz"], 2) in speeds
+                     and (r["fault"] != "outer" or abs((r.get("d0_angle_deg") or 0.0) + 90.0) < 1e-6)
                      for _, r in jobs])
     groups = [(r["fault"], r.get("d0_length_m"), r.get("d0_angle_deg"), round(r["shaft_hz"], 2)) for _, r in jobs]
     return {"X": np.array([f for f, _, _ in res]), "y": y, "groups": groups, "like_measured": like,
@@ -348,7 +368,8 @@ def block(res: dict, me: dict, tw: dict, argv: list[str], img_name: str) -> str:
         report.table(["", *CLASSES, "overall", "balanced"], rows + vrows),
         "",
         "Chance: 0.25. Overall: the share of right labels; balanced: the mean over the classes (the measured set "
-        f"has {', '.join(f'{n_of[c]} {c}' for c in CLASSES)} records). The verdict rows: the no-training envelope verdict "
+        f"has {', '.join(f'{n_of[c]} {c}' for c in CLASSES)} records). The verdict rows: the no-training envelope "
+        "verdict "
         "of the validation above (right when it names the kind; ambiguous counts as wrong) on every twin run, on "
         "the twin runs of the measured records' conditions (outer race at 6 o'clock, 0 and 1 hp) and on the "
         "measured records: a realistic twin is about as hard for it as the real thing.",
@@ -372,7 +393,8 @@ def block(res: dict, me: dict, tw: dict, argv: list[str], img_name: str) -> str:
             f"twin's classes, not the rig's. With the issue's feature set (envelope lines, kurtosis, crest factor: "
             f"no level, no spectral shape) it scores {lr2['measured']['accuracy']:.2f} (balanced "
             f"{lr2['measured']['balanced']:.2f}). The textbook verdict (2-4 kHz) is right on "
-            f"{vt['balanced']:.0%} (balanced) of the twin's runs at the records' conditions and on {vm['balanced']:.0%} "
+            f"{vt['balanced']:.0%} (balanced) of the twin's runs at the records' conditions and on "
+            f"{vm['balanced']:.0%} "
             "of the measured records"
             + (f"; the twin is easier for it in {', '.join(easier)}" if easier else "")
             + (f" and harder in {', '.join(harder)}" if harder else "")
@@ -422,6 +444,10 @@ def main(argv=None) -> int:
     if not (args.l2 > 0 and np.isfinite(args.l2)):
         errors.append(f"--l2: must be > 0 (got {args.l2})")
     out_dir = Path(args.out)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        pass
     if not out_dir.is_dir():
         errors.append(f"--out: {out_dir}: not a folder")
     bad = check_twin(args.twin)
@@ -473,8 +499,9 @@ def main(argv=None) -> int:
     print(f"sim2real: twin {args.twin}: {res['runs']} runs; on the {len(me['y'])} measured records logistic "
           f"regression {lr['accuracy']:.2f} (" + ", ".join(f"{c} {report.fmt(v, '{:.2f}')}" for c, v in
                                                          lr["per_class"].items())
-          + f"), with the issue's features {ev['models'][f'logistic regression, {issue_set}']['measured']['accuracy']:.2f}"
-          f", nearest centroid {ev['models'][f'nearest centroid, {primary}']['measured']['accuracy']:.2f}; textbook verdict "
+          + f"), with the issue's features "
+          f"{ev['models'][f'logistic regression, {issue_set}']['measured']['accuracy']:.2f}, nearest centroid "
+          f"{ev['models'][f'nearest centroid, {primary}']['measured']['accuracy']:.2f}; textbook verdict "
           f"(balanced) twin {ev['verdict']['fixed']['twin_like_measured']['balanced']:.2f} at the records' "
           f"conditions, measured {ev['verdict']['fixed']['measured']['balanced']:.2f}; wrote "
           f"{out_dir / 'validation_real.md'}")

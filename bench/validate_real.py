@@ -167,7 +167,8 @@ def summarise(rows: list[dict]) -> dict:
     healthy = [r for r in rows if r["kind"] == "healthy"]
     if healthy:
         h = healthy[0]["checks"]
-        s["healthy"] = {k: h[k] for k in ("rms", "rms_ratio", "rms_12k_ratio", "no_line", "twin_strongest_fault_line_db", "shape",
+        s["healthy"] = {k: h[k] for k in ("rms", "rms_ratio", "rms_12k_ratio", "no_line",
+                                          "twin_strongest_fault_line_db", "shape",
                                           "shape_diff_db", "all")}
     right = {"measured": 0, "twin": 0}
     for r in rows:
@@ -249,14 +250,16 @@ def differences(rows: list[dict], twin: str) -> list[str]:
 
         rms = (med(lambda d: d["native"]["rms"], "m"), med(lambda d: d["native"]["rms"], "t"))
         kurt = (med(lambda d: d["native"]["kurtosis"], "m"), med(lambda d: d["native"]["kurtosis"], "t"))
-        one = (med(lambda d: d["ses"]["fixed"]["levels"]["1x"], "m"), med(lambda d: d["ses"]["fixed"]["levels"]["1x"], "t"))
+        one = (med(lambda d: d["ses"]["fixed"]["levels"]["1x"], "m"),
+               med(lambda d: d["ses"]["fixed"]["levels"]["1x"], "t"))
         ftf = (med(lambda d: d["ses"]["fixed"]["levels"]["FTF"], "m"),
                med(lambda d: d["ses"]["fixed"]["levels"]["FTF"], "t"))
         text = (f"**{kind}** (medians, measured / twin): RMS {rms[0]:.3f} / {rms[1]:.3f} g, kurtosis {kurt[0]:.1f} / "
                 f"{kurt[1]:.1f}, 1x in the envelope {one[0]:.0f} / {one[1]:.0f} dB, FTF {ftf[0]:.0f} / {ftf[1]:.0f} dB")
         if kind != "healthy":
             kl = KIND_LINE[kind]
-            line = (med(lambda d: d["ses"]["fixed"]["levels"][kl], "m"), med(lambda d: d["ses"]["fixed"]["levels"][kl], "t"))
+            line = (med(lambda d: d["ses"]["fixed"]["levels"][kl], "m"),
+                    med(lambda d: d["ses"]["fixed"]["levels"][kl], "t"))
             sizes = sorted({r["size_mils"] for r in rs})
             by_size_m = [float(np.median([r["measured"]["DE"]["ses"]["fixed"]["levels"][kl] for r in rs
                                           if r["size_mils"] == s])) for s in sizes]
@@ -298,9 +301,10 @@ def write_page(out_dir: Path, result: dict, spectra: dict, argv: list[str]) -> P
         panels = []
         for r in rs:
             meas, tw, mult, fr = spectra[r["record"]]
-            panels.append({"label": r["label"], "psd_f": meas["psd_f"], "psd_meas": meas["psd"], "psd_twin": tw["psd"],
-                           "ses_meas": ses_db(meas), "ses_twin": ses_db(tw),
-                           "lines_meas": kind_lines(kind, EFFECTIVE_6205, fr), "lines_twin": kind_lines(kind, mult, fr)})
+            panels.append({"label": r["label"], "psd_f": meas["psd_f"], "psd_meas": meas["psd"],
+                           "psd_twin": tw["psd"], "ses_meas": ses_db(meas), "ses_twin": ses_db(tw),
+                           "lines_meas": kind_lines(kind, EFFECTIVE_6205, fr),
+                           "lines_twin": kind_lines(kind, mult, fr)})
         name = f"validation_real_{kind}.png"
         report.kind_figure(img / name, kind, panels, twin)
         figs.append((kind, name))
@@ -459,6 +463,10 @@ def main(argv=None) -> int:
         print(f"validate_real: --twin: {args.twin!r}: {bad}", file=sys.stderr)
         return 2
     out_dir = Path(args.out)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        pass
     if not out_dir.is_dir():
         print(f"validate_real: --out: {out_dir}: not a folder", file=sys.stderr)
         return 2

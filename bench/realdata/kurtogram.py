@@ -104,7 +104,8 @@ def fast_kurtogram(x: np.ndarray, fs: float, levels: int = 3) -> list[Node]:
         d = d * (-1.0) ** np.arange(1, len(d) + 1)
         mid = 0.5 * (f_lo + f_hi)
         for c2, lo, hi in ((a, f_lo, mid), (d, mid, f_hi)):
-            nodes.append(Node(level + 1.0, lo, hi, envelope_kurtosis(c2[skip:]), float(np.mean(np.abs(c2[skip:]) ** 2))))
+            c2s = c2[skip:]
+            nodes.append(Node(level + 1.0, lo, hi, envelope_kurtosis(c2s), float(np.mean(np.abs(c2s) ** 2))))
             split3(c2, lo, hi, level + 1.0)
             split2(c2, lo, hi, level + 1.0)
 

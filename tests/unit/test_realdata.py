@@ -7,6 +7,7 @@ take the data folder as an argument (bench/validate_real.py, bench/sim2real.py) 
 
 from __future__ import annotations
 
+import itertools
 import json
 import sys
 from pathlib import Path
@@ -17,8 +18,15 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "bench"))
 
-from realdata.diagnostics import (KIND_LINE, amplitude_spectrum, decimate, diagnose, envelope_analysis,  # noqa: E402
-                                  moments, squared_envelope)
+from realdata.diagnostics import (  # noqa: E402
+    KIND_LINE,
+    amplitude_spectrum,
+    decimate,
+    diagnose,
+    envelope_analysis,
+    moments,
+    squared_envelope,
+)
 from realdata.kurtogram import fast_kurtogram, pick_band  # noqa: E402
 from realdata.records import EFFECTIVE_6205, parse_name  # noqa: E402
 
@@ -99,7 +107,8 @@ def test_ses_finds_a_synthetic_impact_train_and_its_level():
     bpfo = EFFECTIVE_6205["bpfo"] * fr
     t = np.arange(int(10 * fs)) / fs
     phase = (t * bpfo) % 1.0 / bpfo
-    x = np.exp(-phase / 1.5e-3) * np.sin(2 * np.pi * 3000.0 * t) + 0.2 * np.random.default_rng(2).standard_normal(t.size)
+    noise = 0.2 * np.random.default_rng(2).standard_normal(t.size)
+    x = np.exp(-phase / 1.5e-3) * np.sin(2 * np.pi * 3000.0 * t) + noise
     r = envelope_analysis(x, fs, (2000.0, 4000.0), fr, EFFECTIVE_6205)
     assert r["verdict"] == "outer" and r["levels"]["BPFO"] > 30.0 and r["levels"]["BPFI"] < 10.0
     am = np.sin(2 * np.pi * 3000.0 * t) * np.sqrt(1.0 + 0.5 * np.cos(2 * np.pi * 100.0 * t))
@@ -170,7 +179,6 @@ def test_case_toml_writes_every_embedded_case_back():
 
 
 def test_sim2real_grid_specs_cover_the_runs_exactly():
-    sys.path.insert(0, str(ROOT / "bench"))
     from sim2real import factorise
 
     pts = [({"fault": "outer", "speed_hz": s, "slip": sl, "angle_deg": a}, 2)
@@ -181,8 +189,6 @@ def test_sim2real_grid_specs_cover_the_runs_exactly():
     specs = factorise(pts)
     runs = []
     for fixed, grid, reps in specs:
-        import itertools
-
         for combo in itertools.product(*grid.values()):
             runs += [json.dumps(dict(fixed, **dict(zip(grid, combo))), sort_keys=True)] * reps
     assert sorted(runs) == sorted(json.dumps(p, sort_keys=True) for p, r in pts for _ in range(r))
