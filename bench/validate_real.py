@@ -34,7 +34,15 @@ for p in (str(ROOT), str(HERE)):
         sys.path.insert(0, p)
 
 from realdata import report  # noqa: E402
-from realdata.diagnostics import BROAD_BANDS, KIND_LINE, decimate, diagnose, estimate_speed, moments  # noqa: E402
+from realdata.diagnostics import (  # noqa: E402
+    BROAD_BANDS,
+    KIND_LINE,
+    decimate,
+    diagnose,
+    estimate_speed,
+    moments,
+    null_levels,
+)
 from realdata.records import CWRU_6203, EFFECTIVE_6205, KINDS, RecordError, scan  # noqa: E402
 from realdata.twin import LIBRARY, Condition, check_twin, default_twin, synthesize  # noqa: E402
 
@@ -67,6 +75,14 @@ def analyse(x: np.ndarray, fs: float, fr: float, mult: dict, extra=(), mains_hz:
     d = diagnose(decimate(x, fs, FS), FS, fr, mult, extra_mults=extra, mains_hz=mains_hz, keep_spectra=True)
     d["native"] = moments(x)
     return d
+
+
+def null_percentiles(d: dict, fr: float, mult: dict, mains_hz: float) -> dict:
+    """Median, 95th and 99th percentiles [dB over floor] of the line measure at 300 frequencies where no line is
+    expected (2-4 kHz SES): the false-alarm level of a line level on this signal."""
+    s = d["ses"]["fixed"]
+    v = null_levels(s["f"], s["S"], s["floor"], fr, [mult], mains_hz)
+    return {"median": float(np.median(v)), "p95": float(np.percentile(v, 95)), "p99": float(np.percentile(v, 99))}
 
 
 def shape_db(bands_db: list) -> np.ndarray:
@@ -135,9 +151,12 @@ def run(args) -> dict:
         for seed in range(1, args.seeds + 1):
             sig = synthesize(cond, args.twin, seed, fr, fs, n / fs)
             twins.append({ch: analyse(sig[ch], fs, fr, sig["mult"], mains_hz=sig["mains_hz"])
-                          for ch in ("DE", "FE")} | {"seed": seed, "mult": sig["mult"]})
+                          for ch in ("DE", "FE")} | {"seed": seed, "mult": sig["mult"], "mains_hz": sig["mains_hz"]})
             bar.update(1)
         c = checks(rec, meas["DE"], [t["DE"] for t in twins])
+        if rec.kind == "healthy":
+            c["null_db"] = {"measured": null_percentiles(meas["DE"], fr, EFFECTIVE_6205, 60.0),
+                            "twin": null_percentiles(twins[0]["DE"], fr, twins[0]["mult"], twins[0]["mains_hz"])}
         fe = None
         if "FE" in meas:
             fe = checks(rec, meas["FE"], [t["FE"] for t in twins])
@@ -167,7 +186,7 @@ def summarise(rows: list[dict]) -> dict:
     healthy = [r for r in rows if r["kind"] == "healthy"]
     if healthy:
         h = healthy[0]["checks"]
-        s["healthy"] = {k: h[k] for k in ("rms", "rms_ratio", "rms_12k_ratio", "no_line",
+        s["healthy"] = {k: h[k] for k in ("rms", "rms_ratio", "rms_12k_ratio", "no_line", "null_db",
                                           "twin_strongest_fault_line_db", "shape",
                                           "shape_diff_db", "all")}
     right = {"measured": 0, "twin": 0}
@@ -338,7 +357,7 @@ def write_page(out_dir: Path, result: dict, spectra: dict, argv: list[str]) -> P
         f"{result['wall_s']:.0f} s.",
         "",
         "```sh",
-        ".venv/bin/python bench/validate_real.py DATA_DIR " + " ".join(argv),
+        " ".join([".venv/bin/python bench/validate_real.py DATA_DIR", *argv]),
         "```",
         "",
         "DATA_DIR: the CWRU drive-end records as NumPy files (`1797_IR_7_DE12.npz`: keys `DE`, `FE` in g), from the "
@@ -388,7 +407,12 @@ def write_page(out_dir: Path, result: dict, spectra: dict, argv: list[str]) -> P
             f"floor ({'none' if h['no_line'] else 'one'} above 10 dB: {report.mark(h['no_line'])}); band shape "
             "(each band's share of 0-5 kHz, twin - measured) " + ", ".join(
                 f"{BROAD_BANDS[i][0] / 1e3:g}-{BROAD_BANDS[i][1] / 1e3:g} kHz {d:+.0f} dB"
-                for i, d in zip(SHAPE_BANDS, h["shape_diff_db"])) + f" (within 10 dB: {report.mark(h['shape'])}).",
+                for i, d in zip(SHAPE_BANDS, h["shape_diff_db"])) + f" (within 10 dB: {report.mark(h['shape'])}). "
+            "The line measure where no line is expected (300 random frequencies in 20-480 Hz, 2-4 kHz SES: its "
+            "false-alarm level) reads, measured / twin: median "
+            f"{h['null_db']['measured']['median']:.1f} / {h['null_db']['twin']['median']:.1f} dB, 95 % "
+            f"{h['null_db']['measured']['p95']:.1f} / {h['null_db']['twin']['p95']:.1f} dB, 99 % "
+            f"{h['null_db']['measured']['p99']:.1f} / {h['null_db']['twin']['p99']:.1f} dB over the floor.",
             ""]
     lines += [
         "## Where the twin differs, and why",
@@ -443,6 +467,22 @@ def plain(v):
     raise TypeError(f"{type(v).__name__} is not JSON")
 
 
+def shown_argv(argv: list[str], data_dir: str) -> list[str]:
+    """The command's options as the page shows them: without the data folder and the options that do not change
+    the results (where the JSON and the work files go, how many processes)."""
+    out, skip = [], False
+    for a in argv:
+        if skip:
+            skip = False
+            continue
+        if a in ("--json", "--work", "--workers"):
+            skip = True
+            continue
+        if a != data_dir and not a.startswith(("--json=", "--work=", "--workers=")):
+            out.append(a)
+    return out
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -475,7 +515,7 @@ def main(argv=None) -> int:
     except RecordError as exc:
         print(f"validate_real: DATA_DIR: {exc}", file=sys.stderr)
         return 2
-    shown = [a for a in argv if a != args.data_dir]
+    shown = shown_argv(argv, args.data_dir)
     page = write_page(out_dir, result, spectra, shown)
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=1, default=plain))
