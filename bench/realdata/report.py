@@ -17,11 +17,12 @@ KIND_COLOUR = {"healthy": "k", "inner": "tab:red", "ball": "tab:green", "outer":
 
 
 def code_version(root: Path) -> str:
-    """The code's commit (``-dirty`` when tracked files differ), for the page's header."""
+    """The code's commit (``-dirty`` when tracked files other than the generated pages differ), for the header."""
     try:
         rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True,
                              timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root,
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".", ":!docs",
+                                ":!BENCHMARKS.md", ":!bench/records.json"], cwd=root,
                                capture_output=True, text=True, timeout=10).stdout.strip()
         return (rev or "unknown") + ("-dirty" if dirty else "")
     except (OSError, subprocess.SubprocessError):
