@@ -12,8 +12,6 @@ import json
 import sys
 import time
 
-import numpy as np
-
 from bkabem_ros.cli.base import UsageError, check_output_dir, finite_float, output_path, pos_int, writing
 
 #: validate: below 1 Hz one BPFO period of the TDSM reference takes minutes of computing; the TDSM output grows
@@ -76,6 +74,8 @@ def _excitation_table(ex, max_rows: int = 24) -> str:
 
 
 def _spectrum_table(sp, max_rows: int = 12) -> str:
+    import numpy as np
+
     from bkabem_core.model.vocabulary import LOCATIONS
 
     ff = sp.fault_frequencies_hz
@@ -158,6 +158,8 @@ SWEEP_BATCH = 256
 
 def _check_speeds(case, speeds_hz, argument: str) -> None:
     """Shaft speeds must lie in the case's operating range (0 .. operating.max_speed_hz)."""
+    import numpy as np
+
     top = float(np.max(speeds_hz))
     if top > case.max_speed_hz:
         raise UsageError(f"{argument}: {top:g} Hz is above the case's operating.max_speed_hz ({case.max_speed_hz:g} Hz; "
@@ -166,6 +168,8 @@ def _check_speeds(case, speeds_hz, argument: str) -> None:
 
 def _check_finite(what: str, *arrays) -> None:
     """The last check before anything is written: no NaN or inf leaves the command."""
+    import numpy as np
+
     for a in arrays:
         a = np.asarray(a)
         if a.size and not np.all(np.isfinite(a)):
@@ -188,6 +192,8 @@ def _sweep_batches(model, speeds, progress: bool):
 
 
 def _sweep_fields(sw, si: int, li: int, di: int) -> dict:
+    import numpy as np
+
     disp, acc = sw.displacement[si, :, li, di], sw.acceleration[si, :, li, di]
     return {"displacement_m": np.abs(disp).tolist(), "acceleration_m_s2": np.abs(acc).tolist(),
             "phase_rad": np.angle(disp).tolist(),
@@ -197,6 +203,8 @@ def _sweep_fields(sw, si: int, li: int, di: int) -> dict:
 
 def _write_sweep_json(out, sw, speeds, elapsed: float) -> None:
     """The ``--json`` document (architecture.md's fields), written row by row: no Python lists of the whole sweep."""
+    import numpy as np
+
     from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
 
     acc, disp = sw.acceleration, sw.displacement
@@ -222,6 +230,8 @@ def _write_sweep_json(out, sw, speeds, elapsed: float) -> None:
 
 
 def cmd_sweep(args) -> int:
+    import numpy as np
+
     if args.to_hz < args.from_hz:
         raise UsageError(f"--to-hz ({args.to_hz:g}) must be >= --from-hz ({args.from_hz:g})")
     if (args.json or args.png) and args.steps > SWEEP_MAX_STEPS_IN_MEMORY:
@@ -334,6 +344,8 @@ def cmd_demo(args) -> int:
        (bkabem_ros.cli.demo), with progress, a summary and the command that opens the result in Rerun.
     """
     from pathlib import Path
+
+    import numpy as np
 
     case = _load_case(args.case)
     _check_speeds(case, args.speeds, "--speeds")

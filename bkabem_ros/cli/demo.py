@@ -28,12 +28,12 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+if TYPE_CHECKING:                   # numpy is imported when the demo runs, not to parse its options
+    import numpy as np
 
-from bkabem_core.analysis.condition import iso_velocity_rms_mm_s
-
-__all__ = ["DemoResult", "iso_velocity_rms_mm_s", "main", "run_demo"]
+__all__ = ["DemoResult", "main", "run_demo"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -59,6 +59,8 @@ class _Summary:
         elif type_name.endswith("/BearingFaultFrequencies"):
             self.bpfo_hz = float(msg.bpfo)
         elif type_name.endswith("/VibrationWaveform") and msg.quantity == "acceleration":
+            import numpy as np
+
             from bkabem_ros.messages.convert import waveform_array
 
             a = waveform_array(msg).astype(np.float64)
@@ -77,6 +79,10 @@ class _Summary:
         buf = self.acc.get(loc)
         if not buf:
             return []
+        import numpy as np
+
+        from bkabem_core.analysis.condition import iso_velocity_rms_mm_s
+
         x = np.concatenate(list(buf), axis=1)
         return [iso_velocity_rms_mm_s(x[c], self.sample_rate) for c in range(x.shape[0])]
 

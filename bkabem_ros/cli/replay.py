@@ -18,7 +18,7 @@ __all__ = ["add_parser", "main"]
 def add_parser(sub, add_case=None):
     """Register ``bkabem replay`` on an argparse subparsers object."""
     from bkabem_ros.cli.base import finite_float, output_path
-    from bkabem_ros.viewer.rerun_io import DEFAULT_CONNECT_URL
+    from bkabem_ros.viewer.blueprint import DEFAULT_CONNECT_URL
 
     p = sub.add_parser("replay", help="republish an MCAP recording on ROS 2 and/or convert it for Rerun",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

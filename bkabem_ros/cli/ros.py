@@ -95,7 +95,7 @@ def cmd_node(args) -> int:
 
         connect = args.rerun_connect
         if connect == "default":
-            from bkabem_ros.viewer.rerun_io import DEFAULT_CONNECT_URL
+            from bkabem_ros.viewer.blueprint import DEFAULT_CONNECT_URL
 
             connect = DEFAULT_CONNECT_URL
 

@@ -36,11 +36,14 @@ import sys
 import time
 import zipfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from bkabem_core.synth.synthesizer import SynthError, Synthesizer, parse_profile
 from bkabem_ros.cli.base import UsageError, output_path, writing
+
+if TYPE_CHECKING:                   # numpy and the synthesiser are imported when the command runs, not to parse
+    import numpy as np
+
+    from bkabem_core.synth.synthesizer import SynthError, Synthesizer
 
 _UNIT_SUFFIX = {"m/s^2": "m_s2", "m": "m", "mm/s": "mm_s"}
 #: Bounds of the options (beyond them the samples overflow float32 or the output does not fit a disk):
@@ -88,6 +91,8 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
 
 
 def _num(name: str, text, kind=float, minimum=None, strict=False, allow_none=False, maximum=None):
+    from bkabem_core.synth.synthesizer import SynthError
+
     if text is None:
         if allow_none:
             return None
@@ -107,6 +112,8 @@ def _num(name: str, text, kind=float, minimum=None, strict=False, allow_none=Fal
 
 def _settings(args) -> dict:
     """Validated settings from the Namespace (raises SynthError naming the option)."""
+    from bkabem_core.synth.synthesizer import SynthError, parse_profile
+
     scenario = getattr(args, "scenario", None)
     if scenario is None:
         for opt in ("time_scale", "scenario_start"):
@@ -161,6 +168,8 @@ def _noise_options(args) -> list[str]:
 
 def _rename(err: SynthError) -> SynthError:
     """Library argument names -> CLI option names (a speed above what the sample rate can carry: ``--rate``)."""
+    from bkabem_core.synth.synthesizer import SynthError
+
     names = {"sample_rate_hz": "--rate", "chunk_s": "--chunk", "seconds": "--seconds", "slip": "--slip",
              "seed": "--seed", "max_order": "--max-order", "quantities": "--quantities", "snr_db": "--snr-db",
              "band_limit": "--band-limit"}
@@ -184,6 +193,8 @@ class _NpzWriter:
     """Streams an .npz: the sample array is written chunk by chunk (Fortran order: sample-major bytes)."""
 
     def __init__(self, path: Path, n_channels: int, n_total: int, dtype):
+        import numpy as np
+
         self.path = path
         self.zf = zipfile.ZipFile(path, "w", compression=zipfile.ZIP_STORED, allowZip64=True)
         self.fh = self.zf.open("samples.npy", "w", force_zip64=True)
@@ -193,11 +204,15 @@ class _NpzWriter:
         self.written = 0
 
     def write(self, chunk, state: int | None = None) -> None:
+        import numpy as np
+
         block = np.ascontiguousarray(chunk.samples.T)                 # (n, C) sample-major
         self.fh.write(block.tobytes())
         self.written += block.shape[0]
 
     def finish(self, arrays: dict, speed_writer, metadata: dict) -> None:
+        import numpy as np
+
         self.fh.close()
         with self.zf.open("speed_hz.npy", "w", force_zip64=True) as fh:
             np.lib.format.write_array_header_2_0(
@@ -225,6 +240,8 @@ class _NpzWriter:
 
 def _chunk_speed(chunk) -> np.ndarray:
     """Shaft speed [Hz] per sample of a streamed chunk (linear from its first to its end speed)."""
+    import numpy as np
+
     return chunk.shaft_speed_hz + (chunk.shaft_speed_end_hz - chunk.shaft_speed_hz) * (
         np.arange(chunk.n_samples) / chunk.n_samples)
 
@@ -242,6 +259,8 @@ class _CsvWriter:
         self.fh.write(",".join(cols) + "\n")
 
     def write(self, chunk, state: int | None = None) -> None:
+        import numpy as np
+
         t = chunk.time_s
         speed = self.profile.speed_hz(t) if self.profile is not None else _chunk_speed(chunk)
         cols = [t, speed, chunk.samples.T.astype(np.float64)]
@@ -261,6 +280,7 @@ class _CsvWriter:
 
 def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_hz: float, title: str) -> None:
     import matplotlib
+    import numpy as np
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -300,8 +320,11 @@ def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_
 
 def _scenario_run(st, args):
     """(ScenarioRun, its chunk iterator, metadata, title) of ``--scenario`` (raises UsageError)."""
+    import numpy as np
+
     from bkabem_core.scenario.run import ScenarioRun
     from bkabem_core.scenario.timeline import Scenario, ScenarioError
+    from bkabem_core.synth.synthesizer import SynthError
 
     try:
         scenario = Scenario.load(st["scenario"])
@@ -344,8 +367,11 @@ def _scenario_run(st, args):
 
 def synth_main(args) -> int:
     """The ``bkabem synth`` command for an argparse Namespace; returns the exit code."""
+    import numpy as np
+
     from bkabem_core.model.case import Case
     from bkabem_core.solve.harmonic import BkaBem
+    from bkabem_core.synth.synthesizer import SynthError, Synthesizer
 
     try:
         st = _settings(args)

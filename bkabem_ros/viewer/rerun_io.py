@@ -51,12 +51,9 @@ import numpy as np
 
 from bkabem_core.analysis import condition, fault_lines, health
 from bkabem_ros.messages import convert as msgs
-from bkabem_ros.viewer.blueprint import DISPLAY_UNITS, TIMELINE, blueprint
+from bkabem_ros.viewer.blueprint import DEFAULT_CONNECT_URL, DISPLAY_UNITS, TIMELINE, blueprint
 
 __all__ = ["DEFAULT_CONNECT_URL", "TIMELINE", "RerunLogger", "RerunSink", "blueprint", "rerun_binary"]
-
-#: Viewer address used by ``--rerun-connect`` without a URL (the local viewer's gRPC proxy).
-DEFAULT_CONNECT_URL = "rerun+http://127.0.0.1:9876/proxy"
 
 _CHANNEL_COLORS = {"vertical": (31, 119, 180), "horizontal": (255, 127, 14)}
 _LIGHT_COLORS = {"vertical": (150, 200, 240), "horizontal": (255, 200, 140)}
