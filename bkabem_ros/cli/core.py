@@ -1,7 +1,8 @@
 """The core commands of ``bkabem``: ``excitation``, ``spectrum``, ``sweep``, ``validate`` and ``demo``.
 
 They parse, call ``bkabem_core`` and print; none imports rclpy (``demo`` only for its ROS part, after the core
-part). Field names of the JSON outputs follow the contract in ``architecture.md``. Errors follow the contract
+part). Every line of an output is named by what it is (``BPFO``, ``BPFI - 1 f_r``, ``2 BSF + FTF``, ``1x``:
+:mod:`bkabem_core.excitation.line_names`) and the tables list the largest lines. Errors follow the contract
 of :mod:`bkabem_ros.cli.base` (one line naming the argument or case key, exit code 2).
 """
 
@@ -49,27 +50,47 @@ def _print_json(obj) -> None:
     sys.stdout.write("\n")
 
 
+def _largest(amplitude, max_rows: int):
+    """Indices of the ``max_rows`` largest lines (by their largest amplitude over the other axes), largest first."""
+    import numpy as np
+
+    a = np.asarray(amplitude).reshape(len(amplitude), -1).max(axis=1) if len(amplitude) else np.zeros(0)
+    return np.argsort(-a, kind="stable")[:max_rows]
+
+
 def _excitation_table(ex, max_rows: int = 24) -> str:
+    import numpy as np
+
+    from bkabem_core.excitation.line_names import line_labels
+
     d = ex.to_dict()
+    ls = ex.line_set()
     what = "quasi-static excitation" if ex.method == "quasi_static" else \
         f"4-DOF excitation at {ex.reference_speed_hz:g} Hz"
+    kept = f"{len(ex.orders)} BPFO orders kept of {len(ex.all_orders)}" if ex.lines is None else \
+        f"{len(ls)} lines of its defects"
     lines = [
         f"{(ex.bearing or '').upper()} bearing, {what} under {ex.radial_load_n:.1f} N radial + {ex.axial_load_n:.0f} N "
-        f"axial  (BPFO {ex.bpfo_per_hz:.4f} x shaft Hz, clearance {ex.clearance_m * 1e6:.1f} um, "
-        f"{len(ex.orders)} orders kept of {len(ex.all_orders)}"
-        + (f"; {len(ex.lines)} lines of its defects, --json for all)" if ex.lines is not None else ")"),
+        f"axial  (BPFO {ex.bpfo_per_hz:.4f} x shaft Hz, clearance {ex.clearance_m * 1e6:.1f} um, {kept})",
         f"  DC           vertical {d['dc_m']['vertical'] * 1e6:9.3f} um   horizontal "
         f"{d['dc_m']['horizontal'] * 1e6:9.4f} um",
-        f"  peak-to-peak vertical {d['peak_to_peak_m']['vertical'] * 1e6:9.3f} um   horizontal "
-        f"{d['peak_to_peak_m']['horizontal'] * 1e6:9.4f} um",
-        f"  {'order':>5} {'f@ref [Hz]':>10} {'A_v [um]':>10} {'phi_v [rad]':>11} {'A_h [um]':>10} {'phi_h [rad]':>11}",
     ]
-    for i, k in enumerate(ex.orders[:max_rows]):
-        lines.append(f"  {k:5d} {k * ex.bpfo_per_hz * ex.reference_speed_hz:10.3f} "
-                     f"{ex.amplitude_m['vertical'][i] * 1e6:10.4f} {ex.phase_rad['vertical'][i]:11.4f} "
-                     f"{ex.amplitude_m['horizontal'][i] * 1e6:10.4f} {ex.phase_rad['horizontal'][i]:11.4f}")
-    if len(ex.orders) > max_rows:
-        lines.append(f"  ... {len(ex.orders) - max_rows} more orders (--json for all)")
+    if ex.lines is None:         # the recorded window of a moving defect is not its period: no peak-to-peak
+        lines.append(f"  peak-to-peak vertical {d['peak_to_peak_m']['vertical'] * 1e6:9.3f} um   horizontal "
+                     f"{d['peak_to_peak_m']['horizontal'] * 1e6:9.4f} um")
+    amp = np.abs(ls.amplitude)
+    rows = _largest(amp, max_rows)
+    labels = line_labels(ls.coefficients[rows], ex.n_balls)
+    f_ref = ls.frequency_hz(ex.reference_speed_hz)
+    width = max([10] + [len(t) for t in labels])
+    lines.append(f"  {'line':<{width}} {'f@ref [Hz]':>10} {'A_v [um]':>10} {'phi_v [rad]':>11} {'A_h [um]':>10} "
+                 f"{'phi_h [rad]':>11}" + ("   (the largest first)" if len(ls) else ""))
+    ph = np.angle(ls.amplitude)
+    for i, label in zip(rows, labels):
+        lines.append(f"  {label:<{width}} {f_ref[i]:10.3f} {amp[i, 0] * 1e6:10.4f} {ph[i, 0]:11.4f} "
+                     f"{amp[i, 1] * 1e6:10.4f} {ph[i, 1]:11.4f}")
+    if len(ls) > max_rows:
+        lines.append(f"  ... {len(ls) - max_rows} smaller lines (--json for all)")
     return "\n".join(lines)
 
 
@@ -83,15 +104,19 @@ def _spectrum_table(sp, max_rows: int = 12) -> str:
              f"BPFO {ff.bpfo:.3f} Hz, BPFI {ff.bpfi:.3f} Hz, BSF {ff.bsf:.3f} Hz"]
     acc = np.abs(sp.acceleration)
     disp = np.abs(sp.displacement)
-    head = "  " + f"{'order':>5} {'f [Hz]':>9}" + "".join(f" {loc + ' v/h [m/s2]':>27}" for loc in LOCATIONS)
-    lines.append(head)
-    for i, k in enumerate(sp.orders[:max_rows]):
-        row = f"  {k:5d} {sp.frequency_hz[i]:9.2f}"
+    rows = _largest(acc, max_rows)
+    labels = [sp.labels[i] if sp.labels is not None else f"{int(sp.orders[i])} BPFO" for i in rows]
+    width = max([12] + [len(t) for t in labels])
+    lines.append(f"  the {min(max_rows, len(rows))} largest of {len(sp.frequency_hz)} lines "
+                 f"(acceleration amplitude, vertical/horizontal):")
+    lines.append("  " + f"{'line':<{width}} {'f [Hz]':>9}" + "".join(f" {loc + ' v/h [m/s2]':>27}" for loc in LOCATIONS))
+    for i, label in zip(rows, labels):
+        row = f"  {label:<{width}} {sp.frequency_hz[i]:9.2f}"
         for li in range(len(LOCATIONS)):
             row += f" {acc[i, li, 0]:13.4e}/{acc[i, li, 1]:.4e}"
         lines.append(row)
-    if len(sp.orders) > max_rows:
-        lines.append(f"  ... {len(sp.orders) - max_rows} more orders (--json for all)")
+    if len(sp.frequency_hz) > max_rows:
+        lines.append(f"  ... {len(sp.frequency_hz) - max_rows} smaller lines (--json for all)")
     rms_a = np.sqrt(0.5 * np.sum(acc ** 2, axis=0))
     rms_d = np.sqrt(0.5 * np.sum(disp ** 2, axis=0))
     for li, loc in enumerate(LOCATIONS):
@@ -136,10 +161,10 @@ def cmd_spectrum(args) -> int:
     sp = model.spectrum(args.speed_hz)
     _check_finite(f"spectrum at {args.speed_hz:g} Hz", sp.displacement, sp.acceleration, sp.dc_m)
     if args.png:
-        from bkabem_core.analysis.plots import plot_spectrum
+        from bkabem_core.analysis.plots import defects_of_case, plot_spectrum
 
         with writing("--png", args.png):
-            plot_spectrum(sp, args.png)
+            plot_spectrum(sp, args.png, defects=defects_of_case(case), title=case.name)
     if args.json:
         _print_json(sp.to_dict())
     else:
@@ -202,7 +227,9 @@ def _sweep_fields(sw, si: int, li: int, di: int) -> dict:
 
 
 def _write_sweep_json(out, sw, speeds, elapsed: float) -> None:
-    """The ``--json`` document (architecture.md's fields), written row by row: no Python lists of the whole sweep."""
+    """The ``--json`` document, written row by row (no Python lists of the whole sweep): per line its name
+    (``lines``), coefficients, BPFO order (0: not one) and frequency at every speed; per location and direction the
+    amplitudes, phases and overall RMS."""
     import numpy as np
 
     from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
@@ -211,7 +238,14 @@ def _write_sweep_json(out, sw, speeds, elapsed: float) -> None:
     rms_a, rms_d = sw.rms("acceleration"), sw.rms("displacement")
     w = out.write
     w('{\n "speeds_hz": ' + json.dumps(speeds.tolist()) + ',\n "orders": ' + json.dumps([int(k) for k in sw.orders])
-      + f',\n "bpfo_per_hz": {json.dumps(float(sw.bpfo_per_hz))},\n "wall_time_s": {json.dumps(elapsed)}')
+      + ',\n "lines": ' + json.dumps(list(sw.labels or ()))
+      + ',\n "line_coefficients": ' + json.dumps([] if sw.coefficients is None else sw.coefficients.tolist())
+      + f',\n "bpfo_per_hz": {json.dumps(float(sw.bpfo_per_hz))},\n "wall_time_s": {json.dumps(elapsed)}'
+      + ',\n "frequency_hz": [')
+    f = sw.frequency_hz
+    for si in range(f.shape[0]):
+        w(("," if si else "") + "\n  " + json.dumps(f[si].tolist()))
+    w("]")
     for li, loc in enumerate(LOCATIONS):
         w(f',\n "{loc}": {{')
         for di, d in enumerate(DIRECTIONS):
@@ -248,15 +282,14 @@ def cmd_sweep(args) -> int:
     progress = not (args.json or args.csv or args.jsonl) and sys.stderr.isatty()
     t0 = time.perf_counter()
     if args.json or args.png:                       # whole sweep (bounded by SWEEP_MAX_STEPS_IN_MEMORY)
-        parts = [sw for _, sw in _sweep_batches(model, speeds, progress)]
-        sw_all = Sweep(speeds_hz=speeds, orders=parts[0].orders, bpfo_per_hz=parts[0].bpfo_per_hz,
-                       displacement=np.concatenate([p.displacement for p in parts]))
+        sw_all = Sweep.concatenate(sw for _, sw in _sweep_batches(model, speeds, progress))
         elapsed = time.perf_counter() - t0
         if args.png:
-            from bkabem_core.analysis.plots import plot_sweep
+            from bkabem_core.analysis.plots import defects_of_case, plot_sweep
 
             with writing("--png", args.png):
-                plot_sweep(sw_all, args.png)
+                plot_sweep(sw_all, args.png, defects=defects_of_case(case), fault_multipliers=model.fault_multipliers,
+                           title=case.name)
         if args.json:
             _write_sweep_json(sys.stdout, sw_all, speeds, elapsed)
             return 0
@@ -266,7 +299,7 @@ def cmd_sweep(args) -> int:
     if args.csv:
         w = csv.writer(sys.stdout)
         w.writerow(["speed_hz", "order", "frequency_hz", "location", "direction", "displacement_m",
-                    "acceleration_m_s2", "phase_rad"])
+                    "acceleration_m_s2", "phase_rad", "line"])
         for i0, sw in batches:
             acc, disp, f = sw.acceleration, sw.displacement, sw.frequency_hz
             for si, s in enumerate(sw.speeds_hz):
@@ -275,13 +308,13 @@ def cmd_sweep(args) -> int:
                         for di, d in enumerate(DIRECTIONS):
                             x = disp[si, ki, li, di]
                             w.writerow([f"{s:.6g}", int(k), f"{f[si, ki]:.6g}", loc, d, f"{abs(x):.6e}",
-                                        f"{abs(acc[si, ki, li, di]):.6e}", f"{np.angle(x):.6f}"])
+                                        f"{abs(acc[si, ki, li, di]):.6e}", f"{np.angle(x):.6f}", sw.labels[ki]])
         return 0
     if args.jsonl:
         for i0, sw in batches:
             f = sw.frequency_hz
             for si, s in enumerate(sw.speeds_hz):
-                row = {"speed_hz": float(s), "orders": [int(k) for k in sw.orders],
+                row = {"speed_hz": float(s), "lines": list(sw.labels), "orders": [int(k) for k in sw.orders],
                        "frequency_hz": f[si].tolist()}
                 for li, loc in enumerate(LOCATIONS):
                     row[loc] = {d: _sweep_fields(sw, si, li, di) for di, d in enumerate(DIRECTIONS)}
@@ -298,7 +331,7 @@ def cmd_sweep(args) -> int:
                 lines.append(f"  {sw.speeds_hz[si]:10.3f}" + "".join(f" {rms[si, li, 0]:13.4e}/{rms[si, li, 1]:.4e}"
                                                                      for li in range(len(LOCATIONS))))
     elapsed = time.perf_counter() - t0
-    print(f"sweep {args.from_hz:g}..{args.to_hz:g} Hz, {args.steps} speeds x {n_orders} orders "
+    print(f"sweep {args.from_hz:g}..{args.to_hz:g} Hz, {args.steps} speeds x {n_orders} lines "
           f"in {elapsed * 1e3:.1f} ms")
     print(f"  {'speed [Hz]':>10}" + "".join(f" {loc + ' v/h RMS [m/s2]':>27}" for loc in LOCATIONS))
     print("\n".join(lines))
@@ -365,7 +398,7 @@ def cmd_demo(args) -> int:
           f"elements, reduced to {info.get('modal_basis_size', '-')} modes; "
           f"{info['orders']} orders diagonalised {model.preparation_time_s['solver_setup']:.2f} s)")
     print(_excitation_table(ex, max_rows=12))
-    from bkabem_core.analysis.plots import plot_excitation, plot_spectrum, plot_sweep
+    from bkabem_core.analysis.plots import defects_of_case, plot_excitation, plot_spectrum, plot_sweep
 
     plot_excitation(ex, str(out / "excitation.png"))
     for s in args.speeds:
@@ -375,12 +408,13 @@ def cmd_demo(args) -> int:
         print()
         print(_spectrum_table(sp, max_rows=6))
         print(f"  (solved in {dt * 1e3:.2f} ms)")
-    plot_spectrum(model.spectrum(args.speeds[-1]), str(out / "spectrum.png"))
+    defects = defects_of_case(case)
+    plot_spectrum(model.spectrum(args.speeds[-1]), str(out / "spectrum.png"), defects=defects, title=case.name)
     speeds = np.linspace(0.5, case.max_speed_hz, 500)
     t1 = time.perf_counter()
     sw = model.sweep(speeds)
     print(f"\nsweep of {speeds.size} speeds x {sw.orders.size} orders in {(time.perf_counter() - t1) * 1e3:.0f} ms")
-    plot_sweep(sw, str(out / "sweep.png"))
+    plot_sweep(sw, str(out / "sweep.png"), defects=defects, fault_multipliers=model.fault_multipliers, title=case.name)
     print(f"wrote {out / 'excitation.png'}, {out / 'spectrum.png'}, {out / 'sweep.png'}")
     if args.no_ros:
         return 0
@@ -432,8 +466,9 @@ def add_parsers(sub) -> None:
                    help=f"number of speeds (at most {SWEEP_MAX_STEPS}; {SWEEP_MAX_STEPS_IN_MEMORY} with --json or --png)")
     w.add_argument("--png", type=output_path("--png", (".png",)), help="order map and RMS vs speed")
     g = w.add_mutually_exclusive_group()
-    g.add_argument("--json", action="store_true", help="one JSON document (architecture.md's fields)")
-    g.add_argument("--csv", action="store_true", help="tidy CSV: one row per speed, order, location, direction "
+    g.add_argument("--json", action="store_true", help="one JSON document: speeds, lines (names, frequencies) and per "
+                                                       "location and direction amplitudes, phases, overall RMS")
+    g.add_argument("--csv", action="store_true", help="tidy CSV: one row per speed, line, location, direction "
                                                       "(streamed as computed)")
     g.add_argument("--jsonl", action="store_true", help="JSON lines: one object per speed (streamed as computed)")
     w.set_defaults(func=cmd_sweep)

@@ -72,7 +72,8 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
     p.add_argument("--out", required=True, type=output_path("--out", (".npz", ".csv"), make_parents=True),
                    help="output file, .npz or .csv")
     p.add_argument("--png", default=None, type=output_path("--png", (".png",), make_parents=True),
-                   help="figure: waveform excerpt and spectrum with BPFO-order markers")
+                   help="figure: waveform excerpt and its spectrum, the fault frequencies marked and the largest "
+                        "lines named")
     p.add_argument("--seed", default="0", help="seed of slip and noise (default 0)")
     p.add_argument("--slip", default="0", help="random slip: std of the ball-pass interval / its mean (e.g. 0.01)")
     p.add_argument("--noise-acc", default=None, help="accelerometer noise density [m/s^2/sqrt(Hz)] (e.g. 1e-3)")
@@ -278,18 +279,26 @@ class _CsvWriter:
             pass
 
 
-def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_hz: float, title: str) -> None:
+def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_hz: float, title: str):
+    """Waveform excerpt and its spectrum, with the fault frequencies of each defect marked and the model's largest
+    lines named (:mod:`bkabem_core.analysis.plots`); returns the figure (closed)."""
     import matplotlib
     import numpy as np
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from bkabem_core.analysis.plots import _mark_fault_lines, _name_largest, defects_of_case, fault_line_hz
+    from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
+
     names = list(synth.channel_names)
     acc = next((i for i, n in enumerate(names) if n.endswith("acceleration")), 0)
     disp = next((i for i, n in enumerate(names) if n.endswith("displacement")), None)
-    bpfo = synth.bpfo_per_hz * speed_hz
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7.5))
+    model = synth.model
+    ff = model.fault_multipliers.at_speed(speed_hz)
+    bpfo = ff.bpfo
+    defects = defects_of_case(model.case)
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(11, 8))
     n_show = int(min(excerpt.shape[1], fs * (5.0 / bpfo if bpfo > 0 else 0.05)))
     t = np.arange(n_show) / fs * 1e3
     ax1.plot(t, excerpt[acc, -n_show:], lw=0.8, color="C0", label=f"{names[acc]} [{synth.units[acc]}]")
@@ -306,16 +315,30 @@ def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_
     win = np.hanning(n)
     spec = np.abs(np.fft.rfft((x - x.mean()) * win)) * 2 / win.sum()
     f = np.fft.rfftfreq(n, 1 / fs)
-    ax2.semilogy(f, np.maximum(spec, 1e-12), lw=0.7, color="C0")
-    for k in synth.orders:
-        if k * bpfo < fs / 2:
-            ax2.axvline(k * bpfo, color="C3", lw=0.5, alpha=0.35)
-    ax2.set_xlim(0, min(fs / 2, (synth.highest_order + 2) * bpfo * 1.05) if bpfo > 0 else fs / 2)
-    ax2.set_xlabel(f"frequency [Hz]   (red: BPFO orders, BPFO = {bpfo:.2f} Hz at {speed_hz:.2f} Hz shaft speed)")
-    ax2.set_ylabel(f"amplitude [{synth.units[acc]}] (Hann, last {n / fs:.2f} s)")
-    fig.tight_layout()
+    ax2.semilogy(f, np.maximum(spec, 1e-12), lw=0.7, color="C0", label=f"{names[acc]} (Hann, last {n / fs:.2f} s)")
+    lines = synth.frequency_hz(speed_hz)
+    f_hi = min(fs / 2, 1.05 * float(lines.max())) if lines.size and lines.max() > 0 else fs / 2
+    legend: dict = {}
+    bearing = synth.channels[acc].bearing
+    _mark_fault_lines(ax2, fault_line_hz(ff, speed_hz), [d for d in defects if d.bearing == bearing], f_hi, legend)
+    sp = model.spectrum(speed_hz)                  # the model's lines at this channel, to name the largest peaks
+    col = LOCATIONS.index(f"{bearing}_housing"), DIRECTIONS.index(synth.channels[acc].direction)
+    _name_largest(ax2, sp.frequency_hz, np.abs(sp.acceleration[:, col[0], col[1]]), list(sp.labels), f_hi=f_hi)
+    ax2.set_xlim(0, f_hi)
+    ax2.set_ylim(max(1e-12, float(spec.max()) * 1e-5) if spec.size else 1e-12, float(spec.max()) * 8 if spec.size
+                 else 1.0)
+    ax2.set_xlabel(f"frequency [Hz]   (dashed: fault frequencies at {speed_hz:.2f} Hz shaft speed, a defect's line "
+                   f"also at 2x and 3x; named: the model's largest lines)")
+    ax2.set_ylabel(f"amplitude [{synth.units[acc]}]")
+    ax2.legend(loc="upper right", fontsize=8)
+    from matplotlib.lines import Line2D
+
+    fig.legend(handles=[Line2D([], [], color=c, ls="--", label=k) for k, c in legend.items()], loc="lower center",
+               ncol=max(1, len(legend)), fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
+    return fig
 
 
 def _scenario_run(st, args):
@@ -505,7 +528,7 @@ def synth_main(args) -> int:
         with writing("--png", args.png):
             _plot(Path(args.png), excerpt, fs, synth, mean_speed, f"{title}, {fs:g} Hz, seed {synth.seed}")
     print(f"wrote {out}: {len(synth.channel_names)} channels x {n_total} samples at {fs:g} Hz "
-          f"({st['seconds']:g} s in {t_synth:.2f} s, {st['seconds'] / t_synth:.0f}x real time)"
+          f"({st['seconds']:g} s in {t_synth:.2f} s, {st['seconds'] / t_synth:.3g}x real time)"
           + (f", {len(set(states))} scenario states" if run is not None else "")
           + (f", figure {args.png}" if args.png else ""))
     return 0

@@ -154,8 +154,8 @@ def test_identity_with_the_outer_race_results_of_main():
 
 
 @pytest.fixture(scope="module")
-def models():
-    return {k: BkaBem(Case.load(f"motor_6010_{k}")) for k in ("healthy", "outer", "inner", "ball")}
+def models(fault_library):
+    return fault_library
 
 
 def test_baseline_adds_its_lines_without_touching_the_bearing_lines(models):
