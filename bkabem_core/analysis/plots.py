@@ -102,6 +102,7 @@ def _zoom_hz(fault: dict[str, float], defects, f: np.ndarray) -> float:
     return float(min(top * 1.04, 4.5 * max(excited))) if max(excited) > 0 else top * 1.04
 
 
+
 def plot_spectrum(sp: Spectrum, png_path: str, quantity: str = "acceleration", defects=(),
                   title: str = "") -> "object":
     """Line spectra at one speed for the four locations, vertical and horizontal at each line's frequency: the
@@ -129,7 +130,7 @@ def plot_spectrum(sp: Spectrum, png_path: str, quantity: str = "acceleration", d
     ff = sp.fault_frequencies_hz
     fault = fault_line_hz(ff, sp.speed_hz)
     f = np.asarray(sp.frequency_hz, dtype=float)
-    f_max = float(f.max()) * 1.04 if f.size else 1.0
+    f_max = min(float(f.max()) * 1.04, sp.band_hz) if f.size else 1.0       # lines beyond the model's band: not drawn
     f_zoom = _zoom_hz(fault, defects, f)
     views = (f_max, f_zoom) if f_zoom < 0.8 * f_max else (f_max,)   # no zoom when the band is narrow already
     fig, ax = plt.subplots(len(LOCATIONS), len(views), figsize=(14 if len(views) == 2 else 11, 14), squeeze=False,

@@ -86,6 +86,10 @@ class Spectrum:
         Each line's coefficients on the base phases (:mod:`bkabem_core.excitation.lines`).
     labels : tuple of str (K,), optional
         What each line is (:mod:`bkabem_core.excitation.line_names`: ``"BPFO"``, ``"BPFI - 1 f_r"``, ``"1x"``).
+    band_hz : float
+        Highest frequency the model serves [Hz] (the case's band, :attr:`Case.max_frequency_hz`): lines above it
+        at this speed are beyond the converged FE model and every sample rate of the case; the overall RMS
+        (:meth:`rms`) leaves them out.
     """
 
     speed_hz: float
@@ -96,6 +100,17 @@ class Spectrum:
     fault_frequencies_hz: FaultFrequencies
     coefficients: np.ndarray | None = None
     labels: tuple | None = None
+    band_hz: float = math.inf
+
+    @property
+    def in_band(self) -> np.ndarray:
+        """(K,) bool: lines at or below :attr:`band_hz`."""
+        return np.asarray(self.frequency_hz) <= self.band_hz
+
+    def rms(self, quantity: str = "acceleration") -> np.ndarray:
+        """Overall RMS of the lines in the band [m, m/s or m/s^2], (4, 2) (the static part excluded)."""
+        x = {"acceleration": self.acceleration, "velocity": self.velocity, "displacement": self.displacement}[quantity]
+        return np.sqrt(0.5 * np.sum(np.abs(x[self.in_band]) ** 2, axis=0))
 
     @property
     def omega_rad_s(self) -> np.ndarray:
@@ -115,7 +130,8 @@ class Spectrum:
         """JSON-ready (``bkabem spectrum --json``): per line its name (``lines``), coefficients and BPFO order (0: not
         one); per location and direction the line frequencies, amplitudes, phases and the static part."""
         out = {"speed_hz": self.speed_hz, "orders": [int(k) for k in self.orders],
-               "fault_frequencies_hz": self.fault_frequencies_hz.to_dict()}
+               "fault_frequencies_hz": self.fault_frequencies_hz.to_dict(),
+               "band_hz": self.band_hz if math.isfinite(self.band_hz) else None}
         if self.labels is not None:
             out["lines"] = list(self.labels)
         if self.coefficients is not None:
@@ -157,6 +173,9 @@ class Sweep:
         Each line's coefficients on the base phases.
     labels : tuple of str (K,), optional
         What each line is (``"BPFO"``, ``"BPFI - 1 f_r"``, ``"1x"``).
+    band_hz : float
+        Highest frequency the model serves [Hz] (:attr:`Spectrum.band_hz`): :meth:`rms` leaves the lines above it
+        out at each speed.
     """
 
     speeds_hz: np.ndarray
@@ -167,6 +186,7 @@ class Sweep:
     fixed_hz: np.ndarray | None = None
     coefficients: np.ndarray | None = None
     labels: tuple | None = None
+    band_hz: float = math.inf
 
     def __post_init__(self):
         if self.multipliers is None and np.any(np.asarray(self.orders) <= 0):
@@ -180,7 +200,7 @@ class Sweep:
         return cls(speeds_hz=np.concatenate([p.speeds_hz for p in parts]), orders=first.orders,
                    displacement=np.concatenate([p.displacement for p in parts]), bpfo_per_hz=first.bpfo_per_hz,
                    multipliers=first.multipliers, fixed_hz=first.fixed_hz, coefficients=first.coefficients,
-                   labels=first.labels)
+                   labels=first.labels, band_hz=first.band_hz)
 
     @property
     def frequency_hz(self) -> np.ndarray:
@@ -195,10 +215,15 @@ class Sweep:
         w = TWO_PI * self.frequency_hz
         return -(w[..., None, None] ** 2) * self.displacement
 
+    @property
+    def in_band(self) -> np.ndarray:
+        """(S, K) bool: lines at or below :attr:`band_hz` at each speed."""
+        return self.frequency_hz <= self.band_hz
+
     def rms(self, quantity: str = "acceleration") -> np.ndarray:
-        """Overall RMS over the kept orders [m or m/s^2], shape (S, 4, 2) (DC excluded)."""
+        """Overall RMS of the lines in the band at each speed [m or m/s^2], shape (S, 4, 2) (DC excluded)."""
         x = self.acceleration if quantity == "acceleration" else self.displacement
-        return np.sqrt(0.5 * np.sum(np.abs(x) ** 2, axis=1))
+        return np.sqrt(0.5 * np.sum(np.abs(x) ** 2 * self.in_band[..., None, None], axis=1))
 
 
 class BkaBem:
@@ -357,6 +382,12 @@ class BkaBem:
         return self.lines.frequency_hz(speed_hz)
 
     @property
+    def band_hz(self) -> float:
+        """Highest frequency the model serves [Hz]: the case's band (:attr:`Case.max_frequency_hz`, half its
+        highest sample rate), up to which the FE mesh is converged and the modal basis complete."""
+        return float(self.case.max_frequency_hz)
+
+    @property
     def line_labels(self) -> tuple:
         """What each line is (``"BPFO"``, ``"BPFI - 1 f_r"``, ``"2 BSF + FTF"``, ``"1x"``), (K,)."""
         return tuple(line_labels(self.lines.coefficients, self.n_balls))
@@ -441,7 +472,8 @@ class BkaBem:
         return Spectrum(speed_hz=speed_hz, orders=self.orders.copy(), frequency_hz=self.frequency_hz(speed_hz),
                         displacement=x, dc_m=self._dc.copy(),
                         fault_frequencies_hz=self.fault_multipliers.at_speed(speed_hz),
-                        coefficients=self.lines.coefficients.copy(), labels=self.line_labels)
+                        coefficients=self.lines.coefficients.copy(), labels=self.line_labels,
+                        band_hz=self.band_hz)
 
     def sweep(self, speeds_hz, batch: int = 16, progress: bool = False) -> Sweep:
         """Responses over many speeds [Hz], computed in batches (memory bounded)."""
@@ -457,7 +489,7 @@ class BkaBem:
         return Sweep(speeds_hz=speeds_hz, orders=self.orders.copy(), displacement=disp,
                      bpfo_per_hz=self.bpfo_per_hz, multipliers=self.multipliers.copy(),
                      fixed_hz=self.lines.fixed_hz.copy(), coefficients=self.lines.coefficients.copy(),
-                     labels=self.line_labels)
+                     labels=self.line_labels, band_hz=self.band_hz)
 
     @property
     def dc_m(self) -> np.ndarray:

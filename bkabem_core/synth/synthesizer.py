@@ -104,10 +104,10 @@ class Synthesizer(KnotSpectrum, LineSetPath, FloorPath, NoisePath, SwitchPath):
         Seed of slip and noise (None: a random seed, reported in the ground truth).
     max_order : int or None
         Synthesise model orders up to this one (None: every order the model keeps).
-    band_limit : {"error", "taper"}
-        ``"error"``: every kept order must stay below Nyquist at every speed (else :class:`SynthError`).
-        ``"taper"``: orders fade out (raised cosine) between 0.85 and 0.95 of Nyquist and are dropped above,
-        evaluated at the knots, with knots close enough that nothing aliases.
+    band_limit : {"taper", "error"}
+        ``"taper"`` (default): the lines are carried up to the acquisition's band and fade out (raised cosine)
+        between 0.85 and 0.95 of Nyquist, dropped above, evaluated at the knots, with knots close enough that nothing
+        aliases. ``"error"``: every kept line must stay below Nyquist at every speed (else :class:`SynthError`).
     spectrum : {"auto", "modal", "exact"}
         How the BKA-BEM spectrum is evaluated at a knot (see the module docstring). ``"auto"``: modal when
         streaming; for a rendered profile the cheaper of the two for that profile (both within the stated bound).
@@ -138,7 +138,7 @@ class Synthesizer(KnotSpectrum, LineSetPath, FloorPath, NoisePath, SwitchPath):
 
     def __init__(self, model: BkaBem, sample_rate_hz: float = 25600.0, chunk_s: float = 0.1, *,
                  quantities=DEFAULT_QUANTITIES, noise_density: dict | None = None, snr_db: float | None = None,
-                 slip: float = 0.0, seed: int | None = 0, max_order: int | None = None, band_limit: str = "error",
+                 slip: float = 0.0, seed: int | None = 0, max_order: int | None = None, band_limit: str = "taper",
                  spectrum: str = "auto", knot_s: float = 0.1, max_speed_step_hz: float = 0.5,
                  min_speed_hz: float = 0.05, initial_speed_hz: float | None = None, dtype=np.float32,
                  features: bool = True, table_size: int | None = None, accelerometer: Accelerometer | None = None,

@@ -104,11 +104,12 @@ def _spectrum_table(sp, max_rows: int = 12) -> str:
              f"BPFO {ff.bpfo:.3f} Hz, BPFI {ff.bpfi:.3f} Hz, BSF {ff.bsf:.3f} Hz"]
     acc = np.abs(sp.acceleration)
     disp = np.abs(sp.displacement)
-    rows = _largest(acc, max_rows)
+    band = np.flatnonzero(sp.in_band)
+    rows = band[_largest(acc[band], max_rows)]
     labels = [sp.labels[i] if sp.labels is not None else f"{int(sp.orders[i])} BPFO" for i in rows]
     width = max([12] + [len(t) for t in labels])
     lines.append(f"  the {min(max_rows, len(rows))} largest of {len(sp.frequency_hz)} lines "
-                 f"(acceleration amplitude, vertical/horizontal):")
+                 f"(acceleration amplitude, vertical/horizontal; up to the case's band, {sp.band_hz:g} Hz):")
     lines.append("  " + f"{'line':<{width}} {'f [Hz]':>9}" + "".join(f" {loc + ' v/h [m/s2]':>27}" for loc in LOCATIONS))
     for i, label in zip(rows, labels):
         row = f"  {label:<{width}} {sp.frequency_hz[i]:9.2f}"
@@ -117,8 +118,11 @@ def _spectrum_table(sp, max_rows: int = 12) -> str:
         lines.append(row)
     if len(sp.frequency_hz) > max_rows:
         lines.append(f"  ... {len(sp.frequency_hz) - max_rows} smaller lines (--json for all)")
-    rms_a = np.sqrt(0.5 * np.sum(acc ** 2, axis=0))
-    rms_d = np.sqrt(0.5 * np.sum(disp ** 2, axis=0))
+    rms_a, rms_d = sp.rms("acceleration"), sp.rms("displacement")
+    beyond = int(np.sum(~sp.in_band))
+    if beyond:
+        lines.append(f"  {beyond} lines above the case's band ({sp.band_hz:g} Hz) at this speed are left out of the "
+                     f"overall RMS")
     for li, loc in enumerate(LOCATIONS):
         lines.append(f"  {loc:12s} overall RMS acceleration v/h {rms_a[li, 0]:.4e}/{rms_a[li, 1]:.4e} m/s2, "
                      f"displacement v/h {rms_d[li, 0] * 1e6:.4f}/{rms_d[li, 1] * 1e6:.4f} um, "
@@ -220,10 +224,11 @@ def _sweep_fields(sw, si: int, li: int, di: int) -> dict:
     import numpy as np
 
     disp, acc = sw.displacement[si, :, li, di], sw.acceleration[si, :, li, di]
+    band = sw.in_band[si]
     return {"displacement_m": np.abs(disp).tolist(), "acceleration_m_s2": np.abs(acc).tolist(),
             "phase_rad": np.angle(disp).tolist(),
-            "rms_acceleration_m_s2": float(np.sqrt(0.5 * np.sum(np.abs(acc) ** 2))),
-            "rms_displacement_m": float(np.sqrt(0.5 * np.sum(np.abs(disp) ** 2)))}
+            "rms_acceleration_m_s2": float(np.sqrt(0.5 * np.sum(np.abs(acc[band]) ** 2))),
+            "rms_displacement_m": float(np.sqrt(0.5 * np.sum(np.abs(disp[band]) ** 2)))}
 
 
 def _write_sweep_json(out, sw, speeds, elapsed: float) -> None:
@@ -241,6 +246,7 @@ def _write_sweep_json(out, sw, speeds, elapsed: float) -> None:
       + ',\n "lines": ' + json.dumps(list(sw.labels or ()))
       + ',\n "line_coefficients": ' + json.dumps([] if sw.coefficients is None else sw.coefficients.tolist())
       + f',\n "bpfo_per_hz": {json.dumps(float(sw.bpfo_per_hz))},\n "wall_time_s": {json.dumps(elapsed)}'
+      + f',\n "band_hz": {json.dumps(float(sw.band_hz))}'
       + ',\n "frequency_hz": [')
     f = sw.frequency_hz
     for si in range(f.shape[0]):
@@ -315,7 +321,7 @@ def cmd_sweep(args) -> int:
             f = sw.frequency_hz
             for si, s in enumerate(sw.speeds_hz):
                 row = {"speed_hz": float(s), "lines": list(sw.labels), "orders": [int(k) for k in sw.orders],
-                       "frequency_hz": f[si].tolist()}
+                       "frequency_hz": f[si].tolist(), "band_hz": float(sw.band_hz)}
                 for li, loc in enumerate(LOCATIONS):
                     row[loc] = {d: _sweep_fields(sw, si, li, di) for di, d in enumerate(DIRECTIONS)}
                 sys.stdout.write(json.dumps(row) + "\n")
@@ -332,7 +338,7 @@ def cmd_sweep(args) -> int:
                                                                      for li in range(len(LOCATIONS))))
     elapsed = time.perf_counter() - t0
     print(f"sweep {args.from_hz:g}..{args.to_hz:g} Hz, {args.steps} speeds x {n_orders} lines "
-          f"in {elapsed * 1e3:.1f} ms")
+          f"in {elapsed * 1e3:.1f} ms (overall RMS of the lines up to the case's band, {model.band_hz:g} Hz)")
     print(f"  {'speed [Hz]':>10}" + "".join(f" {loc + ' v/h RMS [m/s2]':>27}" for loc in LOCATIONS))
     print("\n".join(lines))
     if args.png:
@@ -440,7 +446,7 @@ def add_case(sp) -> None:
 
 def add_parsers(sub) -> None:
     """Register ``excitation``, ``spectrum``, ``sweep``, ``validate`` and ``demo`` on an argparse subparsers object."""
-    e = sub.add_parser("excitation", help="bearing excitation: DC, amplitudes and phases per BPFO order")
+    e = sub.add_parser("excitation", help="each bearing's excitation: DC, amplitudes and phases of its lines")
     add_case(e)
     e.add_argument("--json", action="store_true", help="machine-readable output")
     e.add_argument("--png", type=output_path("--png", (".png",)), help="write a figure of the waveform and orders")
@@ -454,8 +460,12 @@ def add_parsers(sub) -> None:
     add_case(s)
     s.add_argument("--speed-hz", required=True, type=finite_float("--speed-hz", 0.0),
                    help="shaft speed [Hz]")
-    s.add_argument("--json", action="store_true")
-    s.add_argument("--png", type=output_path("--png", (".png",)))
+    s.add_argument("--json", action="store_true",
+                   help="one JSON document: every line (name, coefficients, frequency) per location and direction: "
+                        "displacement [m], velocity [m/s], acceleration [m/s^2], phase [rad], static part [m]")
+    s.add_argument("--png", type=output_path("--png", (".png",)),
+                   help="figure: the line spectra of the four locations, each line at its frequency, the largest "
+                        "named, the fault frequencies marked")
     s.set_defaults(func=cmd_spectrum)
 
     w = sub.add_parser("sweep", help="BKA-BEM spectra over a range of shaft speeds")
@@ -485,8 +495,10 @@ def add_parsers(sub) -> None:
                         "docs/validation.md)")
     v.add_argument("--max-step-us", type=finite_float("--max-step-us", 0.0, strict=True), default=None,
                    help="largest TDSM step [us] (default: the TDSM's rule)")
-    v.add_argument("--json", action="store_true")
-    v.add_argument("--png", type=output_path("--png", (".png",)))
+    v.add_argument("--json", action="store_true",
+                   help="one JSON document: the TDSM's and BKA-BEM's amplitudes per line and the errors in dB")
+    v.add_argument("--png", type=output_path("--png", (".png",)),
+                   help="figure: the TDSM and BKA-BEM spectra overlaid at the rotor and housing nodes")
     v.set_defaults(func=cmd_validate)
 
     d = sub.add_parser("demo", help="the main job: core tables and figures, then the ROS 2 node run-up recorded "

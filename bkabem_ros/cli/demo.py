@@ -134,7 +134,8 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
     rerun_connect : str, optional
         Also stream to a running viewer (e.g. ``rerun+http://127.0.0.1:9876/proxy``).
     noise_acceleration : float
-        Node parameter ``noise.acceleration`` (m/s^2 RMS sensor noise).
+        RMS of the accelerometer noise (0 to sample_rate/2) [m/s^2]: the node's ``noise_acc`` density is this
+        / sqrt(sample_rate / 2).
     """
     from bkabem_ros.ros_env import apply_defaults
 
@@ -162,7 +163,7 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
     result = DemoResult(mcap, rrd, 0.0)
     try:
         overrides = [Parameter("sample_rate", value=float(sample_rate)),
-                     Parameter("noise.acceleration", value=float(noise_acceleration))]
+                     Parameter("noise_acc", value=float(noise_acceleration) / math.sqrt(sample_rate / 2.0))]
         if case:
             overrides.append(Parameter("case", value=str(case)))
         say(f"bkabem demo: run-up 0 -> {top_hz:g} Hz in {ramp_s:g} s, hold {hold_s:g} s, "

@@ -46,6 +46,7 @@ after construction so a command can attach sinks before the stream starts.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -54,7 +55,13 @@ import numpy as np
 
 from bkabem_core.model.vocabulary import BEARINGS
 from bkabem_ros.node.band import BandWatch, start_note, start_refusal
-from bkabem_ros.node.params import LIVE_PARAMETERS, PARAMETER_SPECS, PARAMETERS, ParamSpec  # noqa: F401  (re-exported)
+from bkabem_ros.node.params import (  # noqa: F401  (re-exported)
+    DEPRECATED_NOISE,
+    LIVE_PARAMETERS,
+    PARAMETER_SPECS,
+    PARAMETERS,
+    ParamSpec,
+)
 from bkabem_ros.node.source import (
     CHANNELS,
     FAULT_TYPE,
@@ -392,7 +399,7 @@ class VibrationNode(_node_base()):
                 self._speed_factor = SPEED_UNITS[normalize_unit(prm.value)]
             elif prm.name == "max_speed":
                 self._max_speed = float(prm.value)
-            elif prm.name.startswith("noise."):
+            elif prm.name.startswith("noise"):
                 self._apply_noise()
             elif prm.name == "defect_depth":
                 self._request_depth(float(prm.value))
@@ -419,10 +426,23 @@ class VibrationNode(_node_base()):
         return self._source
 
     def _apply_noise(self) -> None:
-        """Noise parameters -> the synthesiser (from its next chunk on)."""
+        """Noise parameters -> the synthesiser (from its next chunk on): the densities ``noise_acc``,
+        ``noise_disp``, or the RMS values of earlier versions converted to densities with a warning."""
         live = self._live
-        self._source.set_noise(float(live["noise.acceleration"]), float(live["noise.displacement"]),
-                               float(live["noise.snr_db"]))
+        root = math.sqrt(self.sample_rate / 2.0)
+        density = {}
+        for old, new in DEPRECATED_NOISE.items():
+            value, rms = float(live[new]), float(live[old])
+            if rms > 0.0:
+                if value > 0.0:
+                    self.get_logger().warning(f"parameter {old} (deprecated, an RMS) is ignored: {new} is set")
+                else:
+                    value = rms / root
+                    self.get_logger().warning(
+                        f"parameter {old} = {rms:g} (an RMS, deprecated) is read as {new} = {value:.4g} "
+                        f"(a density: RMS / sqrt(sample_rate / 2)); write {new} instead")
+            density[new] = value
+        self._source.set_noise(density["noise_acc"], density["noise_disp"], float(live["noise.snr_db"]))
 
     def _next_index(self) -> int:
         """First sample of the next chunk still to be synthesised (where a change of the machine can begin)."""

@@ -176,7 +176,8 @@ def test_spectrum_json_table_and_figure_are_the_library(kind, cli, fault_library
             np.testing.assert_allclose(d[loc][direction]["acceleration_m_s2"], acc[:, li, di], rtol=1e-12)
     # the table: the largest lines, named, with their amplitudes
     out = cli("spectrum", "--case", f"motor_6010_{kind}", "--speed-hz", "25", "--png", str(tmp_path / "p.png"))
-    largest = np.argsort(-acc.reshape(len(acc), -1).max(axis=1), kind="stable")[:min(12, len(acc))]
+    band = np.flatnonzero(sp.frequency_hz <= model.band_hz)                   # the lines the case's band holds
+    largest = band[np.argsort(-acc[band].reshape(len(band), -1).max(axis=1), kind="stable")[:min(12, len(band))]]
     for i in largest:
         row = next((ln for ln in out.splitlines() if ln.strip().startswith(sp.labels[i] + " ")
                     and f"{sp.frequency_hz[i]:9.2f}" in ln), None)
@@ -187,11 +188,12 @@ def test_spectrum_json_table_and_figure_are_the_library(kind, cli, fault_library
     fig = figures["plot_spectrum"][-1]
     full_band = [ax for ax in fig.axes if ax.get_title().endswith("acceleration")]
     assert [ax.get_title() for ax in full_band] == [f"{loc.replace('_', ' ')} acceleration" for loc in LOCATIONS]
+    in_band = sp.frequency_hz <= model.band_hz
     for li, ax in enumerate(full_band):
-        floor = acc[:, li].max() * DISPLAY_FLOOR
+        floor = acc[in_band, li].max() * DISPLAY_FLOOR
         for di, direction in enumerate(DIRECTIONS):
             (mark,) = [ln for ln in ax.get_lines() if ln.get_label() == direction]
-            keep = acc[:, li, di] >= floor
+            keep = (acc[:, li, di] >= floor) & in_band
             np.testing.assert_allclose(mark.get_xdata(), sp.frequency_hz[keep], rtol=1e-12)
             np.testing.assert_allclose(mark.get_ydata(), acc[keep, li, di], rtol=1e-12)
         dashed = sorted(round(ln.get_xdata()[0], 6) for ln in ax.get_lines() if ln.get_linestyle() == "--")
@@ -200,7 +202,7 @@ def test_spectrum_json_table_and_figure_are_the_library(kind, cli, fault_library
             assert round(f0, 6) in dashed
         named = {t.get_text() for t in ax.texts}
         assert named and named <= set(sp.labels)
-        assert sp.labels[int(np.argmax(acc[:, li].max(axis=1)))] in named        # the largest line is named
+        assert sp.labels[int(np.argmax(np.where(in_band, acc[:, li].max(axis=1), 0)))] in named   # the largest
     assert "BPFO 151.5 Hz)" not in fig._suptitle.get_text() or "BPFI" in fig._suptitle.get_text()
 
 
