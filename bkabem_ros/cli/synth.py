@@ -16,9 +16,10 @@ Output
 ------
 ``.npz`` (``numpy.load``): ``samples`` (channels, n) float32 [units per channel], ``speed_hz`` (n,) shaft speed per
 sample, ``chunk_first_sample`` / ``chunk_speed_hz`` (chunks,), ``features_<name>`` (chunks, channels),
-``iso10816_velocity_rms_mm_s`` (chunks, 2 bearings, 3: vertical, horizontal, overall), and ``metadata``: a JSON
+``iso10816_velocity_rms_mm_s`` (chunks, 2 bearings, 3: vertical, horizontal, overall; the labels of its axes in
+``iso10816_bearing`` and ``iso10816_direction``), and ``metadata``: a JSON
 string with channel names and units, sample rate, profile, settings, ground truth (case, bearing, defect, fault
-multipliers, seed) and the synthesiser's method. Written chunk by chunk: memory stays bounded by the chunk.
+multipliers, seed), the synthesiser's method and ``axes``: the name and labels of every array's axes. Written chunk by chunk: memory stays bounded by the chunk.
 
 ``.csv``: ``# metadata: {json}`` comment line, then a header ``time_s,speed_hz,<channel>_<unit>...`` (units in the
 column names: ``m_s2``, ``m``, ``mm_s``) and one row per sample.
@@ -52,6 +53,23 @@ MAX_CHUNK_S = 10.0
 SNR_DB_RANGE = (-40.0, 200.0)
 MAX_NOISE_DENSITY = {"acceleration": 1e3, "displacement": 1e-2, "velocity": 1e5}   # per sqrt(Hz), in each unit
 FEATURE_NAMES = ("mean", "rms", "peak", "peak_to_peak", "crest_factor", "kurtosis")
+#: The third axis of ``iso10816_velocity_rms_mm_s``: each direction's ISO velocity RMS and the larger of the two.
+ISO_DIRECTIONS = ("vertical", "horizontal", "overall")
+
+
+def _axes(synth, iso_bearings, scenario: bool) -> dict:
+    """The axis names of every array of the .npz (its ``metadata["axes"]``): array -> [(axis, labels or unit)]."""
+    chunk = ["chunk", "one per chunk, first sample chunk_first_sample"]
+    channels = ["channel", list(synth.channel_names)]
+    out = {"samples": [channels, ["sample", "i / sample_rate_hz s"]], "speed_hz": [["sample", "shaft speed [Hz]"]],
+           "chunk_first_sample": [chunk], "chunk_speed_hz": [chunk],
+           "iso10816_velocity_rms_mm_s": [chunk, ["bearing", list(iso_bearings)], ["direction", list(ISO_DIRECTIONS)]],
+           "iso10816_bearing": [["bearing", list(iso_bearings)]],
+           "iso10816_direction": [["direction", list(ISO_DIRECTIONS)]]}
+    out.update({f"features_{k}": [chunk, channels] for k in FEATURE_NAMES})
+    if scenario:
+        out.update({k: [chunk] for k in ("chunk_state_index", "chunk_scenario_time_s", "chunk_healthy")})
+    return out
 
 
 def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> None:
@@ -442,6 +460,7 @@ def synth_main(args) -> int:
     try:
         feats = {k: [] for k in FEATURE_NAMES}
         iso, first, speed, speed_end, states, scen_t, healthy = [], [], [], [], [], [], []
+        iso_bearings: tuple = ()
         keep = int(min(n_total, fs * 1.0))                       # excerpt for the figure: the last second
         ring: list[np.ndarray] = []
         ring_n = 0
@@ -467,7 +486,8 @@ def synth_main(args) -> int:
                     healthy.append(truth["healthy"])
                 for k in FEATURE_NAMES:
                     feats[k].append(ch.features[k])
-                iso.append([[v["vertical"], v["horizontal"], v["overall"]]
+                iso_bearings = tuple(ch.features["iso10816_velocity_rms_mm_s"])
+                iso.append([[v[d] for d in ISO_DIRECTIONS]
                             for v in ch.features["iso10816_velocity_rms_mm_s"].values()])
                 if args.png:
                     ring.append(np.array(ch.samples))
@@ -502,7 +522,10 @@ def synth_main(args) -> int:
                     yield profile.speed_hz((i + np.arange(min(1 << 16, n_total - i))) / fs)
 
             arrays = {"chunk_first_sample": np.array(first, dtype=np.int64), "chunk_speed_hz": np.array(speed),
-                      "iso10816_velocity_rms_mm_s": np.array(iso)}
+                      "iso10816_velocity_rms_mm_s": np.array(iso),
+                      "iso10816_bearing": np.array(iso_bearings, dtype=str),
+                      "iso10816_direction": np.array(ISO_DIRECTIONS, dtype=str)}
+            meta["axes"] = _axes(synth, iso_bearings, run is not None)
             if run is not None:
                 arrays.update({"chunk_state_index": np.array(states, dtype=np.int64),
                                "chunk_scenario_time_s": np.array(scen_t), "chunk_healthy": np.array(healthy)})
