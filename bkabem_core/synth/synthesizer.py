@@ -104,10 +104,12 @@ class Synthesizer(KnotSpectrum, LineSetPath, FloorPath, NoisePath, SwitchPath):
         Seed of slip and noise (None: a random seed, reported in the ground truth).
     max_order : int or None
         Synthesise model orders up to this one (None: every order the model keeps).
-    band_limit : {"taper", "error"}
-        ``"taper"`` (default): the lines are carried up to the acquisition's band and fade out (raised cosine)
-        between 0.85 and 0.95 of Nyquist, dropped above, evaluated at the knots, with knots close enough that nothing
-        aliases. ``"error"``: every kept line must stay below Nyquist at every speed (else :class:`SynthError`).
+    band_limit : {"auto", "taper", "error"}
+        ``"taper"``: the lines are carried up to the acquisition's band and fade out (raised cosine) between 0.85
+        and 0.95 of Nyquist, dropped above, evaluated at the knots, with knots close enough that nothing aliases.
+        ``"error"``: every kept line must stay below Nyquist at every speed (else :class:`SynthError`). ``"auto"``
+        (default): ``"taper"`` for a case that carries its lines to the band (``excitation.max_order = 0``, the
+        fault library), ``"error"`` for a case that caps them (it asked for every one of its orders).
     spectrum : {"auto", "modal", "exact"}
         How the BKA-BEM spectrum is evaluated at a knot (see the module docstring). ``"auto"``: modal when
         streaming; for a rendered profile the cheaper of the two for that profile (both within the stated bound).
@@ -138,7 +140,7 @@ class Synthesizer(KnotSpectrum, LineSetPath, FloorPath, NoisePath, SwitchPath):
 
     def __init__(self, model: BkaBem, sample_rate_hz: float = 25600.0, chunk_s: float = 0.1, *,
                  quantities=DEFAULT_QUANTITIES, noise_density: dict | None = None, snr_db: float | None = None,
-                 slip: float = 0.0, seed: int | None = 0, max_order: int | None = None, band_limit: str = "taper",
+                 slip: float = 0.0, seed: int | None = 0, max_order: int | None = None, band_limit: str = "auto",
                  spectrum: str = "auto", knot_s: float = 0.1, max_speed_step_hz: float = 0.5,
                  min_speed_hz: float = 0.05, initial_speed_hz: float | None = None, dtype=np.float32,
                  features: bool = True, table_size: int | None = None, accelerometer: Accelerometer | None = None,
@@ -159,8 +161,10 @@ class Synthesizer(KnotSpectrum, LineSetPath, FloorPath, NoisePath, SwitchPath):
         self.channels = make_channels(quantities)
         self.channel_names = tuple(c.name for c in self.channels)
         self.units = tuple(c.unit for c in self.channels)
-        if band_limit not in ("error", "taper"):
-            raise SynthError("band_limit", f"must be 'error' or 'taper' (got {band_limit!r})")
+        if band_limit not in ("auto", "error", "taper"):
+            raise SynthError("band_limit", f"must be 'auto', 'error' or 'taper' (got {band_limit!r})")
+        if band_limit == "auto":            # lines carried to the band: taper; a case that caps its lines: error
+            band_limit = "taper" if int(model.case.raw["excitation"].get("max_order", 0)) == 0 else "error"
         self.band_limit = band_limit
         if spectrum not in ("auto", "modal", "exact"):
             raise SynthError("spectrum", f"must be 'auto', 'modal' or 'exact' (got {spectrum!r})")

@@ -101,9 +101,11 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
     p.add_argument("--quantities", default="acceleration,displacement",
                    help="comma list of acceleration, displacement, velocity (default acceleration,displacement)")
     p.add_argument("--max-order", default=None, help="synthesise BPFO orders up to this one (default: all kept)")
-    p.add_argument("--band-limit", default="taper", choices=("taper", "error"),
-                   help="taper (default): carry the lines up to the band, fading them out between 0.85 and 0.95 of "
-                        "Nyquist; error: refuse a speed at which a kept line is above Nyquist")
+    p.add_argument("--band-limit", default="auto", choices=("auto", "taper", "error"),
+                   help="taper: carry the lines up to the band, fading them out between 0.85 and 0.95 of Nyquist; "
+                        "error: refuse a speed at which a kept line is above Nyquist; auto (default): taper for a "
+                        "case that carries its lines to the band (excitation.max_order = 0, the fault library), "
+                        "error for one that caps them")
     p.add_argument("--spectrum", default="auto", choices=("auto", "exact", "modal"),
                    help="spectrum at each knot: exact solve, modal form, or auto (the cheaper for the profile)")
     p.add_argument("--float64", action="store_true", help="float64 samples (default float32)")

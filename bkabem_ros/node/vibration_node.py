@@ -17,6 +17,9 @@ topic                          type                                 when
 ``vibration/de/spectrum``      ``bkabem_msgs/msg/VibrationSpectrum`` on speed change and at ``spectrum_rate``;
 ``vibration/nde/spectrum``                                          one message per quantity (acc., displ.)
 ``vibration/fault_frequencies`` ``bkabem_msgs/msg/BearingFaultFrequencies`` with the spectra
+``/diagnostics``               ``diagnostic_msgs/msg/DiagnosticArray`` once a second: stream on time, model, band
+                                                                    limit, ISO zone per bearing (REP 107;
+                                                                    :mod:`bkabem_ros.node.diagnostics`)
 =============================  ===================================  ==========================================
 
 Timing
@@ -55,6 +58,7 @@ import numpy as np
 
 from bkabem_core.model.vocabulary import BEARINGS
 from bkabem_ros.node.band import BandWatch, start_note, start_refusal
+from bkabem_ros.node.diagnostics import NodeDiagnostics
 from bkabem_ros.node.params import (  # noqa: F401  (re-exported)
     DEPRECATED_NOISE,
     LIVE_PARAMETERS,
@@ -178,7 +182,7 @@ class VibrationNode(_node_base()):
         why = start_refusal(self._source.synth, scenario, float(p["scenario_start"]), self._machine_label())
         if why is not None:
             raise ValueError(why)
-        self._band = BandWatch(self.get_logger().warning)
+        self._band = BandWatch(self.get_logger().warning, self.get_logger().info)
         self._apply_noise()
         self._scenario_loaded: dict[str, Scenario] = {}     # parameter callback -> post callback
 
@@ -220,6 +224,7 @@ class VibrationNode(_node_base()):
                           for b in BEARINGS for q in QUANTITIES}
         self._spec_pub = {b: pub(VibrationSpectrum, f"vibration/{b}/spectrum") for b in BEARINGS}
         self._ff_pub = pub(BearingFaultFrequencies, "vibration/fault_frequencies")
+        self._diagnostics = NodeDiagnostics(self)        # the node's health on /diagnostics (REP 107), once a second
         # best effort + keep last: matches reliable and best-effort publishers; a flood only overwrites
         speed_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                                reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -584,6 +589,7 @@ class VibrationNode(_node_base()):
             raise RuntimeError(f"synth produced index {chunk.first_sample_index}, expected {index}")
         self._band.check(src.synth, src.model, max(float(chunk.shaft_speed_hz), float(chunk.shaft_speed_end_hz)),
                          self._machine_label)
+        self._diagnostics.add_chunk(chunk)
         speed = float(chunk.shaft_speed_hz) * TWO_PI          # at the first sample
         # the waveforms straight to CDR (waveform_cdr: the constant part of each stream encoded once); message
         # objects only for sinks (recorders, viewers), made from the same bytes when one asks for them
