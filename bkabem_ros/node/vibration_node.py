@@ -57,7 +57,7 @@ from typing import Any, Callable
 import numpy as np
 
 from bkabem_core.model.vocabulary import BEARINGS
-from bkabem_ros.node.band import BandWatch, start_note, start_refusal
+from bkabem_ros.node.band import BandWatch, carries_to_band, start_note, start_refusal
 from bkabem_ros.node.diagnostics import NodeDiagnostics
 from bkabem_ros.node.params import (  # noqa: F401  (re-exported)
     DEPRECATED_NOISE,
@@ -271,7 +271,7 @@ class VibrationNode(_node_base()):
             f"machine {self.machine_id!r}: {what}, {self.sample_rate:g} Hz, "
             f"{self.samples_per_chunk} samples/chunk ({self.chunk_ns / 1e6:g} ms), QoS {p['qos']} depth {depth}, "
             f"speed in {normalize_unit(p['speed_unit'])} on {self._speed_topic}, max {self._max_speed:g} rad/s")
-        if scenario is None or not scenario.has_speed:
+        if scenario is None or not scenario.has_speed or carries_to_band(self._source.model):
             note = start_note(self._source.synth, self._max_speed / TWO_PI, self._machine_label())
             if note is not None:
                 self.get_logger().info(note)
