@@ -130,6 +130,18 @@ def _spectrum_table(sp, max_rows: int = 12) -> str:
     return "\n".join(lines)
 
 
+def _excitation_dict(ex) -> dict:
+    """``Excitation.to_dict`` with the name of every line (``lines.names``: ``"BPFI - 1 f_r"``, ``"3 BPFO"``)."""
+    from bkabem_core.excitation.line_names import line_labels
+
+    d = ex.to_dict()
+    ls = ex.line_set()
+    if d.get("lines") is None:
+        d["lines"] = ls.to_dict()
+    d["lines"]["names"] = line_labels(ls.coefficients, ex.n_balls)
+    return d
+
+
 # --------------------------------------------------------------------------- commands
 def cmd_excitation(args) -> int:
     case = _load_case(args.case)
@@ -148,8 +160,8 @@ def cmd_excitation(args) -> int:
         with writing("--png", args.png):
             plot_excitation(ex, args.png)
     if args.json:
-        out = ex.to_dict()          # the faulty bearing's at the top level (CLI contract), every bearing below
-        out["bearings"] = {n: e.to_dict() for n, e in exs.items()}
+        out = _excitation_dict(ex)          # the faulty bearing's at the top level, every bearing below
+        out["bearings"] = {n: _excitation_dict(e) for n, e in exs.items()}
         _print_json(out)
     else:
         print("\n\n".join(_excitation_table(e) for e in exs.values()))

@@ -207,6 +207,47 @@ def test_spectrum_json_table_and_figure_are_the_library(kind, cli, fault_library
 
 
 @pytest.mark.parametrize("kind", KINDS)
+def test_excitation_json_and_figure_name_every_line(kind, cli, fault_library, figures, tmp_path):
+    from bkabem_core.analysis.plots import DISPLAY_FLOOR
+    from bkabem_core.excitation.line_names import line_labels
+
+    ex = fault_library[kind].excitations["de"]
+    ls = ex.line_set()
+    d = json.loads(cli("excitation", "--case", f"motor_6010_{kind}", "--json"))
+    names = line_labels(ls.coefficients, ex.n_balls)
+    assert d["lines"]["names"] == names and d["bearings"]["de"]["lines"]["names"] == names
+    np.testing.assert_allclose(d["lines"]["amplitude"]["vertical"], np.abs(ls.amplitude[:, 0]), rtol=1e-12)
+    cli("excitation", "--case", f"motor_6010_{kind}", "--png", str(tmp_path / "e.png"))
+    fig = figures["plot_excitation"][-1]
+    if ex.lines is None:                                           # BPFO orders: the paper's bars per order
+        assert fig.axes[2].get_xlabel() == "BPFO order k"
+        return
+    lines_ax = fig.axes[2]                                         # line sets: each line at its frequency, named
+    (mark,) = [ln for ln in lines_ax.get_lines() if ln.get_label() == "vertical"]
+    a = np.abs(ls.amplitude[:, 0]) * 1e6
+    keep = a >= a.max() * DISPLAY_FLOOR
+    np.testing.assert_allclose(mark.get_xdata(), ls.frequency_hz(ex.reference_speed_hz)[keep], rtol=1e-12)
+    assert {t.get_text() for t in lines_ax.texts} <= set(names) and names[int(np.argmax(a))] in \
+        {t.get_text() for t in lines_ax.texts}
+
+
+def test_synth_figure_marks_the_fault_frequencies_and_names_the_lines(fault_library, tmp_path):
+    from bkabem_core.synth.synthesizer import Synthesizer
+    from bkabem_ros.cli.synth import _plot
+
+    model = fault_library["inner"]
+    s = Synthesizer(model, sample_rate_hz=25600.0, chunk_s=0.25, features=False)
+    x = np.concatenate([c.samples for c in s.render("constant:25", 0.5)], axis=1)
+    fig = _plot(tmp_path / "s.png", x, 25600.0, s, 25.0, "inner")
+    ax = fig.axes[1]
+    assert "BPFO orders" not in ax.get_xlabel() and "fault frequencies" in ax.get_xlabel()
+    dashed = {round(float(ln.get_xdata()[0]), 6) for ln in ax.get_lines() if ln.get_linestyle() == "--"}
+    bpfi = model.fault_multipliers.bpfi * 25.0
+    assert {round(h * bpfi, 6) for h in (1, 2, 3)} <= dashed       # the defect's line, at 1-3x, where it is
+    assert {t.get_text() for t in ax.texts} <= set(model.line_labels) and len(ax.texts) >= 3
+
+
+@pytest.mark.parametrize("kind", KINDS)
 def test_excitation_table_lists_the_largest_lines_by_name(kind, cli, fault_library):
     ex = fault_library[kind].excitations["de"]
     ls = ex.line_set()
