@@ -5,7 +5,7 @@ with its output) and ``text`` blocks (output, equations, synopses) and ``toml`` 
 comment on the line before a block can say how a block is run, always with the reason after a colon:
 
 ``<!-- docs-test: unit -->``
-    a cheap pure-Python block: run in the unit tier (the others: tests/integration/test_docs_snippets.py).
+    a cheap pure-Python block: run in the unit tier (the others: tests/integration/test_docs_pages_run.py).
 ``<!-- docs-test: each-runs-for=S: ... -->``
     a block of servers, one line per terminal: every line is started as its own process; each must still run after
     S seconds (or have ended with exit code 0), then each is interrupted and must stop with exit code 0.
