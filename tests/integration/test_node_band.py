@@ -21,24 +21,11 @@ import numpy as np
 import pytest
 import rclpy  # noqa: F401  (fail, do not skip, when ROS is missing)
 from ros_helpers import Listener, Proc, bkabem_cmd, ros_env, unique_namespace
-from scenario_files import defect, scenario_toml
+from scenario_files import capped_case, defect, scenario_toml
 
 pytestmark = pytest.mark.ros
 
 BAND_WARNING = r"WARN.*parameter sample_rate: .* too low for"
-
-
-def _capped(folder) -> str:
-    """The fault library's healthy motor with its lines capped (excitation.max_order = 50: BPFO and 49 harmonics),
-    written into ``folder``: losing one of them to the sample rate is news. The fault library's own cases carry
-    their lines to the band instead (test_lines_to_the_band_...)."""
-    from importlib import resources
-
-    text = resources.files("bkabem_core.embedded").joinpath("cases", "motor_6010_healthy.toml").read_text()
-    capped = re.sub(r"^max_order = 0 ", "max_order = 50", text, count=1, flags=re.M)
-    assert capped != text
-    (folder / "capped_healthy.toml").write_text(capped)
-    return "capped_healthy.toml"
 
 
 def _outer_from_start(speed_hz: float, case: str) -> str:
@@ -50,7 +37,7 @@ def _outer_from_start(speed_hz: float, case: str) -> str:
 
 def test_a_scenario_rate_too_low_is_refused_at_start_like_synth(tmp_path):
     src = tmp_path / "band.toml"
-    src.write_text(_outer_from_start(25.0, _capped(tmp_path)))
+    src.write_text(_outer_from_start(25.0, capped_case(tmp_path)))
     r = subprocess.run(bkabem_cmd("node", "--scenario", str(src), "--sample-rate", "6400"), env=ros_env(),
                        capture_output=True, text=True, timeout=90)
     assert r.returncode == 2, (r.returncode, r.stdout[-2000:], r.stderr[-2000:])
@@ -153,7 +140,7 @@ def test_a_later_scenario_state_beyond_the_rate_warns_and_streams_on(tmp_path):
     from bkabem_msgs.msg import VibrationWaveform
 
     src = tmp_path / "later.toml"
-    src.write_text(scenario_toml("band_later", duration_s=100.0, speed=([0.0], [25.0]), case=_capped(tmp_path),
+    src.write_text(scenario_toml("band_later", duration_s=100.0, speed=([0.0], [25.0]), case=capped_case(tmp_path),
                                  defects=[defect("de_outer", "de", "outer", time_s=[1.0], length_m=[1.0e-3],
                                                  depth_m=[30e-6])]))
     ns = unique_namespace("bandl")
