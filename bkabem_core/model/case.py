@@ -619,8 +619,9 @@ class Case:
         return Case.from_dict(raw, self.source + " (overridden)")
 
     def ground_truth(self) -> dict:
-        """What a labelled data set needs: bearing designation and geometry, every defect (kind, bearing, size,
-        position, fault-frequency multiplier), the machine baseline, case identity.
+        """What a labelled data set needs: bearing designation and geometry, its fault multipliers (FTF, BPFO, BPFI,
+        BSF per shaft Hz), every defect (kind, bearing, size, position, fault-frequency multiplier), the machine
+        baseline, case identity.
 
         ``defects``: one entry per ``[[defects]]`` table, with ``fault_frequency`` (``"bpfo"``, ``"bpfi"`` or
         ``"bsf"``) and ``fault_multiplier`` [Hz per shaft Hz] of its textbook signature (a ball defect strikes at
@@ -647,6 +648,7 @@ class Case:
                 "n_balls": g.n_balls, "diametral_clearance_m": g.diametral_clearance_m,
                 "contact_angle_rad": g.contact_angle_rad,
             },
+            "fault_multipliers": fm.to_dict(),
             "healthy": not any(d["depth_m"] > 0 for d in defects),
             "defects": defects,
             "defect": None if first is None else {k: first[k] for k in ("bearing", "race", "length_m", "depth_m",

@@ -79,11 +79,13 @@ class Synthesizer:
     seed : int or None
         Seed of slip, noise and floor (None: a random seed, reported in the ground truth).
     max_order : int or None
-        Synthesise the speed-locked lines up to this BPFO order (None: every line the model keeps).
-    band_limit : {"error", "taper"}
-        ``"error"``: every kept line must stay below Nyquist at every speed (else :class:`SynthError`).
-        ``"taper"``: lines fade out (raised cosine) between 0.85 and 0.95 of Nyquist and are dropped above,
-        evaluated at the knots, with knots close enough that nothing aliases.
+        Synthesise model orders up to this one (None: every order the model keeps).
+    band_limit : {"auto", "taper", "error"}
+        ``"taper"``: the lines are carried up to the acquisition's band and fade out (raised cosine) between 0.85
+        and 0.95 of Nyquist, dropped above, evaluated at the knots, with knots close enough that nothing aliases.
+        ``"error"``: every kept line must stay below Nyquist at every speed (else :class:`SynthError`). ``"auto"``
+        (default): ``"taper"`` for a case that carries its lines to the band (``excitation.max_order = 0``, the
+        fault library), ``"error"`` for a case that caps them (it asked for every one of its orders).
     spectrum : {"auto", "modal", "exact"}
         How the BKA-BEM spectrum is evaluated at a knot (module docstring).
     knot_s : float
@@ -120,7 +122,7 @@ class Synthesizer:
 
     def __init__(self, model: BkaBem, sample_rate_hz: float = 25600.0, chunk_s: float = 0.1, *,
                  quantities=DEFAULT_QUANTITIES, noise_density: dict | None = None, snr_db: float | None = None,
-                 slip: float = 0.0, seed: int | None = 0, max_order: int | None = None, band_limit: str = "error",
+                 slip: float = 0.0, seed: int | None = 0, max_order: int | None = None, band_limit: str = "auto",
                  spectrum: str = "auto", knot_s: float = 0.1, max_speed_step_hz: float = 0.5,
                  min_speed_hz: float = 0.05, initial_speed_hz: float | None = None, dtype=np.float32,
                  features: bool = True, table_size: int | None = None, accelerometer: Accelerometer | None = None,
@@ -128,6 +130,8 @@ class Synthesizer:
                  kernel: str = "auto"):
         if not isinstance(model, BkaBem):
             raise SynthError("model", f"must be a BkaBem (got {type(model).__name__})")
+        if band_limit == "auto":            # lines carried to the band: taper; a case that caps its lines: error
+            band_limit = "taper" if int(model.case.raw["excitation"].get("max_order", 0)) == 0 else "error"
         self.settings = Settings.make(
             sample_rate_hz, chunk_s, quantities=quantities, noise_density=noise_density, snr_db=snr_db, slip=slip,
             seed=seed, max_order=max_order, band_limit=band_limit, spectrum=spectrum,

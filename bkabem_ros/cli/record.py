@@ -59,7 +59,7 @@ def add_parser(sub, add_case=None):
                    help="start a new file after this many seconds of recording")
     p.add_argument("--recover", nargs=2, metavar=("SRC", "DST"), default=None,
                    help="rebuild a cut recording SRC (kill -9, power loss) into a complete DST, and exit")
-    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress or summary lines (errors still go to stderr)")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
                    help="everything after this goes to ROS")
     p.set_defaults(func=main, ros_network=lambda a: a.recover is None)

@@ -18,7 +18,7 @@ __all__ = ["add_parser", "main"]
 def add_parser(sub, add_case=None):
     """Register ``bkabem replay`` on an argparse subparsers object."""
     from bkabem_ros.cli.base import finite_float, output_path
-    from bkabem_ros.viewer.rerun_io import DEFAULT_CONNECT_URL
+    from bkabem_ros.viewer.blueprint import DEFAULT_CONNECT_URL
 
     p = sub.add_parser("replay", help="republish an MCAP recording on ROS 2 and/or convert it for Rerun",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -48,7 +48,7 @@ def add_parser(sub, add_case=None):
     p.add_argument("--allow-damaged", action="store_true",
                    help="replay the intact chunks of a damaged file (bad CRC, cut) and say what was skipped, "
                         "instead of refusing it (exit code 2)")
-    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress or summary lines (errors still go to stderr)")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
                    help="everything after this goes to ROS")
     p.set_defaults(func=main, ros_network=lambda a: not a.info and (a.publish or (a.rerun_save is None

@@ -28,6 +28,11 @@ def _shorthand(p) -> None:
     p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=None,
                    help="parameter chunk_duration [s] (default 0.1)")
     p.add_argument("--seed", type=pos_int("--seed", 0), default=None, help="parameter seed")
+    p.add_argument("--noise-acc", type=finite_float("--noise-acc", 0.0), default=None, metavar="DENSITY",
+                   help="parameter noise_acc: accelerometer noise density [m/s^2/sqrt(Hz)] (as bkabem synth "
+                        "--noise-acc; e.g. 1e-3)")
+    p.add_argument("--noise-disp", type=finite_float("--noise-disp", 0.0), default=None, metavar="DENSITY",
+                   help="parameter noise_disp: proximity-probe noise density [m/sqrt(Hz)] (e.g. 1e-9)")
     p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None, help="parameter qos")
     p.add_argument("--speed-unit", choices=("rad/s", "hz", "rpm"), default=None,
                    help="parameter speed_unit (default rad/s)")
@@ -45,6 +50,7 @@ def _shorthand(p) -> None:
 def _overrides(args) -> dict:
     m = {"case": args.case, "machine_id": args.machine_id, "sample_rate": args.sample_rate,
          "chunk_duration": args.chunk_duration, "seed": args.seed, "qos": args.qos,
+         "noise_acc": getattr(args, "noise_acc", None), "noise_disp": getattr(args, "noise_disp", None),
          "speed_unit": args.speed_unit, "spectrum_rate": args.spectrum_rate, "wait_for_speed": args.wait_for_speed,
          "scenario": getattr(args, "scenario", None), "scenario_time_scale": getattr(args, "time_scale", None),
          "labels": getattr(args, "labels", None)}
@@ -95,7 +101,7 @@ def cmd_node(args) -> int:
 
         connect = args.rerun_connect
         if connect == "default":
-            from bkabem_ros.viewer.rerun_io import DEFAULT_CONNECT_URL
+            from bkabem_ros.viewer.blueprint import DEFAULT_CONNECT_URL
 
             connect = DEFAULT_CONNECT_URL
 

@@ -294,9 +294,12 @@ def add_parser(sub, add_case):
                    help="scenario seconds per second for every scenario machine (default: the entries' own)")
     p.add_argument("--seed", type=pos_int("--seed", 0), default=0, help="seed of machine 0 (machine i: seed+i)")
     p.add_argument("--prefix", default="machine_", help="namespace prefix (default machine_)")
-    p.add_argument("--sample-rate", type=finite_float("--sample-rate", 0.0, strict=True), default=None)
-    p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=None)
-    p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None)
+    p.add_argument("--sample-rate", type=finite_float("--sample-rate", 0.0, strict=True), default=None,
+                   help="parameter sample_rate of every machine [Hz] (default 25600)")
+    p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=None,
+                   help="parameter chunk_duration of every machine [s] (default 0.1)")
+    p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None,
+                   help="parameter qos of every machine (default sensor_data)")
     p.add_argument("--params-file", action="append", default=[], metavar="FILE",
                    help="parameter YAML applied to every machine (use /** as the node key)")
     p.add_argument("--executor", choices=EXECUTORS, default="events",
@@ -304,7 +307,8 @@ def add_parser(sub, add_case):
                         "(SingleThreadedExecutor)")
     p.add_argument("--seconds", type=finite_float("--seconds", 0.0, strict=True), default=None,
                    help="stop after this long and print per-machine publish statistics")
-    p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None)
+    p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
+                   help="everything after this goes to ROS in every process (-p name:=value for every machine)")
     p.add_argument("--worker", default=None, help=argparse.SUPPRESS)   # internal: JSON list of machines
     p.add_argument("--ready-fd", type=int, default=None, help=argparse.SUPPRESS)   # internal: start handshake
     p.set_defaults(func=main, ros_network=True)

@@ -158,15 +158,14 @@ class MachineSource:
         """(In the warm-up thread) ``model`` bound to the synthesiser's settings at its current speed."""
         return self.synth.warm(model)
 
-    def set_noise(self, acceleration_rms: float, displacement_rms: float, snr_db: float) -> None:
-        """Sensor noise from the next chunk on: RMS over 0..fs/2 per quantity [m/s^2, m], or by SNR [dB] (> 0)."""
+    def set_noise(self, acceleration_density: float, displacement_density: float, snr_db: float) -> None:
+        """Sensor noise from the next chunk on: one-sided densities per quantity [m/s^2/sqrt(Hz), m/sqrt(Hz)], or by
+        SNR [dB] (> 0)."""
         if snr_db > 0.0:
             self.synth.set_noise(snr_db=float(snr_db))
             return
-        root = math.sqrt(self.sample_rate / 2.0)
-        rms = {"acceleration": float(acceleration_rms), "displacement": float(displacement_rms)}
-        dens = {q: v / root for q, v in rms.items() if v > 0.0}
-        self.synth.set_noise(noise_density=dens or None)
+        dens = {"acceleration": float(acceleration_density), "displacement": float(displacement_density)}
+        self.synth.set_noise(noise_density={q: v for q, v in dens.items() if v > 0.0} or None)
 
     # ------------------------------------------------------------------ the machine changes
     @property

@@ -17,6 +17,9 @@ topic                          type                                 when
 ``vibration/de/spectrum``      ``bkabem_msgs/msg/VibrationSpectrum`` on speed change and at ``spectrum_rate``;
 ``vibration/nde/spectrum``                                          one message per quantity (acc., displ.)
 ``vibration/fault_frequencies`` ``bkabem_msgs/msg/BearingFaultFrequencies`` with the spectra
+``/diagnostics``               ``diagnostic_msgs/msg/DiagnosticArray`` once a second: stream on time, model, band
+                                                                    limit, ISO zone per bearing (REP 107;
+                                                                    :mod:`bkabem_ros.node.diagnostics`)
 =============================  ===================================  ==========================================
 
 Timing
@@ -46,6 +49,7 @@ after construction so a command can attach sinks before the stream starts.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -53,8 +57,15 @@ from typing import Any, Callable
 import numpy as np
 
 from bkabem_core.model.vocabulary import BEARINGS
-from bkabem_ros.node.band import BandWatch, start_note, start_refusal
-from bkabem_ros.node.params import LIVE_PARAMETERS, PARAMETER_SPECS, PARAMETERS, ParamSpec  # noqa: F401  (re-exported)
+from bkabem_ros.node.band import BandWatch, carries_to_band, start_note, start_refusal
+from bkabem_ros.node.diagnostics import NodeDiagnostics
+from bkabem_ros.node.params import (  # noqa: F401  (re-exported)
+    DEPRECATED_NOISE,
+    LIVE_PARAMETERS,
+    PARAMETER_SPECS,
+    PARAMETERS,
+    ParamSpec,
+)
 from bkabem_ros.node.source import (
     CHANNELS,
     FAULT_TYPE,
@@ -171,7 +182,7 @@ class VibrationNode(_node_base()):
         why = start_refusal(self._source.synth, scenario, float(p["scenario_start"]), self._machine_label())
         if why is not None:
             raise ValueError(why)
-        self._band = BandWatch(self.get_logger().warning)
+        self._band = BandWatch(self.get_logger().warning, self.get_logger().info)
         self._apply_noise()
         self._scenario_loaded: dict[str, Scenario] = {}     # parameter callback -> post callback
 
@@ -213,6 +224,7 @@ class VibrationNode(_node_base()):
                           for b in BEARINGS for q in QUANTITIES}
         self._spec_pub = {b: pub(VibrationSpectrum, f"vibration/{b}/spectrum") for b in BEARINGS}
         self._ff_pub = pub(BearingFaultFrequencies, "vibration/fault_frequencies")
+        self._diagnostics = NodeDiagnostics(self)        # the node's health on /diagnostics (REP 107), once a second
         # best effort + keep last: matches reliable and best-effort publishers; a flood only overwrites
         speed_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                                reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -259,7 +271,7 @@ class VibrationNode(_node_base()):
             f"machine {self.machine_id!r}: {what}, {self.sample_rate:g} Hz, "
             f"{self.samples_per_chunk} samples/chunk ({self.chunk_ns / 1e6:g} ms), QoS {p['qos']} depth {depth}, "
             f"speed in {normalize_unit(p['speed_unit'])} on {self._speed_topic}, max {self._max_speed:g} rad/s")
-        if scenario is None or not scenario.has_speed:
+        if scenario is None or not scenario.has_speed or carries_to_band(self._source.model):
             note = start_note(self._source.synth, self._max_speed / TWO_PI, self._machine_label())
             if note is not None:
                 self.get_logger().info(note)
@@ -392,7 +404,7 @@ class VibrationNode(_node_base()):
                 self._speed_factor = SPEED_UNITS[normalize_unit(prm.value)]
             elif prm.name == "max_speed":
                 self._max_speed = float(prm.value)
-            elif prm.name.startswith("noise."):
+            elif prm.name.startswith("noise"):
                 self._apply_noise()
             elif prm.name == "defect_depth":
                 self._request_depth(float(prm.value))
@@ -419,10 +431,23 @@ class VibrationNode(_node_base()):
         return self._source
 
     def _apply_noise(self) -> None:
-        """Noise parameters -> the synthesiser (from its next chunk on)."""
+        """Noise parameters -> the synthesiser (from its next chunk on): the densities ``noise_acc``,
+        ``noise_disp``, or the RMS values of earlier versions converted to densities with a warning."""
         live = self._live
-        self._source.set_noise(float(live["noise.acceleration"]), float(live["noise.displacement"]),
-                               float(live["noise.snr_db"]))
+        root = math.sqrt(self.sample_rate / 2.0)
+        density = {}
+        for old, new in DEPRECATED_NOISE.items():
+            value, rms = float(live[new]), float(live[old])
+            if rms > 0.0:
+                if value > 0.0:
+                    self.get_logger().warning(f"parameter {old} (deprecated, an RMS) is ignored: {new} is set")
+                else:
+                    value = rms / root
+                    self.get_logger().warning(
+                        f"parameter {old} = {rms:g} (an RMS, deprecated) is read as {new} = {value:.4g} "
+                        f"(a density: RMS / sqrt(sample_rate / 2)); write {new} instead")
+            density[new] = value
+        self._source.set_noise(density["noise_acc"], density["noise_disp"], float(live["noise.snr_db"]))
 
     def _next_index(self) -> int:
         """First sample of the next chunk still to be synthesised (where a change of the machine can begin)."""
@@ -564,6 +589,7 @@ class VibrationNode(_node_base()):
             raise RuntimeError(f"synth produced index {chunk.first_sample_index}, expected {index}")
         self._band.check(src.synth, src.model, max(float(chunk.shaft_speed_hz), float(chunk.shaft_speed_end_hz)),
                          self._machine_label)
+        self._diagnostics.add_chunk(chunk)
         speed = float(chunk.shaft_speed_hz) * TWO_PI          # at the first sample
         # the waveforms straight to CDR (waveform_cdr: the constant part of each stream encoded once); message
         # objects only for sinks (recorders, viewers), made from the same bytes when one asks for them

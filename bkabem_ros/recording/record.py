@@ -28,6 +28,7 @@ DEFAULT_TOPICS = (
     "vibration/nde/acceleration", "vibration/nde/displacement", "vibration/nde/velocity",
     "vibration/nde/spectrum",
     "vibration/fault_frequencies",
+    "/diagnostics",                 # the node's health (diagnostic_msgs/DiagnosticArray, REP 107)
 )
 OUR_PACKAGES = ("bkabem_msgs/",)
 

@@ -306,7 +306,7 @@ def test_taper_mode_drops_orders_near_nyquist_without_aliasing(model):
     bpfo, fs = 157, 12800                                   # orders 41..50 are above Nyquist
     f = bpfo / model.bpfo_per_hz
     with pytest.raises(SynthError, match="sample_rate_hz"):
-        Synthesizer(model, sample_rate_hz=fs).render(f"constant:{f!r}", 1.0)
+        Synthesizer(model, sample_rate_hz=fs, band_limit="error").render(f"constant:{f!r}", 1.0)
     s = Synthesizer(model, sample_rate_hz=fs, band_limit="taper", spectrum="exact")
     x = render(s, f"constant:{f!r}", 1.0).astype(float)
     spec = np.fft.rfft(x, axis=1) / x.shape[1]
@@ -481,7 +481,7 @@ def test_bad_arguments(model):
         with pytest.raises(SynthError) as ei:
             Synthesizer(model, **kw)
         assert ei.value.argument == arg, kw
-    s = Synthesizer(model, sample_rate_hz=25600)
+    s = Synthesizer(model, sample_rate_hz=25600, band_limit="error")
     for secs in (-1.0, 0.0, float("nan"), 1e-9):
         with pytest.raises(SynthError, match="^seconds:"):
             s.render("constant:10", secs)
