@@ -1,15 +1,15 @@
 """What ships with bkabem: cases (``cases/``), scenarios (``scenarios/``) and data-set specs (``datasets/``),
 each a TOML file read by name (``Case.load("motor_6010_inner")``).
 
-Catalogue (module ``catalogue``)
-================================
-    catalogue             -- every embedded file with its one-line description (``bkabem list``)
+Listing (module ``listing``)
+============================
+    embedded_files        -- every embedded file with its one-line description (``bkabem list``)
 """
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["catalogue"]
+__all__ = ["embedded_files"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
-    "catalogue": "catalogue",
+    "embedded_files": "listing",
 })

@@ -2,7 +2,7 @@
 
 Each is a TOML file of this package read by its name (``Case.load("motor_6010_inner")``,
 ``Scenario.load("de_outer_run_to_failure")``, ``DatasetSpec.load("dataset_example")``); its one-line description is
-the file's own (``[case]``, ``[scenario]`` or ``[fleet]``, ``[dataset]`` ``description``). Reading the catalogue
+the file's own (``[case]``, ``[scenario]`` or ``[fleet]``, ``[dataset]`` ``description``). Reading the list
 parses the TOML files only: no model is made.
 """
 
@@ -12,7 +12,7 @@ import tomllib
 from dataclasses import dataclass
 from importlib import resources
 
-__all__ = ["KINDS", "Entry", "catalogue"]
+__all__ = ["KINDS", "Entry", "embedded_files"]
 
 #: Folder of each kind of embedded file, in the order they are listed.
 KINDS = ("cases", "scenarios", "datasets")
@@ -35,7 +35,7 @@ class Entry:
     table: str
 
 
-def catalogue(kinds=KINDS) -> list[Entry]:
+def embedded_files(kinds=KINDS) -> list[Entry]:
     """Every embedded file of ``kinds``, by kind and name."""
     out = []
     for kind in kinds:

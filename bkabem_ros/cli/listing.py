@@ -15,10 +15,10 @@ _KINDS = ("cases", "scenarios", "datasets")
 
 
 def cmd_list(args) -> int:
-    from bkabem_core.embedded.listing import USE, catalogue
+    from bkabem_core.embedded.listing import USE, embedded_files
 
     kinds = tuple(args.kinds) or _KINDS
-    entries = catalogue(kinds)
+    entries = embedded_files(kinds)
     if args.json:
         json.dump([{"kind": e.kind, "name": e.name, "description": e.description} for e in entries], sys.stdout,
                   indent=1)

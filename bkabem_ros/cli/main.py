@@ -27,9 +27,9 @@ import argparse
 import sys
 
 from bkabem_ros.cli import bearing as bearing_cli
-from bkabem_ros.cli import listing as listing_cli
 from bkabem_ros.cli import core as core_cli
 from bkabem_ros.cli import dataset as dataset_cli
+from bkabem_ros.cli import listing as listing_cli
 from bkabem_ros.cli import synth as synth_cli
 from bkabem_ros.cli.base import Parser, add_debug, add_ros_options, run_command
 from bkabem_ros.cli.ros import add_ros_commands
