@@ -387,6 +387,8 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
 
 
 def _check_cross(raw: dict, source: str) -> None:
+    if not raw["case"]["name"].strip():
+        raise CaseError("case.name", "must not be empty (it names the case in every output)", source)
     b = raw["bearing"]
     if b["ball_diameter_m"] >= b["pitch_diameter_m"]:
         raise CaseError("bearing.ball_diameter_m", f"must be smaller than bearing.pitch_diameter_m "
@@ -420,6 +422,7 @@ def _check_cross(raw: dict, source: str) -> None:
             raise CaseError(f"{key}.length_m", f"must be shorter than one ball pitch along the {d['race']} race "
                             f"({circ / z_b * 1e3:.2f} mm): longer spalls are outside this model "
                             f"(got {d['length_m'] * 1e3:g} mm)", source)
+    _check_overlaps(raw["defects"], r_out, r_in, b["ball_diameter_m"] / 2.0, source)
     # rotor geometry
     r = raw["rotor"]
     z = r["node_positions_m"]
@@ -462,6 +465,26 @@ def _check_cross(raw: dict, source: str) -> None:
     if raw["baseline"]["misalignment_node"] not in shaft_nodes:
         raise CaseError("baseline.misalignment_node", f"must be a shaft node 1..{n_nodes} "
                         f"(got {raw['baseline']['misalignment_node']})", source)
+
+
+def _check_overlaps(defects: list, r_out: float, r_in: float, r_ball: float, source: str) -> None:
+    """Two defects on the same surface (bearing and race; for balls the same ball) must not overlap: the model
+    would take the deeper of the two pits where they meet, one defect silently standing for both."""
+    surface = {"outer": r_out, "inner": r_in, "ball": r_ball}
+    seen: dict[tuple, list] = {}
+    for i, d in enumerate(defects):
+        where = (d["bearing"], d["race"], d.get("ball", 0))
+        half = d["length_m"] / (2.0 * surface[d["race"]])            # half the angle it spans [rad]
+        centre = math.radians(d["angle_deg"])
+        for j, (c, h) in seen.get(where, []):
+            gap = abs(math.remainder(centre - c, 2.0 * math.pi))
+            if gap < half + h:
+                what = "the same defect as" if gap == 0.0 and half == h else "overlaps"
+                raise CaseError(f"defects[{i}]", f"{what} defects[{j}] on the {d['bearing']} {d['race']} "
+                                f"{'race' if d['race'] != 'ball' else 'ball'} (centres {math.degrees(gap):.3g} deg "
+                                f"apart, they span {math.degrees(half + h):.3g} deg together): describe one pit once, "
+                                f"or one longer defect", source)
+        seen.setdefault(where, []).append((i, (centre, half)))
 
 
 # --------------------------------------------------------------------------- the Case object
