@@ -14,6 +14,10 @@ Plausibility (module ``plausibility``)
     problem          -- the first implausible value of a case, or None
     BOUNDS           -- the bounds, each with its reason
 
+Input files (module ``files``)
+==============================
+    not_a_file       -- why a path cannot be read as an input file (missing, a directory, a FIFO), or None
+
 Vocabulary (module ``vocabulary``)
 ==================================
     BEARINGS         -- bearing positions: ``de``, ``nde``
@@ -23,7 +27,7 @@ Vocabulary (module ``vocabulary``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "problem", "BOUNDS", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
+__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "problem", "BOUNDS", "not_a_file", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Case": "case",
@@ -34,6 +38,7 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "SCHEMA_VERSION": "case",
     "problem": "plausibility",
     "BOUNDS": "plausibility",
+    "not_a_file": "files",
     "BEARINGS": "vocabulary",
     "DIRECTIONS": "vocabulary",
     "LOCATIONS": "vocabulary",

@@ -22,6 +22,7 @@ from pathlib import Path
 from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent
 from bkabem_core.excitation.quasi_static import FourDofParameters
 from bkabem_core.model import plausibility
+from bkabem_core.model.files import not_a_file
 
 DEFAULT_CASE = "electric_motor_6010"
 #: Version of the case format this code reads; older files are migrated (:func:`migrate_v1`, :func:`migrate_v2`).
@@ -67,8 +68,9 @@ def read_input_text(name_or_path: str | Path, folder: str, what: str, key: str,
                              f"{', '.join(embedded_names(folder))})") from None
         return text, f"embedded:{s}", None
     p = Path(s)
-    if not p.is_file():
-        raise error(key, f"file not found: {p}")
+    why = not_a_file(p)
+    if why:
+        raise error(key, why)
     try:
         text = p.read_bytes().decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bkabem_core.model.files import not_a_file
+
 TWO_PI = 2.0 * math.pi
 
 
@@ -115,8 +117,9 @@ class SpeedProfile:
         """Two columns, time and speed. A header names units: ``time_s`` and ``speed_hz`` | ``speed_rpm`` |
         ``speed_rad_s``; without a header (first row numeric) the units are s and Hz. ``#`` starts a comment."""
         p = Path(path)
-        if not p.is_file():
-            raise SynthError("profile", f"CSV file not found: {p}")
+        why = not_a_file(p)
+        if why:
+            raise SynthError("profile", f"CSV {why}")
         try:
             text = p.read_text()
         except (OSError, UnicodeDecodeError) as exc:

@@ -13,6 +13,7 @@ import importlib
 import importlib.util
 from pathlib import Path
 
+from bkabem_core.model.files import not_a_file
 from bkabem_ros.cli.base import UsageError, check_parameter_ranges, fail, finite_float, output_path, pos_int  # noqa: F401
 
 
@@ -59,8 +60,9 @@ def _ros_args(args) -> list[str]:
     from bkabem_ros.ros_env import params_file_problem
 
     for f in args.params_file:
-        if not Path(f).is_file():
-            fail("node", f"--params-file: file not found: {f}")
+        why = not_a_file(f)
+        if why:
+            fail("node", f"--params-file: {why}")
         why = params_file_problem(f)
         if why:
             fail("node", f"--params-file: {f}: {why}")

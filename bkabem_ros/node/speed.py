@@ -29,6 +29,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from bkabem_core.model.files import not_a_file
+
 TWO_PI = 2.0 * math.pi
 
 #: Accepted speed units and their factor to rad/s.
@@ -154,8 +156,9 @@ def parse_profile(text: str, unit: str = "hz") -> SpeedProfile:
 
 
 def _csv_profile(path: Path, unit: str) -> SpeedProfile:
-    if not path.is_file():
-        raise ValueError(f"profile: file not found: {path}")
+    why = not_a_file(path)
+    if why:
+        raise ValueError(f"profile: {why}")
     times, values = [], []
     with path.open(newline="") as fh:
         for lineno, row in enumerate(csv.reader(fh), 1):
