@@ -16,8 +16,6 @@ from pathlib import Path
 
 import numpy as np
 
-from bkabem_core.model.files import not_a_file
-
 TWO_PI = 2.0 * math.pi
 
 
@@ -116,6 +114,8 @@ class SpeedProfile:
     def from_csv(cls, path) -> "SpeedProfile":
         """Two columns, time and speed. A header names units: ``time_s`` and ``speed_hz`` | ``speed_rpm`` |
         ``speed_rad_s``; without a header (first row numeric) the units are s and Hz. ``#`` starts a comment."""
+        from bkabem_core.model.files import not_a_file
+
         p = Path(path)
         why = not_a_file(p)
         if why:
