@@ -63,12 +63,15 @@ class RosArgumentsError(ValueError):
     """rcl refused the ROS arguments (``--ros-args``, ``--params-file``) or a name (namespace, node, topic)."""
 
 
-def init(args: list[str], context=None) -> None:
+def init(args: list[str], context=None, *, announce_now: bool = True) -> None:
     """:func:`announce`, then ``rclpy.init(args=args, context=context)``; rcl's refusal of the arguments (a garbage
-    ``--params-file``, a bad remap) becomes one :class:`RosArgumentsError` line instead of a traceback."""
+    ``--params-file``, a bad remap) becomes one :class:`RosArgumentsError` line instead of a traceback.
+    ``announce_now=False``: the caller announces once its own checks passed (a node whose parameters are refused
+    says only why)."""
     import rclpy
 
-    announce()
+    if announce_now:
+        announce()
     try:
         rclpy.init(args=args, context=context)
     except Exception as exc:  # noqa: BLE001 - rclpy's RCLError lives in its private extension module

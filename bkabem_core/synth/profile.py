@@ -205,6 +205,8 @@ def parse_profile(spec) -> SpeedProfile:
 
 def _num(name: str, text: str) -> float:
     try:
+        if "_" in text:                     # float("1_0") is 10: a typo is not a number
+            raise ValueError(text)
         return float(text)
     except ValueError:
         raise SynthError(name, f"not a number: {text!r}") from None

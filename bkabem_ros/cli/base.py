@@ -71,6 +71,8 @@ def finite_float(name: str, minimum: float | None = None, strict: bool = False, 
 
     def conv(text: str) -> float:
         try:
+            if "_" in text:                 # float("1_0") is 10: a typo must not become another number
+                raise ValueError(text)
             v = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{name} must be a number (got {text!r})") from None
@@ -91,6 +93,8 @@ def pos_int(name: str, minimum: int = 1, maximum: int | None = None):
 
     def conv(text: str) -> int:
         try:
+            if "_" in text:                 # int("1_0") is 10
+                raise ValueError(text)
             v = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{name} must be an integer (got {text!r})") from None
@@ -198,6 +202,11 @@ class writing:
         return False
 
 
+def times_real_time(factor: float) -> str:
+    """``"0.31x"``, ``"12x"``, ``"2400x"``: a speed relative to real time, with its digits (never ``"0x"``)."""
+    return f"{factor:.0f}x" if factor >= 10 else f"{factor:.2g}x"
+
+
 # --------------------------------------------------------------------------- the contract
 def _input_error_types() -> tuple[type, ...]:
     out = [UsageError, argparse.ArgumentTypeError]
@@ -266,6 +275,10 @@ def run_command(args, command: str | None = None) -> int:
 
 def _run(args, prog: str) -> int:
     debug = bool(getattr(args, "debug", False)) or os.environ.get("BKABEM_DEBUG", "") not in ("", "0")
+    if sys.stdout is None:                  # started with stdout closed (`>&-`): results would be lost
+        sys.stderr.write(f"{prog}: error: stdout: closed (the command writes its results and progress there; "
+                         f"redirect it to a file or /dev/null)\n")
+        return EXIT_BAD_INPUT
     try:
         _ros_environment(args, prog)
         rc = int(args.func(args) or 0)

@@ -26,6 +26,8 @@ def _size(text: str) -> int:
             t, mult = t[:-1], m
             break
     try:
+        if "_" in t:
+            raise ValueError(t)
         v = int(float(t) * mult)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a size like 1048576, 512k, 64M (got {text!r})") from None
