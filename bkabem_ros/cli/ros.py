@@ -93,7 +93,12 @@ def cmd_node(args) -> int:
     on_node = None
     attached = []
     if getattr(args, "record", None) or getattr(args, "rerun_save", None) or getattr(args, "rerun_connect", None):
+        import os
+
         from bkabem_ros.recording.record import attach_sinks
+
+        # the Rerun SDK's own warnings would follow a failed start with lines of their own; its errors still show
+        os.environ.setdefault("RUST_LOG", "error")
 
         connect = args.rerun_connect
         if connect == "default":
@@ -102,13 +107,16 @@ def cmd_node(args) -> int:
             connect = DEFAULT_CONNECT_URL
 
         def attach(node):
-            sinks = attach_sinks(node, record=args.record, rerun_save=args.rerun_save, rerun_connect=connect)
+            sinks = attach_sinks(node, record=args.record, rerun_save=args.rerun_save, rerun_connect=connect,
+                                 report_start=False)
             attached.append(sinks)
             if args.record and sinks.mcap is None:
-                raise UsageError(f"--record: {args.record}: the recording could not start (see the log line above)")
+                sinks()
+                raise UsageError(f"--record: {sinks.start_errors.get('--record', 'the recording could not start')}")
             if (args.rerun_save or connect) and sinks.rerun is None:
-                raise UsageError("--rerun-save/--rerun-connect: the Rerun output could not start (see the log "
-                                 "line above)")
+                sinks()
+                option = "--rerun-save" if args.rerun_save else "--rerun-connect"
+                raise UsageError(f"{option}: {sinks.start_errors.get(option, 'the Rerun output could not start')}")
             return sinks
         on_node = attach
 

@@ -773,9 +773,9 @@ def run(ros_args=None, overrides: dict | None = None, *, node_name: str = "bkabe
         except (CaseError, InvalidParameterValueException, InvalidParameterTypeException, ValueError) as exc:
             sys.stderr.write(f"bkabem node: error: {' '.join(str(exc).split())}\n")
             return 2
-        announce()
-        if on_node is not None:
+        if on_node is not None:                 # its sinks (a recording that cannot start: one line, no banner)
             cleanup = on_node(node)
+        announce()
         _quiet_gc()
         node.start()
         executor = SingleThreadedExecutor()
