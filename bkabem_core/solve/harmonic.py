@@ -49,6 +49,7 @@ from bkabem_core.excitation.baseline import baseline_forces
 from bkabem_core.excitation.line_names import line_labels
 from bkabem_core.excitation.lines import LineSet, union
 from bkabem_core.excitation.quasi_static import Excitation, rates_per_hz
+from bkabem_core.fe.budget import check_line_modes, singular_stiffness
 from bkabem_core.fe.machine import Machine
 from bkabem_core.fe.modal import LineModes, ModalBasis, OrderModalForm, SpeedCells  # noqa: F401  (SpeedCells: for synth)
 from bkabem_core.fe.rotor import Rotor
@@ -360,8 +361,7 @@ class BkaBem:
                     else:
                         self._line_modes = like._line_modes.extended(self.multipliers)
             else:
-                self._basis = ModalBasis(self.rotor, p, self._out_dofs.reshape(-1),
-                                         MODAL_CUTOFF_FACTOR * case.max_frequency_hz)
+                self._basis = self._make_basis()
             self.order_modal_form()
         self.preparation_time_s["solver_setup"] = time.perf_counter() - t3
         self.preparation_time_s["total"] = sum(v for kk, v in self.preparation_time_s.items() if kk != "total")
@@ -405,14 +405,23 @@ class BkaBem:
     def basis(self) -> ModalBasis:
         """The reduced modal basis (made on first use with another solver)."""
         if self._basis is None:
-            self._basis = ModalBasis(self.rotor, self._p, self._out_dofs.reshape(-1),
-                                     MODAL_CUTOFF_FACTOR * self.case.max_frequency_hz)
+            self._basis = self._make_basis()
         return self._basis
+
+    def _make_basis(self) -> ModalBasis:
+        try:
+            return ModalBasis(self.rotor, self._p, self._out_dofs.reshape(-1),
+                              MODAL_CUTOFF_FACTOR * self.case.max_frequency_hz)
+        except ValueError as exc:
+            if "rigid-body" not in str(exc):
+                raise
+            raise singular_stiffness(self.case, "a rigid-body mode") from None
 
     @property
     def line_modes(self) -> LineModes:
         """The reduced model diagonalised along every speed-locked line (made on first use; ~1 s for 50)."""
         if self._line_modes is None:
+            check_line_modes(self.case, self._locked_idx.size, self.basis.size)
             self._line_modes = LineModes(self.basis, self.multipliers[self._locked_idx])
         return self._line_modes
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import sys
 import time
 
@@ -19,6 +20,12 @@ from bkabem_ros.cli.base import UsageError, check_output_dir, finite_float, outp
 #: with the simulated time (~10 s of computing and ~100 MB per simulated second).
 VALIDATE_MIN_SPEED_HZ = 1.0
 VALIDATE_MAX_DURATION_S = 20.0
+#: validate: the TDSM's spectral peaks need this many BPFO periods (the main lobe of a Hann window over n periods
+#: is +/- 2/n BPFO wide: from 6 on it fits the +/- 0.4 BPFO a peak is searched in).
+VALIDATE_MIN_PERIODS = 6
+#: validate: at most this many TDSM steps (settling of up to 4 s included): ~0.1 ms and ~100 B each, so ~5 min
+#: and ~300 MB (the default step at the longest --duration stays below it).
+VALIDATE_MAX_STEPS = 3_000_000
 
 # --------------------------------------------------------------------------- helpers
 def _load_case(path):
@@ -368,13 +375,23 @@ def cmd_validate(args) -> int:
     if args.speed_hz is not None:
         _check_speeds(case, [args.speed_hz], "--speed-hz")
         kwargs["speed_hz"] = args.speed_hz
-    if args.duration is not None:
-        kwargs["duration_s"] = args.duration
+    speed_hz = kwargs.get("speed_hz", validation.DEFAULT_SPEED_HZ)
+    bpfo_hz = case.bearing().fault_multipliers().bpfo * speed_hz
+    duration = validation.DEFAULT_DURATION_S if args.duration is None else args.duration
+    if duration * bpfo_hz < VALIDATE_MIN_PERIODS - 1e-9:
+        raise UsageError(f"--duration: {duration:g} s{' (the default)' if args.duration is None else ''} is shorter than {VALIDATE_MIN_PERIODS} BPFO periods at "
+                         f"{speed_hz:g} Hz ({VALIDATE_MIN_PERIODS / bpfo_hz:.4g} s): the TDSM's spectral peaks "
+                         f"need them")
+    kwargs["duration_s"] = duration
     if args.improvement:
         kwargs["improvement"] = None if args.improvement == "none" else args.improvement
+    from bkabem_core.solve.harmonic import BkaBem
+
+    plain = BkaBem(case, baseline=False)
     if args.max_step_us is not None:
+        _check_tdsm_step(args.max_step_us * 1e-6, bpfo_hz, duration, int(np.max(plain.orders, initial=1)))
         kwargs["max_step_s"] = args.max_step_us * 1e-6
-    result = validation.validate(case, progress=not args.json and sys.stderr.isatty(), **kwargs)
+    result = validation.validate(case, progress=not args.json and sys.stderr.isatty(), plain=plain, **kwargs)
     d = result.to_dict()
     _check_finite("validate", [v for v in _numbers(d)])
     if args.png:
@@ -385,6 +402,23 @@ def cmd_validate(args) -> int:
     else:
         print(result.summary() if hasattr(result, "summary") else json.dumps(result.to_dict(), indent=1))
     return 0
+
+
+def _check_tdsm_step(max_step_s: float, bpfo_hz: float, duration_s: float, top_order: int) -> None:
+    """``--max-step-us`` against what the TDSM can resolve (2 steps per period of the highest order) and afford
+    (:data:`VALIDATE_MAX_STEPS`, settling included)."""
+    period = 1.0 / bpfo_hz
+    per_period = math.ceil(period / max_step_s - 1e-9)
+    if per_period < 2 * top_order:
+        raise UsageError(f"--max-step-us: {max_step_s * 1e6:g} us gives {per_period} steps per BPFO period; order "
+                         f"{top_order} needs at least {2 * top_order} (at most {period / (2 * top_order) * 1e6:.4g} us)")
+    steps = per_period * (math.ceil(duration_s / period - 1e-9) + math.ceil(4.0 / period - 1e-9))
+    if steps > VALIDATE_MAX_STEPS:
+        shortest = period / math.floor(VALIDATE_MAX_STEPS / (math.ceil(duration_s / period - 1e-9)
+                                                             + math.ceil(4.0 / period - 1e-9)))
+        raise UsageError(f"--max-step-us: {max_step_s * 1e6:g} us needs up to {steps:.3g} TDSM steps (--duration "
+                         f"and up to 4 s of settling), more than {VALIDATE_MAX_STEPS:g} (~0.1 ms and ~100 B each); "
+                         f"at least {shortest * 1e6:.3g} us")
 
 
 def cmd_demo(args) -> int:

@@ -13,6 +13,7 @@ import importlib
 import importlib.util
 from pathlib import Path
 
+from bkabem_core.model.files import not_a_file
 from bkabem_ros.cli.base import UsageError, check_parameter_ranges, fail, finite_float, output_path, pos_int  # noqa: F401
 
 
@@ -65,8 +66,9 @@ def _ros_args(args) -> list[str]:
     from bkabem_ros.ros_env import params_file_problem
 
     for f in args.params_file:
-        if not Path(f).is_file():
-            fail("node", f"--params-file: file not found: {f}")
+        why = not_a_file(f)
+        if why:
+            fail("node", f"--params-file: {why}")
         why = params_file_problem(f)
         if why:
             fail("node", f"--params-file: {f}: {why}")
@@ -97,7 +99,12 @@ def cmd_node(args) -> int:
     on_node = None
     attached = []
     if getattr(args, "record", None) or getattr(args, "rerun_save", None) or getattr(args, "rerun_connect", None):
+        import os
+
         from bkabem_ros.recording.record import attach_sinks
+
+        # the Rerun SDK's own warnings would follow a failed start with lines of their own; its errors still show
+        os.environ.setdefault("RUST_LOG", "error")
 
         connect = args.rerun_connect
         if connect == "default":
@@ -106,13 +113,16 @@ def cmd_node(args) -> int:
             connect = DEFAULT_CONNECT_URL
 
         def attach(node):
-            sinks = attach_sinks(node, record=args.record, rerun_save=args.rerun_save, rerun_connect=connect)
+            sinks = attach_sinks(node, record=args.record, rerun_save=args.rerun_save, rerun_connect=connect,
+                                 report_start=False)
             attached.append(sinks)
             if args.record and sinks.mcap is None:
-                raise UsageError(f"--record: {args.record}: the recording could not start (see the log line above)")
+                sinks()
+                raise UsageError(f"--record: {sinks.start_errors.get('--record', 'the recording could not start')}")
             if (args.rerun_save or connect) and sinks.rerun is None:
-                raise UsageError("--rerun-save/--rerun-connect: the Rerun output could not start (see the log "
-                                 "line above)")
+                sinks()
+                option = "--rerun-save" if args.rerun_save else "--rerun-connect"
+                raise UsageError(f"{option}: {sinks.start_errors.get(option, 'the Rerun output could not start')}")
             return sinks
         on_node = attach
 

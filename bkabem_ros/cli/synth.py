@@ -39,7 +39,7 @@ import zipfile
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bkabem_ros.cli.base import UsageError, output_path, writing
+from bkabem_ros.cli.base import UsageError, output_path, times_real_time, writing
 
 if TYPE_CHECKING:                   # numpy and the synthesiser are imported when the command runs, not to parse
     import numpy as np
@@ -120,6 +120,8 @@ def _num(name: str, text, kind=float, minimum=None, strict=False, allow_none=Fal
             return None
         raise SynthError(name, "is required")
     try:
+        if isinstance(text, str) and "_" in text:          # kind("1_0") is 10: a typo is not a number
+            raise ValueError(text)
         v = kind(text)
     except (TypeError, ValueError):
         raise SynthError(name, f"must be {'an integer' if kind is int else 'a number'} (got {text!r})") from None
@@ -150,6 +152,9 @@ def _settings(args) -> dict:
     if seconds is None and scenario is None:
         if profile.duration_s <= 0:
             raise SynthError("--seconds", "is required for a constant profile")
+        if profile.duration_s > MAX_SECONDS:
+            raise SynthError("--profile", f"lasts {profile.duration_s:g} s, more than {MAX_SECONDS:g} s of signal; "
+                                          f"give --seconds to render its start")
         seconds = profile.duration_s
     out = Path(args.out)
     if out.suffix.lower() not in (".npz", ".csv"):
@@ -181,6 +186,20 @@ def _settings(args) -> dict:
         "max_order": _num("--max-order", args.max_order, int, 1, allow_none=True),
         "quantities": [q.strip() for q in str(args.quantities).split(",") if q.strip()],
     }
+
+
+def _check_free_space(out: Path, n_bytes: int) -> None:
+    """Refuse an output that cannot fit the free space of its file system (estimated: samples x their size; a CSV
+    value ~16 characters), before any of it is written."""
+    import shutil
+
+    try:
+        free = shutil.disk_usage(out.parent if str(out.parent) else ".").free
+    except OSError:
+        return
+    if n_bytes > free:
+        raise SynthError("--out", f"{out} would take ~{n_bytes / 1e9:.3g} GB, more than the {free / 1e9:.3g} GB free "
+                                  f"there (fewer --seconds, a lower --rate or fewer --quantities)")
 
 
 def _noise_options(args) -> list[str]:
@@ -456,6 +475,7 @@ def synth_main(args) -> int:
         meta.update(scen_meta)
         meta["ground_truth"] = meta["states_ground_truth"][run.driver.applied.index]
     csv_mode = out.suffix.lower() == ".csv"
+    _check_free_space(out, len(synth.channel_names) * n_total * (16 if csv_mode else np.dtype(synth.dtype).itemsize))
     with writing("--out", out):
         writer = _CsvWriter(out, synth, None if run is not None else st["profile"], meta, state_column=run is not None) \
             if csv_mode else _NpzWriter(out, len(synth.channel_names), n_total, synth.dtype)
@@ -554,7 +574,7 @@ def synth_main(args) -> int:
         with writing("--png", args.png):
             _plot(Path(args.png), excerpt, fs, synth, mean_speed, f"{title}, {fs:g} Hz, seed {synth.seed}")
     print(f"wrote {out}: {len(synth.channel_names)} channels x {n_total} samples at {fs:g} Hz "
-          f"({st['seconds']:g} s in {t_synth:.2f} s, {st['seconds'] / t_synth:.3g}x real time)"
+          f"({st['seconds']:g} s in {t_synth:.2f} s, {times_real_time(st['seconds'] / t_synth)} real time)"
           + (f", {len(set(states))} scenario states" if run is not None else "")
           + (f", figure {args.png}" if args.png else ""))
     return 0

@@ -358,11 +358,13 @@ def main(args) -> int:
     common = {k: v for k, v in {"sample_rate": args.sample_rate, "chunk_duration": args.chunk_duration,
                                 "qos": args.qos}.items() if v is not None}
     ros_args = []
+    from bkabem_core.model.files import not_a_file
     from bkabem_ros.ros_env import params_file_problem
 
     for f in args.params_file:
-        if not os.path.isfile(f):
-            fail("fleet", f"--params-file: file not found: {f}")
+        why = not_a_file(f)
+        if why:
+            fail("fleet", f"--params-file: {why}")
         why = params_file_problem(f)
         if why:
             fail("fleet", f"--params-file: {f}: {why}")

@@ -57,6 +57,9 @@ def prepare_model(case, logger=None):
     with _MODEL_LOCK:
         model = _MODEL_CACHE.get(case.case_hash)
         if model is None:
+            from bkabem_core.fe.budget import check_mesh
+
+            check_mesh(case)                # a model too big to make: refused before anything is said or made
             if logger is not None:
                 logger.info(f"preparing the BKA-BEM model of case {case.name} ({case.source}, hash "
                             f"{case.case_hash}): 4-DOF excitation + FE rotor ...")
@@ -83,6 +86,11 @@ def parse_labels(text: str) -> dict:
         if not sep or not key.strip():
             raise ValueError(f"parameter labels: {item!r} is not key=value (labels are key=value,key=value)")
         out[key.strip()] = value.strip()
+    from bkabem_core.scenario.timeline import label_problem
+
+    bad = label_problem(out)
+    if bad is not None:
+        raise ValueError(f"parameter {bad[0]}: {bad[1]}")
     return out
 
 

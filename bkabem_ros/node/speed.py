@@ -29,7 +29,14 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from bkabem_core.model.files import not_a_file
+from bkabem_core.model.plausibility import BOUNDS
+
 TWO_PI = 2.0 * math.pi
+
+#: The fastest shaft a case may have [Hz] (the upper plausibility bound of operating.max_speed_hz, 120 000 rpm): a
+#: profile above it is a unit slip, not a speed any node will take.
+MAX_SHAFT_SPEED_HZ = BOUNDS["operating.max_speed_hz"][1]
 
 #: Accepted speed units and their factor to rad/s.
 SPEED_UNITS = {"rad/s": 1.0, "hz": TWO_PI, "rpm": TWO_PI / 60.0}
@@ -105,6 +112,8 @@ class SpeedProfile:
 
 def _num(field: str, text: str, *, nonneg: bool = True, positive: bool = False) -> float:
     try:
+        if "_" in text:                     # float("1_0") is 10
+            raise ValueError(text)
         v = float(text)
     except ValueError:
         raise ValueError(f"{field}: {text!r} is not a number") from None
@@ -154,8 +163,9 @@ def parse_profile(text: str, unit: str = "hz") -> SpeedProfile:
 
 
 def _csv_profile(path: Path, unit: str) -> SpeedProfile:
-    if not path.is_file():
-        raise ValueError(f"profile: file not found: {path}")
+    why = not_a_file(path)
+    if why:
+        raise ValueError(f"profile: {why}")
     times, values = [], []
     with path.open(newline="") as fh:
         for lineno, row in enumerate(csv.reader(fh), 1):
@@ -240,6 +250,10 @@ def main(args) -> int:
         profile = parse_profile(args.profile, unit)
     except ValueError as exc:
         fail("speed", str(exc))
+    top = max(profile.values) * SPEED_UNITS[unit]
+    if top > MAX_SHAFT_SPEED_HZ * TWO_PI:
+        fail("speed", f"--profile: {max(profile.values):g} {unit} is above {MAX_SHAFT_SPEED_HZ:g} Hz, the fastest "
+                      f"shaft any case may have (operating.max_speed_hz; a unit slip? --unit is {unit})")
     check_names([("--namespace", "namespace", args.namespace), ("--topic", "topic", args.topic)])
     duration = args.seconds
     if duration is None and profile.finite:

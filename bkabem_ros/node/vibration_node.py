@@ -142,6 +142,7 @@ class VibrationNode(_node_base()):
 
         self._sinks: list[Sink] = []
         self._sink_errors = 0
+        self._refuse_unknown_overrides()
         self._coerce_numeric_overrides()
         # -- parameters, declared up front (the machine first: two defaults come from it)
         self._declare("case")
@@ -261,6 +262,7 @@ class VibrationNode(_node_base()):
         self._reanchors = 0
         self._last_now_ns = 0
 
+        self.add_pre_set_parameters_callback(self._warn_undeclared)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._after_set_parameters)
         what = f"scenario {scenario.name} (x{float(p['scenario_time_scale']):g})" if scenario is not None else \
@@ -288,6 +290,33 @@ class VibrationNode(_node_base()):
         return f"case {self._source.case.name}{label}"
 
     # ------------------------------------------------------------------ parameters
+    #: Parameters rclpy declares on every node (besides the table of bkabem_ros.node.params).
+    _RCLPY_PARAMETERS = ("use_sim_time", "start_type_description_service")
+
+    def _known(self, name: str) -> bool:
+        return name in PARAMETER_SPECS or name in self._RCLPY_PARAMETERS or name.startswith("qos_overrides.")
+
+    def _refuse_unknown_overrides(self) -> None:
+        """A parameter given for this node (``-p``, ``--params-file``) that it does not have is a typo that would be
+        ignored: refused, with the nearest name."""
+        import difflib
+
+        unknown = sorted(n for n in self._parameter_overrides if not self._known(n))
+        if unknown:
+            near = difflib.get_close_matches(unknown[0], list(PARAMETER_SPECS), n=1)
+            raise ValueError(f"parameter {unknown[0]}: the node has no such parameter"
+                             + (f" (did you mean {near[0]}?)" if near else "")
+                             + (f"; also unknown: {', '.join(unknown[1:])}" if len(unknown) > 1 else "")
+                             + " (docs/ros_node.md lists them)")
+
+    def _warn_undeclared(self, params):
+        """A live set of a parameter the node does not have: rclpy refuses it to the caller; the node says so too."""
+        for prm in params:
+            if not self.has_parameter(prm.name):
+                self.get_logger().warning(f"parameter {prm.name}: the node has no such parameter; the set is refused "
+                                          f"(docs/ros_node.md lists them)")
+        return params
+
     def _coerce_numeric_overrides(self) -> None:
         """YAML ``sample_rate: 51200`` is an integer: accept it for a double parameter (and 2.0 for ints)."""
         from rclpy.parameter import Parameter
@@ -755,9 +784,11 @@ def run(ros_args=None, overrides: dict | None = None, *, node_name: str = "bkabe
     from rclpy.parameter import Parameter
 
     from bkabem_core.model.case import CaseError
-    from bkabem_ros.ros_env import init  # noqa: PLC0415
+    from bkabem_ros.ros_env import announce, init  # noqa: PLC0415
 
-    init(["bkabem-node", "--ros-args", *(ros_args or [])])   # + the discovery range in force, once
+    # the discovery range is announced once the node took its parameters: a refused parameter, case or label is then
+    # the one line of the command (the node has joined the graph for that second, but sends nothing)
+    init(["bkabem-node", "--ros-args", *(ros_args or [])], announce_now=False)
     node = None
     cleanup = None
     try:
@@ -766,10 +797,11 @@ def run(ros_args=None, overrides: dict | None = None, *, node_name: str = "bkabe
                                  parameter_overrides=[Parameter(k, value=v) for k, v in (overrides or {}).items()],
                                  start=False)
         except (CaseError, InvalidParameterValueException, InvalidParameterTypeException, ValueError) as exc:
-            sys.stderr.write(f"bkabem node: error: {exc}\n")
+            sys.stderr.write(f"bkabem node: error: {' '.join(str(exc).split())}\n")
             return 2
-        if on_node is not None:
+        if on_node is not None:                 # its sinks (a recording that cannot start: one line, no banner)
             cleanup = on_node(node)
+        announce()
         _quiet_gc()
         node.start()
         executor = SingleThreadedExecutor()
