@@ -13,7 +13,6 @@ import importlib
 import importlib.util
 from pathlib import Path
 
-from bkabem_core.model.files import not_a_file
 from bkabem_ros.cli.base import UsageError, check_parameter_ranges, fail, finite_float, output_path, pos_int  # noqa: F401
 
 
@@ -63,6 +62,7 @@ def _overrides(args) -> dict:
 
 def _ros_args(args) -> list[str]:
     out = []
+    from bkabem_core.model.files import not_a_file
     from bkabem_ros.ros_env import params_file_problem
 
     for f in args.params_file:
@@ -90,7 +90,7 @@ def check_scenario(option: str, ref: str | None) -> None:
 
 
 def cmd_node(args) -> int:
-    from bkabem_ros.node.vibration_node import run
+    from bkabem_ros.node.run import run
     from bkabem_ros.ros_env import check_names
 
     check_names([("--name", "node name", args.name), ("--namespace", "namespace", args.namespace)])

@@ -146,7 +146,8 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
     from rclpy.parameter import Parameter
 
     from bkabem_core.model.case import CaseError
-    from bkabem_ros.node.vibration_node import VibrationNode, _exit_log, _quiet_gc
+    from bkabem_ros.node.run import exit_log, quiet_gc
+    from bkabem_ros.node.vibration_node import VibrationNode
     from bkabem_ros.ros_env import init  # noqa: PLC0415
 
     init(["bkabem-fleet", "--ros-args", *ros_args])   # + the discovery range in force, once
@@ -170,7 +171,7 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
         watch = _NamespaceWatch(nodes[0], [m["namespace"] for m in machines]) if nodes else None
         for nd in nodes:
             nd.prime()
-        _quiet_gc()
+        quiet_gc()
         go = ready(lambda: executor.spin_once(timeout_sec=0.05)) if ready is not None else True
         if go:
             _start_spread(nodes)
@@ -193,7 +194,7 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
         for nd in nodes:
             st = nd.stats()
             st["namespace_conflicts"] = sorted(watch.reported) if watch is not None else []
-            _exit_log(nd, st)
+            exit_log(nd, st)
             if report is not None:
                 report(st)
         return 0
