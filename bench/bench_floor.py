@@ -47,7 +47,8 @@ CHANNEL_SETS = {"acc4": ["acceleration"], "acc+disp8": ["acceleration", "displac
 def bench_set(model, quantities, repeat: int) -> dict:
     s = Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, seed=1, features=False, quantities=quantities,
                     accelerometer=Accelerometer.mounted("stud"), anti_alias=AntiAliasFilter.for_rate(FS))
-    args = (model, s._comb, s._cindex, s._power, s._scale, s._housing_cols, FS, s.accelerometer, s.anti_alias)
+    ch = s._plan.channels
+    args = (model, ch.combination, ch.cindex, ch.power, ch.scale, ch.housing_columns, FS, s.settings.sensors)
     transfer, frames = [], []
     for seed in range(repeat):
         t0 = time.perf_counter()

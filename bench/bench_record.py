@@ -144,7 +144,7 @@ mode, seconds, out = sys.argv[1], float(sys.argv[2]), sys.argv[3]
 rclpy.init()
 node = VibrationNode("bench", namespace="/bench", start=False, parameter_overrides=[
     Parameter("sample_rate", value=51200.0), Parameter("chunk_duration", value=0.1),
-    Parameter("noise.acceleration", value=0.5), Parameter("spectrum_rate", value=1.0)])
+    Parameter("noise_acc", value=3.125e-3), Parameter("spectrum_rate", value=1.0)])     # 0.5 m/s^2 RMS
 cleanup = None
 published = {"n": 0}
 node.add_sink(lambda topic, t, m, s: published.__setitem__("n", published["n"] + 1))

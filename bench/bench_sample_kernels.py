@@ -1,14 +1,13 @@
-"""The synthesiser's sample-rate kernels (issue 12): sensor noise, broadband floor, line-set rows, per 0.1-s chunk.
+"""The synthesiser's sample-rate kernels: sensor noise, broadband floor, line-set rows, per 0.1-s chunk.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_sample_kernels.py            # kernels, best of --repeat
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_sample_kernels.py --chunks motor_6010_ball --seconds 20
 
-Kernels (8 channels at 51.2 kHz, 5120 samples = one 0.1-s chunk): ``noise_fill`` (the normals of a chunk),
-``noise_add`` (x + sigma z of a chunk), ``floor_render`` (the broadband floor of ``motor_6010_healthy``), and
-``lines_segment`` on one blended 5120-sample segment of the inner race's and the ball's line sets (captured from
-a synthesiser at 25 Hz with 1 % slip, no noise). ``--chunks CASE``: bench_faults' synthesis loop with slip 1 % and
-noise (a new speed every chunk) for one case, us per chunk. Runs on older checkouts too (float32 floor frames
-without a scale), so that two checkouts can be alternated under the bench lock.
+Kernels (8 channels at 51.2 kHz, 5120 samples = one 0.1-s chunk): ``noise_add`` (x + sigma z of a chunk),
+``floor_render`` (the broadband floor of ``motor_6010_healthy``), and the line-set kernel
+(``FusedLines.segment``: phases, slip offsets and samples) on one blended 5120-sample segment of the inner race's
+and the ball's line sets at 25 Hz with 1 % slip, no noise. ``--chunks CASE``: bench_faults' synthesis loop with
+slip 1 % and noise (a new speed every chunk) for one case, us per chunk.
 """
 
 from __future__ import annotations
@@ -46,47 +45,34 @@ def best_us(fn, calls: int, repeat: int) -> float:
     return min(times)
 
 
-def captured_segment(case: str) -> dict:
-    """The arguments of the first blended, slipped segment of 5120 samples the synthesiser renders."""
-    cap: dict = {}
-    orig = sk.lines_segment
-
-    def spy(m, phases, plan, ta, tb, warp, wp, wq, dc, xi0, blend_scale, out, acc=None, off=None, noise=None):
-        if tb is not None and warp is not None and m == M and not cap:
-            cap.update(args=(m, phases.copy(), plan, ta.copy(), tb.copy(), warp.copy(), wp.copy(), wq.copy(),
-                             dc.copy(), xi0, blend_scale))
-        return orig(m, phases, plan, ta, tb, warp, wp, wq, dc, xi0, blend_scale, out, acc, off, noise)
-
-    sk.lines_segment = spy
-    try:
-        s = Synthesizer(BkaBem(Case.load(case)), sample_rate_hz=FS, chunk_s=0.1, slip=0.01)
-        for v in (25.0, 25.3, 25.6, 25.2):
-            s.next_chunk(v)
-    finally:
-        sk.lines_segment = orig
-    return cap
+def blended_segment(case: str):
+    """A synthesiser of ``case`` (1 % slip) and the knots of a blended segment of 5120 samples of it."""
+    s = Synthesizer(BkaBem(Case.load(case)), sample_rate_hz=FS, chunk_s=0.1, slip=0.01)
+    for v in (25.0, 25.3):
+        s.next_chunk(v)
+    a, b = s._stream.knots[-2:]
+    return s, a, b
 
 
 def kernels(repeat: int) -> None:
     key = 12345
-    print(f"noise_fill        {best_us(lambda k: sk.noise_fill(key, k * M, M, 8), 500, repeat):8.1f} us per chunk")
     x, sig = np.zeros((M, 8), np.float32), np.ones(8, np.float32)
     print(f"noise_add         {best_us(lambda k: sk.noise_add(x, key, k * M, sig), 500, repeat):8.1f} us per chunk")
     s = Synthesizer(BkaBem(Case.load("motor_6010_healthy")), sample_rate_hz=FS, chunk_s=0.1, seed=5)
-    fl = s._floor_source()
+    fl = s.floor
     grains = [fl.grains(k * M, M).copy() for k in range(300)]
     out = np.empty((M, 8), np.float32)
-    extra = (fl.scale,) if hasattr(fl, "scale") else ()
 
     def floor(k):
-        sk.floor_render(k * M, M, fl.half, fl.frames, fl.window, grains[k], out, *extra)
+        sk.floor_render(k * M, M, fl.half, fl.frames, fl.window, grains[k], out, fl.scale)
 
     print(f"floor_render      {best_us(floor, 300, repeat):8.1f} us per chunk")
     for case in ("motor_6010_inner", "motor_6010_ball"):
-        args = captured_segment(case)["args"]
-        acc, off = sk.new_acc(8), np.zeros(8)
-        us = best_us(lambda k: sk.lines_segment(*args, out, acc, off), 200, repeat)
-        print(f"lines_segment     {us:8.1f} us per blended segment of {M} samples, {case}")
+        s, a, b = blended_segment(case)
+        lines, walk, off = s._plan.lines_kernel, s._stream.walk, s._plan.dc_off
+        acc = sk.new_acc(8)
+        us = best_us(lambda k: lines.segment(a, b, a.x, a.x + M, out, acc, off, walk, None), 200, repeat)
+        print(f"lines segment     {us:8.1f} us per blended segment of {M} samples, {case}")
 
 
 def chunks(case: str, seconds: float) -> None:

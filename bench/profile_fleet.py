@@ -37,7 +37,7 @@ from bench_fleet import thread_cpu  # noqa: E402
 from bench_node import REPO, Proc, bkabem, ros_env  # noqa: E402
 
 GROUPS = [
-    ("synthesis (bkabem_core, C kernels)", re.compile(r"bkabem_core/|_synthloop|_modalsum")),
+    ("synthesis (bkabem_core, C kernels)", re.compile(r"bkabem_core/|_synth|_modalsum|_blocktri")),
     ("serialize_message (message -> CDR)", re.compile(r"serialize_message")),
     ("waveform CDR fast path (waveform_cdr.py)", re.compile(r"bkabem_ros/waveform_cdr\.py")),
     ("publish (rclpy -> rmw -> Fast DDS write)", re.compile(r"Publisher\.publish")),

@@ -4,6 +4,7 @@
     .venv/bin/python bench/run_all.py --areas core,synthesis # re-measure these areas, keep the others' records
     .venv/bin/python bench/run_all.py --list                 # the areas, their steps and commands
     .venv/bin/python bench/run_all.py --render               # rewrite BENCHMARKS.md from bench/records.json only
+    .venv/bin/python bench/run_all.py --areas realism --data-dir DIR   # the twin against measured CWRU records
     make bench [AREAS=core,synthesis]
 
 A *step* is one benchmark command (a script of ``bench/`` or a ``bkabem`` command) with the settings below, run as
@@ -16,6 +17,10 @@ that re-measuring some areas leaves the others' rows as they were. BENCHMARKS.md
 
 A step that fails is recorded as failed (its rows are dropped, the table says so, the exit code is 1); the run
 goes on with the next step. Targets are the ones the project's issues set; "met" compares the value with it.
+
+The realism area needs measured records the project does not keep (CWRU's drive-end records as NumPy files):
+``--data-dir DIR`` or ``$BKABEM_CWRU_DIR``; without one its steps are not run, and a measurement made before keeps
+its rows.
 """
 
 from __future__ import annotations
@@ -403,15 +408,61 @@ def read_suite(d, _args):
                 "{:.0f}", "s", le(480.0, "<= 8 min"), note=s["summary"])]
 
 
+def read_validate_real(d, _args):
+    s = d["summary"]
+    case = f"{s['records']} CWRU drive-end records against the twin `{d['twin']}` ({d['seeds']} seed)"
+    out = [row(case, f"records with the twin's {what} (DE)", s[f"{key}_fraction"], "{:.2f}", "",
+               ge(0.8, ">= 0.80"), note=f"{s[f'{key}_met']} of {s[f'{key}_of']}")
+           for key, what in (("rms", "RMS within a factor 2 of the measurement"),
+                             ("line", "fault line's envelope level (2-4 kHz) within 10 dB"),
+                             ("verdict", "textbook verdict the measurement's, the same miss included"))]
+    h = s.get("healthy")
+    if h:
+        out.append(row(case, "the healthy record: RMS within a factor 2, no fault line above the floor, band shape "
+                       "within 10 dB (all three)", 1.0 if h["all"] else 0.0, "{:.0f}", "", eq(1, "1 (all met)"),
+                       note=f"RMS ratio {h['rms_ratio']:.2f}; strongest fault line "
+                            f"{h['twin_strongest_fault_line_db']:.0f} dB; worst band "
+                            f"{max(abs(v) for v in h['shape_diff_db']):.0f} dB"))
+    out.append(row(case, "textbook verdict right (the record's kind), measured records", s["verdict_right_measured"],
+                   "{:.0f}", f"of {s['records']}", note=f"twin: {s['verdict_right_twin']} of {s['records']}"))
+    return out
+
+
+def read_sim2real(d, _args):
+    ev = d["evaluation"]
+    models = ev["models"]
+    first = next(iter(models))
+    r = models[first]["measured"]
+    case = f"classifier fitted on `{d['twin']}` alone ({d['runs']} runs), scored on {len(d['records'])} CWRU records"
+    out = [row(case, f"accuracy over healthy / inner / ball / outer ({first})", r["accuracy"], "{:.2f}", "",
+               ge(0.85, ">= 0.85 (chance 0.25)"), note=f"balanced {r['balanced']:.2f}")]
+    for c, v in r["per_class"].items():
+        out.append(row(case, f"accuracy on the {c} records", v, "{:.2f}", ""))
+    for name, m in models.items():
+        if name != first:
+            out.append(row(case, f"accuracy ({name})", m["measured"]["accuracy"], "{:.2f}", "",
+                           note=f"on the twin's held-out conditions {m['twin_cv']['accuracy']:.2f}"))
+    v = ev["verdict"]["fixed"]
+    out.append(row("textbook envelope verdict (2-4 kHz), no training", "right on the twin's runs at the records' "
+                   "conditions (balanced over the classes)", v["twin_like_measured"]["balanced"], "{:.2f}", "",
+                   note=f"on the measured records {v['measured']['balanced']:.2f}; a realistic twin is about as "
+                        "hard as those"))
+    return out
+
+
 # --------------------------------------------------------------------------- steps and areas
 PY = "{python}"
 BK = "{bkabem}"
+DATA = "{data}"
+#: The folder of measured CWRU records for the realism area (or ``--data-dir``); the project keeps no copy.
+DATA_ENV = "BKABEM_CWRU_DIR"
 
 
 @dataclass
 class Step:
-    """One benchmark command. ``argv`` items ``{python}`` and ``{json}`` are filled in; ``output`` says where its
-    JSON comes from: "file" (the ``{json}`` path), "stdout" (the whole output) or "stdouts" (several commands)."""
+    """One benchmark command. ``argv`` items ``{python}``, ``{json}`` and ``{data}`` (the measured-data folder) are
+    filled in; ``output`` says where its JSON comes from: "file" (the ``{json}`` path), "stdout" (the whole output)
+    or "stdouts" (several commands). A step that ``needs_data`` runs only when a data folder is given."""
 
     name: str
     argv: list | list[list]
@@ -419,6 +470,7 @@ class Step:
     estimate_s: float
     output: str = "file"
     areas: tuple = ()
+    needs_data: bool = False
 
 
 STEPS = [
@@ -453,6 +505,10 @@ STEPS = [
     Step("startup", [PY, "bench/bench_startup.py", "--repeat", "5", "--unit-tier", "--json", "{json}"],
          read_startup, 120),
     Step("suite", [PY, "bench/bench_startup.py", "--repeat", "0", "--suite", "--json", "{json}"], read_suite, 900),
+    Step("validate_real", [PY, "bench/validate_real.py", DATA, "--seeds", "1", "--out", "bench/results/realism",
+                           "--json", "{json}"], read_validate_real, 60, needs_data=True),
+    Step("sim2real", [PY, "bench/sim2real.py", DATA, "--seeds", "1", "--out", "bench/results/realism", "--json",
+                      "{json}"], read_sim2real, 150, needs_data=True),
 ]
 
 #: area -> (title, steps whose rows it shows, in this order). Areas marked optional run only when named.
@@ -466,6 +522,8 @@ AREAS = {
     "recording": ("Recording and Rerun", ["record", "rerun"]),
     "switches": ("Model switches and scenarios", ["model_switch", "scenario"]),
     "startup": ("Start-up time and the fast test tier", ["startup"]),
+    "realism": ("Realism: the twin against measured CWRU records (only with a data folder)",
+                ["validate_real", "sim2real"]),
     "suite": ("The whole test suite (optional: only with --areas suite)", ["suite"]),
 }
 OPTIONAL = {"suite"}
@@ -535,6 +593,8 @@ def shown_command(argv: list) -> str:
                 parts.append(".venv/bin/bkabem")
             elif x == "{json}":
                 parts.append("F.json")
+            elif x == DATA:
+                parts.append("DATA_DIR")
             else:
                 parts.append(x)
         return shlex.join(parts)
@@ -544,7 +604,7 @@ def shown_command(argv: list) -> str:
 
 
 # --------------------------------------------------------------------------- running
-def run_step(step: Step, bar, env: dict) -> dict:
+def run_step(step: Step, bar, env: dict, data_dir: str | None = None) -> dict:
     """Run one step; returns its record (rows, command, machine, load, time, commit, or the error)."""
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / "logs").mkdir(exist_ok=True)
@@ -560,7 +620,8 @@ def run_step(step: Step, bar, env: dict) -> dict:
     error = None
     with open(log, "w") as lf:
         for cmd in cmds:
-            fill = {PY: sys.executable, BK: str(Path(sys.executable).parent / "bkabem"), "{json}": str(jpath)}
+            fill = {PY: sys.executable, BK: str(Path(sys.executable).parent / "bkabem"), "{json}": str(jpath),
+                    DATA: str(data_dir)}
             argv = [fill.get(x, x) for x in cmd]
             lf.write(f"$ {shlex.join(argv)}\n")
             lf.flush()
@@ -633,10 +694,15 @@ def render_area(area: str, records: dict) -> str:
         if "error" in rec:
             rows.append({"case": f"step `{name}`", "quantity": "failed", "value": None, "fmt": "", "note": rec["error"],
                          "by": tag})
+        elif "not_run" in rec:
+            rows.append({"case": f"step `{name}`", "quantity": rec["not_run"], "value": None, "fmt": "", "by": tag})
         else:
             rows += [dict(r, by=tag) for r in rec["rows"].get(ref, [])]
     for name, tag in tags.items():
         rec = records[name]
+        if "not_run" in rec:
+            notes.append(f"- {tag} `{rec['command']}`: {rec['not_run']}")
+            continue
         m = rec["machine"]
         mach = f"{m.get('cpu')}, {m.get('cores')} cores" + (f" ({m['simd']})" if m.get("simd") else "") + \
                (f", {m['memory_gb']} GB" if m.get("memory_gb") else "")
@@ -675,7 +741,13 @@ def main(argv=None) -> int:
                          f"one of {', '.join(AREAS)}")
     ap.add_argument("--list", action="store_true", help="list the areas, steps and commands, and stop")
     ap.add_argument("--render", action="store_true", help="only rewrite BENCHMARKS.md from bench/records.json")
+    ap.add_argument("--data-dir", default=os.environ.get(DATA_ENV) or None,
+                    help=f"folder of measured CWRU records for the realism area (default: ${DATA_ENV}); without "
+                         "one its steps are not run")
     args = ap.parse_args(argv)
+    if args.data_dir and not Path(args.data_dir).is_dir():
+        print(f"run_all: --data-dir: {args.data_dir}: not a folder", file=sys.stderr)
+        return 2
     areas = [a for a in AREAS if a not in OPTIONAL] if args.areas is None else \
         [a.strip() for a in args.areas.split(",") if a.strip()]
     unknown = [a for a in areas if a not in AREAS]
@@ -695,6 +767,13 @@ def main(argv=None) -> int:
     if not args.render:
         from tqdm import tqdm
 
+        if not args.data_dir:
+            for s in [s for s in steps if s.needs_data]:
+                steps.remove(s)
+                if s.name not in records or "not_run" in records[s.name]:   # a measurement made before stays
+                    records[s.name] = {"step": s.name, "command": shown_command(s.argv),
+                                       "not_run": f"not run: no data folder (--data-dir or ${DATA_ENV})"}
+                print(f"{s.name}: not run: no data folder (--data-dir or ${DATA_ENV})")
         total = sum(s.estimate_s for s in steps)
         print(f"bench/run_all.py: {len(steps)} steps of {', '.join(areas)}, about {total / 60:.0f} min on 2 cores; "
               f"logs and raw JSON in {RESULTS.relative_to(ROOT)}/", flush=True)
@@ -703,7 +782,7 @@ def main(argv=None) -> int:
                   dynamic_ncols=True) as bar:
             for s in steps:
                 bar.set_description_str(s.name)
-                rec = run_step(s, bar, env)
+                rec = run_step(s, bar, env, args.data_dir)
                 records[s.name] = rec
                 save_records(records)                 # a step's record is kept even if a later one hangs
                 if "error" in rec:

@@ -4,9 +4,14 @@
 ``speed``, ``echo``, ``record``, ``replay`` when it publishes, and ``demo``):
 
 - **Discovery.** Unless the user set one of :data:`DISCOVERY_VARIABLES` (``ROS_AUTOMATIC_DISCOVERY_RANGE``,
-  ``ROS_STATIC_PEERS``, ``ROS_DISCOVERY_SERVER``) to a non-empty value, ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is set
-  to ``LOCALHOST``: Fast DDS then discovers and talks on this host only (no multicast on other interfaces,
-  nothing off the machine), and nobody on the plant network can publish on ``speed``. Whatever the user set
+  ``ROS_STATIC_PEERS``, ``ROS_DISCOVERY_SERVER``) to a non-empty value, the graph stays on this host, bound to
+  loopback: ``FASTDDS_DEFAULT_PROFILES_FILE`` points at ``bkabem_ros/fastdds_loopback.xml`` (UDP on 127.0.0.1
+  only, shared memory, discovery by unicast to this host's participants, no multicast) and
+  ``ROS_AUTOMATIC_DISCOVERY_RANGE`` is ``SYSTEM_DEFAULT`` so that rmw_fastrtps leaves the transports to that
+  profile. (rmw's own ``LOCALHOST`` range sends to loopback only but binds its UDP sockets to ``0.0.0.0`` and
+  every interface address, where the plant network can reach them.) Nobody on the plant network can publish on
+  ``speed`` or even reach a socket. A user's own ``FASTDDS_DEFAULT_PROFILES_FILE`` is kept: then the default is
+  rmw's ``LOCALHOST`` range. Whatever the user set
   is kept unchanged (multi-host set-ups are built on exactly these variables). ``ROS_LOCALHOST_ONLY`` is
   deprecated and ignored by Kilted's rmw; it does not count as a choice. :func:`announce`, called by each
   command right before ``rclpy.init`` (not before its arguments are checked: bad input stays one line), says
@@ -42,7 +47,24 @@ DISCOVERY_RANGES = ("OFF", "LOCALHOST", "SUBNET", "SYSTEM_DEFAULT")
 DISCOVERY_SERVER_PORT = 11811
 DEFAULT_RANGE = "LOCALHOST"
 _NOTED = "_BKABEM_DISCOVERY_NOTED"
-_DEFAULTED = "_BKABEM_DISCOVERY_DEFAULTED"
+_DEFAULTED = "_BKABEM_DISCOVERY_DEFAULTED"          # the range bkabem set (a second call, a child process)
+PROFILES_VARIABLE = "FASTDDS_DEFAULT_PROFILES_FILE"
+
+
+def loopback_profile() -> str:
+    """Path of the Fast DDS profile that binds every socket to 127.0.0.1 (``bkabem_ros/fastdds_loopback.xml``)."""
+    from importlib import resources
+
+    return str(resources.files("bkabem_ros").joinpath("fastdds_loopback.xml"))
+
+
+def _drop_our_default(env: MutableMapping[str, str]) -> None:
+    """The user chose a discovery setting after bkabem set its default: take bkabem's range and profile back."""
+    ours = env.pop(_DEFAULTED, None)
+    if ours and env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == ours:
+        env.pop("ROS_AUTOMATIC_DISCOVERY_RANGE", None)
+    if ours and env.get(PROFILES_VARIABLE) == loopback_profile():
+        env.pop(PROFILES_VARIABLE, None)
 
 SECURITY_MESSAGE = (
     "ROS_SECURITY_ENABLE=true: the Fast DDS of these ROS 2 wheels is built without the security plugins "
@@ -63,12 +85,15 @@ class RosArgumentsError(ValueError):
     """rcl refused the ROS arguments (``--ros-args``, ``--params-file``) or a name (namespace, node, topic)."""
 
 
-def init(args: list[str], context=None) -> None:
+def init(args: list[str], context=None, *, announce_now: bool = True) -> None:
     """:func:`announce`, then ``rclpy.init(args=args, context=context)``; rcl's refusal of the arguments (a garbage
-    ``--params-file``, a bad remap) becomes one :class:`RosArgumentsError` line instead of a traceback."""
+    ``--params-file``, a bad remap) becomes one :class:`RosArgumentsError` line instead of a traceback.
+    ``announce_now=False``: the caller announces once its own checks passed (a node whose parameters are refused
+    says only why)."""
     import rclpy
 
-    announce()
+    if announce_now:
+        announce()
     try:
         rclpy.init(args=args, context=context)
     except Exception as exc:  # noqa: BLE001 - rclpy's RCLError lives in its private extension module
@@ -280,9 +305,9 @@ def apply_discovery_options(args, environ: MutableMapping[str, str] | None = Non
     probe = dict(env)
     probe.update(given)
     check_discovery(probe, {k: _OPTION_OF[k] for k in given})
+    if any(k in given for k in DISCOVERY_VARIABLES):
+        _drop_our_default(env)           # the user's setting now, not bkabem's default
     env.update(given)
-    if "ROS_AUTOMATIC_DISCOVERY_RANGE" in given:
-        env.pop(_DEFAULTED, None)        # the user's range now, not bkabem's default
 
 
 _pending: dict = {}
@@ -307,15 +332,22 @@ def apply_defaults(environ: MutableMapping[str, str] | None = None, *, say=None)
     if env.get("ROS_SECURITY_ENABLE", "").strip().lower() == "true":
         raise SecurityUnavailable(SECURITY_MESSAGE)
     check_discovery(env)
-    ours = env.get(_DEFAULTED) == "1" and env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == DEFAULT_RANGE
+    ours = bool(env.get(_DEFAULTED)) and env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == env.get(_DEFAULTED)
     chosen = [name for name in DISCOVERY_VARIABLES if _set(env, name) is not None
               and not (ours and name == "ROS_AUTOMATIC_DISCOVERY_RANGE")]
     if chosen:
         line = f"ROS discovery: {discovery_in_force(env)} (set in the environment)"
     else:
-        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = DEFAULT_RANGE
-        env[_DEFAULTED] = "1"           # set by bkabem, not by the user (a second call, a child process)
-        line = ("ROS discovery: LOCALHOST, this host only (bkabem's default; to reach other hosts set "
+        own_profile = _set(env, PROFILES_VARIABLE) not in (None, loopback_profile())
+        if own_profile:                 # the user's Fast DDS profile: rmw's LOCALHOST range on top of it
+            env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = DEFAULT_RANGE
+            how = f"rmw's LOCALHOST range with your {PROFILES_VARIABLE}"
+        else:
+            env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "SYSTEM_DEFAULT"
+            env[PROFILES_VARIABLE] = loopback_profile()
+            how = "sockets bound to 127.0.0.1"
+        env[_DEFAULTED] = env["ROS_AUTOMATIC_DISCOVERY_RANGE"]     # set by bkabem, not by the user
+        line = (f"ROS discovery: LOCALHOST, this host only (bkabem's default, {how}; to reach other hosts set "
                 "ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET, ROS_STATIC_PEERS or ROS_DISCOVERY_SERVER: docs/ros_node.md)")
     _pending["line"] = line
     if say is not None:                 # a library call (run_demo) keeps the command line's writer

@@ -42,3 +42,12 @@ def excitation(model):
 def four_dof_excitation(machine):
     """The paper's 4-DOF excitation of the DE bearing under its own load."""
     return machine.excitation("de", method="four_dof")
+
+
+@pytest.fixture(scope="session")
+def fault_library():
+    """The fault library's models, one per kind (``motor_6010_<kind>``): kind -> BkaBem."""
+    from bkabem_core.model.case import Case
+    from bkabem_core.solve.harmonic import BkaBem
+
+    return {k: BkaBem(Case.load(f"motor_6010_{k}")) for k in ("outer", "inner", "ball", "healthy")}

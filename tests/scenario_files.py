@@ -120,3 +120,20 @@ def check_truth(raw: dict, gt: dict, t: float, step: float, speed_hz: float, exa
         assert d["strike_frequency_hz"] == pytest.approx(d["strike_multiplier"] * speed_hz)
     assert gt["healthy"] == (not any(d["depth_m"] > 0 for d in have.values()))
     assert gt["labels"] == raw.get("labels", {})
+
+
+def capped_case(folder) -> str:
+    """Write the fault library's healthy motor with its lines capped (``excitation.max_order = 50``: BPFO and 49
+    harmonics, 7.6 kHz at 25 Hz) into ``folder`` as ``capped_healthy.toml``; returns that name (a scenario's case
+    path relative to its file). The library's own cases carry every line above the threshold to the band: a short
+    dent then has ~1000 lines and its model takes ~4 s instead of ~0.5 s, which a test about something else (how a
+    sample rate too low for capped lines is refused, determinism at a fast time scale) need not wait for."""
+    import re
+    from importlib import resources
+    from pathlib import Path
+
+    text = resources.files("bkabem_core.embedded").joinpath("cases", "motor_6010_healthy.toml").read_text()
+    capped = re.sub(r"^max_order = 0 ", "max_order = 50", text, count=1, flags=re.M)
+    assert capped != text
+    (Path(folder) / "capped_healthy.toml").write_text(capped)
+    return "capped_healthy.toml"

@@ -419,4 +419,7 @@ def read_run(out_dir, run_id_or_file: str):
     if not p.suffix:
         p = Path(out_dir) / RUNS_DIR / f"{run_id_or_file}.parquet"
     t = pq.read_table(p)
-    return t, json.loads(t.schema.metadata[b"bkabem.run"])
+    kv = pq.read_metadata(p).metadata or {}          # the file footer's key-value metadata (pyarrow >= 26 does not
+    if b"bkabem.run" not in kv:                      # copy it onto the table's schema)
+        raise DatasetError("file", f"{p}: no bkabem run metadata (not a run file of a bkabem data set)")
+    return t, json.loads(kv[b"bkabem.run"])

@@ -10,6 +10,10 @@ Assembly (module ``rotor``)
     rotor_from_case   -- the model of a case, meshed to converge up to its highest frequency
     Mesh, mesh_for    -- how the case's shaft is subdivided
 
+Size limits (module ``budget``)
+===============================
+    check_mesh, check_line_modes -- the model's size and cost from the case, refused before it is allocated
+
 The machine (module ``machine``)
 ================================
     Machine           -- rotor, bearings and housings of a case, each bearing at its own operating point
@@ -27,7 +31,7 @@ Reduced model and solvers (modules ``modal``, ``linemodes``, ``solvers``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Material", "ShaftElement", "Disk", "PointMass", "LinearBearing", "Rotor", "rotor_from_case", "Mesh", "mesh_for", "Machine", "BearingSite", "ModalBasis", "OrderModalForm", "SpeedCells", "LineModes", "ShaftSolver", "solve_direct"]
+__all__ = ["Material", "ShaftElement", "Disk", "PointMass", "LinearBearing", "Rotor", "rotor_from_case", "Mesh", "mesh_for", "check_mesh", "check_line_modes", "Machine", "BearingSite", "ModalBasis", "OrderModalForm", "SpeedCells", "LineModes", "ShaftSolver", "solve_direct"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Material": "elements",
@@ -39,6 +43,8 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "rotor_from_case": "rotor",
     "Mesh": "rotor",
     "mesh_for": "rotor",
+    "check_mesh": "budget",
+    "check_line_modes": "budget",
     "Machine": "machine",
     "BearingSite": "machine",
     "ModalBasis": "modal",

@@ -22,9 +22,11 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 
 from bkabem_core.bearing.deep_groove import Bearing, BearingLinearisation, BearingState
 from bkabem_core.excitation.quasi_static import (
@@ -33,8 +35,9 @@ from bkabem_core.excitation.quasi_static import (
     compute_excitation,
     quasi_static_excitation,
 )
+from bkabem_core.fe.budget import check_mesh, singular_stiffness
 from bkabem_core.fe.rotor import Mesh, Rotor, mesh_for, rotor_from_case
-from bkabem_core.model.case import Case
+from bkabem_core.model.case import Case, CaseError
 from bkabem_core.model.vocabulary import BEARINGS
 
 
@@ -123,13 +126,19 @@ class Machine:
         raw = case.raw
         g = case.gravity_m_s2
         if mesh == "auto":
+            check_mesh(case)                                    # its size, before anything is allocated
             epw = float(raw["rotor"]["elements_per_wavelength"])
             mesh = mesh_for(raw, case.max_frequency_hz, epw) if epw > 0 else None
         n_el = len(raw["rotor"]["outer_diameters_m"])
         self.mesh: Mesh = mesh if mesh is not None else Mesh((1,) * n_el)
-        statics = rotor_from_case(raw, damping={})
-        loads = statics.static_bearing_loads_n(g)                               # statically determinate
-        turning = self._turning_loads(statics)
+        with warnings.catch_warnings():                     # an ill-conditioned K: the case's stiffnesses
+            warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
+            try:
+                statics = rotor_from_case(raw, damping={})
+                loads = statics.static_bearing_loads_n(g)                           # statically determinate
+                turning = self._turning_loads(statics)
+            except (scipy.linalg.LinAlgWarning, np.linalg.LinAlgError) as exc:
+                raise singular_stiffness(case, str(exc).rstrip(".")) from None
         geometry = case.bearing_geometry()
         damper = case.bearing_damping_n_s_m
         self.sites: dict[str, BearingSite] = {}
@@ -206,7 +215,27 @@ class Machine:
         return (self.case.faulty_bearing,)
 
     def excitation(self, name: str, method: str | None = None) -> Excitation:
-        """Excitation of bearing ``name`` under its own load, as the case's ``[excitation]`` says."""
+        """Excitation of bearing ``name`` under its own load, as the case's ``[excitation]`` says.
+
+        Defects each valid alone can together leave the bearing without a static equilibrium (a race covered
+        with pits): that is the case's ``defects``, refused with :class:`CaseError` (the numerical warnings of
+        the failed iteration are dropped with it; a result that converged keeps its warnings)."""
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                out = self._excitation(name, method)
+            except RuntimeError as exc:
+                if "did not converge" not in str(exc):
+                    raise
+                n = len(self.sites[name].bearing.defects)
+                raise CaseError("defects", f"the {name} bearing with its {n} defect{'s' * (n != 1)} has no static "
+                                f"equilibrium the model finds ({exc}): the defects together take away too much of "
+                                f"the race", self.case.source) from None
+        for w in caught:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        return out
+
+    def _excitation(self, name: str, method: str | None) -> Excitation:
         ex = self.case.raw["excitation"]
         method = ex["method"] if method is None else method
         site = self.sites[name]

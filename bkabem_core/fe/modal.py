@@ -25,7 +25,7 @@ import numpy as np
 import scipy.linalg
 
 from bkabem_core.fe.linemodes import LineModes  # noqa: F401  (re-exported: the line modes of a basis)
-from bkabem_core.fe.solvers import load_library
+from bkabem_core.fe.solvers import load_kernel
 
 TWO_PI = 2.0 * math.pi
 
@@ -253,14 +253,6 @@ class OrderModalForm:
             self._c = [np.ascontiguousarray(self.poles.real), np.ascontiguousarray(self.poles.imag),
                        np.ascontiguousarray(e.real), np.ascontiguousarray(e.imag),
                        np.ascontiguousarray(x0.real), np.ascontiguousarray(x0.imag)]
-            self._c_ptrs = [arr.ctypes.data for arr in self._c]
-
-    def __setstate__(self, state: dict) -> None:
-        """Unpickled or copied (a model made in another process): the kernel's pointers are those of the new arrays,
-        never the old process's addresses (a call through them crashed)."""
-        self.__dict__.update(state)
-        if self._c is not None:
-            self._c_ptrs = [arr.ctypes.data for arr in self._c]
 
     @property
     def n_lines(self) -> int:
@@ -271,8 +263,7 @@ class OrderModalForm:
         w = self._w_per_hz * float(speed_hz)
         if self._c is not None:
             out = np.empty((2, self.n_lines, 8))                     # per call: the form may be shared across threads
-            _MODAL_KERNEL(self.n_lines, self.poles.shape[1], w.ctypes.data, *self._c_ptrs, out[0].ctypes.data,
-                          out[1].ctypes.data)
+            _MODAL_KERNEL(w, *self._c, out[0], out[1])
             x = np.empty(self.direct.shape, complex)
             n_u = x.shape[1]
             x.real = out[0, :, :n_u]
@@ -293,37 +284,11 @@ class OrderModalForm:
         return self.direct + np.matmul(g[:, None, :], self.residues)[:, 0, :]
 
 
-def _load_modal_kernel():
-    """The compiled pole-residue sum (bkabem_core/kernels/_modalsum.c), or None if it was not built."""
-    import ctypes
-
-    lib = load_library("_modalsum")
-    if lib is None:
-        return None
-    fn = lib.modal_sum8
-    fn.argtypes = [ctypes.c_int, ctypes.c_int] + [ctypes.c_void_p] * 9
-    fn.restype = ctypes.c_int
-    return fn
-
-
-_MODAL_KERNEL = _load_modal_kernel()
-
-
-def _load_cell_kernel():
-    """The compiled speed-cell sum (bkabem_core/kernels/_modalsum.c, cell_sum8), or None if it was not built."""
-    import ctypes
-
-    lib = load_library("_modalsum")
-    if lib is None or not hasattr(lib, "cell_sum8"):
-        return None
-    fn = lib.cell_sum8
-    fn.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_void_p]
-    fn.restype = ctypes.c_int
-    return fn
-
-
-_CELL_KERNEL = _load_cell_kernel()
-
+_MODALSUM = load_kernel("_modalsum")
+#: the compiled pole-residue sums (bkabem_core/kernels/modalsum.c), or None if they were not built
+_MODAL_KERNEL = getattr(_MODALSUM, "modal_sum", None)
+_CELL_KERNEL = getattr(_MODALSUM, "cell_sum", None)
+_CELL_PLAN = getattr(_MODALSUM, "cell_plan", None)
 
 
 class SpeedCells:
@@ -387,8 +352,8 @@ class SpeedCells:
         self._kernel = _CELL_KERNEL if _CELL_KERNEL is not None and self._shape[1] <= 8 else None
 
     def __getstate__(self) -> dict:
-        """Pickled or copied without its cells (their headers hold this process's addresses) and kernel handle
-        (a ctypes function): both are made again where it is unpickled."""
+        """Pickled or copied without its cells (their kernel handles, capsules of this process's arrays) and kernel:
+        both are made again where it is unpickled."""
         state = dict(self.__dict__)
         state["_cells"] = {}
         state["_kernel"] = None
@@ -423,8 +388,8 @@ class SpeedCells:
                 progress(1)
 
     def cell(self, i: int) -> tuple:
-        """Cell ``i`` (made if missing): its arrays, the kernel's header of their addresses, the near-pole mask,
-        the header's address."""
+        """Cell ``i`` (made if missing): its arrays, the kernel's handle of them (None without the kernel), the
+        near-pole mask."""
         c = self._cells.get(i)
         if c is None:
             c = self._make(i)
@@ -478,8 +443,8 @@ class SpeedCells:
         arrays = [fm._w_per_hz, np.ascontiguousarray(c8.real), np.ascontiguousarray(c8.imag), start,
                   np.ascontiguousarray(lam[kr].real), np.ascontiguousarray(lam[kr].imag),
                   np.ascontiguousarray(e8.real), np.ascontiguousarray(e8.imag)]
-        header = np.array([n_k, self.degree + 1, n_u] + [a.ctypes.data for a in arrays], dtype=np.int64)
-        return arrays, header, near, header.ctypes.data
+        handle = _CELL_PLAN(n_u, *arrays) if _CELL_PLAN is not None and n_u <= 8 else None
+        return arrays, handle, near
 
     def __call__(self, speed_hz: float) -> np.ndarray:
         """Complex displacement combinations (K, U) [m] at shaft speed ``speed_hz`` [Hz] (>= 0)."""
@@ -491,14 +456,14 @@ class SpeedCells:
         if self._kernel is None:
             return self.evaluate_numpy(f)
         x = np.empty(self._shape, complex)
-        self._kernel(c[3], f, 2.0 * f / self.cell_hz - (2 * i + 1), x.ctypes.data)      # t in [-1, 1]
+        self._kernel(c[1], f, 2.0 * f / self.cell_hz - (2 * i + 1), x)      # t in [-1, 1]
         return x
 
     def evaluate_numpy(self, speed_hz: float) -> np.ndarray:
         """The same evaluation in numpy (the kernel's reference and fallback)."""
         f = float(speed_hz)
         i = int(f // self.cell_hz)
-        arrays, _, near, _ = self.cell(i)
+        arrays, _, near = self.cell(i)
         t = 2.0 * f / self.cell_hz - (2 * i + 1)
         tc = np.polynomial.chebyshev.chebvander(np.array([t]), self.degree)[0]     # (D+1,)
         n_u = self.form.direct.shape[1]

@@ -10,38 +10,27 @@ import numpy as np
 
 from bkabem_core.fe.rotor import Rotor
 
-__all__ = ["ShaftSolver", "solve_direct", "load_library"]
+__all__ = ["ShaftSolver", "solve_direct", "load_kernel"]
 
 
-def load_library(name: str):
-    """A compiled kernel of this package (ctypes.CDLL), or None if it was not built."""
-    import ctypes
+def load_kernel(name: str):
+    """A compiled kernel module of this package (``bkabem_core.kernels.<name>``), or None if it was not built."""
+    import importlib
     import importlib.util
 
     spec = importlib.util.find_spec(f"bkabem_core.kernels.{name}")
     if spec is None or not spec.origin or not spec.origin.endswith((".so", ".pyd", ".dylib")):
         return None
-    return ctypes.CDLL(spec.origin)
-
+    return importlib.import_module(f"bkabem_core.kernels.{name}")
 
 
 def _load_kernel():
-    """The compiled block-tridiagonal kernel (bkabem_core/kernels/_blocktri.c), or None if it was not built."""
-    import ctypes
-
-    lib = load_library("_blocktri")
-    if lib is None:
-        return None
-    fn = lib.bt_solve_coef
-    ptr, cint = ctypes.c_void_p, ctypes.c_int
-    fn.argtypes = [cint, cint, ptr, ptr, ptr, cint, ptr, ptr, ptr, ptr, ptr, ptr, ptr, ptr, ptr,
-                   ptr, ptr, ptr, ptr, ptr, ptr, ctypes.c_double]
-    fn.restype = cint
-    return fn
+    """The compiled block-tridiagonal solve (bkabem_core/kernels/blocktri.c), or None if it was not built."""
+    module = load_kernel("_blocktri")
+    return getattr(module, "solve", None)
 
 
 _KERNEL = _load_kernel()
-
 
 
 def solve_direct(rotor: Rotor, w: np.ndarray, big_w: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -57,7 +46,7 @@ class ShaftSolver:
     The housing DOFs (point masses that touch the shaft at one node and otherwise only the ground) are
     condensed exactly into the shaft node they hang on. What remains is the shaft matrix, block-tridiagonal
     with 4 x 4 blocks; a block LU (Thomas) sweep with partial pivoting inside each block solves every system
-    of the batch (orders x speeds) in one call of a small C kernel (``_blocktri.c``). Members whose smallest
+    of the batch (orders x speeds) in one call of a small C kernel (``kernels/blocktri.c``). Members whose smallest
     pivot is tiny, and every member if the kernel is not built, are solved by LAPACK's dense LU instead.
 
     Parameters
@@ -134,10 +123,7 @@ class ShaftSolver:
                 np.empty((nb, 4), complex)]
         bad = np.zeros(b, dtype=np.intc)
         cd, cu, cl, coo, cso, cos_ = self._c_arrays
-        _KERNEL(nb, b, cd.ctypes.data, cu.ctypes.data, cl.ctypes.data, no, self._o_node_c.ctypes.data,
-                coo.ctypes.data, cso.ctypes.data, cos_.ctypes.data, w.ctypes.data, big_w.ctypes.data,
-                f_s.ctypes.data, f_o.ctypes.data, x_o.ctypes.data, *(a.ctypes.data for a in work),
-                bad.ctypes.data, self.PIVOT_RATIO_MIN)
+        _KERNEL(cd, cu, cl, self._o_node_c, coo, cso, cos_, w, big_w, f_s, f_o, x_o, *work, bad, self.PIVOT_RATIO_MIN)
         out = np.empty((b, f.shape[1]), dtype=complex)
         out[:, self.s_idx] = f_s
         out[:, self.o_idx] = x_o

@@ -16,12 +16,16 @@ Plausibility (module ``plausibility``)
     BOUNDS           -- the bounds, each with its reason
 
 Bearing catalogue (module ``catalogue``)
-========================================
+=================================
     CatalogueBearing -- a deep-groove ball bearing by designation: geometry, ratings, sources (SI)
     CatalogueError   -- a designation or clearance class the catalogue does not have
     lookup           -- the catalogue bearing of a designation (``lookup("6205-2RS1/C3")``)
     designations     -- the catalogue's keys (optionally of one geometry status)
     radial_clearance_m -- ISO 5753-1 radial internal clearance (min, max) [m] of a bore and class
+=======
+Input files (module ``files``)
+==============================
+    not_a_file       -- why a path cannot be read as an input file (missing, a directory, a FIFO), or None
 
 Vocabulary (module ``vocabulary``)
 ==================================
@@ -33,7 +37,7 @@ Vocabulary (module ``vocabulary``)
 from bkabem_core._face import lazy_face
 
 __all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "problem", "BOUNDS",
-           "CatalogueBearing", "CatalogueError", "lookup", "designations", "radial_clearance_m", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
+           "CatalogueBearing", "CatalogueError", "lookup", "designations", "radial_clearance_m", "not_a_file", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Case": "case",
@@ -49,6 +53,7 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "lookup": "catalogue",
     "designations": "catalogue",
     "radial_clearance_m": "catalogue",
+    "not_a_file": "files",
     "BEARINGS": "vocabulary",
     "DIRECTIONS": "vocabulary",
     "LOCATIONS": "vocabulary",

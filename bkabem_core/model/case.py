@@ -23,6 +23,7 @@ from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent
 from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
 from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, moving_kinds, own_keys, periodic_kinds
 from bkabem_core.model import plausibility
+from bkabem_core.model.files import not_a_file
 
 DEFAULT_CASE = "electric_motor_6010"
 #: Version of the case format this code reads; older files are migrated (:func:`migrate_v1`, :func:`migrate_v2`).
@@ -68,8 +69,9 @@ def read_input_text(name_or_path: str | Path, folder: str, what: str, key: str,
                              f"{', '.join(embedded_names(folder))})") from None
         return text, f"embedded:{s}", None
     p = Path(s)
-    if not p.is_file():
-        raise error(key, f"file not found: {p}")
+    why = not_a_file(p)
+    if why:
+        raise error(key, why)
     try:
         text = p.read_bytes().decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -390,6 +392,8 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
 
 
 def _check_cross(raw: dict, source: str) -> None:
+    if not raw["case"]["name"].strip():
+        raise CaseError("case.name", "must not be empty (it names the case in every output)", source)
     b = raw["bearing"]
     if b["ball_diameter_m"] >= b["pitch_diameter_m"]:
         raise CaseError("bearing.ball_diameter_m", f"must be smaller than bearing.pitch_diameter_m "
@@ -405,6 +409,7 @@ def _check_cross(raw: dict, source: str) -> None:
         problem = kind(d["race"]).check_table(d, b)
         if problem is not None:
             raise CaseError(f"defects[{i}].{problem[0]}", problem[1], source)
+    _check_overlaps(raw["defects"], b, source)
     # rotor geometry
     r = raw["rotor"]
     z = r["node_positions_m"]
@@ -449,6 +454,27 @@ def _check_cross(raw: dict, source: str) -> None:
     if raw["baseline"]["misalignment_node"] not in shaft_nodes:
         raise CaseError("baseline.misalignment_node", f"must be a shaft node 1..{n_nodes} "
                         f"(got {raw['baseline']['misalignment_node']})", source)
+
+
+def _check_overlaps(defects: list, bearing: dict, source: str) -> None:
+    """Two defects on the same surface (bearing and kind, and the kind's own place: the same ball) must not overlap:
+    the model would take the deeper of the two pits where they meet, one defect silently standing for both."""
+    seen: dict[tuple, list] = {}
+    for i, d in enumerate(defects):
+        k = kind(d["race"])
+        where = (d["bearing"], d["race"], *(d.get(o.name) for o in k.own_keys))
+        radius = k.table_race_radius_m(bearing) if hasattr(k, "table_race_radius_m") else \
+            bearing["ball_diameter_m"] / 2.0
+        half = d["length_m"] / (2.0 * radius)                       # half the angle it spans [rad]
+        centre = math.radians(d["angle_deg"])
+        for j, (c, h) in seen.get(where, []):
+            gap = abs(math.remainder(centre - c, 2.0 * math.pi))
+            if gap < half + h:
+                what = "the same defect as" if gap == 0.0 and half == h else "overlaps"
+                raise CaseError(f"defects[{i}]", f"{what} defects[{j}] on the {d['bearing']} {k.place} "
+                                f"(centres {math.degrees(gap):.3g} deg apart, they span {math.degrees(half + h):.3g} "
+                                f"deg together): describe one pit once, or one longer defect", source)
+        seen.setdefault(where, []).append((i, (centre, half)))
 
 
 # --------------------------------------------------------------------------- the Case object
@@ -621,8 +647,9 @@ class Case:
         return Case.from_dict(raw, self.source + " (overridden)")
 
     def ground_truth(self) -> dict:
-        """What a labelled data set needs: bearing designation and geometry, every defect (kind, bearing, size,
-        position, fault-frequency multiplier), the machine baseline, case identity.
+        """What a labelled data set needs: bearing designation and geometry, its fault multipliers (FTF, BPFO, BPFI,
+        BSF per shaft Hz), every defect (kind, bearing, size, position, fault-frequency multiplier), the machine
+        baseline, case identity.
 
         ``defects``: one entry per ``[[defects]]`` table, with ``fault_frequency`` (``"bpfo"``, ``"bpfi"`` or
         ``"bsf"``) and ``fault_multiplier`` [Hz per shaft Hz] of its textbook signature (a ball defect strikes at
@@ -649,6 +676,7 @@ class Case:
                 "n_balls": g.n_balls, "diametral_clearance_m": g.diametral_clearance_m,
                 "contact_angle_rad": g.contact_angle_rad,
             },
+            "fault_multipliers": fm.to_dict(),
             "healthy": not any(d["depth_m"] > 0 for d in defects),
             "defects": defects,
             "defect": None if first is None else {k: first[k] for k in ("bearing", "race", "length_m", "depth_m",

@@ -15,7 +15,15 @@ Computing limits (:func:`cost_problem`), two derived quantities with bounds of t
 covers the settling time and the recorded cage periods, about 35 ms of computing per ball pass on the project
 machine: ``excitation.ball_passes`` = settle_time_s x BPFO at the reference speed + record_cage_periods x n_balls,
 at most 5000 (~3 min); it records ``excitation.recorded_samples`` = record_cage_periods x n_balls x
-samples_per_ball_pass samples of 8 states, at most 2^22 (~270 MB).
+samples_per_ball_pass samples of 8 states, at most 2^22 (~270 MB). An inner-race or ball defect is solved on a 2-torus of
+``excitation.torus_samples`` = samples_per_ball_pass x max(32, the power of 2 >= 4 n_balls) cage and shaft angles,
+about 1 kB each while it is solved: at most 2^19 (~500 MB). ``excitation.max_order`` can be at most half of
+``samples_per_ball_pass`` (the highest order a ball pitch of that many samples resolves).
+
+The FE model's limits are checked where it is made, before anything is allocated
+(:mod:`bkabem_core.fe.budget`): ``rotor.fe_elements``, the elements of the mesh at the model's highest frequency
+(each a few ms of eigen-decomposition at the limit, every one a step shorter than a second), and
+``model.line_modes``, lines x (reduced-model size)^3, the cost of the eigen-decompositions along every line.
 
 **Override.** A case that really is outside a bound says so explicitly, in a ``[plausibility]`` table of the case
 file, with new bounds for that key::
@@ -35,8 +43,10 @@ SECTION = "plausibility"
 
 _UNIT_SLIP = " (a unit slip? SI units, as the key's suffix says)"
 #: Bounds that limit computing rather than physics: no unit-slip hint.
-_COMPUTING = frozenset({"bearings.*.axial_load_ratio", "excitation.settle_time_s", "excitation.record_cage_periods", "excitation.samples_per_ball_pass",
-                        "excitation.atol_m", "excitation.ball_passes", "excitation.recorded_samples"})
+_COMPUTING = frozenset({"bearings.*.axial_load_ratio", "excitation.settle_time_s", "excitation.record_cage_periods",
+                        "excitation.samples_per_ball_pass", "excitation.atol_m", "excitation.rtol", "excitation.ball_passes",
+                        "excitation.recorded_samples", "excitation.torus_samples", "rotor.fe_elements",
+                        "model.line_modes"})
 
 _SUPPORT_STIFFNESS = (1e3, 1e11, "supports are 1e3 .. 1e11 N/m")
 _SUPPORT_DAMPING = (0.0, 1e8, "support damping is 0 .. 1e8 N s/m")
@@ -88,9 +98,19 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "excitation.record_cage_periods": (1, 64, "1 .. 64 cage periods are recorded for the FFT"),
     "excitation.samples_per_ball_pass": (64, 65536, "64 .. 65536 samples per ball pass (orders up to half of it)"),
     "excitation.atol_m": (1e-18, 1e-6, "absolute tolerances on displacements are 1e-18 .. 1e-6 m"),
+    "excitation.rtol": (1e-12, 1e-2, "relative tolerances are 1e-12 .. 1e-2 (the integrator raises a smaller one "
+                                     "to what double precision can meet)"),
     # derived: the cost of the 4-DOF integration (cost_problem)
     "excitation.ball_passes": (0.0, 5000.0, "ball passes to integrate (~35 ms each: 5000 is ~3 min)"),
     "excitation.recorded_samples": (0.0, float(1 << 22), "recorded samples of 8 states (2^22 is ~270 MB)"),
+    # derived: the quasi-static 2-torus of inner-race and ball defects (cost_problem)
+    "excitation.torus_samples": (0.0, float(1 << 19), "angles of the defect's 2-torus, ~1 kB each while solved "
+                                                      "(2^19 is ~500 MB)"),
+    # derived: the FE model's size and cost (bkabem_core.fe.budget, checked before the model is made)
+    "rotor.fe_elements": (1.0, 256.0, "FE elements of the mesh; at 256 (~1000 DOF) each dense eigen-decomposition "
+                                      "takes a fraction of a second and the preparation ~5-30 s"),
+    "model.line_modes": (0.0, 3e9, "lines x (reduced-model size)^3, the eigen-decompositions along every line "
+                                   "(3e9 is ~1 min on two cores)"),
     # FE bearing and support elements
     "bearings.*.axial_load_n": (0.0, 1e7, "axial bearing loads are 0 .. 10 MN"),
     # derived: axial load / bearing.static_load_rating_n (deep-groove ball bearings carry ~0.5 C0 axially)
@@ -121,6 +141,17 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "operating.max_sample_rate_hz": (100.0, 1e6, "sensor sample rates are 100 Hz .. 1 MHz (the FE mesh is refined "
                                                  "up to the frequency it needs)"),
 }
+
+
+def bound(raw: dict, key: str) -> tuple[float, float, str]:
+    """``(low, high, why)`` of ``key`` in :data:`BOUNDS`, or as the case's ``[plausibility]`` table widens it (a bad
+    override table is reported by :func:`problem` when the case is loaded)."""
+    return _bounds_with_overrides(raw)[0][key]
+
+
+def override_hint(key: str) -> str:
+    """How a case widens the bound of ``key``."""
+    return f'widen it in the case: [{SECTION}] "{key}" = [low, high]'
 
 
 def _bounds_with_overrides(raw: dict) -> tuple[dict, tuple[str, str] | None]:
@@ -224,6 +255,20 @@ def cost_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] | Non
         return ("excitation.samples_per_ball_pass",
                 f"record_cage_periods x n_balls x samples_per_ball_pass = {periods} x {z} x {per_pass} = {n_rec} "
                 f"recorded samples, more than {_fmt(hi)}: {why}; " + override % "excitation.recorded_samples")
+    max_order = e.get("max_order")
+    if isinstance(max_order, int) and not isinstance(max_order, bool) and max_order > per_pass // 2:
+        return ("excitation.max_order",
+                f"{max_order} is more than the {per_pass // 2} orders excitation.samples_per_ball_pass = {per_pass} "
+                f"resolves (half of it); 0 keeps every resolved order")
+    kinds = {dd.get("race") for dd in raw.get("defects", []) if isinstance(dd, dict)}
+    if kinds & {"inner", "ball"}:
+        slow = max(32, 1 << math.ceil(math.log2(4 * z)))
+        n_torus = per_pass * slow
+        lo, hi, why = bounds["excitation.torus_samples"]
+        if not lo <= n_torus <= hi:
+            return ("excitation.samples_per_ball_pass",
+                    f"an inner-race or ball defect is solved on samples_per_ball_pass x {slow} = {per_pass} x {slow} "
+                    f"= {n_torus} angles, more than {_fmt(hi)}: {why}; " + override % "excitation.torus_samples")
     f_bp = z * 0.5 * (1.0 - d / pd * math.cos(alpha)) * f_ref
     passes = settle * f_bp + periods * z
     lo, hi, why = bounds["excitation.ball_passes"]

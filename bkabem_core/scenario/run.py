@@ -160,7 +160,7 @@ class BackgroundModels:
     ----------
     helper : ModelHelper or None
     warm : callable or None
-        ``warm(model) -> WarmModel`` (:meth:`Synthesizer.warm <bkabem_core.synth.switch.SwitchPath.warm>` of the
+        ``warm(model) -> WarmModel`` (:meth:`Synthesizer.warm <bkabem_core.synth.synthesizer.Synthesizer.warm>` of the
         stream's synthesiser). Given, a model that is back is unpickled and warmed in ``worker`` and :meth:`get`
         returns the warm model once it is; None: :meth:`get` unpickles the model in the caller's thread and
         returns it bare.

@@ -66,6 +66,30 @@ def _number(key: str, v, source: str, lo=None, hi=None, strict_lo=False) -> floa
     return v
 
 
+#: Labels ride in the ground truth of every message and every data-set row: at most this many bytes (UTF-8, keys
+#: and values together; a waveform chunk's samples are ~10 kB), keys of at most 64 and values of at most 256.
+MAX_LABEL_BYTES = 1024
+MAX_LABEL_KEY = 64
+MAX_LABEL_VALUE = 256
+
+
+def label_problem(labels: dict) -> tuple[str, str] | None:
+    """``(key, reason)`` of the first label beyond the size bounds above, or None."""
+    total = 0
+    for k, v in labels.items():
+        if not str(k).strip():
+            return "labels", "a label needs a key"
+        if len(str(k)) > MAX_LABEL_KEY:
+            return f"labels.{str(k)[:20]}...", f"key of {len(str(k))} characters, more than {MAX_LABEL_KEY}"
+        if len(str(v)) > MAX_LABEL_VALUE:
+            return f"labels.{k}", f"value of {len(str(v))} characters, more than {MAX_LABEL_VALUE}"
+        total += len(str(k).encode()) + len(str(v).encode())
+    if total > MAX_LABEL_BYTES:
+        return "labels", (f"{len(labels)} labels of {total} bytes together, more than {MAX_LABEL_BYTES} (they ride in "
+                          f"every message's ground truth)")
+    return None
+
+
 def _string(key: str, v, source: str, choices=None) -> str:
     if not isinstance(v, str):
         raise ScenarioError(key, f"must be a string (got {_type_name(v)})", source)
@@ -359,6 +383,9 @@ class Scenario:
         out = {}
         for k, v in labels.items():
             out[k] = _string(f"labels.{k}", v, source)
+        bad = label_problem(out)
+        if bad is not None:
+            raise ScenarioError(*bad, source)
         return out
 
     def _speed(self, sp, source: str):

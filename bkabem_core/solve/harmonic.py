@@ -46,8 +46,10 @@ import numpy as np
 
 from bkabem_core.bearing.deep_groove import FaultFrequencies
 from bkabem_core.excitation.baseline import baseline_forces
+from bkabem_core.excitation.line_names import line_labels
 from bkabem_core.excitation.lines import LineSet, union
 from bkabem_core.excitation.quasi_static import Excitation, rates_per_hz
+from bkabem_core.fe.budget import check_line_modes, singular_stiffness
 from bkabem_core.fe.machine import Machine
 from bkabem_core.fe.modal import LineModes, ModalBasis, OrderModalForm, SpeedCells  # noqa: F401  (SpeedCells: for synth)
 from bkabem_core.fe.rotor import Rotor
@@ -71,9 +73,9 @@ class Spectrum:
     speed_hz : float
         Shaft speed [Hz].
     orders : ndarray of int (K,)
-        BPFO orders.
+        BPFO order of each line (0: a line that is not a BPFO order, e.g. ``BPFI - 1 f_r``).
     frequency_hz : ndarray (K,)
-        ``orders x BPFO`` [Hz].
+        Frequency of each line [Hz] (``orders x BPFO`` for a BPFO order).
     displacement : ndarray complex (K, 4, 2)
         Complex displacement amplitude X [m] per order, location (LOCATIONS) and direction (DIRECTIONS):
         ``x(t) = Re(X e^{i 2 pi f t})`` with t = 0 at cage angle 0.
@@ -81,6 +83,14 @@ class Spectrum:
         Static (k = 0) displacement [m] from the DC of the excitation.
     fault_frequencies_hz : FaultFrequencies
         FTF, BPFO, BPFI, BSF [Hz] at this speed.
+    coefficients : ndarray of int (K, 4), optional
+        Each line's coefficients on the base phases (:mod:`bkabem_core.excitation.lines`).
+    labels : tuple of str (K,), optional
+        What each line is (:mod:`bkabem_core.excitation.line_names`: ``"BPFO"``, ``"BPFI - 1 f_r"``, ``"1x"``).
+    band_hz : float
+        Highest frequency the model serves [Hz] (the case's band, :attr:`Case.max_frequency_hz`): lines above it
+        at this speed are beyond the converged FE model and every sample rate of the case; the overall RMS
+        (:meth:`rms`) leaves them out.
     """
 
     speed_hz: float
@@ -90,6 +100,18 @@ class Spectrum:
     dc_m: np.ndarray
     fault_frequencies_hz: FaultFrequencies
     coefficients: np.ndarray | None = None
+    labels: tuple | None = None
+    band_hz: float = math.inf
+
+    @property
+    def in_band(self) -> np.ndarray:
+        """(K,) bool: lines at or below :attr:`band_hz`."""
+        return np.asarray(self.frequency_hz) <= self.band_hz
+
+    def rms(self, quantity: str = "acceleration") -> np.ndarray:
+        """Overall RMS of the lines in the band [m, m/s or m/s^2], (4, 2) (the static part excluded)."""
+        x = {"acceleration": self.acceleration, "velocity": self.velocity, "displacement": self.displacement}[quantity]
+        return np.sqrt(0.5 * np.sum(np.abs(x[self.in_band]) ** 2, axis=0))
 
     @property
     def omega_rad_s(self) -> np.ndarray:
@@ -106,9 +128,13 @@ class Spectrum:
         return -(self.omega_rad_s[:, None, None] ** 2) * self.displacement
 
     def to_dict(self) -> dict:
-        """JSON-ready, field names of the CLI contract (architecture.md)."""
+        """JSON-ready (``bkabem spectrum --json``): per line its name (``lines``), coefficients and BPFO order (0: not
+        one); per location and direction the line frequencies, amplitudes, phases and the static part."""
         out = {"speed_hz": self.speed_hz, "orders": [int(k) for k in self.orders],
-               "fault_frequencies_hz": self.fault_frequencies_hz.to_dict()}
+               "fault_frequencies_hz": self.fault_frequencies_hz.to_dict(),
+               "band_hz": self.band_hz if math.isfinite(self.band_hz) else None}
+        if self.labels is not None:
+            out["lines"] = list(self.labels)
         if self.coefficients is not None:
             out["line_coefficients"] = self.coefficients.tolist()
         disp, acc, vel = self.displacement, self.acceleration, self.velocity
@@ -133,9 +159,24 @@ class Sweep:
     Attributes
     ----------
     speeds_hz : ndarray (S,)
+        Shaft speeds [Hz].
     orders : ndarray (K,)
+        BPFO order of each line (0: not a BPFO order).
     displacement : ndarray complex (S, K, 4, 2) [m]
     bpfo_per_hz : float
+        BPFO per shaft Hz [-].
+    multipliers : ndarray (K,), optional
+        Speed-proportional part of each line's frequency [Hz per shaft Hz]; without it every line must be a BPFO
+        order (``orders x bpfo_per_hz``).
+    fixed_hz : ndarray (K,), optional
+        Part of each line's frequency that does not follow the speed [Hz] (0 without it).
+    coefficients : ndarray of int (K, 4), optional
+        Each line's coefficients on the base phases.
+    labels : tuple of str (K,), optional
+        What each line is (``"BPFO"``, ``"BPFI - 1 f_r"``, ``"1x"``).
+    band_hz : float
+        Highest frequency the model serves [Hz] (:attr:`Spectrum.band_hz`): :meth:`rms` leaves the lines above it
+        out at each speed.
     """
 
     speeds_hz: np.ndarray
@@ -144,22 +185,46 @@ class Sweep:
     bpfo_per_hz: float
     multipliers: np.ndarray | None = None
     fixed_hz: np.ndarray | None = None
+    coefficients: np.ndarray | None = None
+    labels: tuple | None = None
+    band_hz: float = math.inf
+
+    def __post_init__(self):
+        if self.multipliers is None and np.any(np.asarray(self.orders) <= 0):
+            raise ValueError("multipliers: required when a line is not a BPFO order (orders 0)")
+
+    @classmethod
+    def concatenate(cls, parts) -> "Sweep":
+        """One sweep of the sweeps ``parts`` of the same model over consecutive speeds (their lines are equal)."""
+        parts = list(parts)
+        first = parts[0]
+        return cls(speeds_hz=np.concatenate([p.speeds_hz for p in parts]), orders=first.orders,
+                   displacement=np.concatenate([p.displacement for p in parts]), bpfo_per_hz=first.bpfo_per_hz,
+                   multipliers=first.multipliers, fixed_hz=first.fixed_hz, coefficients=first.coefficients,
+                   labels=first.labels, band_hz=first.band_hz)
 
     @property
     def frequency_hz(self) -> np.ndarray:
+        """(S, K) frequency of every line at every speed [Hz]."""
         if self.multipliers is None:
             return np.multiply.outer(self.speeds_hz, self.orders * self.bpfo_per_hz)
-        return np.multiply.outer(self.speeds_hz, self.multipliers) + self.fixed_hz
+        fixed = 0.0 if self.fixed_hz is None else self.fixed_hz
+        return np.multiply.outer(self.speeds_hz, self.multipliers) + fixed
 
     @property
     def acceleration(self) -> np.ndarray:
         w = TWO_PI * self.frequency_hz
         return -(w[..., None, None] ** 2) * self.displacement
 
+    @property
+    def in_band(self) -> np.ndarray:
+        """(S, K) bool: lines at or below :attr:`band_hz` at each speed."""
+        return self.frequency_hz <= self.band_hz
+
     def rms(self, quantity: str = "acceleration") -> np.ndarray:
-        """Overall RMS over the kept orders [m or m/s^2], shape (S, 4, 2) (DC excluded)."""
+        """Overall RMS of the lines in the band at each speed [m or m/s^2], shape (S, 4, 2) (DC excluded)."""
         x = self.acceleration if quantity == "acceleration" else self.displacement
-        return np.sqrt(0.5 * np.sum(np.abs(x) ** 2, axis=1))
+        return np.sqrt(0.5 * np.sum(np.abs(x) ** 2 * self.in_band[..., None, None], axis=1))
 
 
 class BkaBem:
@@ -296,8 +361,7 @@ class BkaBem:
                     else:
                         self._line_modes = like._line_modes.extended(self.multipliers)
             else:
-                self._basis = ModalBasis(self.rotor, p, self._out_dofs.reshape(-1),
-                                         MODAL_CUTOFF_FACTOR * case.max_frequency_hz)
+                self._basis = self._make_basis()
             self.order_modal_form()
         self.preparation_time_s["solver_setup"] = time.perf_counter() - t3
         self.preparation_time_s["total"] = sum(v for kk, v in self.preparation_time_s.items() if kk != "total")
@@ -317,6 +381,17 @@ class BkaBem:
         """Line frequencies [Hz] at a shaft speed [Hz]."""
         return self.lines.frequency_hz(speed_hz)
 
+    @property
+    def band_hz(self) -> float:
+        """Highest frequency the model serves [Hz]: the case's band (:attr:`Case.max_frequency_hz`, half its
+        highest sample rate), up to which the FE mesh is converged and the modal basis complete."""
+        return float(self.case.max_frequency_hz)
+
+    @property
+    def line_labels(self) -> tuple:
+        """What each line is (``"BPFO"``, ``"BPFI - 1 f_r"``, ``"2 BSF + FTF"``, ``"1x"``), (K,)."""
+        return tuple(line_labels(self.lines.coefficients, self.n_balls))
+
     # ------------------------------------------------------------------ solve
     @property
     def multipliers(self) -> np.ndarray:
@@ -330,14 +405,23 @@ class BkaBem:
     def basis(self) -> ModalBasis:
         """The reduced modal basis (made on first use with another solver)."""
         if self._basis is None:
-            self._basis = ModalBasis(self.rotor, self._p, self._out_dofs.reshape(-1),
-                                     MODAL_CUTOFF_FACTOR * self.case.max_frequency_hz)
+            self._basis = self._make_basis()
         return self._basis
+
+    def _make_basis(self) -> ModalBasis:
+        try:
+            return ModalBasis(self.rotor, self._p, self._out_dofs.reshape(-1),
+                              MODAL_CUTOFF_FACTOR * self.case.max_frequency_hz)
+        except ValueError as exc:
+            if "rigid-body" not in str(exc):
+                raise
+            raise singular_stiffness(self.case, "a rigid-body mode") from None
 
     @property
     def line_modes(self) -> LineModes:
         """The reduced model diagonalised along every speed-locked line (made on first use; ~1 s for 50)."""
         if self._line_modes is None:
+            check_line_modes(self.case, self._locked_idx.size, self.basis.size)
             self._line_modes = LineModes(self.basis, self.multipliers[self._locked_idx])
         return self._line_modes
 
@@ -397,7 +481,8 @@ class BkaBem:
         return Spectrum(speed_hz=speed_hz, orders=self.orders.copy(), frequency_hz=self.frequency_hz(speed_hz),
                         displacement=x, dc_m=self._dc.copy(),
                         fault_frequencies_hz=self.fault_multipliers.at_speed(speed_hz),
-                        coefficients=self.lines.coefficients.copy())
+                        coefficients=self.lines.coefficients.copy(), labels=self.line_labels,
+                        band_hz=self.band_hz)
 
     def sweep(self, speeds_hz, batch: int = 16, progress: bool = False) -> Sweep:
         """Responses over many speeds [Hz], computed in batches (memory bounded)."""
@@ -412,7 +497,8 @@ class BkaBem:
         disp = np.concatenate(parts) if parts else np.zeros((0, self.orders.size, 4, 2), complex)
         return Sweep(speeds_hz=speeds_hz, orders=self.orders.copy(), displacement=disp,
                      bpfo_per_hz=self.bpfo_per_hz, multipliers=self.multipliers.copy(),
-                     fixed_hz=self.lines.fixed_hz.copy())
+                     fixed_hz=self.lines.fixed_hz.copy(), coefficients=self.lines.coefficients.copy(),
+                     labels=self.line_labels, band_hz=self.band_hz)
 
     @property
     def dc_m(self) -> np.ndarray:

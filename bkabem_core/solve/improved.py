@@ -356,7 +356,8 @@ class _LatticeHill:
         return Spectrum(speed_hz=f, orders=m.orders.copy(), frequency_hz=m.frequency_hz(f),
                         displacement=disp.reshape(-1, 4, 2), dc_m=dc,
                         fault_frequencies_hz=m.fault_multipliers.at_speed(f),
-                        coefficients=m.lines.coefficients.copy())
+                        coefficients=m.lines.coefficients.copy(), labels=m.line_labels,
+                        band_hz=m.band_hz)
 
 
 class _Rank1Grid:

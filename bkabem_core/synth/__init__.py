@@ -1,6 +1,9 @@
 """Waveform synthesis: speed-driven, phase-continuous sensor signals for the DE and NDE bearings.
 
     Synthesizer      -- signals of one model, chunk by chunk, under any speed (module ``synthesizer``)
+    Settings         -- everything besides the model that decides the samples, checked once (``settings``)
+    Plan             -- model and settings and what they fix: lines, kernels, sensors, floor (``plan``)
+    WarmModel        -- a model's plan made ahead, for a switch that costs the stream nothing (``switch``)
     Chunk            -- one block of samples with its features (module ``features``)
     waveform_features -- mean, RMS, peak, crest factor, kurtosis of a block
     SpeedProfile     -- shaft speed as a piecewise-linear function of time (module ``profile``)
@@ -8,14 +11,19 @@
     SynthError       -- bad synthesis input: the argument and why
     Accelerometer    -- a mounted accelerometer's resonance (module ``sensors``)
     AntiAliasFilter  -- the acquisition's low-pass
+    SensorChain      -- the sensors between the machine and the samples
 """
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Synthesizer", "Chunk", "waveform_features", "SpeedProfile", "parse_profile", "SynthError", "Accelerometer", "AntiAliasFilter"]
+__all__ = ["Synthesizer", "Settings", "Plan", "WarmModel", "Chunk", "waveform_features", "SpeedProfile",
+           "parse_profile", "SynthError", "Accelerometer", "AntiAliasFilter", "SensorChain"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Synthesizer": "synthesizer",
+    "Settings": "settings",
+    "Plan": "plan",
+    "WarmModel": "switch",
     "Chunk": "features",
     "waveform_features": "features",
     "SpeedProfile": "profile",
@@ -23,4 +31,5 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "SynthError": "profile",
     "Accelerometer": "sensors",
     "AntiAliasFilter": "sensors",
+    "SensorChain": "sensors",
 })

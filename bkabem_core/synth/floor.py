@@ -23,46 +23,41 @@ vertical, Table 1 of the paper): ~5e-8 m x 1.2e8 N/m ~ 6 N RMS spread over 0-25 
 fault-library cases use 0.01 N/sqrt(Hz) (a quiet, new bearing; docs/faults.md); it is a level to set per machine,
 not a law.
 
-Realisation (the synthesiser's fast path): ``N_FRAMES`` periodic frames of ``L = 2^FRAME_BITS`` samples, each an exact
-sample of the process (complex Gaussian line amplitudes on the FFT grid f_k = k fs / L with E|A_k|^2 =
-2 S_F^2 fs / L per input, through the receptance, one real inverse FFT of the Hermitian half per frame, once per
-seed: :meth:`BroadbandFloor.reseeded`; the seed-independent part, state space, receptance, measurement chain,
-transfer and window, is a :class:`FloorTransfer` made once per machine structure (the standstill modal basis: every
-defect model of one machine has the same) and channel set in the process and shared by every floor of them, so a
-data set's next run or defect, a fleet's next machine or a scenario's next state pays its frames only,
-~2.5 ms at 4 channels and ~4 ms at 8 instead of ~80 and ~130 ms for the whole floor on the 2-core VM), and the output
-is an overlap of *grains*: grain g covers samples [g S, g S + 2 S), S = L / 2, reading frame
-``2 (g mod 2) + (h_g mod 2)`` from offset ``h_g / 2 mod L`` (``h_g`` a hash of seed and g) under the sine window
-``sin(pi t / 2 S)``. Two grains overlap at every sample, from different frames (one even, one odd grain), and their
-windows' squares add to 1, so the floor is Gaussian with the PSD above (smeared by the window, ~1.5 lines),
-stationary, not periodic, seeded and a function of the absolute sample index only (any chunking gives the same
-samples; continuous: each grain fades in and out from 0). Cost per sample: two taps of 8 channels
-(``synth_kernel.floor_render``), added inside the sample loop with the noise.
+Realisation: ``N_FRAMES`` periodic frames of ``L = 2^FRAME_BITS`` samples, each an exact sample of the process
+(complex Gaussian line amplitudes on the FFT grid f_k = k fs / L with E|A_k|^2 = 2 S_F^2 fs / L per input, through
+the receptance, one real inverse FFT of the Hermitian half per frame, once per seed: :meth:`BroadbandFloor.reseeded`;
+the seed-independent part, state space, receptance, measurement chain, transfer and window, is a
+:class:`FloorTransfer` made once per machine structure (the standstill modal basis: every defect model of one
+machine has the same) and channel set in the process and shared by every floor of them, so a data set's next run or
+defect, a fleet's next machine or a scenario's next state makes its frames only), and the output is an overlap of
+*grains*: grain g covers samples [g S, g S + 2 S), S = L / 2, reading frame ``2 (g mod 2) + (h_g mod 2)`` from offset
+``h_g / 2 mod L`` (``h_g`` a hash of seed and g) under the sine window ``sin(pi t / 2 S)``. Two grains overlap at
+every sample, from different frames (one even, one odd grain), and their windows' squares add to 1, so the floor is
+Gaussian with the PSD above (smeared by the window, ~1.5 lines), stationary, not periodic, seeded and a function of
+the absolute sample index only (any chunking gives the same samples; continuous: each grain fades in and out from
+0). Per sample: two taps of every channel (``kernels/synth_floor.c``), added inside the sample loop with the noise.
 
 Storage: int16 with one scale per channel (max |x| of the frames / 32767: quantisation ~-87 dB below the floor's
 RMS, white; >= 53 dB under the floor in every third-octave band from 200 Hz to 20 kHz; float16 would give 46 dB and
 loses displacements of ~1e-9 m to underflow): 4 x 2^15 x 8 x 2 B = 2 MB read at two taps a sample, half the bytes
-of the float32 frames, whose memory traffic made the floor the largest kernel of a noisy chunk (~45 us).
-Why not shorter frames (in L2): the frames' resolution would still be enough (fs / 2^13 = 6.25 Hz, against the
-narrowest half-power bandwidth 2 zeta f of the machine's in-band modes, 33 Hz for its 23-Hz shaft mode, 83 Hz and
-more for the ~1.5 % damped modes from 2.2 kHz), but the frames are the floor's only randomness: its long-run
-spectrum is the 4 frames' periodograms, N_FRAMES x L / 2 complex amplitudes per input, and a third-octave band holds
-L / 2^15 as many of them. With 2^13 the 250-Hz band of nde_horizontal_acceleration came out 1.13 dB off the FE
-receptance (test_floor: 1 dB; a spread of ~sqrt(2 / lines) in power), so the frames keep their 2^17 lines.
+of float32 frames (the render is bound by its memory traffic). Why not shorter frames (in L2): the frames' resolution
+would still be enough (fs / 2^13 = 6.25 Hz, against the narrowest half-power bandwidth 2 zeta f of the machine's
+in-band modes, 33 Hz for its 23-Hz shaft mode, 83 Hz and more for the ~1.5 % damped modes from 2.2 kHz), but the
+frames are the floor's only randomness: its long-run spectrum is the 4 frames' periodograms, N_FRAMES x L / 2
+complex amplitudes per input, and a third-octave band holds L / 2^15 as many of them. With 2^13 the 250-Hz band of
+nde_horizontal_acceleration came out 1.13 dB off the FE receptance (test_floor: 1 dB; a spread of ~sqrt(2 / lines)
+in power), so the frames keep their 2^17 lines.
 
 A seed's frames (:meth:`FloorTransfer.frames`), float32 throughout: the amplitudes' normals come from the sensor
-noise's ziggurat (``_synthnoise.h``: 8 a line, the real then the imaginary parts of the four force pairs, stream
-:func:`frame_keys`, one per seed and frame), multiplied by the complex64 transfer and summed over the pairs in one C pass
-(``_synthfloor.h``), one float32 real inverse FFT (scipy.fft), then the scales and the int16 rounding in one C pass:
-~2.5 ms a seed at 4 channels, ~4 ms at 8 (BENCHMARKS.md). Until issue 15f the normals were numpy's float64
-(``SeedSequence([seed, _TAG, frame])``) and the product, FFT and scale pass float64: ~11 and ~17 ms, a third of a
-data-set run's 35 ms. The change gives every seed other samples (other normals), but the same process: the
-normals are standard normal to the ziggurat's 22-bit grid (docstring of ``_synthnoise.h``), and float32's rounding
-of the transfer, product and FFT lies far below the int16 step (3e-5 of the frame's largest value) the frames are
-stored at anyway: against a float64 transcription of the definition with the same normals the stored frames are off
-by at most 0.504 of a step (0.5 is the rounding; RMS 0.289 = 1/sqrt(12), the quantisation alone; 4 and 8 channels,
-2 seeds). tests/unit/test_floor.py holds them to that transcription (half a step plus float32 rounding), their
-periodogram to the PSD, and the floor's third-octave bands to the FE receptance.
+noise's generator (``kernels/synth_noise.c``: 8 a line, the real then the imaginary parts of the four force pairs,
+stream :func:`frame_keys`, one per seed and frame), multiplied by the complex64 transfer and summed over the pairs in
+one C pass (``kernels/synth_floor.c``), one float32 real inverse FFT (scipy.fft), then the scales and the int16
+rounding in one C pass. The normals are standard normal to the generator's 22-bit grid (``kernels/synth_noise.h``),
+and float32's rounding of the transfer, product and FFT lies far below the int16 step (3e-5 of the frame's largest
+value) the frames are stored at anyway: against a float64 transcription of the definition with the same normals the
+stored frames are off by at most 0.504 of a step (0.5 is the rounding; RMS 0.289 = 1/sqrt(12), the quantisation
+alone; 4 and 8 channels, 2 seeds). tests/unit/test_floor.py holds them to that transcription (half a step plus
+float32 rounding), their periodogram to the PSD, and the floor's third-octave bands to the FE receptance.
 
 Units: forces N, densities N/sqrt(Hz), frequencies Hz, samples in the channels' units.
 """
@@ -79,7 +74,7 @@ import numpy as np
 import scipy.fft
 
 from bkabem_core.synth import kernel as synth_kernel
-from bkabem_core.synth.sensors import chain_gains
+from bkabem_core.synth.sensors import SensorChain
 
 FRAME_BITS = 15                 # frame length L = 2^15 samples (0.64 s at 51.2 kHz: 1.56 Hz line spacing)
 N_FRAMES = 4
@@ -129,7 +124,7 @@ class FloorTransfer:
     channel factor), and the grains' window. Made once per machine structure and channel set (:meth:`shared`) and
     shared, read only, by every :class:`BroadbandFloor` of them, whatever its defects, seed or level: a data set's
     runs (one seed each), a fleet's machines and a scenario's states pay only their own frames (:meth:`frames`;
-    ~1/6 of the whole floor).
+    a sixth of the whole floor's work).
     Memory: (4, F, C) complex64, 2 MB at 4 channels, once per process instead of once per synthesiser.
 
     Parameters: those of :class:`BroadbandFloor` without the density and seed.
@@ -145,14 +140,14 @@ class FloorTransfer:
     _lock = threading.Lock()
 
     def __init__(self, model, combination, cindex, power, scale, housing_cols, sample_rate_hz: float,
-                 accelerometer=None, anti_alias=None):
+                 sensors: SensorChain = SensorChain()):
         self.sample_rate_hz = fs = float(sample_rate_hz)
         n = 1 << FRAME_BITS
         self.frame_length = n
         self.half = n // 2
         f = np.arange(1, n // 2) * fs / n
         h = np.einsum("uo,foi->fui", combination, receptance(model, f))       # (F, U, 4) [m/N]
-        gains = chain_gains(f, housing_cols, accelerometer, anti_alias, combination.shape[0])
+        gains = sensors.gains(f, housing_cols, combination.shape[0])
         if gains is not None:
             h = h * gains[:, :, None]
         iw = 2j * np.pi * f
@@ -177,7 +172,7 @@ class FloorTransfer:
         """Digest of what the transfer takes of the model: its standstill structure, the reduced modal basis (M, K,
         C, the force pairs' inputs, the outputs). The defects of a machine excite it but do not change it, so the
         models of one machine (a scenario's states, a fleet's or a data set's defect kinds and sizes) have one key
-        (~0.1 ms against ~80-150 ms for the transfer)."""
+        (a digest instead of the transfer)."""
         b = model.basis
         h = hashlib.blake2b(digest_size=20)
         for a in (b.M, b.K, b.C, b.inputs[:, :4], b.outputs):
@@ -188,7 +183,7 @@ class FloorTransfer:
 
     @classmethod
     def shared(cls, model, combination, cindex, power, scale, housing_cols, sample_rate_hz: float,
-               accelerometer=None, anti_alias=None) -> "FloorTransfer":
+               sensors: SensorChain = SensorChain()) -> "FloorTransfer":
         """The transfer of these arguments, made once per machine structure (:meth:`structure_key`) and arguments
         in the process (an LRU of :attr:`CACHE` per structure) and kept while a model of that structure lives: the
         same arrays for every floor of them, whichever of the machine's models asks."""
@@ -196,7 +191,7 @@ class FloorTransfer:
             a = np.ascontiguousarray(a)
             return a.shape, a.dtype.str, a.tobytes()
         key = (key_of(combination), key_of(cindex), key_of(power), key_of(scale), key_of(housing_cols),
-               float(sample_rate_hz), accelerometer, anti_alias)
+               float(sample_rate_hz), sensors)
         structure = cls.structure_key(model)
         with cls._lock:                     # a fleet's machines may bind from several threads: one making each
             users = cls._users.setdefault(structure, set())
@@ -207,7 +202,7 @@ class FloorTransfer:
             made = lru.get(key)
             if made is None:
                 made = lru[key] = cls(model, combination, cindex, power, scale, housing_cols, sample_rate_hz,
-                                      accelerometer, anti_alias)
+                                      sensors)
                 while len(lru) > cls.CACHE:
                     lru.popitem(last=False)
             else:
@@ -249,9 +244,9 @@ class FloorTransfer:
 
 def frame_keys(seed: int) -> list:
     """The 64-bit keys of the normals of the ``N_FRAMES`` frames of a floor of ``seed`` (the sensor noise's
-    generator, ``_synthnoise.h``): one ``SeedSequence([seed, _TAG])``, its first N_FRAMES words (another tag than
+    generator, ``kernels/synth_noise.c``): one ``SeedSequence([seed, _TAG])``, its first N_FRAMES words (another tag than
     the sensor noise's :func:`~bkabem_core.synth.randomness.noise_key`, so the streams are independent; one sequence
-    and not one per frame: each costs ~0.15 ms)."""
+    and not one per frame)."""
     return [int(k) for k in np.random.SeedSequence([int(seed), _TAG]).generate_state(N_FRAMES, np.uint64)]
 
 
@@ -265,21 +260,21 @@ class BroadbandFloor:
         One-sided force spectral density of every force pair [N/sqrt(Hz)] (> 0).
     combination, cindex, power, scale : ndarray
         The synthesiser's displacement combinations (U, 8), each channel's row, power of (i omega) and unit scale
-        (:func:`bkabem_core.synth.linesets._combination`).
+        (:class:`bkabem_core.synth.channels.ChannelMap`).
     housing_cols : ndarray of int
         Combinations that are housing displacements (the accelerometer acts there).
     sample_rate_hz : float
     seed : int
-    accelerometer, anti_alias : sensors or None
+    sensors : SensorChain
+        The measurement chain (:mod:`bkabem_core.synth.sensors`).
 
     The seed-independent part is the process's :meth:`FloorTransfer.shared` one; a floor of another seed is
-    :meth:`reseeded` (its frames only: ~2.5 ms instead of ~80 ms for the whole floor at 4 channels).
+    :meth:`reseeded` (its frames only).
     """
 
     def __init__(self, model, density_n_rthz: float, combination, cindex, power, scale, housing_cols,
-                 sample_rate_hz: float, seed: int, accelerometer=None, anti_alias=None):
-        path = FloorTransfer.shared(model, combination, cindex, power, scale, housing_cols, sample_rate_hz,
-                                    accelerometer, anti_alias)
+                 sample_rate_hz: float, seed: int, sensors: SensorChain = SensorChain()):
+        path = FloorTransfer.shared(model, combination, cindex, power, scale, housing_cols, sample_rate_hz, sensors)
         self._seeded(path, density_n_rthz, seed)
 
     def _seeded(self, path: FloorTransfer, density_n_rthz: float, seed: int) -> None:
@@ -339,7 +334,7 @@ class BroadbandFloor:
         return arr
 
     def source(self, n0: int, n: int) -> tuple:
-        """What the line-set kernel needs to render samples [n0, n0 + n) itself (``synth_kernel.lines_segment``):
+        """What the line-set kernel needs to render samples [n0, n0 + n) itself (:meth:`~bkabem_core.synth.render.FusedLines.segment`):
         (frames, window, grains, half, scale)."""
         return self.frames, self.window, self.grains(n0, n), self.half, self.scale
 
@@ -350,41 +345,3 @@ class BroadbandFloor:
         out = self._buf[:n]
         synth_kernel.floor_render(n0, n, self.half, self.frames, self.window, self.grains(n0, n), out, self.scale)
         return out
-
-
-class FloorPath:
-    """The :class:`~bkabem_core.synth.synthesizer.Synthesizer`'s methods for the broadband floor (a mixin: it reads the
-    synthesiser's state; knots are :class:`~bkabem_core.synth.linesets._Knot`)."""
-
-    def _floor_source(self):
-        """The :class:`~bkabem_core.synth.floor.BroadbandFloor` of this synthesiser (made when first needed)."""
-        if self._floor is None:
-            self._floor = BroadbandFloor(self._model, self.floor_density, self._comb, self._cindex, self._power,
-                                         self._scale, self._housing_cols, self.sample_rate_hz, self.seed,
-                                         self.accelerometer, self.anti_alias)
-        return self._floor
-
-    def _floor_block(self, n0: int, n: int):
-        """The floor of samples [n0, n0 + n) in the samples' dtype, or None (off)."""
-        if self.floor_density <= 0:
-            return None
-        x = self._floor_source().render(n0, n)
-        return x if self.dtype == np.float32 else x.astype(self.dtype)
-
-    def _floor_part(self, a: "_Knot", b: "_Knot", lo: int, hi: int):
-        """The floor of samples [lo, hi) of the segment a-b for the line-set kernel: its source (rendered inside the
-        pass) where the segment is one line set at full level, else the samples, faded (:meth:`_floor_faded`)."""
-        fl = self._floor_source()
-        if a.amp.fade == 1.0 and b.amp.fade == 1.0 and a.amp.families is b.amp.families \
-                and a.amp.fbuf is not None:
-            return fl.source(lo, hi - lo)
-        return self._floor_faded(fl.render(lo, hi - lo), a, b, lo)
-
-    def _floor_faded(self, x: np.ndarray, a: "_Knot", b: "_Knot", lo: int) -> np.ndarray:
-        """The floor under the low-speed fade of the lines (no rolling, no roughness excitation at standstill):
-        linear in time from knot a's fade to knot b's, as the lines' amplitudes."""
-        fa, fb = a.amp.fade, b.amp.fade
-        if fa == 1.0 and fb == 1.0:
-            return x
-        s = (np.arange(lo, lo + x.shape[0]) - a.x) / max(b.x - a.x, 1)
-        return np.ascontiguousarray(x * (fa + (fb - fa) * s)[:, None], dtype=x.dtype)

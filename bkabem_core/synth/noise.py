@@ -1,4 +1,4 @@
-"""The sensor noise's normals in numpy: a transcription of the C generator (``_synthnoise.h``) for the tests and the
+"""The sensor noise's normals in numpy: a transcription of the C generator (``kernels/synth_noise.c``) for the tests and the
 fallback without the kernel.
 
 Stream: per block of 256 absolute samples four xoshiro256++ generators seeded from the noise key and the block
@@ -6,7 +6,7 @@ number; each step gives eight 32-bit words, one per channel (``C`` channels take
 Normals: the 1024-layer ziggurat (Marsaglia & Tsang 2000, in Doornik's 2005 form) whose common case is a table
 look-up, a multiply and a compare; the words outside their layer's rectangle (~1.5 %) are finished with uniforms
 of a second stream seeded by (key, sample, channel), so a value depends on the key, the absolute sample and the
-channel only. The C code is the fast one (``synth_kernel.noise_fill``); this one loops in Python over the rare
+channel only. The C code is the fast one (the sample loops add its normals); this one loops in Python over the rare
 cases and over the steps (slow, for tests).
 """
 
@@ -123,7 +123,7 @@ def _slow(key: int, n: int, c: int, w: int) -> np.float32:
 
 def noise_reference(key: int, n0: int, n: int, n_channels: int) -> np.ndarray:
     """(n, C) float32 normals of the noise stream ``key`` at absolute samples ``n0 ..`` (what
-    ``synth_kernel.noise_fill`` makes in C), in numpy."""
+    the sample loops add in C), in numpy."""
     c = int(n_channels)
     steps = (c + 7) // 8
     out = np.empty((int(n), c), dtype=np.float32)

@@ -114,9 +114,12 @@ class SpeedProfile:
     def from_csv(cls, path) -> "SpeedProfile":
         """Two columns, time and speed. A header names units: ``time_s`` and ``speed_hz`` | ``speed_rpm`` |
         ``speed_rad_s``; without a header (first row numeric) the units are s and Hz. ``#`` starts a comment."""
+        from bkabem_core.model.files import not_a_file
+
         p = Path(path)
-        if not p.is_file():
-            raise SynthError("profile", f"CSV file not found: {p}")
+        why = not_a_file(p)
+        if why:
+            raise SynthError("profile", f"CSV {why}")
         try:
             text = p.read_text()
         except (OSError, UnicodeDecodeError) as exc:
@@ -202,6 +205,8 @@ def parse_profile(spec) -> SpeedProfile:
 
 def _num(name: str, text: str) -> float:
     try:
+        if "_" in text:                     # float("1_0") is 10: a typo is not a number
+            raise ValueError(text)
         return float(text)
     except ValueError:
         raise SynthError(name, f"not a number: {text!r}") from None

@@ -1,7 +1,9 @@
 """The synthesiser's randomness, indexed by absolute position so that chunking never changes it.
 
-:class:`_SlipWalk` is the random walk of the ball-pass phase (random slip, Antoni & Randall), :class:`_NoiseBlocks`
-the sensor noise, both generated in seeded blocks. Units: ball passes, standard normal numbers.
+:class:`SlipWalk` is the random walk of the ball-pass phase (random slip, Antoni & Randall), :class:`SensorNoise`
+the sensor noise of a set of channels (made in the C sample loops from :func:`noise_key`; :class:`NoiseBlocks`,
+numpy's generator in seeded blocks, where the kernels are not built). Units: ball passes, standard normal
+numbers, noise in the channels' units.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth.features import _FOLD
 
 
-class _SlipWalk:
+class SlipWalk:
     """Random walk W_j of the ball-pass phase [passes] at integer nominal passes j (W_j = 0 for j <= 0).
 
     ``W_{j+1} - W_j ~ N(0, sigma^2)`` i.i.d.: the j-th inter-arrival lasts ``1 - (W_{j+1} - W_j)`` nominal passes,
@@ -91,7 +93,7 @@ class _SlipWalk:
         """Per ``kappa`` the (m,) int64 phase offsets of a segment's samples j0..j0+m-1 (ball passes since the knot
         ``u = (c2 xi + c1) xi + u_frac``, speed >= 0 so u is monotonic), ``rint(frac(kappa W(u)) 2^52) 2^10``: the
         Hermite warp of :meth:`warp` (Horner form per pass interval) and the fixed-point conversion in one C pass
-        for all factors (:func:`synth_kernel.slip_warp`, vectorised: ~5 us per 0.1-s chunk)."""
+        for all factors (:func:`~bkabem_core.synth.kernel.slip_warp`)."""
         w, jw0 = self.window(u_int, j0, m, c1, c2, u_frac)
         kap = list(kappas)
         rows = []
@@ -110,12 +112,12 @@ class _SlipWalk:
 
 
 def noise_key(seed: int) -> int:
-    """The 64-bit key of the sensor-noise stream of ``seed`` (``_synthnoise.h``: the sample loop makes the normals
+    """The 64-bit key of the sensor-noise stream of ``seed`` (``kernels/synth_noise.c``: the sample loops make the normals
     of absolute sample n from it, in blocks of 256 samples)."""
-    return int(np.random.SeedSequence([int(seed), _NoiseBlocks._TAG]).generate_state(1, np.uint64)[0])
+    return int(np.random.SeedSequence([int(seed), NoiseBlocks._TAG]).generate_state(1, np.uint64)[0])
 
 
-class _NoiseBlocks:
+class NoiseBlocks:
     """Standard normal noise (n, C) indexed by absolute sample, in seeded blocks: the fallback when the C kernel is
     not built (numpy's generator; block b from ``SeedSequence([seed, tag, b])``), another, equally valid,
     realisation for the same seed. With the kernel the noise is made inside the sample loop (:func:`noise_key`)."""
@@ -150,19 +152,50 @@ class _NoiseBlocks:
         return out
 
 
-class NoisePath:
-    """The :class:`~bkabem_core.synth.synthesizer.Synthesizer`'s methods for the sensor noise (a mixin: it reads the synthesiser's
-    state; with the C kernel the noise is made inside the sample loop from :meth:`_segment_noise`, without it numpy's
-    blocks are added after the samples)."""
+class SensorNoise:
+    """White sensor noise of a set of channels (one realisation per seed, a function of the absolute sample).
 
-    def _segment_noise(self, a: "_Knot", b: "_Knot", lo: int):
-        """(key, first sample, sigma per channel in the samples' dtype) of the noise of a segment starting at
-        sample lo: the density's sigma, or with ``snr_db`` the segment's dynamic RMS / 10^(snr/20)."""
-        if self.snr_db is None:
-            return self._noise_key, lo, self._noise_sigma_t
+    Parameters
+    ----------
+    density : dict or None
+        One-sided density per quantity (``{"acceleration": m/s^2/sqrt(Hz), ...}``): noise RMS = density *
+        sqrt(sample_rate / 2).
+    snr_db : float or None
+        Alternative: noise RMS = the dynamic RMS of the channel (from the line amplitudes at the segment's knots) /
+        10^(snr_db / 20).
+    channels : sequence of Channel
+    sample_rate_hz : float
+    seed : int
+    dtype : numpy dtype of the samples
+
+    With the C kernels the normals are made inside the sample loops (:meth:`segment`: the key, the first sample and
+    sigma per channel); without them numpy's generator in seeded blocks is added after the samples (:meth:`add`),
+    another, equally valid, realisation for the same seed.
+    """
+
+    def __init__(self, density: dict | None, snr_db: float | None, channels, sample_rate_hz: float, seed: int,
+                 dtype):
+        dens = dict(density or {})
+        self.snr_db = snr_db
+        self.sigma = np.array([dens.get(c.quantity, 0.0) * math.sqrt(sample_rate_hz / 2) for c in channels])
+        #: whether any channel has noise
+        self.on = bool(np.any(self.sigma > 0)) or snr_db is not None
+        self.key = noise_key(seed)
+        self.dtype = dtype
+        self._sigma_t = np.ascontiguousarray(self.sigma, dtype=dtype)
+        self._blocks = NoiseBlocks(seed, len(self.sigma), dtype) if self.on else None
+
+    def _snr_sigma(self, a, b) -> np.ndarray:
+        """sigma per channel of the segment between knots a and b (``snr_db``): the knots' mean dynamic power."""
         g = 10 ** (-self.snr_db / 20)
-        sigma = g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
-        return self._noise_key, lo, np.ascontiguousarray(sigma, dtype=self.dtype)
+        return g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
+
+    def segment(self, a, b, lo: int) -> tuple:
+        """(key, first sample, sigma per channel in the samples' dtype) of the noise of a segment from sample
+        ``lo`` between knots a and b, for the C sample loops."""
+        if self.snr_db is None:
+            return self.key, lo, self._sigma_t
+        return self.key, lo, np.ascontiguousarray(self._snr_sigma(a, b), dtype=self.dtype)
 
     @staticmethod
     def _add_scaled(out: np.ndarray, z: np.ndarray, sigma: np.ndarray) -> None:
@@ -177,12 +210,12 @@ class NoisePath:
         if q < m:
             out[q:] += z[q:] * sig
 
-    def _add_noise(self, n0: int, n: int, out: np.ndarray) -> None:
-        z = self._noise.get(n0, n)
+    def add(self, out: np.ndarray, n0: int, segments) -> None:
+        """Add numpy's noise to the samples ``out`` of [n0, n0 + len(out)) (``segments``: the (knot a, knot b,
+        first, end) that cover them)."""
+        z = self._blocks.get(n0, out.shape[0])
         if self.snr_db is None:
-            self._add_scaled(out, z, self._noise_sigma)
+            self._add_scaled(out, z, self.sigma)
             return
-        g = 10 ** (-self.snr_db / 20)
-        for a, b, lo, hi in self._segments(n0, n):
-            sigma = g * np.sqrt(0.5 * (a.amp.rms ** 2 + b.amp.rms ** 2))
-            self._add_scaled(out[lo - n0:hi - n0], z[lo - n0:hi - n0], sigma)
+        for a, b, lo, hi in segments:
+            self._add_scaled(out[lo - n0:hi - n0], z[lo - n0:hi - n0], self._snr_sigma(a, b))

@@ -1,8 +1,21 @@
-"""The measurement chain: accelerometer mounting resonance and the acquisition's anti-alias filter.
+"""The measurement chain: what stands between the machine's motion and the samples, as a chain of sensors.
 
 A monitoring pipeline never sees the housing's acceleration itself but what a mounted accelerometer and a data
-acquisition make of it. Both are linear and time-invariant, so on a sum of lines they are exact complex gains per
-line frequency, applied where the synthesiser evaluates its amplitudes (every knot):
+acquisition make of it. Every element of the chain is linear and time-invariant, so on a sum of lines it is an
+exact complex gain per line frequency, applied where the synthesiser evaluates its amplitudes (every knot) and on
+the broadband floor's transfer (:mod:`bkabem_core.synth.floor`).
+
+A sensor is an object with
+
+* ``name``: its key in the ground truth and metadata (``"accelerometer"``, ``"anti_alias"``, ...);
+* ``measures``: the motion it acts on, ``"housing"`` (the housing's own motion: the acceleration and velocity
+  channels) or None (every channel);
+* ``gain(frequency_hz)``: its complex frequency response (output / input);
+* ``to_dict()``: its parameters, JSON-ready.
+
+:class:`SensorChain` applies the sensors in order. Adding a sensor (a housing transmission path, a charge
+amplifier's high-pass, ...) is one class here with these four members, and its entry in :data:`SENSOR_KINDS`
+(which names the ground truth always carries, None when absent).
 
 ``Accelerometer``
     The sensor on its mount is a base-excited single-degree-of-freedom system (ISO 5348, *Mechanical mounting of
@@ -16,8 +29,7 @@ line frequency, applied where the synthesiser evaluates its amplitudes (every kn
     (default the usable band ``fs / 2.56``, the 2.56 convention of DAQs: 20 kHz at 51.2 kHz), its analog
     response ``H(s) = 1 / B_n(s / omega_c)`` (magnitude and phase).
 
-Which channels: the accelerometer acts on the housing channels (acceleration, and the velocity a pipeline
-integrates from it); the anti-alias filter on every channel. Frequencies in Hz.
+Frequencies in Hz.
 """
 
 from __future__ import annotations
@@ -26,7 +38,6 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy import signal
 
 #: Typical mounting resonances [Hz] (ISO 5348; manufacturers' mounting guides).
 MOUNTING_RESONANCE_HZ = {"stud": 28000.0, "adhesive": 20000.0, "magnet": 8500.0, "probe": 2000.0}
@@ -52,6 +63,9 @@ class Accelerometer:
     damping_ratio: float = 0.03
     sensitivity_mv_per_g: float = 100.0
     mounting: str = "stud"
+
+    name = "accelerometer"
+    measures = "housing"
 
     def __post_init__(self):
         if not (math.isfinite(self.resonance_hz) and self.resonance_hz > 0):
@@ -89,6 +103,9 @@ class AntiAliasFilter:
     cutoff_hz: float
     order: int = 6
 
+    name = "anti_alias"
+    measures = None
+
     def __post_init__(self):
         if not (math.isfinite(self.cutoff_hz) and self.cutoff_hz > 0):
             raise ValueError(f"cutoff_hz: must be > 0 (got {self.cutoff_hz})")
@@ -102,6 +119,8 @@ class AntiAliasFilter:
 
     def gain(self, frequency_hz) -> np.ndarray:
         """Complex gain at ``frequency_hz`` [Hz] (analog Butterworth, scipy.signal.butter)."""
+        from scipy import signal
+
         b, a = signal.butter(int(self.order), 2 * math.pi * self.cutoff_hz, analog=True)
         _, h = signal.freqs(b, a, worN=2 * math.pi * np.atleast_1d(np.asarray(frequency_hz, dtype=float)))
         return h.reshape(np.shape(frequency_hz))
@@ -110,16 +129,51 @@ class AntiAliasFilter:
         return asdict(self)
 
 
-def chain_gains(frequency_hz: np.ndarray, housing_columns: np.ndarray, accelerometer: Accelerometer | None,
-                anti_alias: AntiAliasFilter | None, n_columns: int) -> np.ndarray | None:
-    """(K, U) complex gains of the measurement chain on the synthesiser's displacement combinations: the
-    accelerometer on the housing columns, the anti-alias filter on all; None without either."""
-    if accelerometer is None and anti_alias is None:
-        return None
-    f = np.asarray(frequency_hz, dtype=float)
-    g = np.ones((f.size, n_columns), complex)
-    if anti_alias is not None:
-        g *= anti_alias.gain(f)[:, None]
-    if accelerometer is not None:
-        g[:, housing_columns] *= accelerometer.gain(f)[:, None]
-    return g
+#: The sensor kinds the ground truth always names (None where a chain has none of that kind).
+SENSOR_KINDS = (Accelerometer, AntiAliasFilter)
+
+
+@dataclass(frozen=True)
+class SensorChain:
+    """The sensors between the machine and the samples, applied in order (module docstring).
+
+    Attributes
+    ----------
+    sensors : tuple
+        Sensor objects (``name``, ``measures``, ``gain``, ``to_dict``), at most one of each name.
+    """
+
+    sensors: tuple = ()
+
+    def __post_init__(self):
+        names = [s.name for s in self.sensors]
+        if len(set(names)) != len(names):
+            raise ValueError(f"sensors: one of each kind (got {', '.join(names)})")
+
+    def __bool__(self) -> bool:
+        return bool(self.sensors)
+
+    def get(self, name: str):
+        """The sensor of this name, or None."""
+        return next((s for s in self.sensors if s.name == name), None)
+
+    def gains(self, frequency_hz: np.ndarray, housing_columns: np.ndarray, n_columns: int) -> np.ndarray | None:
+        """(K, U) complex gains of the chain on ``n_columns`` displacement combinations at ``frequency_hz`` (K,)
+        [Hz]: a sensor that measures the housing's motion acts on ``housing_columns``, any other on every column;
+        None for an empty chain (a gain of 1)."""
+        if not self.sensors:
+            return None
+        f = np.asarray(frequency_hz, dtype=float)
+        g = np.ones((f.size, n_columns), complex)
+        for s in self.sensors:
+            if s.measures == "housing":
+                g[:, housing_columns] *= s.gain(f)[:, None]
+            else:
+                g *= s.gain(f)[:, None]
+        return g
+
+    def metadata(self) -> dict:
+        """{name: parameters} of every kind in :data:`SENSOR_KINDS` (None where absent) and of any other sensor."""
+        out = {kind.name: None for kind in SENSOR_KINDS}
+        out.update({s.name: s.to_dict() for s in self.sensors})
+        return out

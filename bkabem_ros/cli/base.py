@@ -71,6 +71,8 @@ def finite_float(name: str, minimum: float | None = None, strict: bool = False, 
 
     def conv(text: str) -> float:
         try:
+            if "_" in text:                 # float("1_0") is 10: a typo must not become another number
+                raise ValueError(text)
             v = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{name} must be a number (got {text!r})") from None
@@ -91,6 +93,8 @@ def pos_int(name: str, minimum: int = 1, maximum: int | None = None):
 
     def conv(text: str) -> int:
         try:
+            if "_" in text:                 # int("1_0") is 10
+                raise ValueError(text)
             v = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{name} must be an integer (got {text!r})") from None
@@ -198,6 +202,11 @@ class writing:
         return False
 
 
+def times_real_time(factor: float) -> str:
+    """``"0.31x"``, ``"12x"``, ``"2400x"``: a speed relative to real time, with its digits (never ``"0x"``)."""
+    return f"{factor:.0f}x" if factor >= 10 else f"{factor:.2g}x"
+
+
 # --------------------------------------------------------------------------- the contract
 def _input_error_types() -> tuple[type, ...]:
     out = [UsageError, argparse.ArgumentTypeError]
@@ -237,6 +246,7 @@ def _os_error_line(args, exc: OSError) -> str:
 
 
 def _on_sigterm(signum, _frame):
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)      # a second one while the first is handled: no traceback
     raise Interrupted(signum)
 
 
@@ -246,8 +256,9 @@ def run_command(args, command: str | None = None) -> int:
     prog = f"bkabem {command}".strip()
     try:
         old_term = signal.signal(signal.SIGTERM, _on_sigterm)
+        old_int = signal.getsignal(signal.SIGINT)
     except ValueError:          # not the main thread (a test calling main() from a thread): leave it
-        old_term = None
+        old_term = old_int = None
     new_outputs = [p for p in _output_paths(args) if not os.path.lexists(p)]
     rc = EXIT_FAILURE
     try:
@@ -256,18 +267,25 @@ def run_command(args, command: str | None = None) -> int:
     finally:
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
+            if old_int is not None:                 # None: a handler installed outside Python
+                signal.signal(signal.SIGINT, old_int)
         if rc not in (0, None):
             _remove_partial(new_outputs)
 
 
 def _run(args, prog: str) -> int:
     debug = bool(getattr(args, "debug", False)) or os.environ.get("BKABEM_DEBUG", "") not in ("", "0")
+    if sys.stdout is None:                  # started with stdout closed (`>&-`): results would be lost
+        sys.stderr.write(f"{prog}: error: stdout: closed (the command writes its results and progress there; "
+                         f"redirect it to a file or /dev/null)\n")
+        return EXIT_BAD_INPUT
     try:
         _ros_environment(args, prog)
         rc = int(args.func(args) or 0)
         sys.stdout.flush()        # a full or closed stdout is an error of this command, not of the interpreter
         return rc
     except KeyboardInterrupt as exc:
+        _ignore_further_interrupts()
         sys.stderr.write(f"{prog}: interrupted\n")
         return EXIT_SIGTERM if isinstance(exc, Interrupted) else EXIT_SIGINT
     except BrokenPipeError:
@@ -275,6 +293,10 @@ def _run(args, prog: str) -> int:
         return 0                  # `bkabem sweep --csv | head`: the reader has what it wanted
     except SystemExit:
         raise
+    except MemoryError:
+        sys.stderr.write(f"{prog}: error: out of memory: the input asks for more than this machine has (a case "
+                         f"whose [plausibility] table widens a computing limit?)\n")
+        return EXIT_BAD_INPUT
     except Exception as exc:  # noqa: BLE001 - the contract: one line, never a traceback unless asked
         if isinstance(exc, _input_error_types()):
             sys.stderr.write(f"{prog}: error: {_one_line(str(exc))}\n")
@@ -292,6 +314,16 @@ def _run(args, prog: str) -> int:
             sys.stderr.write(f"{prog}: error: unexpected {type(exc).__name__}: {_one_line(str(exc))} "
                              f"(a bug: re-run with --debug for the traceback)\n")
         return EXIT_FAILURE
+
+
+def _ignore_further_interrupts() -> None:
+    """While an interrupt is handled (files closed, partial outputs removed), a second SIGINT / SIGTERM must not
+    end the process with a traceback from inside the handler; the handlers are restored by :func:`run_command`."""
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    except ValueError:            # not the main thread
+        pass
 
 
 def _ros_environment(args, prog: str) -> None:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from bkabem_ros.cli.base import UsageError, pos_int
+from bkabem_ros.cli.base import UsageError, pos_int, times_real_time
 
 
 def dataset_main(args) -> int:
@@ -44,6 +44,8 @@ def dataset_main(args) -> int:
         raise UsageError("--out: is required (the data set's folder)")
     if args.scheduler is not None and args.engine != "dask":
         raise UsageError("--scheduler: only with --engine dask")
+    if args.scheduler is not None:
+        _check_scheduler(args.scheduler)
     sinks = ()
     if spec.mcap:
         from bkabem_ros.recording.dataset_sink import SINK  # rclpy only serialises the messages: no ROS graph is joined
@@ -61,9 +63,18 @@ def dataset_main(args) -> int:
     print(f"wrote {res.out_dir}: {res.runs} runs ({res.rendered} rendered, {res.skipped} already there"
           + (f", {len(res.damaged)} damaged files rendered again" if res.damaged else "")
           + f"), labels.parquet + labels.csv ({res.labels_rows} rows); {res.signal_s:g} s of signal in "
-          f"{res.wall_s:.1f} s ({rate:.0f}x real time; models {res.model_s:.1f} s, synthesis + writing "
+          f"{res.wall_s:.1f} s ({times_real_time(rate)} real time; models {res.model_s:.1f} s, synthesis + writing "
           f"{res.render_s:.1f} s of worker time)")
     return 0
+
+
+def _check_scheduler(address: str) -> None:
+    """A Dask scheduler address is ``[tcp|tls|ws|wss|ucx://]HOST:PORT`` (IPv6 in brackets)."""
+    import re
+
+    m = re.fullmatch(r"(?:(tcp|tls|ws|wss|ucx)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9][A-Za-z0-9.-]*):(\d{1,5})", address.strip())
+    if m is None or not 0 < int(m.group(3)) < 65536:
+        raise UsageError(f"--scheduler: {address!r} is not a Dask scheduler address like tcp://HOST:8786")
 
 
 def add_parser(sub):

@@ -28,12 +28,12 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+if TYPE_CHECKING:                   # numpy is imported when the demo runs, not to parse its options
+    import numpy as np
 
-from bkabem_core.analysis.condition import iso_velocity_rms_mm_s
-
-__all__ = ["DemoResult", "iso_velocity_rms_mm_s", "main", "run_demo"]
+__all__ = ["DemoResult", "main", "run_demo"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -59,6 +59,8 @@ class _Summary:
         elif type_name.endswith("/BearingFaultFrequencies"):
             self.bpfo_hz = float(msg.bpfo)
         elif type_name.endswith("/VibrationWaveform") and msg.quantity == "acceleration":
+            import numpy as np
+
             from bkabem_ros.messages.convert import waveform_array
 
             a = waveform_array(msg).astype(np.float64)
@@ -77,6 +79,10 @@ class _Summary:
         buf = self.acc.get(loc)
         if not buf:
             return []
+        import numpy as np
+
+        from bkabem_core.analysis.condition import iso_velocity_rms_mm_s
+
         x = np.concatenate(list(buf), axis=1)
         return [iso_velocity_rms_mm_s(x[c], self.sample_rate) for c in range(x.shape[0])]
 
@@ -128,7 +134,8 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
     rerun_connect : str, optional
         Also stream to a running viewer (e.g. ``rerun+http://127.0.0.1:9876/proxy``).
     noise_acceleration : float
-        Node parameter ``noise.acceleration`` (m/s^2 RMS sensor noise).
+        RMS of the accelerometer noise (0 to sample_rate/2) [m/s^2]: the node's ``noise_acc`` density is this
+        / sqrt(sample_rate / 2).
     """
     from bkabem_ros.ros_env import apply_defaults
 
@@ -156,7 +163,7 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
     result = DemoResult(mcap, rrd, 0.0)
     try:
         overrides = [Parameter("sample_rate", value=float(sample_rate)),
-                     Parameter("noise.acceleration", value=float(noise_acceleration))]
+                     Parameter("noise_acc", value=float(noise_acceleration) / math.sqrt(sample_rate / 2.0))]
         if case:
             overrides.append(Parameter("case", value=str(case)))
         say(f"bkabem demo: run-up 0 -> {top_hz:g} Hz in {ramp_s:g} s, hold {hold_s:g} s, "

@@ -26,12 +26,29 @@ def _size(text: str) -> int:
             t, mult = t[:-1], m
             break
     try:
+        if "_" in t:
+            raise ValueError(t)
         v = int(float(t) * mult)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a size like 1048576, 512k, 64M (got {text!r})") from None
     if v <= 0:
         raise argparse.ArgumentTypeError(f"size must be > 0 (got {text!r})")
     return v
+
+
+#: --chunk-size at most: the largest chunk the reader decompresses (bkabem_ros.recording.mcap_check.MAX_RECORD_BYTES,
+#: not imported here: this module parses arguments without mcap), less a message or two of slack.
+MAX_CHUNK_BYTES = 48 << 20
+
+
+def _size_at_most(limit: int):
+    def conv(text: str) -> int:
+        v = _size(text)
+        if v > limit:
+            raise argparse.ArgumentTypeError(f"at most {limit >> 20}M (got {text!r})")
+        return v
+
+    return conv
 
 
 def add_parser(sub, add_case=None):
@@ -48,8 +65,9 @@ def add_parser(sub, add_case=None):
     p.add_argument("--namespace", default="", help="namespace of the node, e.g. /machine_00")
     p.add_argument("--duration", type=finite_float("--duration", 0.0, strict=True), default=None,
                    help="stop after this many seconds (default: until Ctrl-C)")
-    p.add_argument("--chunk-size", type=_size, default=1 << 20,
-                   help="uncompressed chunk size that triggers a write (default 1M)")
+    p.add_argument("--chunk-size", type=_size_at_most(MAX_CHUNK_BYTES), default=1 << 20,
+                   help=f"uncompressed chunk size that triggers a write (default 1M, at most "
+                        f"{MAX_CHUNK_BYTES >> 20}M: the largest chunk replay reads)")
     p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=1.0,
                    help="write a chunk at the latest after this many seconds; a crash loses at most this "
                         "(default 1)")
@@ -59,7 +77,7 @@ def add_parser(sub, add_case=None):
                    help="start a new file after this many seconds of recording")
     p.add_argument("--recover", nargs=2, metavar=("SRC", "DST"), default=None,
                    help="rebuild a cut recording SRC (kill -9, power loss) into a complete DST, and exit")
-    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress or summary lines (errors still go to stderr)")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
                    help="everything after this goes to ROS")
     p.set_defaults(func=main, ros_network=lambda a: a.recover is None)
@@ -77,8 +95,11 @@ def main(args) -> int:
         from bkabem_ros.cli.base import check_output
 
         src, dst = args.recover
-        if not os.path.isfile(src):
-            raise UsageError(f"--recover SRC: {src}: no such file")
+        from bkabem_core.model.files import not_a_file
+
+        why = not_a_file(src, missing="{path}: no such file")
+        if why:
+            raise UsageError(f"--recover SRC: {why}")
         try:
             check_output("--recover DST", dst)
         except _argparse.ArgumentTypeError as exc:
@@ -93,9 +114,17 @@ def main(args) -> int:
         except OSError as exc:
             which = "SRC" if exc.filename == src else "DST"
             raise UsageError(f"--recover {which}: {exc.filename or dst}: {exc.strerror}") from None
-        state = f"was cut ({res.error})" if res.truncated else "was complete"
-        say(f"{src} {state}; wrote {dst}: {res.messages} messages on {res.channels} channels, "
-            f"last log time {res.last_log_time_ns} ns")
+        if res.truncated and res.messages == 0 and (res.expected_messages or res.skipped_chunks):
+            os.unlink(dst)
+            raise UsageError(f"--recover SRC: nothing in {src} is recoverable: {res.error}")
+        state = "was complete" if not res.truncated else \
+            f"was {'damaged' if res.damaged_records or res.skipped_chunks else 'cut'} ({res.error})"
+        skipped = f"; skipped {res.skipped_chunks} damaged chunk{'s' * (res.skipped_chunks != 1)}" \
+            if res.skipped_chunks else ""
+        lost = f" of the {res.expected_messages} its summary counts" \
+            if res.expected_messages is not None and res.expected_messages != res.messages else ""
+        say(f"{src} {state}; wrote {dst}: {res.messages} messages{lost} on {res.channels} channels, "
+            f"last log time {res.last_log_time_ns} ns{skipped}")
         return 0
 
     from bkabem_ros.recording.record import record

@@ -18,7 +18,7 @@ __all__ = ["add_parser", "main"]
 def add_parser(sub, add_case=None):
     """Register ``bkabem replay`` on an argparse subparsers object."""
     from bkabem_ros.cli.base import finite_float, output_path
-    from bkabem_ros.viewer.rerun_io import DEFAULT_CONNECT_URL
+    from bkabem_ros.viewer.blueprint import DEFAULT_CONNECT_URL
 
     p = sub.add_parser("replay", help="republish an MCAP recording on ROS 2 and/or convert it for Rerun",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -35,6 +35,9 @@ def add_parser(sub, add_case=None):
     p.add_argument("--clock", nargs="?", type=finite_float("--clock", 0.0, strict=True), const=100.0,
                    default=None, metavar="HZ",
                    help="publish /clock (the recording's time) at HZ (default 100) for use_sim_time")
+    p.add_argument("--max-gap", type=finite_float("--max-gap", 0.0, strict=True), default=600.0, metavar="S",
+                   help="refuse to publish a recording with a pause between two messages that would take longer than "
+                        "this to replay (default 600 s: a clock jump is not waited out)")
     p.add_argument("--wait-subscribers", type=finite_float("--wait-subscribers", 0.0), default=0.0,
                    help="wait up to this long (s) until every topic has a subscriber")
     p.add_argument("--rerun-save", metavar="OUT.rrd", default=None, type=output_path("--rerun-save", (".rrd",)),
@@ -48,7 +51,7 @@ def add_parser(sub, add_case=None):
     p.add_argument("--allow-damaged", action="store_true",
                    help="replay the intact chunks of a damaged file (bad CRC, cut) and say what was skipped, "
                         "instead of refusing it (exit code 2)")
-    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress or summary lines (errors still go to stderr)")
     p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
                    help="everything after this goes to ROS")
     p.set_defaults(func=main, ros_network=lambda a: not a.info and (a.publish or (a.rerun_save is None
@@ -65,8 +68,11 @@ def main(args) -> int:
 
     say = (lambda text: None) if args.quiet else (lambda text: print(text, flush=True))
     path = Path(args.file)
-    if not path.is_file():
-        raise UsageError(f"FILE: {path}: no such file")
+    from bkabem_core.model.files import not_a_file
+
+    why = not_a_file(path, missing="{path}: no such file")
+    if why:
+        raise UsageError(f"FILE: {why}")
     try:
         remap = rp.parse_remaps(args.remap)
     except ValueError as exc:
@@ -82,23 +88,34 @@ def main(args) -> int:
         raise UsageError(f"FILE: {path}: {exc.strerror}") from None
     if not integrity.mcap:
         raise UsageError(f"FILE: {path}: not a readable MCAP file (no MCAP magic at the start)")
-    try:
-        say(rp.describe(path, integrity))
-    except Exception as exc:  # noqa: BLE001 - not an MCAP file
-        raise UsageError(f"FILE: {path}: not a readable MCAP file ({type(exc).__name__}: {exc})") from None
+    summary = mcap_io.summary(path, integrity=integrity, decode=True)     # every message decoded: damage too
+    say(rp.describe(path, integrity, summary))
     if not integrity.ok:
         if not args.allow_damaged:
             raise UsageError(f"FILE: {path} is damaged: {integrity.summary_line()} (--allow-damaged replays the "
                              f"intact part)")
         sys.stderr.write(f"bkabem replay: warning: {path} is damaged, replaying only its intact part: "
                          f"{integrity.summary_line()}\n")
+    recorded = sorted(summary["topics"])
+    for option, names in (("--topics", args.topics or []), ("--remap", list(remap))):
+        for t in names:
+            if t not in summary["topics"] and "/" + t.lstrip("/") not in summary["topics"]:
+                raise UsageError(f"{option}: {t} is not a topic of {path} (it has {len(recorded)}: "
+                                 f"{', '.join(recorded[:8])}{' ...' if len(recorded) > 8 else ''})")
     if args.info:
         return 0
     if args.start_offset > 0:
-        span = mcap_io.scan(path, integrity=integrity)
-        if span.start_ns is not None and args.start_offset * 1e9 > span.end_ns - span.start_ns:
+        span = (summary["end_ns"] - summary["start_ns"]) / 1e9
+        if summary["messages"] and args.start_offset > span:
             raise UsageError(f"--start-offset: {args.start_offset:g} s is after the end of the recording "
-                             f"({(span.end_ns - span.start_ns) / 1e9:.2f} s long)")
+                             f"({span:.2f} s long)")
+    publish_now = args.publish or (args.rerun_save is None and args.rerun_connect is None)
+    wait_s = summary["max_gap_ns"] / 1e9 / args.rate
+    if publish_now and wait_s > args.max_gap:
+        raise UsageError(f"FILE: {path} has a gap of {summary['max_gap_ns'] / 1e9:.6g} s between two messages "
+                         f"(after log time {summary['max_gap_at_ns']} ns: a clock jump?), which replay at --rate "
+                         f"{args.rate:g} would wait {wait_s:.4g} s for, more than --max-gap {args.max_gap:g} s "
+                         f"(raise --max-gap to replay it as recorded)")
 
     to_rerun = args.rerun_save is not None or args.rerun_connect is not None
     publish = args.publish or not to_rerun
@@ -131,7 +148,10 @@ def main(args) -> int:
         if args.rerun_save:
             say(f"open it with: .venv/bin/rerun {args.rerun_save}")
     if stats.damage:
-        sys.stderr.write(f"bkabem replay: warning: skipped the damaged part of {path}: {stats.damage}\n")
+        sys.stderr.write(f"bkabem replay: warning: skipped the damaged part of {path}: {stats.damage}"
+                         + (f"; left out {stats.bad_messages} message{'s' * (stats.bad_messages != 1)} that did not decode"
+                            if stats.bad_messages
+                            else "") + "\n")
     return 0
 
 

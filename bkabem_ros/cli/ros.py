@@ -28,6 +28,11 @@ def _shorthand(p) -> None:
     p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=None,
                    help="parameter chunk_duration [s] (default 0.1)")
     p.add_argument("--seed", type=pos_int("--seed", 0), default=None, help="parameter seed")
+    p.add_argument("--noise-acc", type=finite_float("--noise-acc", 0.0), default=None, metavar="DENSITY",
+                   help="parameter noise_acc: accelerometer noise density [m/s^2/sqrt(Hz)] (as bkabem synth "
+                        "--noise-acc; e.g. 1e-3)")
+    p.add_argument("--noise-disp", type=finite_float("--noise-disp", 0.0), default=None, metavar="DENSITY",
+                   help="parameter noise_disp: proximity-probe noise density [m/sqrt(Hz)] (e.g. 1e-9)")
     p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None, help="parameter qos")
     p.add_argument("--speed-unit", choices=("rad/s", "hz", "rpm"), default=None,
                    help="parameter speed_unit (default rad/s)")
@@ -45,6 +50,7 @@ def _shorthand(p) -> None:
 def _overrides(args) -> dict:
     m = {"case": args.case, "machine_id": args.machine_id, "sample_rate": args.sample_rate,
          "chunk_duration": args.chunk_duration, "seed": args.seed, "qos": args.qos,
+         "noise_acc": getattr(args, "noise_acc", None), "noise_disp": getattr(args, "noise_disp", None),
          "speed_unit": args.speed_unit, "spectrum_rate": args.spectrum_rate, "wait_for_speed": args.wait_for_speed,
          "scenario": getattr(args, "scenario", None), "scenario_time_scale": getattr(args, "time_scale", None),
          "labels": getattr(args, "labels", None)}
@@ -56,11 +62,13 @@ def _overrides(args) -> dict:
 
 def _ros_args(args) -> list[str]:
     out = []
+    from bkabem_core.model.files import not_a_file
     from bkabem_ros.ros_env import params_file_problem
 
     for f in args.params_file:
-        if not Path(f).is_file():
-            fail("node", f"--params-file: file not found: {f}")
+        why = not_a_file(f)
+        if why:
+            fail("node", f"--params-file: {why}")
         why = params_file_problem(f)
         if why:
             fail("node", f"--params-file: {f}: {why}")
@@ -82,7 +90,7 @@ def check_scenario(option: str, ref: str | None) -> None:
 
 
 def cmd_node(args) -> int:
-    from bkabem_ros.node.vibration_node import run
+    from bkabem_ros.node.run import run
     from bkabem_ros.ros_env import check_names
 
     check_names([("--name", "node name", args.name), ("--namespace", "namespace", args.namespace)])
@@ -91,22 +99,30 @@ def cmd_node(args) -> int:
     on_node = None
     attached = []
     if getattr(args, "record", None) or getattr(args, "rerun_save", None) or getattr(args, "rerun_connect", None):
+        import os
+
         from bkabem_ros.recording.record import attach_sinks
+
+        # the Rerun SDK's own warnings would follow a failed start with lines of their own; its errors still show
+        os.environ.setdefault("RUST_LOG", "error")
 
         connect = args.rerun_connect
         if connect == "default":
-            from bkabem_ros.viewer.rerun_io import DEFAULT_CONNECT_URL
+            from bkabem_ros.viewer.blueprint import DEFAULT_CONNECT_URL
 
             connect = DEFAULT_CONNECT_URL
 
         def attach(node):
-            sinks = attach_sinks(node, record=args.record, rerun_save=args.rerun_save, rerun_connect=connect)
+            sinks = attach_sinks(node, record=args.record, rerun_save=args.rerun_save, rerun_connect=connect,
+                                 report_start=False)
             attached.append(sinks)
             if args.record and sinks.mcap is None:
-                raise UsageError(f"--record: {args.record}: the recording could not start (see the log line above)")
+                sinks()
+                raise UsageError(f"--record: {sinks.start_errors.get('--record', 'the recording could not start')}")
             if (args.rerun_save or connect) and sinks.rerun is None:
-                raise UsageError("--rerun-save/--rerun-connect: the Rerun output could not start (see the log "
-                                 "line above)")
+                sinks()
+                option = "--rerun-save" if args.rerun_save else "--rerun-connect"
+                raise UsageError(f"{option}: {sinks.start_errors.get(option, 'the Rerun output could not start')}")
             return sinks
         on_node = attach
 

@@ -16,9 +16,10 @@ Output
 ------
 ``.npz`` (``numpy.load``): ``samples`` (channels, n) float32 [units per channel], ``speed_hz`` (n,) shaft speed per
 sample, ``chunk_first_sample`` / ``chunk_speed_hz`` (chunks,), ``features_<name>`` (chunks, channels),
-``iso10816_velocity_rms_mm_s`` (chunks, 2 bearings, 3: vertical, horizontal, overall), and ``metadata``: a JSON
+``iso10816_velocity_rms_mm_s`` (chunks, 2 bearings, 3: vertical, horizontal, overall; the labels of its axes in
+``iso10816_bearing`` and ``iso10816_direction``), and ``metadata``: a JSON
 string with channel names and units, sample rate, profile, settings, ground truth (case, bearing, defect, fault
-multipliers, seed) and the synthesiser's method. Written chunk by chunk: memory stays bounded by the chunk.
+multipliers, seed), the synthesiser's method and ``axes``: the name and labels of every array's axes. Written chunk by chunk: memory stays bounded by the chunk.
 
 ``.csv``: ``# metadata: {json}`` comment line, then a header ``time_s,speed_hz,<channel>_<unit>...`` (units in the
 column names: ``m_s2``, ``m``, ``mm_s``) and one row per sample.
@@ -36,11 +37,14 @@ import sys
 import time
 import zipfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+from bkabem_ros.cli.base import UsageError, output_path, times_real_time, writing
 
-from bkabem_core.synth.synthesizer import SynthError, Synthesizer, parse_profile
-from bkabem_ros.cli.base import UsageError, output_path, writing
+if TYPE_CHECKING:                   # numpy and the synthesiser are imported when the command runs, not to parse
+    import numpy as np
+
+    from bkabem_core.synth.synthesizer import SynthError, Synthesizer
 
 _UNIT_SUFFIX = {"m/s^2": "m_s2", "m": "m", "mm/s": "mm_s"}
 #: Bounds of the options (beyond them the samples overflow float32 or the output does not fit a disk):
@@ -49,6 +53,23 @@ MAX_CHUNK_S = 10.0
 SNR_DB_RANGE = (-40.0, 200.0)
 MAX_NOISE_DENSITY = {"acceleration": 1e3, "displacement": 1e-2, "velocity": 1e5}   # per sqrt(Hz), in each unit
 FEATURE_NAMES = ("mean", "rms", "peak", "peak_to_peak", "crest_factor", "kurtosis")
+#: The third axis of ``iso10816_velocity_rms_mm_s``: each direction's ISO velocity RMS and the larger of the two.
+ISO_DIRECTIONS = ("vertical", "horizontal", "overall")
+
+
+def _axes(synth, iso_bearings, scenario: bool) -> dict:
+    """The axis names of every array of the .npz (its ``metadata["axes"]``): array -> [(axis, labels or unit)]."""
+    chunk = ["chunk", "one per chunk, first sample chunk_first_sample"]
+    channels = ["channel", list(synth.channel_names)]
+    out = {"samples": [channels, ["sample", "i / sample_rate_hz s"]], "speed_hz": [["sample", "shaft speed [Hz]"]],
+           "chunk_first_sample": [chunk], "chunk_speed_hz": [chunk],
+           "iso10816_velocity_rms_mm_s": [chunk, ["bearing", list(iso_bearings)], ["direction", list(ISO_DIRECTIONS)]],
+           "iso10816_bearing": [["bearing", list(iso_bearings)]],
+           "iso10816_direction": [["direction", list(ISO_DIRECTIONS)]]}
+    out.update({f"features_{k}": [chunk, channels] for k in FEATURE_NAMES})
+    if scenario:
+        out.update({k: [chunk] for k in ("chunk_state_index", "chunk_scenario_time_s", "chunk_healthy")})
+    return out
 
 
 def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> None:
@@ -69,7 +90,8 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
     p.add_argument("--out", required=True, type=output_path("--out", (".npz", ".csv"), make_parents=True),
                    help="output file, .npz or .csv")
     p.add_argument("--png", default=None, type=output_path("--png", (".png",), make_parents=True),
-                   help="figure: waveform excerpt and spectrum with BPFO-order markers")
+                   help="figure: waveform excerpt and its spectrum, the fault frequencies marked and the largest "
+                        "lines named")
     p.add_argument("--seed", default="0", help="seed of slip and noise (default 0)")
     p.add_argument("--slip", default="0", help="random slip: std of the ball-pass interval / its mean (e.g. 0.01)")
     p.add_argument("--noise-acc", default=None, help="accelerometer noise density [m/s^2/sqrt(Hz)] (e.g. 1e-3)")
@@ -79,8 +101,11 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
     p.add_argument("--quantities", default="acceleration,displacement",
                    help="comma list of acceleration, displacement, velocity (default acceleration,displacement)")
     p.add_argument("--max-order", default=None, help="synthesise BPFO orders up to this one (default: all kept)")
-    p.add_argument("--band-limit", default="error", choices=("error", "taper"),
-                   help="error (default): every kept order must stay below Nyquist; taper: fade orders out near it")
+    p.add_argument("--band-limit", default="auto", choices=("auto", "taper", "error"),
+                   help="taper: carry the lines up to the band, fading them out between 0.85 and 0.95 of Nyquist; "
+                        "error: refuse a speed at which a kept line is above Nyquist; auto (default): taper for a "
+                        "case that carries its lines to the band (excitation.max_order = 0, the fault library), "
+                        "error for one that caps them")
     p.add_argument("--spectrum", default="auto", choices=("auto", "exact", "modal"),
                    help="spectrum at each knot: exact solve, modal form, or auto (the cheaper for the profile)")
     p.add_argument("--float64", action="store_true", help="float64 samples (default float32)")
@@ -88,11 +113,15 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
 
 
 def _num(name: str, text, kind=float, minimum=None, strict=False, allow_none=False, maximum=None):
+    from bkabem_core.synth.synthesizer import SynthError
+
     if text is None:
         if allow_none:
             return None
         raise SynthError(name, "is required")
     try:
+        if isinstance(text, str) and "_" in text:          # kind("1_0") is 10: a typo is not a number
+            raise ValueError(text)
         v = kind(text)
     except (TypeError, ValueError):
         raise SynthError(name, f"must be {'an integer' if kind is int else 'a number'} (got {text!r})") from None
@@ -107,6 +136,8 @@ def _num(name: str, text, kind=float, minimum=None, strict=False, allow_none=Fal
 
 def _settings(args) -> dict:
     """Validated settings from the Namespace (raises SynthError naming the option)."""
+    from bkabem_core.synth.synthesizer import SynthError, parse_profile
+
     scenario = getattr(args, "scenario", None)
     if scenario is None:
         for opt in ("time_scale", "scenario_start"):
@@ -121,6 +152,9 @@ def _settings(args) -> dict:
     if seconds is None and scenario is None:
         if profile.duration_s <= 0:
             raise SynthError("--seconds", "is required for a constant profile")
+        if profile.duration_s > MAX_SECONDS:
+            raise SynthError("--profile", f"lasts {profile.duration_s:g} s, more than {MAX_SECONDS:g} s of signal; "
+                                          f"give --seconds to render its start")
         seconds = profile.duration_s
     out = Path(args.out)
     if out.suffix.lower() not in (".npz", ".csv"):
@@ -154,6 +188,20 @@ def _settings(args) -> dict:
     }
 
 
+def _check_free_space(out: Path, n_bytes: int) -> None:
+    """Refuse an output that cannot fit the free space of its file system (estimated: samples x their size; a CSV
+    value ~16 characters), before any of it is written."""
+    import shutil
+
+    try:
+        free = shutil.disk_usage(out.parent if str(out.parent) else ".").free
+    except OSError:
+        return
+    if n_bytes > free:
+        raise SynthError("--out", f"{out} would take ~{n_bytes / 1e9:.3g} GB, more than the {free / 1e9:.3g} GB free "
+                                  f"there (fewer --seconds, a lower --rate or fewer --quantities)")
+
+
 def _noise_options(args) -> list[str]:
     return [f"--{o.replace('_', '-')}" for o in ("noise_acc", "noise_disp", "noise_vel", "snr_db")
             if getattr(args, o, None) is not None]
@@ -161,6 +209,8 @@ def _noise_options(args) -> list[str]:
 
 def _rename(err: SynthError) -> SynthError:
     """Library argument names -> CLI option names (a speed above what the sample rate can carry: ``--rate``)."""
+    from bkabem_core.synth.synthesizer import SynthError
+
     names = {"sample_rate_hz": "--rate", "chunk_s": "--chunk", "seconds": "--seconds", "slip": "--slip",
              "seed": "--seed", "max_order": "--max-order", "quantities": "--quantities", "snr_db": "--snr-db",
              "band_limit": "--band-limit"}
@@ -184,6 +234,8 @@ class _NpzWriter:
     """Streams an .npz: the sample array is written chunk by chunk (Fortran order: sample-major bytes)."""
 
     def __init__(self, path: Path, n_channels: int, n_total: int, dtype):
+        import numpy as np
+
         self.path = path
         self.zf = zipfile.ZipFile(path, "w", compression=zipfile.ZIP_STORED, allowZip64=True)
         self.fh = self.zf.open("samples.npy", "w", force_zip64=True)
@@ -193,11 +245,15 @@ class _NpzWriter:
         self.written = 0
 
     def write(self, chunk, state: int | None = None) -> None:
+        import numpy as np
+
         block = np.ascontiguousarray(chunk.samples.T)                 # (n, C) sample-major
         self.fh.write(block.tobytes())
         self.written += block.shape[0]
 
     def finish(self, arrays: dict, speed_writer, metadata: dict) -> None:
+        import numpy as np
+
         self.fh.close()
         with self.zf.open("speed_hz.npy", "w", force_zip64=True) as fh:
             np.lib.format.write_array_header_2_0(
@@ -225,6 +281,8 @@ class _NpzWriter:
 
 def _chunk_speed(chunk) -> np.ndarray:
     """Shaft speed [Hz] per sample of a streamed chunk (linear from its first to its end speed)."""
+    import numpy as np
+
     return chunk.shaft_speed_hz + (chunk.shaft_speed_end_hz - chunk.shaft_speed_hz) * (
         np.arange(chunk.n_samples) / chunk.n_samples)
 
@@ -242,6 +300,8 @@ class _CsvWriter:
         self.fh.write(",".join(cols) + "\n")
 
     def write(self, chunk, state: int | None = None) -> None:
+        import numpy as np
+
         t = chunk.time_s
         speed = self.profile.speed_hz(t) if self.profile is not None else _chunk_speed(chunk)
         cols = [t, speed, chunk.samples.T.astype(np.float64)]
@@ -259,17 +319,26 @@ class _CsvWriter:
             pass
 
 
-def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_hz: float, title: str) -> None:
+def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_hz: float, title: str):
+    """Waveform excerpt and its spectrum, with the fault frequencies of each defect marked and the model's largest
+    lines named (:mod:`bkabem_core.analysis.plots`); returns the figure (closed)."""
     import matplotlib
+    import numpy as np
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from bkabem_core.analysis.plots import _mark_fault_lines, _name_largest, defects_of_case, fault_line_hz
+    from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
+
     names = list(synth.channel_names)
     acc = next((i for i, n in enumerate(names) if n.endswith("acceleration")), 0)
     disp = next((i for i, n in enumerate(names) if n.endswith("displacement")), None)
-    bpfo = synth.bpfo_per_hz * speed_hz
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7.5))
+    model = synth.model
+    ff = model.fault_multipliers.at_speed(speed_hz)
+    bpfo = ff.bpfo
+    defects = defects_of_case(model.case)
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(11, 8))
     n_show = int(min(excerpt.shape[1], fs * (5.0 / bpfo if bpfo > 0 else 0.05)))
     t = np.arange(n_show) / fs * 1e3
     ax1.plot(t, excerpt[acc, -n_show:], lw=0.8, color="C0", label=f"{names[acc]} [{synth.units[acc]}]")
@@ -286,22 +355,39 @@ def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_
     win = np.hanning(n)
     spec = np.abs(np.fft.rfft((x - x.mean()) * win)) * 2 / win.sum()
     f = np.fft.rfftfreq(n, 1 / fs)
-    ax2.semilogy(f, np.maximum(spec, 1e-12), lw=0.7, color="C0")
-    for k in synth.orders:
-        if k * bpfo < fs / 2:
-            ax2.axvline(k * bpfo, color="C3", lw=0.5, alpha=0.35)
-    ax2.set_xlim(0, min(fs / 2, (synth.highest_order + 2) * bpfo * 1.05) if bpfo > 0 else fs / 2)
-    ax2.set_xlabel(f"frequency [Hz]   (red: BPFO orders, BPFO = {bpfo:.2f} Hz at {speed_hz:.2f} Hz shaft speed)")
-    ax2.set_ylabel(f"amplitude [{synth.units[acc]}] (Hann, last {n / fs:.2f} s)")
-    fig.tight_layout()
+    ax2.semilogy(f, np.maximum(spec, 1e-12), lw=0.7, color="C0", label=f"{names[acc]} (Hann, last {n / fs:.2f} s)")
+    lines = synth.frequency_hz(speed_hz)
+    f_hi = min(fs / 2, 1.05 * float(lines.max())) if lines.size and lines.max() > 0 else fs / 2
+    legend: dict = {}
+    bearing = synth.channels[acc].bearing
+    _mark_fault_lines(ax2, fault_line_hz(ff, speed_hz), [d for d in defects if d.bearing == bearing], f_hi, legend)
+    sp = model.spectrum(speed_hz)                  # the model's lines at this channel, to name the largest peaks
+    col = LOCATIONS.index(f"{bearing}_housing"), DIRECTIONS.index(synth.channels[acc].direction)
+    _name_largest(ax2, sp.frequency_hz, np.abs(sp.acceleration[:, col[0], col[1]]), list(sp.labels), f_hi=f_hi)
+    ax2.set_xlim(0, f_hi)
+    ax2.set_ylim(max(1e-12, float(spec.max()) * 1e-5) if spec.size else 1e-12, float(spec.max()) * 8 if spec.size
+                 else 1.0)
+    ax2.set_xlabel(f"frequency [Hz]   (dashed: fault frequencies at {speed_hz:.2f} Hz shaft speed, a defect's line "
+                   f"also at 2x and 3x; named: the model's largest lines)")
+    ax2.set_ylabel(f"amplitude [{synth.units[acc]}]")
+    ax2.legend(loc="upper right", fontsize=8)
+    from matplotlib.lines import Line2D
+
+    fig.legend(handles=[Line2D([], [], color=c, ls="--", label=k) for k, c in legend.items()], loc="lower center",
+               ncol=max(1, len(legend)), fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
+    return fig
 
 
 def _scenario_run(st, args):
     """(ScenarioRun, its chunk iterator, metadata, title) of ``--scenario`` (raises UsageError)."""
+    import numpy as np
+
     from bkabem_core.scenario.run import ScenarioRun
     from bkabem_core.scenario.timeline import Scenario, ScenarioError
+    from bkabem_core.synth.synthesizer import SynthError
 
     try:
         scenario = Scenario.load(st["scenario"])
@@ -344,8 +430,11 @@ def _scenario_run(st, args):
 
 def synth_main(args) -> int:
     """The ``bkabem synth`` command for an argparse Namespace; returns the exit code."""
+    import numpy as np
+
     from bkabem_core.model.case import Case
     from bkabem_core.solve.harmonic import BkaBem
+    from bkabem_core.synth.synthesizer import SynthError, Synthesizer
 
     try:
         st = _settings(args)
@@ -373,25 +462,27 @@ def synth_main(args) -> int:
             chunks = ((ch, None) for ch in synth.render(st["profile"], st["seconds"]))
         except SynthError as exc:
             raise UsageError(str(_rename(exc))) from None
-        title = f"{case.name} ({synth._gt_base['case_hash']}): {st['profile'].spec}"
+        title = f"{case.name} ({synth.ground_truth()['case_hash']}): {st['profile'].spec}"
     fs = synth.sample_rate_hz
     n_total = int(round(st["seconds"] * fs))
     out = st["out"]
     out.parent.mkdir(parents=True, exist_ok=True)
     meta = {"command": "bkabem synth", "profile": None if st["profile"] is None else st["profile"].to_dict(),
             "seconds": st["seconds"], "n_samples": n_total, "synthesizer": synth.info(),
-            "ground_truth": dict(synth._gt_base), "units": dict(zip(synth.channel_names, synth.units)),
+            "ground_truth": synth.ground_truth(), "units": dict(zip(synth.channel_names, synth.units)),
             "sample_time": "sample i is at i / sample_rate_hz seconds; cage angle 0 at t = 0"}
     if run is not None:
         meta.update(scen_meta)
         meta["ground_truth"] = meta["states_ground_truth"][run.driver.applied.index]
     csv_mode = out.suffix.lower() == ".csv"
+    _check_free_space(out, len(synth.channel_names) * n_total * (16 if csv_mode else np.dtype(synth.dtype).itemsize))
     with writing("--out", out):
         writer = _CsvWriter(out, synth, None if run is not None else st["profile"], meta, state_column=run is not None) \
             if csv_mode else _NpzWriter(out, len(synth.channel_names), n_total, synth.dtype)
     try:
         feats = {k: [] for k in FEATURE_NAMES}
         iso, first, speed, speed_end, states, scen_t, healthy = [], [], [], [], [], [], []
+        iso_bearings: tuple = ()
         keep = int(min(n_total, fs * 1.0))                       # excerpt for the figure: the last second
         ring: list[np.ndarray] = []
         ring_n = 0
@@ -417,7 +508,8 @@ def synth_main(args) -> int:
                     healthy.append(truth["healthy"])
                 for k in FEATURE_NAMES:
                     feats[k].append(ch.features[k])
-                iso.append([[v["vertical"], v["horizontal"], v["overall"]]
+                iso_bearings = tuple(ch.features["iso10816_velocity_rms_mm_s"])
+                iso.append([[v[d] for d in ISO_DIRECTIONS]
                             for v in ch.features["iso10816_velocity_rms_mm_s"].values()])
                 if args.png:
                     ring.append(np.array(ch.samples))
@@ -452,7 +544,10 @@ def synth_main(args) -> int:
                     yield profile.speed_hz((i + np.arange(min(1 << 16, n_total - i))) / fs)
 
             arrays = {"chunk_first_sample": np.array(first, dtype=np.int64), "chunk_speed_hz": np.array(speed),
-                      "iso10816_velocity_rms_mm_s": np.array(iso)}
+                      "iso10816_velocity_rms_mm_s": np.array(iso),
+                      "iso10816_bearing": np.array(iso_bearings, dtype=str),
+                      "iso10816_direction": np.array(ISO_DIRECTIONS, dtype=str)}
+            meta["axes"] = _axes(synth, iso_bearings, run is not None)
             if run is not None:
                 arrays.update({"chunk_state_index": np.array(states, dtype=np.int64),
                                "chunk_scenario_time_s": np.array(scen_t), "chunk_healthy": np.array(healthy)})
@@ -479,7 +574,7 @@ def synth_main(args) -> int:
         with writing("--png", args.png):
             _plot(Path(args.png), excerpt, fs, synth, mean_speed, f"{title}, {fs:g} Hz, seed {synth.seed}")
     print(f"wrote {out}: {len(synth.channel_names)} channels x {n_total} samples at {fs:g} Hz "
-          f"({st['seconds']:g} s in {t_synth:.2f} s, {st['seconds'] / t_synth:.0f}x real time)"
+          f"({st['seconds']:g} s in {t_synth:.2f} s, {times_real_time(st['seconds'] / t_synth)} real time)"
           + (f", {len(set(states))} scenario states" if run is not None else "")
           + (f", figure {args.png}" if args.png else ""))
     return 0

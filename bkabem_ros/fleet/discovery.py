@@ -12,7 +12,9 @@ endpoint to every other one by multicast. The server's ``ROS_DOMAIN_ID`` does no
 domains still only see their own domain.
 
 Closed by default: the server listens on loopback unless ``--listen`` names an address of a plant network
-(``0.0.0.0``: every interface). SIGINT/SIGTERM or ``--seconds`` stop it. docs/fleet.md has the set-ups.
+(``0.0.0.0``: every interface), and every socket of the server is bound to that address (a Fast DDS profile,
+:func:`server_profile`, with an interfaces allowlist: the tool alone binds its ports on ``0.0.0.0`` whatever
+``-l`` says). SIGINT/SIGTERM or ``--seconds`` stop it. docs/fleet.md has the set-ups.
 """
 
 from __future__ import annotations
@@ -27,6 +29,50 @@ from pathlib import Path
 def tool_path() -> Path:
     """The ``fastdds`` CLI script of the ros-fastdds wheel in this environment."""
     return Path(sys.prefix) / "tools" / "fastdds" / "fastdds.py"
+
+
+def server_profile(address: str, port: int) -> str:
+    """A Fast DDS XML profile for ``fastdds discovery -x``: a discovery server on UDPv4 ``address:port``.
+
+    Loopback (the default): the transport is allowed that interface only, so every socket is bound to 127.0.0.1.
+    Another address: the discovery and data locators (what clients are told) are on that address, but Fast DDS
+    binds the sockets on every interface: an interfaces allowlist of a non-loopback address stops the server from
+    answering clients on other hosts (measured with Fast DDS 3.2, by address and by interface name), so it is not
+    used there. ``0.0.0.0``: every interface."""
+    import ipaddress
+
+    loopback = ipaddress.IPv4Address(address).is_loopback
+    allow = (f'<interfaces><allowlist><interface name="{address}" netmask_filter="OFF"/></allowlist></interfaces>'
+             if loopback else "")
+    data = ("" if address == "0.0.0.0" else
+            f"<defaultUnicastLocatorList><locator><udpv4><address>{address}</address></udpv4></locator>"
+            f"</defaultUnicastLocatorList>")
+    return f"""<?xml version="1.0" encoding="UTF-8"?>
+<dds xmlns="http://www.eprosima.com">
+  <profiles>
+    <transport_descriptors>
+      <transport_descriptor>
+        <transport_id>bkabem_discovery_udp</transport_id>
+        <type>UDPv4</type>
+        {allow}
+      </transport_descriptor>
+    </transport_descriptors>
+    <participant profile_name="bkabem_discovery_server" is_default_profile="true">
+      <rtps>
+        {data}
+        <builtin>
+          <discovery_config><discoveryProtocol>SERVER</discoveryProtocol></discovery_config>
+          <metatrafficUnicastLocatorList>
+            <locator><udpv4><address>{address}</address><port>{port}</port></udpv4></locator>
+          </metatrafficUnicastLocatorList>
+        </builtin>
+        <userTransports><transport_id>bkabem_discovery_udp</transport_id></userTransports>
+        <useBuiltinTransports>false</useBuiltinTransports>
+      </rtps>
+    </participant>
+  </profiles>
+</dds>
+"""
 
 
 def add_parser(sub, add_case=None):
@@ -70,9 +116,15 @@ def main(args) -> int:
     tool = tool_path()
     if not tool.is_file():
         raise UsageError(f"the Fast DDS discovery tool is not installed here ({tool} is missing: make install)")
-    cmd = [sys.executable, str(tool), "discovery", "-l", args.listen, "-p", str(args.port)]
+    import tempfile
+
+    profile_dir = tempfile.TemporaryDirectory(prefix="bkabem_discovery_")
+    profile = Path(profile_dir.name) / "server.xml"
+    profile.write_text(server_profile(args.listen, args.port))
+    cmd = [sys.executable, str(tool), "discovery", "-l", args.listen, "-p", str(args.port), "-x", str(profile)]
+    env = {k: v for k, v in os.environ.items() if k != "FASTDDS_DEFAULT_PROFILES_FILE"}    # the server's own
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1,
-                            start_new_session=True)
+                            start_new_session=True, env=env)
     where = f"{args.listen}:{args.port}"
     client = "127.0.0.1" if args.listen == "0.0.0.0" else args.listen
     lines = []
@@ -96,7 +148,10 @@ def main(args) -> int:
             if not running and "Server started" in line:
                 running = True
             if running and "Running on" in line:
-                sys.stderr.write(f"bkabem discovery-server: listening on UDPv4 {where}; clients: --discovery-server "
+                bound = "" if ipaddress.IPv4Address(args.listen).is_loopback or args.listen == "0.0.0.0" else \
+                    " (Fast DDS binds the server's sockets on every interface of this host)"
+                sys.stderr.write(f"bkabem discovery-server: listening on UDPv4 {where}{bound}; clients: "
+                                 f"--discovery-server "
                                  f"{client}:{args.port} (ROS_DISCOVERY_SERVER={client}:{args.port}), monitors "
                                  f"and graph tools also --super-client\n")
                 sys.stderr.flush()
@@ -109,6 +164,7 @@ def main(args) -> int:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
+        profile_dir.cleanup()
     if not running:
         import re
 

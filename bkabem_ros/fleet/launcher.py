@@ -146,7 +146,8 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
     from rclpy.parameter import Parameter
 
     from bkabem_core.model.case import CaseError
-    from bkabem_ros.node.vibration_node import VibrationNode, _exit_log, _quiet_gc
+    from bkabem_ros.node.run import exit_log, quiet_gc
+    from bkabem_ros.node.vibration_node import VibrationNode
     from bkabem_ros.ros_env import init  # noqa: PLC0415
 
     init(["bkabem-fleet", "--ros-args", *ros_args])   # + the discovery range in force, once
@@ -170,7 +171,7 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
         watch = _NamespaceWatch(nodes[0], [m["namespace"] for m in machines]) if nodes else None
         for nd in nodes:
             nd.prime()
-        _quiet_gc()
+        quiet_gc()
         go = ready(lambda: executor.spin_once(timeout_sec=0.05)) if ready is not None else True
         if go:
             _start_spread(nodes)
@@ -193,7 +194,7 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
         for nd in nodes:
             st = nd.stats()
             st["namespace_conflicts"] = sorted(watch.reported) if watch is not None else []
-            _exit_log(nd, st)
+            exit_log(nd, st)
             if report is not None:
                 report(st)
         return 0
@@ -294,9 +295,12 @@ def add_parser(sub, add_case):
                    help="scenario seconds per second for every scenario machine (default: the entries' own)")
     p.add_argument("--seed", type=pos_int("--seed", 0), default=0, help="seed of machine 0 (machine i: seed+i)")
     p.add_argument("--prefix", default="machine_", help="namespace prefix (default machine_)")
-    p.add_argument("--sample-rate", type=finite_float("--sample-rate", 0.0, strict=True), default=None)
-    p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=None)
-    p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None)
+    p.add_argument("--sample-rate", type=finite_float("--sample-rate", 0.0, strict=True), default=None,
+                   help="parameter sample_rate of every machine [Hz] (default 25600)")
+    p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=None,
+                   help="parameter chunk_duration of every machine [s] (default 0.1)")
+    p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None,
+                   help="parameter qos of every machine (default sensor_data)")
     p.add_argument("--params-file", action="append", default=[], metavar="FILE",
                    help="parameter YAML applied to every machine (use /** as the node key)")
     p.add_argument("--executor", choices=EXECUTORS, default="events",
@@ -304,7 +308,8 @@ def add_parser(sub, add_case):
                         "(SingleThreadedExecutor)")
     p.add_argument("--seconds", type=finite_float("--seconds", 0.0, strict=True), default=None,
                    help="stop after this long and print per-machine publish statistics")
-    p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None)
+    p.add_argument("--ros-args", dest="ros_args", nargs=argparse.REMAINDER, default=None,
+                   help="everything after this goes to ROS in every process (-p name:=value for every machine)")
     p.add_argument("--worker", default=None, help=argparse.SUPPRESS)   # internal: JSON list of machines
     p.add_argument("--ready-fd", type=int, default=None, help=argparse.SUPPRESS)   # internal: start handshake
     p.set_defaults(func=main, ros_network=True)
@@ -354,11 +359,13 @@ def main(args) -> int:
     common = {k: v for k, v in {"sample_rate": args.sample_rate, "chunk_duration": args.chunk_duration,
                                 "qos": args.qos}.items() if v is not None}
     ros_args = []
+    from bkabem_core.model.files import not_a_file
     from bkabem_ros.ros_env import params_file_problem
 
     for f in args.params_file:
-        if not os.path.isfile(f):
-            fail("fleet", f"--params-file: file not found: {f}")
+        why = not_a_file(f)
+        if why:
+            fail("fleet", f"--params-file: {why}")
         why = params_file_problem(f)
         if why:
             fail("fleet", f"--params-file: {f}: {why}")

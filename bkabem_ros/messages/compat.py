@@ -169,6 +169,16 @@ def _truth_from_defect_fields(m) -> None:
                                  time_scale=1.0, state_label="recorded with bkabem_msgs 0.1.0 (one defect)")
 
 
+class _Undecodable:
+    """The decoder of a recorded definition that does not parse: raises its reason for every message."""
+
+    def __init__(self, reason: str):
+        self.reason = reason
+
+    def __call__(self, data: bytes):
+        raise ValueError(self.reason)
+
+
 class Reader:
     """Decode recorded CDR (type name, bytes, recorded definition) into today's message classes.
 
@@ -204,7 +214,12 @@ class Reader:
         if fn is None:
             from mcap_ros2._dynamic import generate_dynamic  # noqa: PLC0415
 
-            fn = self._dynamic[key] = generate_dynamic(full, text)[full]
+            try:
+                fn = generate_dynamic(full, text)[full]
+            except Exception as exc:  # noqa: BLE001 - a definition that does not parse: every message fails alike
+                fn = _Undecodable(f"the recorded definition of {full} does not parse ({type(exc).__name__}: "
+                                  f"{' '.join(str(exc).split())[:120]})")
+            self._dynamic[key] = fn
         return fn(data)
 
     def to_current_cdr(self, type_name: str, data: bytes, schema_text: str | None) -> bytes:

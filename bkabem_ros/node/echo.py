@@ -19,8 +19,6 @@ import math
 import sys
 import time
 
-import numpy as np
-
 DEFAULT_TOPICS = (
     "speed",
     "vibration/de/acceleration", "vibration/de/displacement",
@@ -52,6 +50,8 @@ def type_for_topic(topic: str) -> str | None:
 
 def summarize(topic: str, type_name: str, msg, receive_ns: int | None = None) -> dict:
     """The fields ``bkabem echo`` prints, as a dict (also used by tests and benchmarks)."""
+    import numpy as np
+
     from bkabem_ros.messages.convert import spectrum_arrays, stamp_to_ns, waveform_array
 
     out = {"topic": topic, "type": type_name.rsplit("/", 1)[-1]}

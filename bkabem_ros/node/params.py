@@ -51,14 +51,22 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               range=(0.005, 2.0)),
     ParamSpec("seed", 0, "", "seed of the random parts (noise, slip); the same seed gives the same samples",
               range=(0, 2**31 - 1)),
-    ParamSpec("noise.acceleration", 0.0, "m/s^2",
-              "RMS of white Gaussian sensor noise (0 to sample_rate/2) on the acceleration channels",
-              live=True, range=(0.0, 1.0e4)),
-    ParamSpec("noise.displacement", 0.0, "m",
-              "RMS of white Gaussian sensor noise on the displacement channels", live=True, range=(0.0, 1.0e-2)),
+    ParamSpec("noise_acc", 0.0, "m/s^2/sqrt(Hz)",
+              "accelerometer noise density: white Gaussian, one-sided, RMS = density x sqrt(sample_rate / 2) (the "
+              "unit of bkabem synth --noise-acc and of a data set's noise_acc)", live=True, range=(0.0, 1.0e3)),
+    ParamSpec("noise_disp", 0.0, "m/sqrt(Hz)",
+              "proximity-probe noise density on the displacement channels (bkabem synth --noise-disp)", live=True,
+              range=(0.0, 1.0e-2)),
     ParamSpec("noise.snr_db", 0.0, "dB",
-              "instead of the two RMS values: noise RMS = each channel's dynamic signal RMS / 10^(snr_db/20); "
-              "0 = off (use the RMS values)", live=True, range=(0.0, 200.0)),
+              "instead of the densities: noise RMS = each channel's dynamic signal RMS / 10^(snr_db/20); "
+              "0 = off (use the densities)", live=True, range=(0.0, 200.0)),
+    ParamSpec("noise.acceleration", 0.0, "m/s^2",
+              "deprecated (use noise_acc): noise RMS on the acceleration channels, still read as the density "
+              "RMS / sqrt(sample_rate / 2) with a warning; ignored when noise_acc is set", live=True,
+              range=(0.0, 1.0e4)),
+    ParamSpec("noise.displacement", 0.0, "m",
+              "deprecated (use noise_disp): noise RMS on the displacement channels, read as noise_disp = RMS / "
+              "sqrt(sample_rate / 2) with a warning; ignored when noise_disp is set", live=True, range=(0.0, 1.0e-2)),
     ParamSpec("slip", 0.0, "",
               "random ball slip: standard deviation of the ball-pass interval as a fraction of it (real bearings "
               "0.01-0.02; smears the high orders)", range=(0.0, 0.1)),
@@ -84,4 +92,6 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("frame_id.nde", "nde_bearing", "", "frame_id of the non-drive-end sensor messages"),
 )
 PARAMETER_SPECS = {p.name: p for p in PARAMETERS}
+#: Noise parameters of earlier versions (RMS over 0 .. sample_rate/2) -> the density parameter that replaces each.
+DEPRECATED_NOISE = {"noise.acceleration": "noise_acc", "noise.displacement": "noise_disp"}
 LIVE_PARAMETERS = frozenset(p.name for p in PARAMETERS if p.live)

@@ -57,6 +57,9 @@ def prepare_model(case, logger=None):
     with _MODEL_LOCK:
         model = _MODEL_CACHE.get(case.case_hash)
         if model is None:
+            from bkabem_core.fe.budget import check_mesh
+
+            check_mesh(case)                # a model too big to make: refused before anything is said or made
             if logger is not None:
                 logger.info(f"preparing the BKA-BEM model of case {case.name} ({case.source}, hash "
                             f"{case.case_hash}): 4-DOF excitation + FE rotor ...")
@@ -83,6 +86,11 @@ def parse_labels(text: str) -> dict:
         if not sep or not key.strip():
             raise ValueError(f"parameter labels: {item!r} is not key=value (labels are key=value,key=value)")
         out[key.strip()] = value.strip()
+    from bkabem_core.scenario.timeline import label_problem
+
+    bad = label_problem(out)
+    if bad is not None:
+        raise ValueError(f"parameter {bad[0]}: {bad[1]}")
     return out
 
 
@@ -158,15 +166,14 @@ class MachineSource:
         """(In the warm-up thread) ``model`` bound to the synthesiser's settings at its current speed."""
         return self.synth.warm(model)
 
-    def set_noise(self, acceleration_rms: float, displacement_rms: float, snr_db: float) -> None:
-        """Sensor noise from the next chunk on: RMS over 0..fs/2 per quantity [m/s^2, m], or by SNR [dB] (> 0)."""
+    def set_noise(self, acceleration_density: float, displacement_density: float, snr_db: float) -> None:
+        """Sensor noise from the next chunk on: one-sided densities per quantity [m/s^2/sqrt(Hz), m/sqrt(Hz)], or by
+        SNR [dB] (> 0)."""
         if snr_db > 0.0:
             self.synth.set_noise(snr_db=float(snr_db))
             return
-        root = math.sqrt(self.sample_rate / 2.0)
-        rms = {"acceleration": float(acceleration_rms), "displacement": float(displacement_rms)}
-        dens = {q: v / root for q, v in rms.items() if v > 0.0}
-        self.synth.set_noise(noise_density=dens or None)
+        dens = {"acceleration": float(acceleration_density), "displacement": float(displacement_density)}
+        self.synth.set_noise(noise_density={q: v for q, v in dens.items() if v > 0.0} or None)
 
     # ------------------------------------------------------------------ the machine changes
     @property

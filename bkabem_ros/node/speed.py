@@ -31,6 +31,9 @@ from pathlib import Path
 
 TWO_PI = 2.0 * math.pi
 
+#: The fastest shaft a case may have [Hz] (the upper plausibility bound of operating.max_speed_hz, 120 000 rpm): a
+#: profile above it is a unit slip, not a speed any node will take.
+
 #: Accepted speed units and their factor to rad/s.
 SPEED_UNITS = {"rad/s": 1.0, "hz": TWO_PI, "rpm": TWO_PI / 60.0}
 _UNIT_ALIASES = {"rad/s": "rad/s", "rad_s": "rad/s", "rads": "rad/s", "hz": "hz", "rps": "hz", "rpm": "rpm"}
@@ -105,6 +108,8 @@ class SpeedProfile:
 
 def _num(field: str, text: str, *, nonneg: bool = True, positive: bool = False) -> float:
     try:
+        if "_" in text:                     # float("1_0") is 10
+            raise ValueError(text)
         v = float(text)
     except ValueError:
         raise ValueError(f"{field}: {text!r} is not a number") from None
@@ -154,8 +159,11 @@ def parse_profile(text: str, unit: str = "hz") -> SpeedProfile:
 
 
 def _csv_profile(path: Path, unit: str) -> SpeedProfile:
-    if not path.is_file():
-        raise ValueError(f"profile: file not found: {path}")
+    from bkabem_core.model.files import not_a_file
+
+    why = not_a_file(path)
+    if why:
+        raise ValueError(f"profile: {why}")
     times, values = [], []
     with path.open(newline="") as fh:
         for lineno, row in enumerate(csv.reader(fh), 1):
@@ -182,12 +190,27 @@ def _csv_profile(path: Path, unit: str) -> SpeedProfile:
 
 
 # --------------------------------------------------------------------------- the publisher
+#: ``bkabem speed --help``: what it publishes and the profile syntax.
+PROFILE_HELP = """\
+Publish a shaft-speed profile on the speed topic (std_msgs/msg/Float64, rad/s by default as REP 103 says;
+the node's speed_unit parameter must match --publish-unit).
+
+profiles (values in --unit, default Hz; the same syntax as bkabem synth --profile):
+  constant:V             V forever (or for --seconds)
+  ramp:A:B:T             linear from A to B in T seconds, then B held
+  steps:V1,V2,...:T      each value held for T seconds, the last one held
+  FILE.csv               two columns time_s, speed (an optional header line is skipped), linear between rows,
+                         the last value held
+
+Without --seconds a constant profile runs until interrupted; the others until their end plus --hold seconds."""
+
+
 def add_parser(sub, add_case=None):
     """Register ``bkabem speed``."""
     from bkabem_ros.cli.base import finite_float, pos_int
 
     p = sub.add_parser("speed", help="publish a shaft-speed profile on the speed topic (std_msgs/Float64)",
-                       description=__doc__.split("\n\n")[0] + " See bkabem_ros/node/speed.py for the profile syntax.")
+                       description=PROFILE_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--profile", default="constant:25",
                    help="constant:V | ramp:A:B:SECONDS | steps:V1,V2,...:SECONDS | FILE.csv (default constant:25)")
     p.add_argument("--unit", default="hz", help="unit of the profile values: hz (default), rpm, rad/s")
@@ -201,7 +224,8 @@ def add_parser(sub, add_case=None):
                    help="keep publishing the last value this long after a finite profile ends (s)")
     p.add_argument("--topic", default="speed", help="topic name (relative names follow --namespace)")
     p.add_argument("--namespace", default="", help="namespace, e.g. /machine_00")
-    p.add_argument("--qos", choices=("reliable", "sensor_data"), default="reliable")
+    p.add_argument("--qos", choices=("reliable", "sensor_data"), default="reliable",
+                   help="QoS of the speed topic: reliable (default) or sensor_data (best effort)")
     p.add_argument("--wait-subscribers", type=finite_float("--wait-subscribers", 0.0), default=0.0,
                    help="wait up to this long (s) for --subscribers subscribers before starting the profile clock")
     p.add_argument("--subscribers", type=pos_int("--subscribers", 1, 1000), default=1,
@@ -224,6 +248,13 @@ def main(args) -> int:
         profile = parse_profile(args.profile, unit)
     except ValueError as exc:
         fail("speed", str(exc))
+    top = max(profile.values) * SPEED_UNITS[unit]
+    from bkabem_core.model.plausibility import BOUNDS  # the case bound; imported when the command runs
+
+    fastest_hz = BOUNDS["operating.max_speed_hz"][1]
+    if top > fastest_hz * TWO_PI:
+        fail("speed", f"--profile: {max(profile.values):g} {unit} is above {fastest_hz:g} Hz, the fastest "
+                      f"shaft any case may have (operating.max_speed_hz; a unit slip? --unit is {unit})")
     check_names([("--namespace", "namespace", args.namespace), ("--topic", "topic", args.topic)])
     duration = args.seconds
     if duration is None and profile.finite:

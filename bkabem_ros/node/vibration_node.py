@@ -17,6 +17,9 @@ topic                          type                                 when
 ``vibration/de/spectrum``      ``bkabem_msgs/msg/VibrationSpectrum`` on speed change and at ``spectrum_rate``;
 ``vibration/nde/spectrum``                                          one message per quantity (acc., displ.)
 ``vibration/fault_frequencies`` ``bkabem_msgs/msg/BearingFaultFrequencies`` with the spectra
+``/diagnostics``               ``diagnostic_msgs/msg/DiagnosticArray`` once a second: stream on time, model, band
+                                                                    limit, ISO zone per bearing (REP 107;
+                                                                    :mod:`bkabem_ros.node.diagnostics`)
 =============================  ===================================  ==========================================
 
 Timing
@@ -46,6 +49,7 @@ after construction so a command can attach sinks before the stream starts.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -53,8 +57,15 @@ from typing import Any, Callable
 import numpy as np
 
 from bkabem_core.model.vocabulary import BEARINGS
-from bkabem_ros.node.band import BandWatch, start_note, start_refusal
-from bkabem_ros.node.params import LIVE_PARAMETERS, PARAMETER_SPECS, PARAMETERS, ParamSpec  # noqa: F401  (re-exported)
+from bkabem_ros.node.band import BandWatch, carries_to_band, start_note, start_refusal
+from bkabem_ros.node.diagnostics import NodeDiagnostics
+from bkabem_ros.node.params import (  # noqa: F401  (re-exported)
+    DEPRECATED_NOISE,
+    LIVE_PARAMETERS,
+    PARAMETER_SPECS,
+    PARAMETERS,
+    ParamSpec,
+)
 from bkabem_ros.node.source import (
     CHANNELS,
     FAULT_TYPE,
@@ -131,6 +142,7 @@ class VibrationNode(_node_base()):
 
         self._sinks: list[Sink] = []
         self._sink_errors = 0
+        self._refuse_unknown_overrides()
         self._coerce_numeric_overrides()
         # -- parameters, declared up front (the machine first: two defaults come from it)
         self._declare("case")
@@ -171,7 +183,7 @@ class VibrationNode(_node_base()):
         why = start_refusal(self._source.synth, scenario, float(p["scenario_start"]), self._machine_label())
         if why is not None:
             raise ValueError(why)
-        self._band = BandWatch(self.get_logger().warning)
+        self._band = BandWatch(self.get_logger().warning, self.get_logger().info)
         self._apply_noise()
         self._scenario_loaded: dict[str, Scenario] = {}     # parameter callback -> post callback
 
@@ -213,6 +225,7 @@ class VibrationNode(_node_base()):
                           for b in BEARINGS for q in QUANTITIES}
         self._spec_pub = {b: pub(VibrationSpectrum, f"vibration/{b}/spectrum") for b in BEARINGS}
         self._ff_pub = pub(BearingFaultFrequencies, "vibration/fault_frequencies")
+        self._diagnostics = NodeDiagnostics(self)        # the node's health on /diagnostics (REP 107), once a second
         # best effort + keep last: matches reliable and best-effort publishers; a flood only overwrites
         speed_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                                reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -249,6 +262,7 @@ class VibrationNode(_node_base()):
         self._reanchors = 0
         self._last_now_ns = 0
 
+        self.add_pre_set_parameters_callback(self._warn_undeclared)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._after_set_parameters)
         what = f"scenario {scenario.name} (x{float(p['scenario_time_scale']):g})" if scenario is not None else \
@@ -259,7 +273,7 @@ class VibrationNode(_node_base()):
             f"machine {self.machine_id!r}: {what}, {self.sample_rate:g} Hz, "
             f"{self.samples_per_chunk} samples/chunk ({self.chunk_ns / 1e6:g} ms), QoS {p['qos']} depth {depth}, "
             f"speed in {normalize_unit(p['speed_unit'])} on {self._speed_topic}, max {self._max_speed:g} rad/s")
-        if scenario is None or not scenario.has_speed:
+        if scenario is None or not scenario.has_speed or carries_to_band(self._source.model):
             note = start_note(self._source.synth, self._max_speed / TWO_PI, self._machine_label())
             if note is not None:
                 self.get_logger().info(note)
@@ -276,6 +290,33 @@ class VibrationNode(_node_base()):
         return f"case {self._source.case.name}{label}"
 
     # ------------------------------------------------------------------ parameters
+    #: Parameters rclpy declares on every node (besides the table of bkabem_ros.node.params).
+    _RCLPY_PARAMETERS = ("use_sim_time", "start_type_description_service")
+
+    def _known(self, name: str) -> bool:
+        return name in PARAMETER_SPECS or name in self._RCLPY_PARAMETERS or name.startswith("qos_overrides.")
+
+    def _refuse_unknown_overrides(self) -> None:
+        """A parameter given for this node (``-p``, ``--params-file``) that it does not have is a typo that would be
+        ignored: refused, with the nearest name."""
+        import difflib
+
+        unknown = sorted(n for n in self._parameter_overrides if not self._known(n))
+        if unknown:
+            near = difflib.get_close_matches(unknown[0], list(PARAMETER_SPECS), n=1)
+            raise ValueError(f"parameter {unknown[0]}: the node has no such parameter"
+                             + (f" (did you mean {near[0]}?)" if near else "")
+                             + (f"; also unknown: {', '.join(unknown[1:])}" if len(unknown) > 1 else "")
+                             + " (docs/ros_node.md lists them)")
+
+    def _warn_undeclared(self, params):
+        """A live set of a parameter the node does not have: rclpy refuses it to the caller; the node says so too."""
+        for prm in params:
+            if not self.has_parameter(prm.name):
+                self.get_logger().warning(f"parameter {prm.name}: the node has no such parameter; the set is refused "
+                                          f"(docs/ros_node.md lists them)")
+        return params
+
     def _coerce_numeric_overrides(self) -> None:
         """YAML ``sample_rate: 51200`` is an integer: accept it for a double parameter (and 2.0 for ints)."""
         from rclpy.parameter import Parameter
@@ -392,7 +433,7 @@ class VibrationNode(_node_base()):
                 self._speed_factor = SPEED_UNITS[normalize_unit(prm.value)]
             elif prm.name == "max_speed":
                 self._max_speed = float(prm.value)
-            elif prm.name.startswith("noise."):
+            elif prm.name.startswith("noise"):
                 self._apply_noise()
             elif prm.name == "defect_depth":
                 self._request_depth(float(prm.value))
@@ -419,10 +460,23 @@ class VibrationNode(_node_base()):
         return self._source
 
     def _apply_noise(self) -> None:
-        """Noise parameters -> the synthesiser (from its next chunk on)."""
+        """Noise parameters -> the synthesiser (from its next chunk on): the densities ``noise_acc``,
+        ``noise_disp``, or the RMS values of earlier versions converted to densities with a warning."""
         live = self._live
-        self._source.set_noise(float(live["noise.acceleration"]), float(live["noise.displacement"]),
-                               float(live["noise.snr_db"]))
+        root = math.sqrt(self.sample_rate / 2.0)
+        density = {}
+        for old, new in DEPRECATED_NOISE.items():
+            value, rms = float(live[new]), float(live[old])
+            if rms > 0.0:
+                if value > 0.0:
+                    self.get_logger().warning(f"parameter {old} (deprecated, an RMS) is ignored: {new} is set")
+                else:
+                    value = rms / root
+                    self.get_logger().warning(
+                        f"parameter {old} = {rms:g} (an RMS, deprecated) is read as {new} = {value:.4g} "
+                        f"(a density: RMS / sqrt(sample_rate / 2)); write {new} instead")
+            density[new] = value
+        self._source.set_noise(density["noise_acc"], density["noise_disp"], float(live["noise.snr_db"]))
 
     def _next_index(self) -> int:
         """First sample of the next chunk still to be synthesised (where a change of the machine can begin)."""
@@ -564,6 +618,7 @@ class VibrationNode(_node_base()):
             raise RuntimeError(f"synth produced index {chunk.first_sample_index}, expected {index}")
         self._band.check(src.synth, src.model, max(float(chunk.shaft_speed_hz), float(chunk.shaft_speed_end_hz)),
                          self._machine_label)
+        self._diagnostics.add_chunk(chunk)
         speed = float(chunk.shaft_speed_hz) * TWO_PI          # at the first sample
         # the waveforms straight to CDR (waveform_cdr: the constant part of each stream encoded once); message
         # objects only for sinks (recorders, viewers), made from the same bytes when one asks for them
@@ -688,75 +743,3 @@ class VibrationNode(_node_base()):
         if src is not None:
             src.close()
         return super().destroy_node()
-
-
-# --------------------------------------------------------------------------- running
-def _stats_line(st: dict) -> str:
-    return (f"stats: {st['chunks']} chunks (next index {st['next_index']}), {st['spectra']} spectra, "
-            f"{st['speed_messages']} speed messages ({st['speed_rejected']} rejected), publish lateness "
-            f"p50 {st['lateness_ms_p50']:.3f} ms p99 {st['lateness_ms_p99']:.3f} ms max {st['lateness_ms_max']:.3f} ms "
-            f"at chunk {st['lateness_max_chunk']}, {st['late_chunks']} a period late "
-            f"(start p50 {st['start_lateness_ms_p50']:.3f} ms p99 {st['start_lateness_ms_p99']:.3f} ms)")
-
-
-def _quiet_gc() -> None:
-    """After start-up: move everything allocated so far (model, modules) out of the collector's view, so that
-    a full collection during streaming scans only what the stream allocates (shorter pauses, less jitter)."""
-    import gc
-
-    gc.collect()
-    gc.freeze()
-
-
-def _exit_log(node, st: dict | None = None) -> None:
-    """Final stats line. Not through the node's logger: after SIGINT/SIGTERM rclpy has already shut the
-    context down, and a node logger would try (and fail) to publish on /rosout."""
-    import rclpy.logging
-
-    st = node.stats() if st is None else st
-    rclpy.logging.get_logger("bkabem_exit").info(
-        f"{node.get_fully_qualified_name()} ({st['machine_id']}) shutting down: {_stats_line(st)}")
-
-
-def run(ros_args=None, overrides: dict | None = None, *, node_name: str = "bkabem", namespace: str | None = None,
-        on_node: Callable | None = None) -> int:
-    """Run one node until SIGINT/SIGTERM; returns the exit code (2 for bad parameters or case)."""
-    import sys
-
-    import rclpy
-    from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-    from rclpy.parameter import Parameter
-
-    from bkabem_core.model.case import CaseError
-    from bkabem_ros.ros_env import init  # noqa: PLC0415
-
-    init(["bkabem-node", "--ros-args", *(ros_args or [])])   # + the discovery range in force, once
-    node = None
-    cleanup = None
-    try:
-        try:
-            node = VibrationNode(node_name, namespace=namespace,
-                                 parameter_overrides=[Parameter(k, value=v) for k, v in (overrides or {}).items()],
-                                 start=False)
-        except (CaseError, InvalidParameterValueException, InvalidParameterTypeException, ValueError) as exc:
-            sys.stderr.write(f"bkabem node: error: {exc}\n")
-            return 2
-        if on_node is not None:
-            cleanup = on_node(node)
-        _quiet_gc()
-        node.start()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        try:
-            executor.spin()
-        except (KeyboardInterrupt, ExternalShutdownException):
-            pass
-        _exit_log(node)
-        return 0
-    finally:
-        if cleanup is not None:
-            cleanup()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()

@@ -38,12 +38,14 @@ from bkabem_ros.recording.mcap_read import (  # noqa: F401
     Message,
     RawMessage,
     _decoder,
-    _open_reader,
     _schema_texts,
+    check_messages,
     file_metadata,
     iter_messages,
     iter_raw,
     message_class,
+    message_problem,
+    quiet_stderr,
     scan,
     summary,
 )
@@ -612,78 +614,65 @@ def _stderr(text: str) -> None:
 
 # --------------------------------------------------------------------------- recovery
 class RecoverResult(NamedTuple):
-    """What :func:`recover` found: messages and channels copied, whether the source ended early
-    (no footer / a cut record), and the last log time kept (ns, 0 if none)."""
+    """What :func:`recover` wrote: messages, channels, whether the source was cut or damaged (``truncated``), the
+    last log time [ns], what was wrong with the source (``error``, "" when intact), the damaged chunks skipped and
+    the messages the source's summary counts (None without a readable summary)."""
 
     messages: int
     channels: int
     truncated: bool
     last_log_time_ns: int
     error: str
+    skipped_chunks: int = 0
+    expected_messages: int | None = None
+    damaged_records: int = 0
 
 
 def recover(src, dst, *, compression: str = "zstd") -> RecoverResult:
-    """Rebuild a complete MCAP from a file cut short (``kill -9``, power loss, disk full).
+    """Rebuild a complete MCAP from a file cut short (``kill -9``, power loss, disk full) or damaged.
 
-    Reads ``src`` sequentially as far as it is intact (every complete chunk; the cut chunk at
-    the end is dropped), and writes ``dst`` with the same header, schemas, channels (ids,
-    metadata), messages (times, sequence numbers), metadata and attachments, plus the summary
-    and footer a reader needs. Also works on an intact file (a plain copy).
+    Reads ``src`` with the bounded reader of :mod:`bkabem_ros.recording.mcap_check`: every intact chunk is kept,
+    also those after a damaged one (garbage, a bad CRC, a chunk that lies about its size); the damaged ones are
+    counted (``skipped_chunks``). Writes ``dst`` with the same header, schemas, channels (metadata), messages
+    (times, sequence numbers, in log-time order), metadata and attachments, plus the summary and footer a reader
+    needs. Also works on an intact file (a copy). Raises ``ValueError`` for a file that is not an MCAP recording
+    (no magic, or no header record after it).
     """
-    from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema  # noqa: PLC0415
-    from mcap.stream_reader import StreamReader  # noqa: PLC0415
     from mcap.writer import CompressionType, Writer  # noqa: PLC0415
+
+    from bkabem_ros.recording.mcap_check import iter_intact, read_attachment, verify  # noqa: PLC0415
 
     src, dst = Path(src), Path(dst)
     if src.resolve() == dst.resolve():
         raise ValueError("recover: dst must differ from src")
     comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4,
             "none": CompressionType.NONE}[compression]
-    n_msgs, last, truncated, error = 0, 0, True, ""
-    schema_map: dict[int, int] = {}
-    channel_map: dict[int, int] = {}
-    pending_channels: dict[int, Channel] = {}
-    schemas_seen: dict[int, Schema] = {}
-    with open(src, "rb") as fin, open(dst, "wb") as fout:
+    info = verify(src)
+    if not info.mcap:
+        raise ValueError(f"{src} is not an MCAP file (no MCAP magic at the start)")
+    if not info.header:
+        raise ValueError(f"{src} is not an MCAP recording (no header record after the magic"
+                         + (f"; {info.summary_line()})" if info.cut_at is not None else ")"))
+    n_msgs, last = 0, 0
+    with open(dst, "wb") as fout:
         w = Writer(fout, compression=comp)
-        started = False
-        reader = StreamReader(fin, validate_crcs=True, record_size_limit=1 << 31)
-        try:
-            for rec in reader.records:
-                if isinstance(rec, Header):
-                    w.start(profile=rec.profile, library=rec.library or LIBRARY)
-                    started = True
-                    continue
-                if not started:
-                    w.start(profile="ros2", library=LIBRARY)
-                    started = True
-                if isinstance(rec, Schema):
-                    if rec.id not in schema_map and rec.id != 0:
-                        schemas_seen[rec.id] = rec
-                        schema_map[rec.id] = w.register_schema(rec.name, rec.encoding, rec.data)
-                elif isinstance(rec, Channel):
-                    if rec.id not in channel_map:
-                        pending_channels[rec.id] = rec
-                        channel_map[rec.id] = w.register_channel(
-                            rec.topic, rec.message_encoding, schema_map.get(rec.schema_id, 0),
-                            dict(rec.metadata))
-                elif isinstance(rec, Message):
-                    cid = channel_map.get(rec.channel_id)
-                    if cid is None:
-                        continue   # message without a channel record: cannot be decoded
-                    w.add_message(channel_id=cid, log_time=rec.log_time, data=rec.data,
-                                  publish_time=rec.publish_time, sequence=rec.sequence)
-                    n_msgs += 1
-                    last = max(last, rec.log_time)
-                elif isinstance(rec, Metadata):
-                    w.add_metadata(rec.name, dict(rec.metadata))
-                elif isinstance(rec, Attachment):
-                    w.add_attachment(rec.create_time, rec.log_time, rec.name, rec.media_type,
-                                     rec.data)
-            truncated = False
-        except Exception as exc:  # noqa: BLE001 - any decoding error marks the cut
-            error = f"{type(exc).__name__}: {exc}"
-        if not started:
-            w.start(profile="ros2", library=LIBRARY)
+        w.start(profile=info.profile or "ros2", library=info.library or LIBRARY)
+        schema_map = {sid: w.register_schema(s.name, s.encoding, s.data)
+                      for sid, s in sorted(info.schemas.items()) if sid != 0}
+        channel_map = {cid: w.register_channel(c.topic, c.message_encoding, schema_map.get(c.schema_id, 0),
+                                               dict(c.metadata))
+                       for cid, c in sorted(info.channels.items())}
+        for _schema, channel, m in iter_intact(info):
+            w.add_message(channel_id=channel_map[channel.id], log_time=m.log_time, data=m.data,
+                          publish_time=m.publish_time, sequence=m.sequence)
+            n_msgs += 1
+            last = max(last, m.log_time)
+        for name, meta in info.metadata.items():
+            w.add_metadata(name, dict(meta))
+        for off in info.attachment_offsets:
+            a = read_attachment(info, off)
+            if a is not None:
+                w.add_attachment(a.create_time, a.log_time, a.name, a.media_type, a.data)
         w.finish()
-    return RecoverResult(n_msgs, len(channel_map), truncated, last, error)
+    return RecoverResult(n_msgs, len(channel_map), not info.ok, last, "" if info.ok else info.summary_line(),
+                         info.skipped_chunks, info.expected_messages, len(info.damaged))

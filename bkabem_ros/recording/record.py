@@ -28,6 +28,7 @@ DEFAULT_TOPICS = (
     "vibration/nde/acceleration", "vibration/nde/displacement", "vibration/nde/velocity",
     "vibration/nde/spectrum",
     "vibration/fault_frequencies",
+    "/diagnostics",                 # the node's health (diagnostic_msgs/DiagnosticArray, REP 107)
 )
 OUR_PACKAGES = ("bkabem_msgs/",)
 
@@ -220,7 +221,8 @@ def _speed_unit(node) -> str:
 def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
                  chunk_size_bytes: int = 1 << 20, chunk_duration_s: float = 1.0,
                  rotate_size_bytes: int | None = None, rotate_duration_s: float | None = None,
-                 recording_id: str | None = None, rerun_optimize: bool = False) -> AttachedSinks:
+                 recording_id: str | None = None, rerun_optimize: bool = False,
+                 report_start: bool = True) -> AttachedSinks:
     """Attach an MCAP recorder and/or a Rerun logger to a running bkabem node.
 
     ``node`` is a :class:`bkabem_ros.node.vibration_node.VibrationNode` (anything with ``add_sink`` /
@@ -231,7 +233,8 @@ def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
 
     A recording error (unwritable path, disk full) is logged once by the node's logger; the node
     keeps publishing. ``rerun_optimize``: compact the ``.rrd``'s chunks when detaching (see
-    :class:`~bkabem_ros.viewer.rerun_io.RerunLogger`).
+    :class:`~bkabem_ros.viewer.rerun_io.RerunLogger`). ``report_start=False``: a sink that cannot start is not
+    logged but left in ``start_errors`` (option -> reason) for the caller to report (the command line's one line).
 
     Returns
     -------
@@ -243,16 +246,26 @@ def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
     sinks = []
     attached = AttachedSinks(node, sinks)
     log = node.get_logger()
+    started = False
+
+    def report(option: str, text: str) -> None:
+        if report_start or started:
+            log.error(text)
+        else:
+            attached.start_errors.setdefault(option, text)
+
     if record:
         qos = {}
         for pub in getattr(node, "publishers", []):
             qos[pub.topic_name] = pub.qos_profile
-        sink = mcap_io.McapSink(record, qos=qos, log_error=log.error,
+        sink = mcap_io.McapSink(record, qos=qos, log_error=lambda text: report("--record", text),
                                 chunk_size_bytes=chunk_size_bytes, chunk_duration_s=chunk_duration_s,
                                 rotate_size_bytes=rotate_size_bytes, rotate_duration_s=rotate_duration_s,
                                 metadata={"recorded_by": "bkabem node",
                                           "node": node.get_fully_qualified_name(),
                                           "speed_unit": _speed_unit(node)})
+        if sink.error is not None and not report_start:
+            attached.start_errors["--record"] = str(sink.error)      # the recorder's own words, not the sink's
         if sink.error is None:
             node.add_sink(sink)
             sinks.append(sink)
@@ -273,7 +286,8 @@ def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
             logger = rerun_io.RerunLogger("bkabem", recording_id=recording_id, save_path=rerun_save,
                                           connect_url=rerun_connect, optimize=rerun_optimize)
         except Exception as exc:  # noqa: BLE001 - bad path/URL: keep publishing
-            log.error(f"Rerun output not started: {type(exc).__name__}: {exc}")
+            report("--rerun-save" if rerun_save else "--rerun-connect",
+                   f"Rerun output not started: {type(exc).__name__}: {exc}")
         else:
             sink = rerun_io.RerunSink(logger, speed_scale=speed_scale, log_error=log.error)
             node.add_sink(sink)
@@ -282,7 +296,7 @@ def attach_sinks(node, *, record=None, rerun_save=None, rerun_connect=None,
             log.info(f"Rerun: {'saving ' + str(rerun_save) if rerun_save else ''}"
                      f"{' and ' if rerun_save and rerun_connect else ''}"
                      f"{'streaming to ' + rerun_connect if rerun_connect else ''}")
-
+    started = True
     return attached
 
 
@@ -294,6 +308,7 @@ class AttachedSinks:
         self.sinks = sinks
         self.mcap = None
         self.rerun = None
+        self.start_errors: dict[str, str] = {}       # option -> why it did not start (report_start=False)
 
     def __call__(self) -> None:
         for s in self.sinks:

@@ -47,6 +47,7 @@ class ReplayStats:
     first_log_time_ns: int = 0
     last_log_time_ns: int = 0
     damage: str | None = None      # what was skipped in a damaged file (allow_damaged), None when intact
+    bad_messages: int = 0          # messages skipped because their payload does not decode (allow_damaged)
 
     @property
     def messages(self) -> int:
@@ -159,6 +160,8 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")
     integrity = integrity if integrity is not None else mcap_check.verify(path)
+    if integrity.mcap and not integrity.messages_checked:
+        mcap_io.check_messages(path, integrity)            # a message that does not decode is damage too
     if not integrity.ok and not allow_damaged:
         raise mcap_check.DamagedRecording(f"{path}: {integrity.summary_line()}")
     remap = dict(remap or {})
@@ -173,14 +176,14 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
     clock_pub = None
     reader = msg_compat.Reader()            # recordings of older bkabem_msgs definitions: decoded and upgraded
     decode = reader.decode
-    schema_texts = mcap_io._schema_texts(path)
+    schema_texts = mcap_io._schema_texts(path, integrity)
     speed_scale = 1.0          # speed topic unit -> rad/s, from the node's recording metadata
     if rerun_logger is not None:
         from bkabem_ros.node.speed import SPEED_UNITS, normalize_unit  # noqa: PLC0415
 
         try:
             speed_scale = SPEED_UNITS[normalize_unit(
-                mcap_io.file_metadata(path).get("bkabem", {}).get("speed_unit", "rad/s"))]
+                mcap_io.file_metadata(path, integrity=integrity).get("bkabem", {}).get("speed_unit", "rad/s"))]
         except ValueError:
             speed_scale = 1.0
     if publish:
@@ -253,6 +256,12 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
             for r in mcap_io.iter_raw(path, wanted, start_time_ns=start_ns, integrity=integrity):
                 if stop.is_set():
                     break
+                if integrity.bad_messages:
+                    with mcap_io.quiet_stderr():
+                        problem = mcap_io.message_problem(reader, r, schema_texts.get(r.type_name))
+                    if problem:
+                        stats.bad_messages += 1         # skipped (allow_damaged): never published or logged
+                        continue
                 if publish:
                     due = loop_wall0 + (r.log_time - start_ns) / 1e9 / rate
                     while True:
@@ -318,12 +327,14 @@ def to_rerun(path, logger, *, topics: Iterable[str] | None = None, start_offset_
                   start_offset_s=start_offset_s)
 
 
-def describe(path, integrity=None) -> str:
-    """A few lines about a recording: duration, topics with type and count, and its integrity (with the damaged
-    places when it is damaged)."""
+def describe(path, integrity=None, summary: dict | None = None) -> str:
+    """A few lines about a recording: duration, topics with type and count, its longest gap between messages,
+    and its integrity (with the damaged places when it is damaged; every message is decoded for it unless
+    ``summary``, a :func:`bkabem_ros.recording.mcap_read.summary` with ``decode=True``, is given)."""
     integrity = integrity if integrity is not None else mcap_check.verify(path)
-    s = mcap_io.summary(path, integrity=integrity)
-    lines = [f"{s['path']}: {s['messages']} messages, {s['duration_s']:.2f} s"]
+    s = summary if summary is not None else mcap_io.summary(path, integrity=integrity, decode=True)
+    lines = [f"{s['path']}: {s['messages']} messages, {s['duration_s']:.2f} s"
+             + (f" (longest gap between messages {s['max_gap_ns'] / 1e9:.3g} s)" if s["max_gap_ns"] > 1e9 else "")]
     for topic, t in sorted(s["topics"].items()):
         lines.append(f"  {topic:40s} {msgs.type_name(t['type']) if t['type'] else '?':40s} {t['count']}")
     lines += integrity.lines()

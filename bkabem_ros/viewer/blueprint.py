@@ -29,10 +29,12 @@ data from the start.
 
 from __future__ import annotations
 
-__all__ = ["DISPLAY_UNITS", "MAX_TABS", "TAB_BAR_END_PX", "TIMELINE", "blueprint", "legend_views", "tab_row_width_px",
+__all__ = ["DEFAULT_CONNECT_URL", "DISPLAY_UNITS", "MAX_TABS", "TAB_BAR_END_PX", "TIMELINE", "blueprint", "legend_views", "tab_row_width_px",
            "tab_rows", "view_names"]
 
 TIMELINE = "sample_time"
+#: A viewer on this machine (``rerun --bind 127.0.0.1``): its gRPC proxy.
+DEFAULT_CONNECT_URL = "rerun+http://127.0.0.1:9876/proxy"
 
 #: quantity -> (unit shown, factor from SI).
 DISPLAY_UNITS = {

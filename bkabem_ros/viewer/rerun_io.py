@@ -51,12 +51,9 @@ import numpy as np
 
 from bkabem_core.analysis import condition, fault_lines, health
 from bkabem_ros.messages import convert as msgs
-from bkabem_ros.viewer.blueprint import DISPLAY_UNITS, TIMELINE, blueprint
+from bkabem_ros.viewer.blueprint import DEFAULT_CONNECT_URL, DISPLAY_UNITS, TIMELINE, blueprint
 
 __all__ = ["DEFAULT_CONNECT_URL", "TIMELINE", "RerunLogger", "RerunSink", "blueprint", "rerun_binary"]
-
-#: Viewer address used by ``--rerun-connect`` without a URL (the local viewer's gRPC proxy).
-DEFAULT_CONNECT_URL = "rerun+http://127.0.0.1:9876/proxy"
 
 _CHANNEL_COLORS = {"vertical": (31, 119, 180), "horizontal": (255, 127, 14)}
 _LIGHT_COLORS = {"vertical": (150, 200, 240), "horizontal": (255, 200, 140)}
@@ -158,6 +155,18 @@ class _Window:
 
     def reset(self) -> None:
         self.blocks, self.n, self.speeds = [], 0, []
+
+
+def _bar_width(f: np.ndarray, bpfo: float) -> float:
+    """Width [Hz] of a line's bar: 0.35 x BPFO for BPFO orders, less where lines are closer (the sidebands of an
+    inner race at f_r, of a ball at FTF): 0.7 x the spacing that a tenth of the neighbours are closer than, so that
+    bars do not cover their neighbours."""
+    if f.size < 2:
+        return 0.35 * bpfo if bpfo > 0 else 1.0
+    gaps = np.diff(np.sort(f))
+    gaps = gaps[gaps > 1e-9 * max(float(f.max()), 1.0)]
+    spacing = float(np.percentile(gaps, 10)) if gaps.size else float(f.max())
+    return float(min(0.35 * bpfo if bpfo > 0 else np.inf, 0.7 * spacing))
 
 
 class RerunLogger:
@@ -537,16 +546,15 @@ class RerunLogger:
             big = np.nonzero(al.max(axis=0) >= LINE_DISPLAY_FLOOR * al.max())[0]
             keep = slice(0, int(big[-1]) + 1) if big.size else slice(0, 0)
             fl, al = fl[keep], al[:, keep]
-        width = 0.35 * bpfo if bpfo > 0 else None
-        nch = max(len(names), 1)
+        width = _bar_width(fl, bpfo)
         with self._lock:
             self._at(stamp)
-            w = width or 1.0
             for c, ch in enumerate(names):
-                # side by side: channel c shifted by a fraction of the bar width
-                self._bars(f"/{loc}/spectrum/{q}/{ch}", al[c], fl + (c - (nch - 1) / 2) * w / nch,
-                           np.full(fl.size, w / nch, dtype=np.float32), self._color(ch, c))
-            f_top = float(fl[-1]) + (width or 0.0) if fl.size else 0.0
+                # every line at its own frequency; the channels' bars nested (each next one narrower), so that
+                # each shows and none is drawn off its line
+                self._bars(f"/{loc}/spectrum/{q}/{ch}", al[c], fl,
+                           np.full(fl.size, width / (1 + c), dtype=np.float32), self._color(ch, c))
+            f_top = float(fl[-1]) + width if fl.size else 0.0
             self._log_markers(f"/{loc}/spectrum/{q}/markers", lines, f_top, float(al.max()) if al.size else 0.0)
             h = self._health.setdefault(loc, {})
             h.setdefault("spectra", {})[q] = {

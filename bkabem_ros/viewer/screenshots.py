@@ -501,7 +501,7 @@ def scenario_recording(rrd, scenario: str = SCENARIO_SHOT[1], time_scale: float 
     cmd = [sys.executable, "-m", "bkabem_ros", "node", "--namespace", f"/shot{os.getpid()}", "--sample-rate",
            "12800", "--scenario", scenario, "--time-scale", f"{time_scale:g}", "--rerun-save", str(rrd),
            "--ros-args", "-p", f"scenario_start:={start_s:g}", "-p", "spectrum_rate:=4.0",
-           "-p", "noise.acceleration:=0.05", "-p", "slip:=0.01"]
+           "-p", "noise_acc:=6.25e-4", "-p", "slip:=0.01"]     # 0.05 m/s^2 RMS at 12.8 kHz
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             start_new_session=True)
     started, lines = threading.Event(), []

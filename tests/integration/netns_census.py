@@ -8,6 +8,9 @@ commands marked ``stop`` with SIGINT and waits for the others to end by themselv
 
 - ``tx_packets`` / ``tx_bytes``: sent on v0 while the commands ran (``/proc/net/dev`` of the namespace);
 - ``groups_v0``: multicast groups joined on v0 (``/proc/net/igmp``; the kernel's 224.0.0.1 left out);
+- ``sockets``: every UDP and TCP socket the commands (and their children) had open while they ran, as
+  ``[local address, process name, command]`` (``ss -uanpH`` / ``ss -tanpH``, sampled every 0.2 s; the command is
+  the one whose process tree holds it, "" if none does);
 - per command: exit code and output.
 
 Nothing leaves the namespace: v1 is the other end of the pair, inside it too, and the namespace disappears
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import socket
 import struct
@@ -63,6 +67,36 @@ def groups(dev: str = "v0") -> list[str]:
     return out
 
 
+def sockets(roots: dict[int, str]) -> set[tuple[str, str, str]]:
+    """(local address, process name, command) of every UDP/TCP socket in this namespace; the command is found by
+    walking up from the socket's pid to one of ``roots`` (pid -> command name)."""
+    out = set()
+    for proto in ("-uanpH", "-tanpH"):
+        text = subprocess.run(["ss", proto], capture_output=True, text=True).stdout
+        for line in text.splitlines():
+            fields = line.split()
+            if len(fields) < 6:
+                continue
+            local = fields[3]
+            for name, pid in re.findall(r'\("([^"]*)",pid=(\d+)', line):
+                out.add((local, name, _command_of(int(pid), roots)))
+    return out
+
+
+def _command_of(pid: int, roots: dict[int, str]) -> str:
+    for _ in range(32):
+        if pid in roots:
+            return roots[pid]
+        try:
+            stat = open(f"/proc/{pid}/stat").read()
+        except OSError:
+            return ""
+        pid = int(stat.rsplit(")", 1)[1].split()[1])
+        if pid <= 1:
+            return ""
+    return ""
+
+
 def main(spec_path: str) -> int:
     spec = json.load(open(spec_path))
     setup()
@@ -76,8 +110,11 @@ def main(spec_path: str) -> int:
                                       stderr=subprocess.STDOUT, text=True, start_new_session=True))
     t_end = time.monotonic() + spec["seconds"]
     joined: set[str] = set()
+    seen: set[tuple[str, str, str]] = set()
+    roots = {p.pid: cmd["name"] for cmd, p in zip(spec["commands"], procs)}
     while time.monotonic() < t_end:
         joined |= set(groups())
+        seen |= sockets(roots)
         time.sleep(0.2)
     results = []
     for cmd, p in zip(spec["commands"], procs):
@@ -92,7 +129,7 @@ def main(spec_path: str) -> int:
                         "output": out if len(out) < 8000 else out[:3000] + "\n...\n" + out[-5000:]})
     b1, p1 = tx()
     print(json.dumps({"tx_packets": p1 - p0, "tx_bytes": b1 - b0, "groups_v0": sorted(joined),
-                      "results": results}))
+                      "sockets": sorted(seen), "results": results}))
     return 0
 
 

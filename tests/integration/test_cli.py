@@ -47,7 +47,7 @@ def test_sweep_csv_and_json(tmp_path):
     rows = list(csv.DictReader(io.StringIO(out)))
     assert {r["speed_hz"] for r in rows} == {"10", "20", "30"}
     assert set(rows[0]) == {"speed_hz", "order", "frequency_hz", "location", "direction", "displacement_m",
-                            "acceleration_m_s2", "phase_rad"}
+                            "acceleration_m_s2", "phase_rad", "line"}
     d = json.loads(run("sweep", "--from-hz", "10", "--to-hz", "30", "--steps", "3", "--json",
                        "--png", str(tmp_path / "w.png")).stdout)
     assert d["speeds_hz"] == [10.0, 20.0, 30.0]

@@ -8,6 +8,11 @@ from bkabem_core.model.case import Case
 
 pytestmark = pytest.mark.tdsm
 
+#: The line sets the TDSM validates: up to 50 x BPFO (9.1 kHz at 30 Hz). The fault library carries its lines further
+#: (to the band: up to ~28 kHz at 30 Hz), beyond what the reference's record resolves once decimated for the
+#: least-squares fit (lines above its Nyquist alias onto others): those lines are not validated here.
+VALIDATED = {"excitation.max_order": 50}
+
 # --------------------------------------------------------------------------- TDSM per kind
 @pytest.mark.parametrize("kind", ["inner", "ball"])
 def test_tdsm_agrees_with_plain_bkabem_for_every_kind(kind):
@@ -23,7 +28,7 @@ def test_tdsm_agrees_with_plain_bkabem_for_every_kind(kind):
     housings, where accelerometers sit."""
     from bkabem_core.reference.validation import validate_lines
 
-    r = validate_lines(Case.load(f"motor_6010_{kind}"), 30.0, duration_s=0.3, settle_s=0.5)
+    r = validate_lines(Case.load(f"motor_6010_{kind}").with_overrides(VALIDATED), 30.0, duration_s=0.3, settle_s=0.5)
     assert r.max_error_db().max() < 3.0, r.to_dict()["max_abs_error_db_largest"]
     assert r.max_error_db("acceleration")[[1, 3]].max() < 3.0
     assert r.max_error_db("acceleration").max() < 3.5

@@ -1,7 +1,9 @@
 """Issue 14, item 3: closed to the network by default; DDS security refused clearly; wrong speed publishers seen.
 
-- Every ROS command (node, speed, echo, record, replay, fleet), run without any discovery variable, sends
-  nothing on a non-loopback interface and joins no multicast group there. Measured inside a user + network
+- Every ROS command (node, speed, echo, record, replay, fleet, discovery-server, demo), run without any discovery
+  variable, sends nothing on a non-loopback interface, joins no multicast group there, and binds every socket it
+  opens to 127.0.0.1 (issue 25: rmw's LOCALHOST range bound its UDP sockets to 0.0.0.0 and to the veth's
+  address, the discovery server to 0.0.0.0:11811 and 0.0.0.0:7411). Measured inside a user + network
   namespace that the test creates (``unshare -rn``) with a veth pair (``tests/integration/netns_census.py``): no packet
   leaves this namespace, and it vanishes with the test. A positive control with the user's own
   ``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`` shows that the census does see discovery traffic (and that the
@@ -55,12 +57,23 @@ def test_every_ros_command_stays_on_loopback_by_default(tmp_path):
         ("record", ["record", "--out", str(rec), "--namespace", "/n", "--duration", "9"]),
         ("replay", ["replay", str(REPO / "recordings" / "example_runup.mcap"), "--namespace", "/rp", "--rate", "2"]),
         ("fleet", ["fleet", "--machines", "1", "--seconds", "9", "--prefix", "fm_", "--sample-rate", "5120"]),
+        ("discovery-server", ["discovery-server", "--seconds", "12", "--port", "11911"]),
+        ("demo", ["demo", "--no-rerun", "--ramp", "2", "--hold", "2", "--sample-rate", "5120", "--speeds", "25",
+                  "--out", str(tmp_path / "demo"), "--recordings", str(tmp_path / "rec")]),
     ]
-    res = _census(commands, seconds=13, tmp=tmp_path)
+    res = _census(commands, seconds=16, tmp=tmp_path)
     out = {r["name"]: r for r in res["results"]}
     for name, r in out.items():
         assert r["rc"] == 0, (name, r["output"][-2000:])
-        assert r["output"].count(NOTICE) == 1, (name, r["output"][-2000:])
+        if name != "discovery-server":
+            assert r["output"].count(NOTICE) == 1, (name, r["output"][-2000:])
+    # every socket bound to loopback, and the census saw every command's sockets
+    wide = [s for s in res["sockets"] if not s[0].startswith(("127.0.0.1:", "[::1]:", "[::ffff:127.0.0.1]:"))]
+    assert not wide, f"sockets bound beyond loopback: {wide}"
+    owners = {s[2] for s in res["sockets"]}
+    assert owners >= {name for name, _ in commands}, (sorted(owners), res["sockets"])
+    print(f"{len(res['sockets'])} sockets, all on 127.0.0.1: " + ", ".join(sorted({f'{s[2]}:{s[0]}' for s in
+                                                                                  res["sockets"]}))[:3000])
     assert res["tx_packets"] == 0, f"{res['tx_packets']} packets ({res['tx_bytes']} B) left on the veth"
     assert res["groups_v0"] == [], res["groups_v0"]
     # and the graph worked on loopback: echo saw the node's waveforms, record stored them
@@ -109,8 +122,15 @@ def test_discovery_defaults_keep_the_users_choice():
 
     env = {}
     line = ros_env.apply_defaults(env)
-    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST" and "bkabem's default" in line
+    # this host only, bound to loopback: bkabem's Fast DDS profile, which rmw's own LOCALHOST range would undo
+    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "SYSTEM_DEFAULT" and "bkabem's default" in line
+    assert env["FASTDDS_DEFAULT_PROFILES_FILE"] == ros_env.loopback_profile()
+    assert 'name="127.0.0.1"' in Path(ros_env.loopback_profile()).read_text()
     assert "bkabem's default" in ros_env.apply_defaults(env)        # a second call (run_demo) still says so
+    env = {"FASTDDS_DEFAULT_PROFILES_FILE": "/etc/my_profile.xml"}    # the user's own profile stays theirs
+    ros_env.apply_defaults(env)
+    assert env["FASTDDS_DEFAULT_PROFILES_FILE"] == "/etc/my_profile.xml"
+    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
     for name, value in (("ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET"), ("ROS_STATIC_PEERS", "10.1.2.3"),
                         ("ROS_DISCOVERY_SERVER", "10.1.2.3:11811")):
         env = {name: value}
@@ -120,6 +140,6 @@ def test_discovery_defaults_keep_the_users_choice():
         assert value in line and "set in the environment" in line
     env = {"ROS_LOCALHOST_ONLY": "0"}                                 # deprecated, ignored by Kilted: no choice
     ros_env.apply_defaults(env)
-    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
+    assert env["FASTDDS_DEFAULT_PROFILES_FILE"] == ros_env.loopback_profile()
     with pytest.raises(ros_env.SecurityUnavailable, match="security plugins"):
         ros_env.apply_defaults({"ROS_SECURITY_ENABLE": "true"})

@@ -21,23 +21,23 @@ import numpy as np
 import pytest
 import rclpy  # noqa: F401  (fail, do not skip, when ROS is missing)
 from ros_helpers import Listener, Proc, bkabem_cmd, ros_env, unique_namespace
-from scenario_files import defect, scenario_toml
+from scenario_files import capped_case, defect, scenario_toml
 
 pytestmark = pytest.mark.ros
 
 BAND_WARNING = r"WARN.*parameter sample_rate: .* too low for"
 
 
-def _outer_from_start(speed_hz: float) -> str:
+def _outer_from_start(speed_hz: float, case: str) -> str:
     """A scenario with a DE outer-race dent from t = 0 at a constant speed (its 50 BPFO orders reach ~50 x 6 x f)."""
-    return scenario_toml("band_test", duration_s=100.0, speed=([0.0], [speed_hz]),
+    return scenario_toml("band_test", duration_s=100.0, speed=([0.0], [speed_hz]), case=case,
                          defects=[defect("de_outer", "de", "outer", time_s=[0.0], length_m=[1.0e-3],
                                          depth_m=[30e-6])])
 
 
 def test_a_scenario_rate_too_low_is_refused_at_start_like_synth(tmp_path):
     src = tmp_path / "band.toml"
-    src.write_text(_outer_from_start(25.0))
+    src.write_text(_outer_from_start(25.0, capped_case(tmp_path)))
     r = subprocess.run(bkabem_cmd("node", "--scenario", str(src), "--sample-rate", "6400"), env=ros_env(),
                        capture_output=True, text=True, timeout=90)
     assert r.returncode == 2, (r.returncode, r.stdout[-2000:], r.stderr[-2000:])
@@ -140,7 +140,7 @@ def test_a_later_scenario_state_beyond_the_rate_warns_and_streams_on(tmp_path):
     from bkabem_msgs.msg import VibrationWaveform
 
     src = tmp_path / "later.toml"
-    src.write_text(scenario_toml("band_later", duration_s=100.0, speed=([0.0], [25.0]),
+    src.write_text(scenario_toml("band_later", duration_s=100.0, speed=([0.0], [25.0]), case=capped_case(tmp_path),
                                  defects=[defect("de_outer", "de", "outer", time_s=[1.0], length_m=[1.0e-3],
                                                  depth_m=[30e-6])]))
     ns = unique_namespace("bandl")
@@ -161,3 +161,20 @@ def test_a_later_scenario_state_beyond_the_rate_warns_and_streams_on(tmp_path):
         node.kill()
         lis.close()
     assert len([ln for ln in node.lines if re.search(BAND_WARNING, ln)]) == 1, node.text[-3000:]
+
+
+def test_lines_to_the_band_start_and_stream_without_a_warning():
+    """The fault library's run to failure at the default 25.6 kHz: its lines reach 26 kHz at 24.6 Hz, beyond any
+    such rate by design (max_order = 0); the node starts (no refusal), says up to where the lines are carried, and
+    the taper is no warning."""
+    node = Proc(bkabem_cmd("node", "--namespace", unique_namespace("bandlib"), "--scenario", "de_outer_run_to_failure",
+                           "--time-scale", "3600"), name="band library node")
+    try:
+        node.wait_for(r"streaming from t0", timeout=120)
+        node.wait_for(r"carries its lines up to the acquisition's band: in full up to 10880 Hz", timeout=5)
+        time.sleep(2.0)
+        assert node.p.poll() is None
+        assert node.stop(signal.SIGINT) == 0, node.text[-3000:]
+    finally:
+        node.kill()
+    assert not [ln for ln in node.lines if re.search(BAND_WARNING, ln)], node.text[-3000:]

@@ -145,7 +145,18 @@ def test_live_noise(stack):
 
     base = rms_now()
     noise = 20.0 * max(base, 1e-3)
+    # the density, as bkabem synth --noise-acc and a data set's noise_acc: RMS = density x sqrt(fs / 2)
+    assert _ok(lis.set_parameters(stack["a"], {"noise_acc": noise / math.sqrt(FS / 2)})) == [True]
+    time.sleep(3 * CHUNK)
+    noisy = rms_now()
+    assert noisy == pytest.approx(math.hypot(base, noise), rel=0.2), (base, noise, noisy)
+    assert _ok(lis.set_parameters(stack["a"], {"noise_acc": 0.0})) == [True]
+    time.sleep(3 * CHUNK)
+    assert rms_now() == pytest.approx(base, rel=0.2)
+    # the RMS of earlier versions (parameter files in use) still works, converted with a deprecation warning
+    n0 = len(stack["procs"]["a"].lines)
     assert _ok(lis.set_parameters(stack["a"], {"noise.acceleration": noise})) == [True]
+    stack["procs"]["a"].wait_for(r"noise\.acceleration .*deprecated.* noise_acc", start=n0, timeout=5)
     time.sleep(3 * CHUNK)
     noisy = rms_now()
     assert noisy == pytest.approx(math.hypot(base, noise), rel=0.2), (base, noise, noisy)

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import rclpy  # noqa: F401  (fail, do not skip, when ROS is missing)
 from ros_helpers import Listener, Proc, bkabem_cmd, unique_namespace
-from scenario_files import check_truth, defect, scenario_toml, speed_of_timeline
+from scenario_files import capped_case, check_truth, defect, scenario_toml, speed_of_timeline
 from scenario_files import parse as _toml
 
 pytestmark = pytest.mark.ros
@@ -308,8 +308,8 @@ def test_fleet_mixed_scenario_gives_every_machine_its_defects_and_labels():
             assert d["fault_frequency"] == {"outer": "bpfo", "inner": "bpfi", "ball": "bsf"}[kind]
 
 
-DET_SCENARIO = scenario_toml(
-    "det_test", duration_s=300.0, size_step=1.0, labels={"purpose": "determinism"},
+DET_SCENARIO = scenario_toml(                 # on the capped motor (scenario_files.capped_case): its models in time
+    "det_test", duration_s=300.0, size_step=1.0, labels={"purpose": "determinism"}, case="capped_healthy.toml",
     speed=([0.0, 300.0], [22.0, 28.0]),
     defects=[defect("de_outer", "de", "outer", angle_deg=-90.0, time_s=[100.0, 220.0], length_m=[0.5e-3, 2.0e-3],
                     depth_m=[10e-6, 40e-6])])
@@ -337,9 +337,10 @@ def test_scenario_by_ros_parameters_same_seed_same_stream_recorded_echoed_and_vi
     from bkabem_core.scenario.timeline import Scenario
 
     src = tmp_path / "det.toml"
+    capped_case(tmp_path)
     src.write_text(DET_SCENARIO)
     raw = _toml(DET_SCENARIO)
-    sc = Scenario.from_toml(DET_SCENARIO)
+    sc = Scenario.from_toml(DET_SCENARIO, str(src), tmp_path)
     assert [st.start_s for st in sc.states] == pytest.approx([0.0, 100.0, 140.0, 220.0])
     seeds = {"a": 7, "b": 7, "c": 8}
     ns = {k: unique_namespace(f"det{k}") for k in seeds}

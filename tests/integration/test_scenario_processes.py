@@ -125,7 +125,8 @@ def test_synth_cli_writes_the_ground_truth_of_every_chunk(tmp_path):
 
 @pytest.mark.parametrize("rate", ["100", "600"])
 def test_synth_cli_too_low_a_rate_for_the_scenario_names_rate(tmp_path, rate):
-    """The scenario's own speed puts its lines above the Nyquist frequency of ``--rate``: at the first chunk
+    """``--band-limit error`` (every line the case keeps, or a refusal; the default for a case that caps its lines):
+    the scenario's own speed puts its lines above the Nyquist frequency of ``--rate``: at the first chunk
     (100 Hz) or once the dent's lines appear mid-run (600 Hz: the healthy machine's highest line is ~250 Hz, the
     dented one's ~7 kHz). One line naming the option the user typed (not the library's ``speed_hz``), exit 2, no
     file left."""
@@ -133,7 +134,8 @@ def test_synth_cli_too_low_a_rate_for_the_scenario_names_rate(tmp_path, rate):
     src.write_text(GROWTH)
     out = tmp_path / "r.npz"
     r = subprocess.run([sys.executable, "-m", "bkabem_ros", "synth", "--scenario", str(src), "--time-scale", "2",
-                        "--rate", rate, "--out", str(out)], capture_output=True, text=True, timeout=300)
+                        "--rate", rate, "--band-limit", "error", "--out", str(out)], capture_output=True, text=True,
+                       timeout=300)
     assert r.returncode == 2, (r.returncode, r.stderr)
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr

@@ -116,14 +116,14 @@ def test_int16_frames_and_the_c_render_equal_the_numpy_render(healthy, monkeypat
     from bkabem_core.synth import kernel as synth_kernel
 
     s = Synthesizer(healthy, sample_rate_hz=FS, chunk_s=0.1, seed=5, features=False, broadband_floor=True)
-    fl = s._floor_source()
+    fl = s.floor
     assert fl.frames.dtype == np.int16 and fl.scale.dtype == np.float32
     assert np.abs(fl.frames).max(axis=(0, 1)).min() == 32767        # every channel uses the whole range
     n0, n = 3 * fl.half - 1000, 9000                                 # across grain borders
     c_out = fl.render(n0, n).copy()
     parts = np.concatenate([fl.render(n0, 4001).copy(), fl.render(n0 + 4001, n - 4001).copy()])
     np.testing.assert_array_equal(parts, c_out)
-    monkeypatch.setattr(synth_kernel, "_FNS", {k: v for k, v in synth_kernel._FNS.items() if k != "floor_render"})
+    monkeypatch.setattr(synth_kernel, "AVAILABLE", False)                # the numpy fallback
     ref = np.empty_like(c_out)
     synth_kernel.floor_render(n0, n, fl.half, fl.frames, fl.window, fl.grains(n0, n), ref, fl.scale)
     np.testing.assert_array_equal(c_out, ref)
@@ -135,7 +135,7 @@ def test_int16_frames_and_the_c_render_equal_the_numpy_render(healthy, monkeypat
 def _frames_by_the_definition(fl):
     """The floor's frames as the module docstring defines them, in float64 by the first implementation's
     operations: per frame the complex amplitudes of the four force pairs (the frame's normals, taken from the
-    sensor noise's generator here: ``synth_kernel.noise_fill`` of ``frame_keys``, 8 a line), through the transfer
+    sensor noise's generator here: the sample loop's normals of ``frame_keys``, 8 a line), through the transfer
     (einsum), the one-sided spectrum's complex inverse FFT (real part). Returns (N_FRAMES, L, C) float64."""
     from bkabem_core.synth import kernel as synth_kernel
     from bkabem_core.synth.floor import N_FRAMES, frame_keys
@@ -144,7 +144,10 @@ def _frames_by_the_definition(fl):
     t = fl.transfer.astype(np.complex128)
     frames = np.empty((N_FRAMES, n, t.shape[1]))
     for i in range(N_FRAMES):
-        z = synth_kernel.noise_fill(frame_keys(fl.seed)[i], 0, t.shape[0], 8).astype(np.float64)
+        z = np.empty((t.shape[0], 8), np.float32)                      # a zero table, sigma 1: the normals
+        synth_kernel.segment(0, 1 << 40, 0, None, np.zeros((67, 8), np.float32), None, 0.0, 0.0, z,
+                             noise=(frame_keys(fl.seed)[i], 0, np.ones(8, np.float32), None))
+        z = z.astype(np.float64)
         a = fl.density * np.sqrt(fs / n) * (z[:, :4] + 1j * z[:, 4:])
         spec = np.zeros((n, t.shape[1]), complex)
         spec[1:n // 2] = np.einsum("fci,fi->fc", t, a)
@@ -171,13 +174,13 @@ def test_a_new_seed_makes_only_the_frames_and_they_are_the_definitions(healthy):
     and float32 rounding, and the same bits whether the synthesiser is new or reused. Another rate is another
     transfer."""
     s = Synthesizer(healthy, sample_rate_hz=FS, chunk_s=0.1, seed=5, features=False, broadband_floor=True)
-    first = s._floor_source()
+    first = s.floor
     s.seed = 9
     s.reset()
-    again = s._floor_source()
+    again = s.floor
     assert again is not first and again.seed == 9 and again.path is first.path
     other = Synthesizer(healthy, sample_rate_hz=FS, chunk_s=0.1, seed=9, features=False, broadband_floor=True)
-    fresh = other._floor_source()
+    fresh = other.floor
     assert fresh.path is first.path                        # shared by the process's synthesisers of the model
     np.testing.assert_array_equal(again.frames, fresh.frames)
     np.testing.assert_array_equal(again.scale, fresh.scale)
@@ -186,7 +189,7 @@ def test_a_new_seed_makes_only_the_frames_and_they_are_the_definitions(healthy):
         _assert_frames_are_the_definitions(fl)
     slow = Synthesizer(healthy, sample_rate_hz=25600.0, chunk_s=0.1, seed=9, features=False, broadband_floor=True,
                        quantities=["acceleration"])
-    fl = slow._floor_source()
+    fl = slow.floor
     assert fl.path is not first.path and fl.frames.shape[2] == 4
     _assert_frames_are_the_definitions(fl)
 
@@ -197,7 +200,7 @@ def test_the_frames_periodogram_is_the_transfer(healthy):
     ordinates (~3 %; 6 sigma: 20 %)."""
     s = Synthesizer(healthy, sample_rate_hz=25600.0, chunk_s=0.1, seed=11, features=False, broadband_floor=True,
                     quantities=["acceleration"])
-    fl = s._floor_source()
+    fl = s.floor
     x = fl.frames * fl.scale.astype(np.float64)
     n, fs = fl.frame_length, fl.sample_rate_hz
     spec = np.fft.rfft(x, axis=1)[:, 1:n // 2]                          # (N_FRAMES, F, C)
@@ -220,7 +223,7 @@ def test_the_frames_kernels_equal_their_numpy_fallbacks(healthy, monkeypatch):
 
     s = Synthesizer(healthy, sample_rate_hz=25600.0, chunk_s=0.1, seed=3, features=False, broadband_floor=True,
                     quantities=["acceleration"])
-    by_input = s._floor_source().path.by_input[:, :700]
+    by_input = s.floor.path.by_input[:, :700]
     by_input = np.ascontiguousarray(by_input)
     c_out = np.empty(by_input.shape[1:], np.complex64)
     scalar = np.empty_like(c_out)
@@ -231,8 +234,7 @@ def test_the_frames_kernels_equal_their_numpy_fallbacks(healthy, monkeypatch):
     x[0, 7, 1] = 0.0
     x[:, :, 2] = 0.0                                                    # a channel without floor: scale 1
     q, scale = synth_kernel.floor_quantise(x)
-    monkeypatch.setattr(synth_kernel, "_FNS", {k: v for k, v in synth_kernel._FNS.items()
-                                                if k not in ("floor_spectrum", "floor_quantise")})
+    monkeypatch.setattr(synth_kernel, "AVAILABLE", False)                # the numpy fallbacks
     ref = np.empty_like(c_out)
     synth_kernel.floor_spectrum(12345, by_input, 0.25, ref)
     np.testing.assert_allclose(c_out, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
@@ -254,10 +256,10 @@ def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last(mon
     kw = dict(sample_rate_hz=20480.0, chunk_s=0.1, seed=3, features=False, broadband_floor=True,
               quantities=["acceleration"])                  # a rate no other test's transfer has
     healthy, inner = BkaBem(Case.load("motor_6010_healthy")), BkaBem(Case.load("motor_6010_inner"))
-    other, other2 = BkaBem(Case.load("electric_motor_6010")), BkaBem(Case.load("electric_motor_6010"))
+    machine = Case.load("electric_motor_6010").with_overrides({"baseline.broadband_force_n_per_sqrt_hz": 0.01})
+    other, other2 = BkaBem(machine), BkaBem(machine)
     key, okey = FloorTransfer.structure_key(healthy), FloorTransfer.structure_key(other)
     assert FloorTransfer.structure_key(inner) == key != okey == FloorTransfer.structure_key(other2)
-    s1, s2, s3, s4 = (Synthesizer(m, **kw) for m in (healthy, inner, other, other2))
     made = []
     real_init = FloorTransfer.__init__
 
@@ -265,16 +267,15 @@ def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last(mon
         made.append(1)
         real_init(self, *a, **k)
     monkeypatch.setattr(FloorTransfer, "__init__", counting)
-    s1._floor_source()
+    s1 = Synthesizer(healthy, **kw)                         # the plan makes its floor
     assert len(made) == 1
-    s2._floor_source()
+    s2 = Synthesizer(inner, **kw)
     assert len(made) == 1                                   # the inner-race model makes none
-    s3._floor_source()
-    s4._floor_source()
+    s3, s4 = Synthesizer(other, **kw), Synthesizer(other2, **kw)
     assert len(made) == 2                                   # the other structure one, for both its models
-    assert s1._floor.path is s2._floor.path is not s3._floor.path
-    assert s3._floor.path is s4._floor.path
-    assert s1._floor.path in FloorTransfer._shared[key].values()
+    assert s1.floor.path is s2.floor.path is not s3.floor.path
+    assert s3.floor.path is s4.floor.path
+    assert s1.floor.path in FloorTransfer._shared[key].values()
     del s3, other
     gc.collect()
     assert okey in FloorTransfer._shared                    # its second model still uses it

@@ -254,7 +254,7 @@ def test_speed_cells_need_their_near_poles(model):
     f_res = form.poles.imag / form._w_per_hz[:, None]          # resonance speed of each pole and order [Hz]
     worst, checked = 0.0, 0
     for i in range(2, int(model.case.max_speed_hz / cells.cell_hz)):
-        arrays, header, near, _ = cells.cell(i)
+        arrays, _, near = cells.cell(i)
         for k, r in zip(*np.nonzero(near)):
             f = float(f_res[k, r])
             if not i * cells.cell_hz <= f < (i + 1) * cells.cell_hz:

@@ -426,3 +426,14 @@ def test_every_input_file_kind_finds_an_embedded_name_or_a_path_the_same_way(tmp
     finally:
         os.chdir(cwd)
     assert sc.name == "test_growth" and sc.source == "growth"
+
+
+def test_scenario_ground_truth_has_the_fault_multipliers():
+    """A scenario's ground truth states the bearing's fault multipliers, as a constant-speed synth's does."""
+    from bkabem_core.bearing.deep_groove import Bearing
+    from bkabem_core.scenario.timeline import Scenario
+
+    s = Scenario.load("de_outer_run_to_failure")
+    fm = Bearing(s.case.bearing_geometry()).fault_multipliers().to_dict()
+    for state in (s.states[0], s.states[-1]):
+        assert s.ground_truth(state, state.start_s, 24.6)["fault_multipliers"] == fm

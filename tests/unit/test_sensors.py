@@ -45,6 +45,6 @@ def test_chain_applies_to_the_lines_of_the_right_channels():
         want = a["amplitude"][:, i] * aa.gain(f) * (acc.gain(f) if name.endswith("acceleration") else 1.0)
         assert np.allclose(b["amplitude"][:, i], want, rtol=1e-12, atol=1e-15 * np.abs(want).max())
     assert chain.info()["case_hash"] == plain.info()["case_hash"]
-    assert chain._gt_base["accelerometer"]["mounting"] == "magnet"
+    assert chain.ground_truth()["accelerometer"]["mounting"] == "magnet"
     with pytest.raises(SynthError, match="accelerometer"):
         Synthesizer(model, 51200.0, accelerometer="stud")

@@ -14,14 +14,13 @@ import pytest
 
 from bkabem_core.model.vocabulary import DIRECTIONS
 from bkabem_core.solve.harmonic import TWO_PI
+from bkabem_core.synth.channels import _combination, make_channels
+from bkabem_core.synth.plan import LineSpectrum, choose_method
+from bkabem_core.synth.randomness import SlipWalk
 from bkabem_core.synth.synthesizer import (
-    ModalSpectrum,
     SpeedProfile,
     SynthError,
     Synthesizer,
-    _combination,
-    _SlipWalk,
-    make_channels,
     parse_profile,
     waveform_features,
 )
@@ -87,7 +86,7 @@ def test_modal_spectrum_error_bound(model):
     No speed grid: random speeds, the 50.607 Hz that the old speed-grid form got worst, and the lowest speeds."""
     chans = make_channels()
     comb, *_ = _combination(chans)
-    modal = ModalSpectrum(model, comb)
+    modal = LineSpectrum(model, comb, "modal")
     speeds = np.concatenate([[0.05, 0.1, 0.5, 50.607], np.random.default_rng(11).uniform(1.0, 75.0, 20)])
     exact = model.response(speeds).reshape(speeds.size, model.orders.size, -1) @ comb.T
     worst = 0.0
@@ -98,8 +97,8 @@ def test_modal_spectrum_error_bound(model):
             b = exact[i] * scale[:, None]
             worst = max(worst, float(np.max(np.abs(a - b).max(0) / np.abs(b).max(0))))
     assert worst < 1e-5, worst
-    assert modal.check(33.3) < 1e-6                       # float32 residues in the C kernel: ~1e-7
-    assert model.order_modal_form(comb) is modal.form      # made once per model and combination
+    assert modal._check(modal.cells, 33.3) < 1e-6          # float32 residues in the C kernel: ~1e-7
+    assert model.order_modal_form(comb).speed_cells() is modal.cells    # made once per model and combination
 
 
 def test_order_modal_form_matches_the_direct_solver(model):
@@ -140,33 +139,27 @@ def test_chunk_size_invariance_with_slip_and_noise(model):
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_c_loop_and_numpy_reference_give_the_same_run(model, dtype):
-    """The synthesiser runs on the C sample loop; through a whole streamed run with speed changes, slip and noise:
-    its generic path (exact=True) and the numpy reference (the fallback without a compiler) give the same samples
-    bit for bit; the AVX2+FMA path (8 float32 channels) agrees within float32 rounding (a few units of 2^-24 of
-    the channel's largest value); the whole fallback (numpy knot table too) likewise; features within the float
-    block sums' round-off."""
-    import functools
-
+    """Through a whole streamed run with speed changes, slip and noise: the per-family C sample loop and its numpy
+    reference (the fallback without a compiler) give the same samples bit for bit; the fused line-set kernels
+    (float32; for float64 the loop itself) agree within float32 rounding (a few units of 2^-24 of the channel's
+    largest value); features within the float block sums' round-off."""
     from bkabem_core.synth import kernel as synth_kernel
 
-    assert synth_kernel.AVAILABLE
+    assert synth_kernel.AVAILABLE and synth_kernel.LINES_AVAILABLE
     kw = dict(sample_rate_hz=25600, chunk_s=0.05, slip=0.01, seed=4, dtype=dtype,
               noise_density={"acceleration": 1e-3, "displacement": 1e-9}, spectrum="exact")
-    fast, exact, slow, fallback = (Synthesizer(model, **kw) for _ in range(4))
-    assert fast._segment_fn is synth_kernel.segment
-    exact._segment_fn = functools.partial(synth_kernel.segment, exact=True)
-    slow._segment_fn, slow._accumulate = synth_kernel.segment_reference, synth_kernel.accumulate_reference
-    fallback._segment_fn, fallback._accumulate = synth_kernel.segment_reference, synth_kernel.accumulate_reference
-    fallback._knot_table = synth_kernel.knot_table_reference
+    fused, loop, ref = (Synthesizer(model, kernel=k, **kw) for k in ("auto", "loop", "reference"))
+    from bkabem_core.synth.render import FusedLines, LoopLines
+    assert isinstance(fused._plan.lines_kernel, FusedLines if dtype == np.float32 else LoopLines)
     for f in (12.0, 12.0, 13.7, 15.1, 14.2, 14.2):
-        a, e, b, c = fast.next_chunk(f), exact.next_chunk(f), slow.next_chunk(f), fallback.next_chunk(f)
-        np.testing.assert_array_equal(e.samples, b.samples)
-        top = np.abs(b.samples).max(axis=1, keepdims=True)
-        tol = 64 * np.finfo(np.float32).eps if dtype == np.float32 else 1e-12   # rounding of the FMA path
-        assert np.all(np.abs(a.samples - b.samples) <= tol * top)
-        assert np.all(np.abs(c.samples - b.samples) <= tol * top)
+        a, b, c = fused.next_chunk(f), loop.next_chunk(f), ref.next_chunk(f)
+        np.testing.assert_array_equal(b.samples, c.samples)
+        top = np.abs(c.samples).max(axis=1, keepdims=True)
+        tol = 64 * np.finfo(np.float32).eps if dtype == np.float32 else 1e-12
+        assert np.all(np.abs(a.samples - c.samples) <= tol * top)
         for name in ("rms", "peak", "peak_to_peak", "kurtosis"):
-            np.testing.assert_allclose(a.features[name], b.features[name], rtol=1e-4)
+            np.testing.assert_allclose(a.features[name], c.features[name], rtol=1e-4)
+            np.testing.assert_allclose(b.features[name], c.features[name], rtol=1e-9)
 
 
 def test_seed_determinism(model):
@@ -198,7 +191,7 @@ def test_snr_noise_level(model):
 
 
 def test_slip_model_statistics():
-    walk = _SlipWalk(0.02, seed=5)
+    walk = SlipWalk(0.02, seed=5)
     w = walk.values(0, 40000)
     inter = 1 - np.diff(w)                                   # inter-arrival in nominal ball passes
     assert abs(inter.mean() - 1) < 1e-3
@@ -210,7 +203,7 @@ def test_slip_model_statistics():
     assert dv.min() > 0.8 and dv.max() < 1.2
     assert np.abs(np.diff(dv)).max() < 1e-3                  # no slope jumps at the integer knots
     # blocks are independent of how they are requested
-    w2 = _SlipWalk(0.02, seed=5)
+    w2 = SlipWalk(0.02, seed=5)
     np.testing.assert_array_equal(w2.values(30000, 30010), w[30000:30011])
 
 
@@ -313,7 +306,7 @@ def test_taper_mode_drops_orders_near_nyquist_without_aliasing(model):
     bpfo, fs = 157, 12800                                   # orders 41..50 are above Nyquist
     f = bpfo / model.bpfo_per_hz
     with pytest.raises(SynthError, match="sample_rate_hz"):
-        Synthesizer(model, sample_rate_hz=fs).render(f"constant:{f!r}", 1.0)
+        Synthesizer(model, sample_rate_hz=fs, band_limit="error").render(f"constant:{f!r}", 1.0)
     s = Synthesizer(model, sample_rate_hz=fs, band_limit="taper", spectrum="exact")
     x = render(s, f"constant:{f!r}", 1.0).astype(float)
     spec = np.fft.rfft(x, axis=1) / x.shape[1]
@@ -394,7 +387,7 @@ def test_memory_bounded_by_chunk(model):
             pass
         p = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
-        return p, len(s._knots)
+        return p, len(s._stream.knots)
     p1, k1 = peak(2.0)
     p2, k2 = peak(20.0)
     assert p2 < 1.3 * p1 + 2e6, (p1, p2)
@@ -424,10 +417,10 @@ def test_spectrum_auto_choice(model):
     s = Synthesizer(fresh, sample_rate_hz=25600)
     list(s.render("constant:25", 0.1))
     assert s.spectrum_method == "exact"                     # one knot: the modal set-up does not pay off
-    s._choose_spectrum(SpeedProfile.ramp(0, 50, 10), 10.0)
-    assert not s._use_modal
-    s._choose_spectrum(SpeedProfile.from_points([0, 3600], [24.0, 26.0]), 3600.0)
-    assert s._use_modal                                     # an hour: 36 000 knots, modal is cheaper
+    comb = s._plan.channels.combination
+    assert choose_method(fresh, comb, SpeedProfile.ramp(0, 50, 10), 10.0, s.knot_s, s.max_speed_step_hz) == "exact"
+    hour = SpeedProfile.from_points([0, 3600], [24.0, 26.0])
+    assert choose_method(fresh, comb, hour, 3600.0, s.knot_s, s.max_speed_step_hz) == "modal"   # 36 000 knots
     s2 = Synthesizer(fresh, sample_rate_hz=25600)
     s2.next_chunk(25.0)
     assert s2.spectrum_method == "modal"                    # streaming: modal (made once for the model) ...
@@ -488,11 +481,11 @@ def test_bad_arguments(model):
         with pytest.raises(SynthError) as ei:
             Synthesizer(model, **kw)
         assert ei.value.argument == arg, kw
-    s = Synthesizer(model, sample_rate_hz=25600)
+    s = Synthesizer(model, sample_rate_hz=25600, band_limit="error")
     for secs in (-1.0, 0.0, float("nan"), 1e-9):
         with pytest.raises(SynthError, match="^seconds:"):
             s.render("constant:10", secs)
-    with pytest.raises(SynthError, match="^sample_rate_hz: .*twice the highest kept order"):
+    with pytest.raises(SynthError, match="^sample_rate_hz: .*twice the highest kept line"):
         s.render("ramp:0:50:10", 10.0)                      # order 50 reaches 15.1 kHz > 12.8 kHz
     # a lower max_order fits the same rate
     list(Synthesizer(model, sample_rate_hz=25600, max_order=40).render("constant:50", 0.05))
@@ -514,14 +507,14 @@ def test_synthesisers_of_one_model_share_the_exact_response_and_give_the_same_sa
     exact-response cache, so a speed step that several of them follow is solved once per process; sharing changes
     no sample: a run served from a cache that other synthesisers filled (and used) equals, bit for bit, the same
     run with a cache of its own."""
-    from bkabem_core.synth.linesets import ExactSpectrum
+    from bkabem_core.synth.plan import ExactSpectrum
 
     kw = dict(sample_rate_hz=25600, chunk_s=0.1, seed=5, spectrum="exact", band_limit="taper", features=False)
     ExactSpectrum._shared.pop(id(model), None)
     alone = render(Synthesizer(model, **kw), "ramp:5:30:1", 1.0)
     ExactSpectrum._shared.pop(id(model), None)              # a fresh shared cache from here on
     a, b = Synthesizer(model, **kw), Synthesizer(model, **kw)
-    assert a._exact._cache is b._exact._cache
+    assert a._plan.spectrum.exact._cache is b._plan.spectrum.exact._cache
     calls = []
     orig = model.response
 

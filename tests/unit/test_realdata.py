@@ -1,0 +1,195 @@
+"""The bench's real-data helpers (bench/realdata): textbook diagnostics on measured CWRU excerpts, the twin adapter.
+
+The excerpts (tests/fixtures/cwru/, CWRU Bearing Data Center, https://engineering.case.edu/bearingdatacenter) are
+1 s of the drive-end channel of a healthy, an outer-race, an inner-race and a ball record; the full comparisons
+take the data folder as an argument (bench/validate_real.py, bench/sim2real.py) and are not part of the suite.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "bench"))
+
+from realdata.diagnostics import (  # noqa: E402
+    KIND_LINE,
+    amplitude_spectrum,
+    decimate,
+    diagnose,
+    envelope_analysis,
+    moments,
+    squared_envelope,
+)
+from realdata.kurtogram import fast_kurtogram, pick_band  # noqa: E402
+from realdata.records import EFFECTIVE_6205, parse_name  # noqa: E402
+
+FIXTURE = ROOT / "tests" / "fixtures" / "cwru" / "excerpts.npz"
+
+
+@pytest.fixture(scope="module")
+def excerpts():
+    with np.load(FIXTURE) as d:
+        prov = json.loads(str(d["provenance"]))
+        return {k: (d[k].astype(np.float64), prov["records"][k]) for k in prov["records"]}
+
+
+def diagnosed(excerpts, name):
+    x, meta = excerpts[name]
+    x12 = decimate(x, meta["sample_rate_hz"])
+    return diagnose(x12, 12000.0, meta["speed_hz"], EFFECTIVE_6205), meta
+
+
+def test_fixture_is_small_float32_and_cited():
+    assert FIXTURE.stat().st_size < 400e3
+    with np.load(FIXTURE) as d:
+        prov = json.loads(str(d["provenance"]))
+        assert "bearingdatacenter" in prov["source"]
+        assert prov["converter"]["commit"] and prov["converter"]["repository"]
+        for k, meta in prov["records"].items():
+            assert d[k].dtype == np.float32 and d[k].size == meta["n_samples"]
+            assert meta["source_file"] and meta["unit"] == "g"
+    assert "bearingdatacenter" in (FIXTURE.parent / "README.md").read_text()
+
+
+def test_outer_race_excerpt_reads_outer_with_bpfo_standing_out(excerpts):
+    d, meta = diagnosed(excerpts, "1797_ORat6_7_DE12")
+    ses = d["ses"]["fixed"]
+    assert ses["verdict"] == "outer"
+    assert ses["levels"]["BPFO"] > 20.0
+    assert ses["levels"]["BPFO"] - max(ses["levels"]["BPFI"], ses["levels"]["2BSF"]) > 10.0
+    # the line sits at the rig's effective BPFO (3.598x), within the +-0.5 % window
+    assert abs(ses["frequencies"]["BPFO"] / (3.598 * meta["speed_hz"]) - 1.0) < 0.005
+
+
+def test_inner_race_excerpt_reads_inner(excerpts):
+    d, _ = diagnosed(excerpts, "1797_IR_7_DE12")
+    assert d["ses"]["fixed"]["verdict"] == "inner"
+    assert d["ses"]["fixed"]["levels"]["BPFI"] > 20.0
+
+
+def test_healthy_excerpt_has_no_fault_line_above_the_threshold(excerpts):
+    d, meta = diagnosed(excerpts, "1797_Normal")
+    assert meta["sample_rate_hz"] == 48000.0
+    levels = d["ses"]["fixed"]["levels"]
+    assert max(levels[KIND_LINE[k]] for k in ("outer", "inner", "ball")) < 10.0
+    assert d["ses"]["fixed"]["verdict"] == "healthy"
+    assert 0.05 < d["rms"] < 0.1 and 2.5 < d["kurtosis"] < 3.2      # CWRU's healthy baseline: ~0.07 g, Gaussian
+
+
+def test_ball_excerpt_is_impulsive_without_a_line_standing_out(excerpts):
+    """The known hard case: the 0.014 in ball record is impulsive (kurtosis ~10) while no fault line of the
+    2-4 kHz envelope reaches the threshold in a 1-s excerpt."""
+    d, _ = diagnosed(excerpts, "1797_B_14_DE12")
+    assert d["kurtosis"] > 6.0
+    assert max(d["ses"]["fixed"]["levels"][k] for k in ("BPFO", "BPFI", "2BSF")) < 10.0
+
+
+def test_moments_of_textbook_signals():
+    rng = np.random.default_rng(1)
+    g = moments(rng.standard_normal(200_000))
+    assert abs(g["kurtosis"] - 3.0) < 0.05 and abs(g["rms"] - 1.0) < 0.01
+    t = np.arange(120_000) / 12000.0
+    s = moments(2.0 * np.sin(2 * np.pi * 50.0 * t))
+    assert abs(s["kurtosis"] - 1.5) < 1e-3 and abs(s["crest"] - np.sqrt(2)) < 1e-3 and abs(s["rms"] - np.sqrt(2)) < 1e-3
+
+
+def test_ses_finds_a_synthetic_impact_train_and_its_level():
+    """Decaying 3 kHz bursts at 107.7 Hz (an outer-race signature at 29.93 Hz) in white noise: the SES line at
+    BPFO stands out, the verdict is outer; a component B cos of the squared envelope reads B."""
+    fs, fr = 12000.0, 29.93
+    bpfo = EFFECTIVE_6205["bpfo"] * fr
+    t = np.arange(int(10 * fs)) / fs
+    phase = (t * bpfo) % 1.0 / bpfo
+    noise = 0.2 * np.random.default_rng(2).standard_normal(t.size)
+    x = np.exp(-phase / 1.5e-3) * np.sin(2 * np.pi * 3000.0 * t) + noise
+    r = envelope_analysis(x, fs, (2000.0, 4000.0), fr, EFFECTIVE_6205)
+    assert r["verdict"] == "outer" and r["levels"]["BPFO"] > 30.0 and r["levels"]["BPFI"] < 10.0
+    am = np.sin(2 * np.pi * 3000.0 * t) * np.sqrt(1.0 + 0.5 * np.cos(2 * np.pi * 100.0 * t))
+    e = squared_envelope(am, fs, 2000.0, 4000.0)
+    assert abs(np.mean(e) - 1.0) < 0.01                       # squared envelope of sin: 1 + 0.5 cos
+    e = e[: e.size - e.size % 120]                          # whole periods of 100 Hz: the line on a bin
+    f, spec = amplitude_spectrum(e, fs)
+    assert abs(spec[np.argmin(np.abs(f - 100.0))] - 0.5) < 0.005
+
+
+def test_kurtogram_puts_a_tone_in_the_band_of_largest_energy_and_picks_the_impulsive_band():
+    fs = 12000.0
+    t = np.arange(48_000) / fs
+    for f0 in (700.0, 2100.0, 3300.0, 4700.0):
+        nodes = fast_kurtogram(np.sin(2 * np.pi * f0 * t), fs, 4)
+        for level in sorted({n.level for n in nodes if n.level > 0}):
+            best = max((n for n in nodes if n.level == level), key=lambda n: n.power)
+            assert best.f_lo - 1.0 <= f0 <= best.f_hi + 1.0, (f0, level, best)
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal(t.size)
+    period = int(fs / 100.0)
+    ring = np.exp(-np.arange(120) / 20.0) * np.sin(2 * np.pi * 3500.0 * np.arange(120) / fs)
+    for i in range(0, t.size - 120, period):
+        x[i:i + 120] += 8.0 * ring
+    band = pick_band(fast_kurtogram(x, fs, 3), fs)
+    assert band.f_lo <= 3500.0 <= band.f_hi and band.kurtosis > 1.0
+
+
+def test_cwru_file_names():
+    assert parse_name("1797_IR_7_DE12") == {"rpm_nominal": 1797, "load_hp": 0, "kind": "inner", "size_mils": 7,
+                                            "position_oclock": None, "fault_bearing": "de", "sample_rate_hz": 12000.0}
+    o = parse_name("1772_OR@6_14_DE12")
+    assert o["kind"] == "outer" and o["position_oclock"] == 6 and o["load_hp"] == 1
+    assert parse_name("1730_ORat12_21_FE12")["fault_bearing"] == "fe"
+    assert parse_name("1797_Normal")["sample_rate_hz"] == 48000.0 and parse_name("1797_Normal")["kind"] == "healthy"
+    for bad in ("README", "1797_IR_DE12", "1800_IR_7_DE12", "1797_ORat5_7_DE12", "1797_XX_7_DE12"):
+        assert parse_name(bad) is None, bad
+
+
+def test_twin_adapter_rate_length_and_unit():
+    """The fault-library twin of an outer-race record: DE and FE in g at the asked rate and length, its BPFO in
+    the envelope where the twin's bearing puts it."""
+    from realdata.twin import Condition, synthesize
+
+    for fs, seconds in ((12000.0, 1.0), (48000.0, 0.25)):
+        sig = synthesize(Condition("outer", 7, 0, 6), "motor_6010", 1, 29.93, fs, seconds)
+        for ch in ("DE", "FE"):
+            x = sig[ch]
+            assert x.dtype == np.float64 and x.shape == (int(round(fs * seconds)),) and np.all(np.isfinite(x))
+            assert 0.3 < np.std(x) < 3.0                         # g (the library's outer race: 0.7-1.8 g), not m/s^2
+    sig = synthesize(Condition("outer", 7, 0, 6), "motor_6010", 1, 29.93, 12000.0, 2.0)
+    r = envelope_analysis(sig["DE"], 12000.0, (2000.0, 4000.0), 29.93, sig["mult"])
+    assert r["verdict"] == "outer"
+    assert abs(r["frequencies"]["BPFO"] / (sig["mult"]["bpfo"] * 29.93) - 1.0) < 0.005
+    assert abs(sig["mult"]["bpfo"] - 6.0598) < 1e-3                # the 6010's BPFO multiplier
+    other = synthesize(Condition("outer", 7, 0, 6), "motor_6010", 2, 29.93, 12000.0, 2.0)
+    assert not np.allclose(other["DE"], sig["DE"])                  # another seed, another record
+
+
+def test_case_toml_writes_every_embedded_case_back():
+    from realdata.twin import case_toml
+
+    from bkabem_core.model.case import Case, embedded_cases
+
+    for name in embedded_cases():
+        c = Case.load(name)
+        assert Case.from_toml(case_toml(c.raw)).raw == c.raw, name
+
+
+def test_sim2real_grid_specs_cover_the_runs_exactly():
+    from sim2real import factorise
+
+    pts = [({"fault": "outer", "speed_hz": s, "slip": sl, "angle_deg": a}, 2)
+           for s in (29.95, 29.53) for sl in (0.01, 0.02) for a in (-90.0, 0.0)]
+    pts += [({"fault": "healthy", "speed_hz": s, "slip": 0.01}, 4) for s in (29.95, 29.53)]
+    pts += [({"fault": "inner", "speed_hz": 29.95, "slip": 0.01}, 1), ({"fault": "inner", "speed_hz": 29.53,
+                                                                         "slip": 0.02}, 1)]
+    specs = factorise(pts)
+    runs = []
+    for fixed, grid, reps in specs:
+        for combo in itertools.product(*grid.values()):
+            runs += [json.dumps(dict(fixed, **dict(zip(grid, combo))), sort_keys=True)] * reps
+    assert sorted(runs) == sorted(json.dumps(p, sort_keys=True) for p, r in pts for _ in range(r))
+    assert len(specs) == 4                                           # outer, healthy, and the inner pair split
