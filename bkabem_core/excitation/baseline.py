@@ -23,6 +23,17 @@ pattern on the FE model with its own line (:mod:`bkabem_core.excitation.lines`),
     with the light static loads of small machines it swings the load zone once per turn and modulates every
     ball's contact, so the bearing's lines gain sidebands at the shaft frequency and a healthy bearing gains its
     ball passage relative to the turning load, at BPFI (McFadden & Smith 1984; Randall & Antoni 2011, section 2).
+``looseness_force_n``, ``looseness_orders`` (optional, 0 = off)
+    A loose fit (a bearing in its housing, an end shield on the frame, the machine on its base) knocks once per
+    turn: a short impulse every revolution, whose force has the shaft harmonics 1 .. ``looseness_orders`` at about
+    equal amplitude (a pulse short against the period has a flat spectrum up to the inverse of its length). Modelled
+    as that comb of vertical forces at ``misalignment_node`` (the coupling end of the shaft), each of ``looseness_force_n``; the
+    amount of looseness is an assembly's, changing from one assembly to the next (Smith & Randall 2015 trace the
+    spread of the CWRU records to it; ISO 18436-2 training material: looseness gives many 1x harmonics).
+``electrical_harmonics``, ``electrical_harmonic_forces_n`` (optional)
+    Further magnetic force lines of an induction motor at whole multiples of the supply frequency (e.g. 6 x:
+    the saturation and winding harmonics of a three-phase machine), each a vertical force of the given amplitude on
+    the rotor core, as the 2 x line one below.
 ``electrical_force_n``, ``line_frequency_hz``
     An induction motor's unbalanced magnetic pull pulsates at twice the supply frequency (100 Hz at 50 Hz),
     independent of the speed (Finley, Hodowanec & Holter, "An analytical approach to solving motor vibration
@@ -43,8 +54,9 @@ from bkabem_core.excitation.lines import LineSet
 
 TWO_PI = 2.0 * math.pi
 #: Force patterns of the baseline, in the order BkaBem appends them to its input patterns.
-PATTERNS = ("unbalance.x", "unbalance.y", "misalignment.x", "misalignment.y", "coupling.x", "coupling.y",
-            "electrical.y")
+#: The misalignment (2x), the coupling's running-speed force (1x) and the looseness (1x, 2x, ...) all act at the
+#: coupling end of the shaft (``misalignment_node``): one pattern pair, "coupling.x" and "coupling.y".
+PATTERNS = ("unbalance.x", "unbalance.y", "coupling.x", "coupling.y", "electrical.y")
 
 
 def unbalance_eccentricity_m(case) -> float:
@@ -76,6 +88,13 @@ def baseline_forces(case, rotor, rates_per_hz) -> tuple[LineSet, dict]:
     idx = rotor.dof_index
     patterns: dict = {}
     rows: list = []                   # (coefficients, {pattern: amplitude}, speed power)
+
+    def coupling_end():
+        for axis in ("x", "y"):
+            v = np.zeros(rotor.ndof)
+            v[idx(int(b["misalignment_node"]), axis)] = 1.0
+            patterns[f"coupling.{axis}"] = v
+
     e = unbalance_eccentricity_m(case)
     if e > 0.0 and disks:
         for axis in ("x", "y"):
@@ -87,34 +106,42 @@ def baseline_forces(case, rotor, rates_per_hz) -> tuple[LineSet, dict]:
         rows.append(((1, 0, 0, 0), {"unbalance.x": a, "unbalance.y": -1j * a}, 2))
     f_mis = float(b["misalignment_force_n"])
     if f_mis > 0.0:
-        for axis in ("x", "y"):
-            v = np.zeros(rotor.ndof)
-            v[idx(int(b["misalignment_node"]), axis)] = 1.0
-            patterns[f"misalignment.{axis}"] = v
-        rows.append(((2, 0, 0, 0), {"misalignment.x": f_mis, "misalignment.y": -1j * f_mis}, 0))
+        coupling_end()
+        rows.append(((2, 0, 0, 0), {"coupling.x": f_mis, "coupling.y": -1j * f_mis}, 0))
     f_cp = float(b.get("coupling_force_n", 0.0))
     if f_cp > 0.0:
-        for axis in ("x", "y"):
-            v = np.zeros(rotor.ndof)
-            v[idx(int(b["misalignment_node"]), axis)] = 1.0
-            patterns[f"coupling.{axis}"] = v
+        coupling_end()
         a = f_cp * np.exp(1j * math.radians(b.get("coupling_phase_deg", 0.0)))
         rows.append(((1, 0, 0, 0), {"coupling.x": a, "coupling.y": -1j * a}, 0))
+    f_loose = float(b.get("looseness_force_n", 0.0))
+    if f_loose > 0.0:
+        coupling_end()
+        for k in range(1, int(b.get("looseness_orders", 1)) + 1):
+            rows.append(((k, 0, 0, 0), {"coupling.y": f_loose}, 0))
     f_el = float(b["electrical_force_n"])
-    if f_el > 0.0 and disks:
+    electrical = [(2, f_el)] + [(int(h), float(f)) for h, f in zip(b.get("electrical_harmonics", []),
+                                                                    b.get("electrical_harmonic_forces_n", []))]
+    electrical = [(h, f) for h, f in electrical if f > 0.0]
+    if electrical and disks:
         core = [d for d in disks if str(d["name"]).startswith("core")] or list(disks)
         total = sum(float(d["mass_kg"]) for d in core)
         v = np.zeros(rotor.ndof)
         for d in core:
             v[idx(int(d["node"]), "y")] += float(d["mass_kg"]) / total
         patterns["electrical.y"] = v
-        rows.append(((0, 0, 0, 2), {"electrical.y": f_el}, 0))
+        for h, f in electrical:
+            rows.append(((0, 0, 0, h), {"electrical.y": f}, 0))
     names = tuple(n for n in PATTERNS if n in patterns)
-    coef = np.array([r[0] for r in rows], dtype=np.int64).reshape(-1, 4)
-    amp = np.zeros((len(rows), len(names)), complex)
-    for i, (_, vals, _) in enumerate(rows):
+    merged: dict = {}                 # one line per (coefficients, speed power): several patterns may share it
+    for c, vals, p in rows:
+        entry = merged.setdefault((tuple(c), p), {})
+        for n, v in vals.items():
+            entry[n] = entry.get(n, 0.0) + v
+    coef = np.array([k[0] for k in merged], dtype=np.int64).reshape(-1, 4)
+    amp = np.zeros((len(merged), len(names)), complex)
+    for i, vals in enumerate(merged.values()):
         for n, v in vals.items():
             amp[i, names.index(n)] = v
-    power = np.array([r[2] for r in rows], dtype=np.int64)
+    power = np.array([k[1] for k in merged], dtype=np.int64)
     lines = LineSet(coef, amp, names, rates_per_hz, float(b["line_frequency_hz"]), power)
     return lines, patterns

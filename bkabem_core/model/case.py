@@ -147,6 +147,10 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "broadband_force_n_per_sqrt_hz": ("float", _NONNEG),
         "coupling_force_n": ("float", _NONNEG),
         "coupling_phase_deg": ("float", ("range", -360.0, 360.0)),
+        "electrical_harmonics": ("float[]", ("range", 1.0, 1000.0)),
+        "electrical_harmonic_forces_n": ("float[]", _NONNEG),
+        "looseness_force_n": ("float", _NONNEG),
+        "looseness_orders": ("int", ("range", 1, 200)),
     },
     "excitation": {
         "method": ("str", ("in", {"quasi_static", "four_dof"})),
@@ -216,7 +220,9 @@ SCHEMA: dict[str, dict[str, tuple]] = {
 }
 TOP_LEVEL = ("case", "bearing", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating")
 #: keys a section may leave out (their default: 0 = off), so that cases written before them stay valid
-_OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz", "coupling_force_n", "coupling_phase_deg")}
+_OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz", "coupling_force_n", "coupling_phase_deg",
+                          "electrical_harmonics", "electrical_harmonic_forces_n", "looseness_force_n",
+                          "looseness_orders")}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
 _KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
 #: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)
@@ -451,6 +457,15 @@ def _check_cross(raw: dict, source: str) -> None:
         moving = " and ".join(k.adjective for k in moving_kinds())
         raise CaseError("excitation.method", f"'four_dof' models {periodic} dents only; {moving} defects need "
                         f"'quasi_static'", source)
+    bl = raw["baseline"]
+    harmonics, forces = bl.get("electrical_harmonics", []), bl.get("electrical_harmonic_forces_n", [])
+    if len(harmonics) != len(forces):
+        raise CaseError("baseline.electrical_harmonic_forces_n", f"must have one force per electrical harmonic "
+                        f"({len(harmonics)} harmonics, {len(forces)} forces)", source)
+    for h in harmonics:
+        if h != int(h):
+            raise CaseError("baseline.electrical_harmonics", f"must be whole multiples of the line frequency "
+                            f"(got {h:g})", source)
     if raw["baseline"]["misalignment_node"] not in shaft_nodes:
         raise CaseError("baseline.misalignment_node", f"must be a shaft node 1..{n_nodes} "
                         f"(got {raw['baseline']['misalignment_node']})", source)

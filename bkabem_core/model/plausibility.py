@@ -80,6 +80,8 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
                                                    "electric motors G 2.5-6.3)"),
     "baseline.misalignment_force_n": (0.0, 1e6, "misalignment forces are 0 .. 1 MN"),
     "baseline.coupling_force_n": (0.0, 1e6, "coupling forces are 0 .. 1 MN"),
+    "baseline.electrical_harmonic_forces_n": (0.0, 1e6, "magnetic forces are 0 .. 1 MN"),
+    "baseline.looseness_force_n": (0.0, 1e5, "the knock of a loose fit is 0 .. 100 kN per harmonic"),
     "baseline.electrical_force_n": (0.0, 1e6, "magnetic pull forces are 0 .. 1 MN"),
     "baseline.broadband_force_n_per_sqrt_hz": (0.0, 100.0, "broadband bearing forces are 0 .. 100 N/sqrt(Hz) "
                                                           "(roughness of a new bearing: ~0.01-0.05; docs/faults.md)"),
