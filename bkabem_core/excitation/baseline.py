@@ -19,21 +19,30 @@ pattern on the FE model with its own line (:mod:`bkabem_core.excitation.lines`),
     The running-speed force of the coupling to the driven machine: the radial force a flexible coupling exerts
     when its halves run out or sit offset (the coupling's radial stiffness times the eccentricity it takes up),
     rotating with the shaft at ``misalignment_node``; speed-independent. Besides its 1x line through the FE, it
-    is a load that turns with the shaft in each bearing (:meth:`bkabem_core.fe.machine.Machine.rotating_loads_n`):
-    with the light static loads of small machines it swings the load zone once per turn and modulates every
-    ball's contact, so the bearing's lines gain sidebands at the shaft frequency and a healthy bearing gains its
-    ball passage relative to the turning load, at BPFI (McFadden & Smith 1984; Randall & Antoni 2011, section 2).
-``looseness_force_n``, ``looseness_orders`` (optional, 0 = off)
-    A loose fit (a bearing in its housing, an end shield on the frame, the machine on its base) knocks once per
-    turn: a short impulse every revolution, whose force has the shaft harmonics 1 .. ``looseness_orders`` at about
-    equal amplitude (a pulse short against the period has a flat spectrum up to the inverse of its length). Modelled
-    as that comb of vertical forces at ``misalignment_node`` (the coupling end of the shaft), each of ``looseness_force_n``; the
-    amount of looseness is an assembly's, changing from one assembly to the next (Smith & Randall 2015 trace the
-    spread of the CWRU records to it; ISO 18436-2 training material: looseness gives many 1x harmonics).
+    is a load that turns with the shaft in each bearing (:meth:`bkabem_core.fe.machine.Machine._turning_loads`:
+    each bearing's share from the statics of the two-bearing rotor): with the light static loads of small machines
+    it swings the load zone once per turn and modulates every ball's contact, so the bearing's lines gain
+    sidebands at the shaft frequency and a healthy bearing gains its ball passage relative to the turning load, at
+    BPFI (McFadden & Smith 1984; Randall & Antoni 2011, section 2).
+``looseness_force_n``, ``looseness_orders`` (optional, 0 = off; the orders are needed when the force is not 0)
+    A loose fit (a bearing in its housing, an end shield on the frame, the machine on its base) takes up its play
+    once per turn: the force through it jumps at one shaft angle instead of varying smoothly, which puts a comb of
+    shaft harmonics into the vibration (Randall, *Vibration-based Condition Monitoring*, Wiley 2011; ISO 18436-2
+    training material: looseness shows as many harmonics of 1x). The rule used here: a vertical force at
+    ``misalignment_node`` (the coupling end of the shaft) whose k-th shaft harmonic, k = 1 .. ``looseness_orders``,
+    has the amplitude ``looseness_force_n / k`` and the phase of a sine, ``F_k sin(k theta_shaft)``: the Fourier
+    series of a sawtooth, the simplest periodic force with one jump per turn (the coefficients of any periodic
+    function with one jump per period fall as 1/k). A model, not a law of looseness: ``looseness_force_n`` is the
+    1x amplitude; how loose an assembly is changes from one assembly to the next. It is a force line on the FE
+    only: the bearings' quasi-static model does not see it as a load (unlike the coupling force), and the half
+    orders of a rub are not modelled.
 ``electrical_harmonics``, ``electrical_harmonic_forces_n`` (optional)
-    Further magnetic force lines of an induction motor at whole multiples of the supply frequency (e.g. 6 x:
-    the saturation and winding harmonics of a three-phase machine), each a vertical force of the given amplitude on
-    the rotor core, as the 2 x line one below.
+    Further magnetic force lines of an induction motor, at the given multiples of the supply frequency, each a
+    vertical force of the given amplitude [N] on the rotor core as the 2 x line below. The radial magnetic force
+    goes with the square of the air-gap flux density; on a symmetric supply the flux at a point of the stator holds
+    odd harmonics of the supply only, so its square (the force) holds even ones only: the multiples must be even,
+    and above 2 (the 2 x line is ``electrical_force_n``), e.g. 4, 6, 12 (Gieras, Wang & Lai, *Noise of Polyphase
+    Electric Motors*, CRC 2006). Slot and eccentricity lines, which move with the speed, are not modelled.
 ``electrical_force_n``, ``line_frequency_hz``
     An induction motor's unbalanced magnetic pull pulsates at twice the supply frequency (100 Hz at 50 Hz),
     independent of the speed (Finley, Hodowanec & Holter, "An analytical approach to solving motor vibration
@@ -116,8 +125,9 @@ def baseline_forces(case, rotor, rates_per_hz) -> tuple[LineSet, dict]:
     f_loose = float(b.get("looseness_force_n", 0.0))
     if f_loose > 0.0:
         coupling_end()
-        for k in range(1, int(b.get("looseness_orders", 1)) + 1):
-            rows.append(((k, 0, 0, 0), {"coupling.y": f_loose}, 0))
+        for k in range(1, int(b["looseness_orders"]) + 1):
+            # F/k sin(k theta) = Re(-i F/k exp(i k theta)): the sawtooth's series (module docstring)
+            rows.append(((k, 0, 0, 0), {"coupling.y": -1j * f_loose / k}, 0))
     f_el = float(b["electrical_force_n"])
     electrical = [(2, f_el)] + [(int(h), float(f)) for h, f in zip(b.get("electrical_harmonics", []),
                                                                     b.get("electrical_harmonic_forces_n", []))]

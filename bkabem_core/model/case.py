@@ -463,9 +463,15 @@ def _check_cross(raw: dict, source: str) -> None:
         raise CaseError("baseline.electrical_harmonic_forces_n", f"must have one force per electrical harmonic "
                         f"({len(harmonics)} harmonics, {len(forces)} forces)", source)
     for h in harmonics:
-        if h != int(h):
-            raise CaseError("baseline.electrical_harmonics", f"must be whole multiples of the line frequency "
-                            f"(got {h:g})", source)
+        if h != int(h) or int(h) % 2 or h < 4:
+            raise CaseError("baseline.electrical_harmonics", f"must be even multiples of the line frequency above 2 "
+                            f"(a magnetic force goes with the square of the flux; 2 x is electrical_force_n; got {h:g})",
+                            source)
+    if len(set(harmonics)) != len(harmonics):
+        raise CaseError("baseline.electrical_harmonics", f"each multiple once (got {harmonics})", source)
+    if bl.get("looseness_force_n", 0.0) > 0.0 and "looseness_orders" not in bl:
+        raise CaseError("baseline.looseness_orders", "missing (how many shaft harmonics the looseness force has, "
+                        "needed when looseness_force_n > 0)", source)
     if raw["baseline"]["misalignment_node"] not in shaft_nodes:
         raise CaseError("baseline.misalignment_node", f"must be a shaft node 1..{n_nodes} "
                         f"(got {raw['baseline']['misalignment_node']})", source)
