@@ -389,6 +389,8 @@ def cmd_validate(args) -> int:
 
     plain = BkaBem(case, baseline=False)
     if args.max_step_us is not None:
+        import numpy as np
+
         _check_tdsm_step(args.max_step_us * 1e-6, bpfo_hz, duration, int(np.max(plain.orders, initial=1)))
         kwargs["max_step_s"] = args.max_step_us * 1e-6
     result = validation.validate(case, progress=not args.json and sys.stderr.isatty(), plain=plain, **kwargs)
