@@ -465,7 +465,11 @@ class LineSetPath:
         """Any line set (:mod:`bkabem_core.synth.linesets`): families of lines, one table (pair) each per knot; the
         spectrum at a knot from the model's exact response (its fixed-frequency and speed-scaled lines included)."""
         self._general = True
-        lines = model.lines
+        try:                                         # the lines on one bearing's phases (shaft, cage, spin, line)
+            lines = model.shared_phase_lines()
+        except ValueError:
+            raise SynthError("model", "the DE and NDE bearings have different kinematics: synthesis of two different "
+                                      "bearings lands with the synthesiser rewrite") from None
         nu, mu = lines.multipliers, lines.fixed_hz
         keep = np.ones(len(lines), bool)
         if self._max_order_arg is not None:
@@ -482,8 +486,8 @@ class LineSetPath:
         self._nu, self._mu = nu[keep], mu[keep]
         self._nu_top = float(self._nu.max()) if self._nu.size and not np.any(self._mu) else None
         self.bpfo_per_hz = float(model.bpfo_per_hz)
-        self.n_balls = int(model.case.bearing_geometry().n_balls)
-        self.fault_multipliers = model.fault_multipliers
+        self.n_balls = int(model.n_balls)
+        self.fault_multipliers = model.bearing_multipliers["de"]        # the phases of shared_phase_lines
         self._k_max = max(1, int(math.ceil(float(self._nu.max()) / self.bpfo_per_hz)))
         self._families = LineFamilies(self.coefficients, lines.rates_per_hz, lines.line_hz, self.n_balls,
                                       self.bpfo_per_hz, self._table_size_arg)

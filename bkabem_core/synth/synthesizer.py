@@ -226,8 +226,8 @@ class Synthesizer(KnotSpectrum, LineSetPath, FloorPath, NoisePath, SwitchPath):
         self.orders = orders[keep]
         self._keep = keep
         self.bpfo_per_hz = float(model.bpfo_per_hz)
-        self.n_balls = int(model.case.bearing_geometry().n_balls)
-        self.fault_multipliers = model.fault_multipliers
+        self.n_balls = int(model.n_balls)
+        self.fault_multipliers = model.bearing_multipliers["de"]        # an order set: the DE bearing's orders
         k_max = int(self.orders.max())
         self._k_max = k_max
         n = self._table_size_arg

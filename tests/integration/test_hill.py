@@ -149,8 +149,8 @@ def test_baseline_lines_keep_their_plain_response():
     other = np.setdiff1d(np.arange(len(with_base.lines)), rows)
     assert other.size >= 1 and np.array_equal(sp.displacement[other], plain.displacement[other])
     index0 = {tuple(c): i for i, c in enumerate(without.lines.coefficients)}
-    j = index0[(2, 0, 0, 0)]
-    i = int(np.flatnonzero((with_base.lines.coefficients == (2, 0, 0, 0)).all(axis=1))[0])
+    j = index0[(2, 0, 0, 0, 0, 0)]
+    i = int(np.flatnonzero((with_base.lines.coefficients == (2, 0, 0, 0, 0, 0)).all(axis=1))[0])
     assert i in rows
     baseline_part = plain.displacement[i] - plain0.displacement[j]
     assert np.abs(baseline_part).max() > 10 * np.abs(sp0.displacement[j]).max()
