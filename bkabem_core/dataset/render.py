@@ -215,11 +215,11 @@ def _fault_label(defects: list[dict]) -> tuple[str, str, str]:
     return kinds, bearings, full
 
 
-def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tuple, mult,
+def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tuple, mult: dict,
               synth: Synthesizer, file: str) -> dict:
     """One row of the labels table: the segment of ``run`` from sample ``first`` (``n`` samples) in the machine
     state of ground truth ``gt`` (docs/datasets.md, "Labels"); ``speeds`` = the segment's shaft speed (mean, min,
-    max) [Hz]."""
+    max) [Hz]; ``mult`` = each bearing's fault multipliers (``{"de": FaultFrequencies, "nde": ...}``)."""
     p = run.params
     fs = p["sample_rate_hz"]
     mean, lo, hi = speeds
@@ -237,14 +237,22 @@ def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tupl
            "noise_vel": p["noise_vel"], "sample_rate_hz": fs, "quantities": ",".join(p["quantities"]),
            "channels": ",".join(synth.channel_names), "accelerometer": p["accelerometer"],
            "anti_alias": bool(p["anti_alias"])}
-    for name in ("bpfo", "bpfi", "bsf", "ftf"):
-        m = float(getattr(mult, name))
+    for name in ("bpfo", "bpfi", "bsf", "ftf"):           # the DE bearing's (the columns of one bearing type)
+        m = float(getattr(mult["de"], name))
         row[f"{name}_per_hz"] = m
         row[f"{name}_hz"] = m * mean
+    for b in ("de", "nde"):                                # each bearing's own
+        row[f"{b}_bearing_designation"] = gt["bearings"][b]["designation"] if "bearings" in gt else \
+            gt["bearing_designation"]
+        for name in ("bpfo", "bpfi", "bsf", "ftf"):
+            m = float(getattr(mult[b], name))
+            row[f"{b}_{name}_per_hz"] = m
+            row[f"{b}_{name}_hz"] = m * mean
     row["shaft_hz"] = mean
     for i, d in enumerate(gt["defects"]):
         pre = f"d{i}_"
         row.update({pre + "name": d.get("name", ""), pre + "kind": d["kind"], pre + "bearing": d["bearing"],
+                    pre + "bearing_designation": d.get("bearing_designation", gt["bearing_designation"]),
                     pre + "length_m": d["length_m"], pre + "depth_m": d["depth_m"],
                     pre + "angle_deg": math.degrees(d["angle_rad"]),
                     **{pre + k.name: d.get(k.name) for k in own_keys()},      # a ball defect's ball number
@@ -476,7 +484,7 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
     fs = synth.sample_rate_hz
     n_total = int(round(p["duration_s"] * fs))
     names = list(synth.channel_names)
-    mult = synth.model.fault_multipliers
+    mult = synth.model.bearing_multipliers
     if sinks:                                       # they write beside the Parquet file from the start
         final.parent.mkdir(parents=True, exist_ok=True)
     open_sinks = [_load_sink(s)(run, final.with_suffix(""), synth) for s in sinks]

@@ -579,6 +579,19 @@ class Case:
         """FTF, BPFO, BPFI, BSF per shaft Hz of the bearing at ``location`` (its own kinematics)."""
         return Bearing(self.bearing_geometry(location)).fault_multipliers()
 
+    def kinematics(self, speed_hz: float) -> dict:
+        """Each bearing's type and fault frequencies at shaft speed ``speed_hz`` [Hz]: ``{"de": {...}, "nde":
+        {...}}`` with ``designation``, ``n_balls``, ``ball_diameter_m``, ``pitch_diameter_m``, ``contact_angle_rad``
+        and ``ftf``, ``bpfo``, ``bpfi``, ``bsf`` [Hz]."""
+        out = {}
+        for name in BEARING_NAMES:
+            g = self.bearing_geometry(name)
+            ff = Bearing(g).fault_frequencies_hz(speed_hz)
+            out[name] = {"designation": g.designation, "n_balls": g.n_balls, "ball_diameter_m": g.ball_diameter_m,
+                         "pitch_diameter_m": g.pitch_diameter_m, "contact_angle_rad": g.contact_angle_rad,
+                         **ff.to_dict()}
+        return out
+
     @property
     def same_bearings(self) -> bool:
         """Whether both positions carry the same bearing (identical geometry and material)."""

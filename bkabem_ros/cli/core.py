@@ -51,12 +51,12 @@ def _print_json(obj) -> None:
     sys.stdout.write("\n")
 
 
-def _excitation_table(ex, max_rows: int = 24) -> str:
+def _excitation_table(ex, max_rows: int = 24, designation: str = "") -> str:
     d = ex.to_dict()
     what = "quasi-static excitation" if ex.method == "quasi_static" else \
         f"4-DOF excitation at {ex.reference_speed_hz:g} Hz"
     lines = [
-        f"{(ex.bearing or '').upper()} bearing, {what} under {ex.radial_load_n:.1f} N radial + {ex.axial_load_n:.0f} N "
+        f"{(ex.bearing or '').upper()} bearing{' ' + designation if designation else ''}, {what} under {ex.radial_load_n:.1f} N radial + {ex.axial_load_n:.0f} N "
         f"axial  (BPFO {ex.bpfo_per_hz:.4f} x shaft Hz, clearance {ex.clearance_m * 1e6:.1f} um, "
         f"{len(ex.orders)} orders kept of {len(ex.all_orders)}"
         + (f"; {len(ex.lines)} lines of its defects, --json for all)" if ex.lines is not None else ")"),
@@ -75,18 +75,34 @@ def _excitation_table(ex, max_rows: int = 24) -> str:
     return "\n".join(lines)
 
 
-def _spectrum_table(sp, max_rows: int = 12) -> str:
+def _spectrum_table(sp, max_rows: int = 12, designations: dict | None = None) -> str:
     from bkabem_core.model.vocabulary import LOCATIONS
 
-    ff = sp.fault_frequencies_hz
-    lines = [f"BKA-BEM spectrum at {sp.speed_hz:g} Hz shaft speed ({sp.speed_hz * 60:.0f} rpm): FTF {ff.ftf:.3f} Hz, "
-             f"BPFO {ff.bpfo:.3f} Hz, BPFI {ff.bpfi:.3f} Hz, BSF {ff.bsf:.3f} Hz"]
+    per = sp.bearing_fault_frequencies_hz or {"de": sp.fault_frequencies_hz, "nde": sp.fault_frequencies_hz}
+    names = designations or {}
+
+    def kin(ff):
+        return f"FTF {ff.ftf:.3f} Hz, BPFO {ff.bpfo:.3f} Hz, BPFI {ff.bpfi:.3f} Hz, BSF {ff.bsf:.3f} Hz"
+
+    head = f"BKA-BEM spectrum at {sp.speed_hz:g} Hz shaft speed ({sp.speed_hz * 60:.0f} rpm): "
+    if per["de"] == per["nde"]:
+        lines = [head + kin(per["de"])]
+    else:                                            # a bearing of its own at each position: each its own lines
+        lines = [head.rstrip(": ")] + [f"  {b.upper()} bearing{' ' + names[b] if names.get(b) else ''}: {kin(ff)}"
+                                       for b, ff in per.items()]
     acc = np.abs(sp.acceleration)
     disp = np.abs(sp.displacement)
-    head = "  " + f"{'order':>5} {'f [Hz]':>9}" + "".join(f" {loc + ' v/h [m/s2]':>27}" for loc in LOCATIONS)
+    which = sp.line_bearings or [""] * len(sp.orders)
+    head = "  " + f"{'order':>5} {'f [Hz]':>9} {'follows':>7}" + "".join(f" {loc + ' v/h [m/s2]':>27}"
+                                                                       for loc in LOCATIONS)
     lines.append(head)
     for i, k in enumerate(sp.orders[:max_rows]):
-        row = f"  {k:5d} {sp.frequency_hz[i]:9.2f}"
+        b = which[i].split("+")[0]
+        if not k and b and sp.frequency_hz[i] > 0:          # a BPFO order of its own bearing (the NDE's)
+            own = sp.frequency_hz[i] / per[b].bpfo
+            k = int(round(own)) if abs(own - round(own)) < 1e-9 * max(own, 1.0) else 0
+        follows = which[i] or ("supply" if sp.coefficients is not None and sp.coefficients[i][-1] else "shaft")
+        row = f"  {(str(k) if k else '-'):>5} {sp.frequency_hz[i]:9.2f} {follows:>7}"
         for li in range(len(LOCATIONS)):
             row += f" {acc[i, li, 0]:13.4e}/{acc[i, li, 1]:.4e}"
         lines.append(row)
@@ -110,6 +126,7 @@ def cmd_excitation(args) -> int:
     machine = Machine(case, mesh=None)
     names = BEARINGS if args.all_bearings else machine.excited_bearings()
     exs = {n: machine.excitation(n, method=args.method) for n in names}
+    kin = case.kinematics(1.0)                       # each bearing's designation and fault multipliers
     ex = exs.get(case.faulty_bearing, next(iter(exs.values())))
     for n, e in exs.items():
         _check_finite(f"excitation of the {n} bearing", list(_numbers(e.to_dict())))
@@ -120,10 +137,18 @@ def cmd_excitation(args) -> int:
             plot_excitation(ex, args.png)
     if args.json:
         out = ex.to_dict()          # the faulty bearing's at the top level (CLI contract), every bearing below
-        out["bearings"] = {n: e.to_dict() for n, e in exs.items()}
+
+        def with_kin(n, d):
+            k = kin[n]
+            d.update(designation=k["designation"], n_balls=k["n_balls"],
+                     fault_multipliers_per_shaft_hz={f: k[f] for f in ("ftf", "bpfo", "bpfi", "bsf")})
+            return d
+
+        with_kin(ex.bearing or case.faulty_bearing, out)
+        out["bearings"] = {n: with_kin(n, e.to_dict()) for n, e in exs.items()}
         _print_json(out)
     else:
-        print("\n\n".join(_excitation_table(e) for e in exs.values()))
+        print("\n\n".join(_excitation_table(e, designation=kin[n]["designation"]) for n, e in exs.items()))
         if args.png:
             print(f"wrote {args.png}")
     return 0
@@ -143,7 +168,7 @@ def cmd_spectrum(args) -> int:
     if args.json:
         _print_json(sp.to_dict())
     else:
-        print(_spectrum_table(sp))
+        print(_spectrum_table(sp, designations={b: case.bearing_geometry(b).designation for b in ("de", "nde")}))
         if args.png:
             print(f"wrote {args.png}")
     return 0
