@@ -546,6 +546,14 @@ class Case:
             raise CaseError(*bad, source)
         return cls(name=raw["case"]["name"], source=source, raw=raw, resolved=full, positions=positions)
 
+    @classmethod
+    def of_valid(cls, raw: dict, source: str = "") -> "Case":
+        """The case of ``raw`` that was validated already (a :meth:`raw` of a case made by :meth:`from_dict`, kept
+        with a data-set run): its bearings resolved again, nothing checked again."""
+        positions = resolve_bearings(raw, source)
+        return cls(name=raw["case"]["name"], source=source, raw=raw, resolved=resolved_raw(raw, positions),
+                   positions=positions)
+
     # -- identity --
     @property
     def case_hash(self) -> str:
