@@ -12,11 +12,11 @@ from __future__ import annotations
 import copy
 import math
 import re
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
 import pytest
+from case_files import embedded_text, textbook_multipliers, two_bearing_text
 
 from bkabem_core.excitation.lines import LineSet
 from bkabem_core.model.case import Case, CaseError
@@ -32,18 +32,7 @@ CN_UM = {"de": (5.0, 20.0), "nde": (3.0, 18.0)}
 
 
 def _text() -> str:
-    return resources.files("bkabem_core.embedded").joinpath("cases", "electric_motor_6010.toml").read_text()
-
-
-def two_bearing_text(text: str | None = None) -> str:
-    """The embedded machine with a 6205 at the DE and a 6203 at the NDE (their catalogue geometry and CN
-    clearance: the paper's ball diameter and clearance removed) and an outer-race dent in the NDE bearing too."""
-    text = _text() if text is None else text
-    text = re.sub(r'^designation = "6010"', 'designation = "6205"', text, count=1, flags=re.M)
-    text = re.sub(r'^designation = "6010"', 'designation = "6203"', text, count=1, flags=re.M)
-    text = re.sub(r"^(ball_diameter_m|diametral_clearance_m) = .*\n", "", text, flags=re.M)
-    return text.replace("[baseline]", '[[defects]]\nbearing = "nde"\nrace = "outer"\nlength_m = 1.0e-3\n'
-                        'depth_m = 20.0e-6\nangle_deg = -90.0\nedge = "ball"\nedge_fraction = 0.1\n\n[baseline]', 1)
+    return embedded_text()
 
 
 def _sub(text: str, pattern: str, repl: str, count: int = 1) -> str:
@@ -52,11 +41,7 @@ def _sub(text: str, pattern: str, repl: str, count: int = 1) -> str:
     return out
 
 
-def _textbook(b: dict) -> dict:
-    """FTF, BPFO, BPFI, BSF per shaft Hz from a bearing's geometry (contact angle 0), written here."""
-    g = b["ball_diameter_m"] / b["pitch_diameter_m"]
-    z = b["n_balls"]
-    return {"ftf": (1 - g) / 2, "bpfo": z * (1 - g) / 2, "bpfi": z * (1 + g) / 2, "bsf": (1 - g * g) / (2 * g)}
+_textbook = textbook_multipliers
 
 
 @pytest.fixture(scope="module")
