@@ -46,7 +46,7 @@ import numpy as np
 
 from bkabem_core.bearing.deep_groove import FaultFrequencies
 from bkabem_core.excitation.baseline import baseline_forces
-from bkabem_core.excitation.lines import LineSet, MachinePhases, union
+from bkabem_core.excitation.lines import BASE_PHASES, BEARING_COLUMNS, LineSet, MachinePhases, union
 from bkabem_core.excitation.quasi_static import Excitation
 from bkabem_core.fe.machine import Machine
 from bkabem_core.fe.modal import LineModes, ModalBasis, OrderModalForm, SpeedCells  # noqa: F401  (SpeedCells: for synth)
@@ -123,7 +123,15 @@ class Spectrum:
             out["bearing_fault_frequencies_hz"] = {b: ff.to_dict() for b, ff in
                                                    self.bearing_fault_frequencies_hz.items()}
         if self.coefficients is not None:
-            out["line_coefficients"] = self.coefficients.tolist()
+            c = np.asarray(self.coefficients)
+            if c.shape[1] == len(BASE_PHASES):     # each line on its own bearing's phases (shaft, cage, spin, line)
+                own = [BEARING_COLUMNS["nde" if b == "nde" else "de"] for b in (self.line_bearings or ["de"] * len(c))]
+                out["line_coefficients"] = [[int(r[0]), int(r[cg]), int(r[sp]), int(r[-1])]
+                                            for r, (cg, sp) in zip(c, own)]
+                out["base_phases"] = list(BASE_PHASES)
+                out["line_coefficients_machine"] = c.tolist()
+            else:
+                out["line_coefficients"] = c.tolist()
         if self.line_bearings is not None:
             out["line_bearings"] = list(self.line_bearings)
         disp, acc, vel = self.displacement, self.acceleration, self.velocity
