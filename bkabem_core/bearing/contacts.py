@@ -111,7 +111,10 @@ class HertzPair:
         self.ar0 = np.full((self.n_table, 2, self.z_max), _PAD_AR0)
         self._moving = []
         for i, b in enumerate(bearings):
-            self.ar0[:, i, :b.geometry.n_balls] = self._ar0_of(i, self._beta[i], None, None)
+            self.ar0[:, i, :b.geometry.n_balls] = self._ar0_of(i, self._beta[i])
+            moving = type(b)(b.geometry, defects=b.moving_defects).defect_set
+            if moving:
+                self._moving.append((i, moving))             # placed by bake_phases or row by row (rows)
         self._clock = None
         self.aa = np.array([b._aa0 + axial_m[i] for i, b in enumerate(bearings)])[:, None]
         self.a0 = np.array([b.groove_centre_distance_m for b in bearings])[:, None]
@@ -140,19 +143,17 @@ class HertzPair:
         rt = np.stack([c, s, c * c, c * s, s * s, np.zeros_like(c)], axis=3)
         return cs, rt
 
-    def _ar0_of(self, i: int, beta, shaft, spin):
-        """``A_r`` at u = 0 of bearing ``i`` at ball angles ``beta`` (n, z) [m]: every defect (those of its own
-        phases placed at ``shaft``, ``spin`` [rad]; None: not placed yet, only the periodic ones)."""
+    def _ar0_of(self, i: int, beta, shaft=None, spin=None):
+        """``A_r`` at u = 0 of bearing ``i`` at ball angles ``beta`` (n, z) [m]: its periodic defects and, with
+        ``shaft`` and ``spin`` [rad] (n,), also those with phases of their own placed there."""
         b = self.bearings[i]
         out = np.full(beta.shape, b._ar0)
         periodic = b.periodic_defects
         if periodic:
             out -= type(b)(b.geometry, defects=periodic).dent_depth_m(beta)
-        moving = type(b)(b.geometry, defects=b.moving_defects).defect_set
-        if moving:
-            if shaft is None:
-                self._moving.append((i, moving))
-            else:
+        if shaft is not None:
+            moving = type(b)(b.geometry, defects=b.moving_defects).defect_set
+            if moving:
                 out -= moving.drop_m(beta, shaft, spin)
         return out
 
@@ -222,16 +223,8 @@ class HertzPair:
         cs, rt = self._tables(betas)
         ar0 = np.full((n.size, 2, self.z_max), _PAD_AR0)
         for i, b in enumerate(self.bearings):
-            ar0[:, i, :b.geometry.n_balls] = self._ar0_rows_of(i, betas[i], w_shaft * h * n, w_spin[i] * h * n)
+            ar0[:, i, :b.geometry.n_balls] = self._ar0_of(i, betas[i], w_shaft * h * n, w_spin[i] * h * n)
         return _SplitRows(cs, rt, ar0)
-
-    def _ar0_rows_of(self, i: int, beta, shaft, spin):
-        moving = self._moving
-        self._moving = []                       # _ar0_of would list the moving defects again
-        try:
-            return self._ar0_of(i, beta, shaft, spin)
-        finally:
-            self._moving = moving
 
     def ar0_rows(self, n0: int, n1: int) -> np.ndarray:
         """``A_r`` at u = 0 (n1 - n0, 2, z) [m] at absolute steps n0..n1-1, every defect included.

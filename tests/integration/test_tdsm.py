@@ -256,19 +256,24 @@ def test_against_independent_stiff_ode_solver(case):
     assert np.max(np.abs(u_tdsm - u_ref) / scale) < 1e-3
 
 
-def test_two_different_bearings_against_independent_stiff_ode_solver():
-    """A 6205 at the DE and a 6203 at the NDE, an outer-race dent in each: each bearing's balls turn at its own cage
-    speed (the TDSM takes each bearing's ball angles from its own clock at every step). The same independent LSODA
-    model as above, each bearing's Bearing.forces_n at its own cage angle 2 pi FTF_b f t, over the NDE's first
-    dent crossing (a ball sits in it at t = 0) and the DE's (about 7 ms at 30 Hz)."""
+@pytest.mark.parametrize("nde_race", ["outer", "inner"])
+def test_two_different_bearings_against_independent_stiff_ode_solver(nde_race):
+    """A 6205 at the DE and a 6203 at the NDE, an outer-race dent in the DE and an outer- or inner-race dent in the
+    NDE: each bearing's balls turn at its own cage speed and spin at its own rate (the TDSM takes each bearing's
+    ball angles and defect drops from its own clock at every step). The same independent LSODA model as above, each
+    bearing's Bearing.forces_n at its own cage angle 2 pi FTF_b f t (shaft angle 2 pi f t, spin 2 pi BSF_b f t), over
+    the first 7.6 ms (the NDE's first outer-race dent crossing from t = 0, the DE's at about 7 ms at 30 Hz)."""
     from case_files import two_bearing_text
 
     from bkabem_core.model.case import Case
 
-    case = Case.from_toml(two_bearing_text(), "two.toml")
+    case = Case.from_toml(two_bearing_text().replace('bearing = "nde"\nrace = "outer"',
+                                                     f'bearing = "nde"\nrace = "{nde_race}"'), "two.toml")
+    assert case.defects("nde")[0].race == nde_race
     m = coarse(case, max_step_s=5e-6)
     assert not m.one_ball_set and m.forces.split and not m.forces.periodic
     w = [2 * math.pi * case.fault_multipliers(b).ftf * SPEED for b in ("de", "nde")]
+    spin = [2 * math.pi * case.fault_multipliers(b).bsf * SPEED for b in ("de", "nde")]
     assert m.cage_speeds_rad_s == pytest.approx(w, rel=1e-15) and w[0] != w[1]
     t_end = 7.6e-3
     r = m.run(t_end, settle_s=0.0, progress=False)
@@ -286,14 +291,16 @@ def test_two_different_bearings_against_independent_stiff_ode_solver():
         x, v = y[:n], y[n:]
         u = u_s + m.B.T @ x
         f = np.array([c for i, b in enumerate(bearings)
-                      for c in b.forces_n(u[2 * i], u[2 * i + 1], w[i] * t, e_z_m=ez[i])]) - f_s
+                      for c in b.forces_n(u[2 * i], u[2 * i + 1], w[i] * t, e_z_m=ez[i],
+                                          shaft_angle_rad=2 * math.pi * SPEED * t, spin_angle_rad=spin[i] * t)]) - f_s
         return np.r_[v, minv @ (-cw @ v - k_free @ x + m.B @ f)]
 
     def jac(t, y):
         u = u_s + m.B.T @ y[:n]
         kt = np.zeros((4, 4))
         for i, b in enumerate(bearings):
-            _, _, (kxx, kxy, kyy) = b.forces_n(u[2 * i], u[2 * i + 1], w[i] * t, with_stiffness=True, e_z_m=ez[i])
+            _, _, (kxx, kxy, kyy) = b.forces_n(u[2 * i], u[2 * i + 1], w[i] * t, with_stiffness=True, e_z_m=ez[i],
+                                               shaft_angle_rad=2 * math.pi * SPEED * t, spin_angle_rad=spin[i] * t)
             kt[2 * i:2 * i + 2, 2 * i:2 * i + 2] = [[kxx, kxy], [kxy, kyy]]
         j = np.zeros((2 * n, 2 * n))
         j[:n, n:] = np.eye(n)
