@@ -74,8 +74,8 @@ def test_static_state_is_an_equilibrium_of_the_discrete_model(case):
 # --------------------------------------------------------------------------- integrator, linear model
 def _linear_reference(m):
     """The linear FE with the machine's bearing springs and the TDSM damper, assembled again from the case."""
-    c = m.bearing_damping_n_s_m
-    el = {b: (s.stiffness_n_m[0], s.stiffness_n_m[1], c, c) for b, s in m.machine.sites.items()}
+    c = m.bearing_damping_n_s_m                      # each position's damper
+    el = {b: (s.stiffness_n_m[0], s.stiffness_n_m[1], c[b], c[b]) for b, s in m.machine.sites.items()}
     return rotor_from_case(m.case.raw, bearings=el, mesh=m.machine.mesh)
 
 
