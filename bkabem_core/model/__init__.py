@@ -10,6 +10,10 @@ Case files
     DEFAULT_CASE     -- the embedded default case, ``electric_motor_6010``
     SCHEMA_VERSION   -- the case schema this version writes
 
+The bearing at each position (module ``positions``)
+===================================================
+    ResolvedBearing  -- a position's bearing: every value found (catalogue, overrides, clearance) and its provenance
+
 Plausibility (module ``plausibility``)
 ======================================
     problem          -- the first implausible value of a case, or None
@@ -36,7 +40,7 @@ Vocabulary (module ``vocabulary``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "problem", "BOUNDS",
+__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "ResolvedBearing", "problem", "BOUNDS",
            "CatalogueBearing", "CatalogueError", "lookup", "designations", "radial_clearance_m", "not_a_file", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
@@ -46,6 +50,7 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "embedded_cases": "case",
     "DEFAULT_CASE": "case",
     "SCHEMA_VERSION": "case",
+    "ResolvedBearing": "positions",
     "problem": "plausibility",
     "BOUNDS": "plausibility",
     "CatalogueBearing": "catalogue",
