@@ -218,8 +218,13 @@ def test_old_recordings_replay_to_todays_subscribers_and_echo(tmp_path):
     echo = Proc(bkabem_cmd("echo", "--namespace", ns, "--qos", "reliable", "--json", "--seconds", "60"), name="echo")
     try:
         time.sleep(1.0)
-        r = subprocess.run(bkabem_cmd("replay", str(path), "--wait-subscribers", "20"), capture_output=True,
-                           text=True, timeout=120, env=ros_env())
+        # the listener and echo both read the waveform and ground-truth topics: wait for both (a reliable
+        # reader matched after the first message never gets it)
+        nde = f"{ns}/vibration/nde/acceleration"
+        lis.subscribe(nde, VibrationWaveform, reliable=True)
+        r = subprocess.run(bkabem_cmd("replay", str(path), "--wait-subscribers", "20", "--subscribers", "2",
+                                      "--topics", acc, nde, ff),
+                           capture_output=True, text=True, timeout=120, env=ros_env())
         assert r.returncode == 0, r.stderr[-3000:]
         lis.wait_for(acc, lambda it: len(it) >= 12, timeout=20)
         lis.wait_for(ff, lambda it: len(it) >= 3, timeout=20)
