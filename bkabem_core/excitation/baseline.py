@@ -59,7 +59,7 @@ import math
 
 import numpy as np
 
-from bkabem_core.excitation.lines import LineSet
+from bkabem_core.excitation.lines import N_PHASES, LineSet
 
 TWO_PI = 2.0 * math.pi
 #: Force patterns of the baseline, in the order BkaBem appends them to its input patterns.
@@ -82,8 +82,9 @@ def baseline_forces(case, rotor, rates_per_hz) -> tuple[LineSet, dict]:
     case : Case
     rotor : Rotor
         The FE model (``dof_index``, ``ndof``).
-    rates_per_hz : ndarray (4,)
-        Base-phase rates of the machine (:func:`bkabem_core.excitation.quasi_static.rates_per_hz`).
+    rates_per_hz : ndarray (6,)
+        Base-phase rates of the machine (:class:`~bkabem_core.excitation.lines.MachinePhases`): the baseline's
+        lines follow the shaft and the supply only.
 
     Returns
     -------
@@ -112,22 +113,22 @@ def baseline_forces(case, rotor, rates_per_hz) -> tuple[LineSet, dict]:
                 v[idx(int(d["node"]), axis)] += float(d["mass_kg"])
             patterns[f"unbalance.{axis}"] = v
         a = e * TWO_PI ** 2 * np.exp(1j * math.radians(b["unbalance_phase_deg"]))
-        rows.append(((1, 0, 0, 0), {"unbalance.x": a, "unbalance.y": -1j * a}, 2))
+        rows.append(((1, 0, 0, 0, 0, 0), {"unbalance.x": a, "unbalance.y": -1j * a}, 2))
     f_mis = float(b["misalignment_force_n"])
     if f_mis > 0.0:
         coupling_end()
-        rows.append(((2, 0, 0, 0), {"coupling.x": f_mis, "coupling.y": -1j * f_mis}, 0))
+        rows.append(((2, 0, 0, 0, 0, 0), {"coupling.x": f_mis, "coupling.y": -1j * f_mis}, 0))
     f_cp = float(b.get("coupling_force_n", 0.0))
     if f_cp > 0.0:
         coupling_end()
         a = f_cp * np.exp(1j * math.radians(b.get("coupling_phase_deg", 0.0)))
-        rows.append(((1, 0, 0, 0), {"coupling.x": a, "coupling.y": -1j * a}, 0))
+        rows.append(((1, 0, 0, 0, 0, 0), {"coupling.x": a, "coupling.y": -1j * a}, 0))
     f_loose = float(b.get("looseness_force_n", 0.0))
     if f_loose > 0.0:
         coupling_end()
         for k in range(1, int(b["looseness_orders"]) + 1):
             # F/k sin(k theta) = Re(-i F/k exp(i k theta)): the sawtooth's series (module docstring)
-            rows.append(((k, 0, 0, 0), {"coupling.y": -1j * f_loose / k}, 0))
+            rows.append(((k, 0, 0, 0, 0, 0), {"coupling.y": -1j * f_loose / k}, 0))
     f_el = float(b["electrical_force_n"])
     electrical = [(2, f_el)] + [(int(h), float(f)) for h, f in zip(b.get("electrical_harmonics", []),
                                                                     b.get("electrical_harmonic_forces_n", []))]
@@ -140,14 +141,14 @@ def baseline_forces(case, rotor, rates_per_hz) -> tuple[LineSet, dict]:
             v[idx(int(d["node"]), "y")] += float(d["mass_kg"]) / total
         patterns["electrical.y"] = v
         for h, f in electrical:
-            rows.append(((0, 0, 0, h), {"electrical.y": f}, 0))
+            rows.append(((0, 0, 0, 0, 0, h), {"electrical.y": f}, 0))
     names = tuple(n for n in PATTERNS if n in patterns)
     merged: dict = {}                 # one line per (coefficients, speed power): several patterns may share it
     for c, vals, p in rows:
         entry = merged.setdefault((tuple(c), p), {})
         for n, v in vals.items():
             entry[n] = entry.get(n, 0.0) + v
-    coef = np.array([k[0] for k in merged], dtype=np.int64).reshape(-1, 4)
+    coef = np.array([k[0] for k in merged], dtype=np.int64).reshape(-1, N_PHASES)
     amp = np.zeros((len(merged), len(names)), complex)
     for i, vals in enumerate(merged.values()):
         for n, v in vals.items():

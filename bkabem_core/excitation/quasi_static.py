@@ -40,6 +40,8 @@ from bkabem_core.bearing.deep_groove import TWO_PI, Bearing, BearingState
 from bkabem_core.bearing.defects.registry import kind as defect_kind
 from bkabem_core.bearing.defects.registry import periodic_kinds
 from bkabem_core.excitation.lines import LineSet, lines_from_grid, union
+from bkabem_core.excitation.path import quasi_static_path_m
+from bkabem_core.excitation.turning import turning_lines
 from bkabem_core.model.vocabulary import DIRECTIONS
 
 METHODS = ("quasi_static", "four_dof")
@@ -96,11 +98,12 @@ class FourDofParameters:
     max_order: int = 0
 
     @classmethod
-    def from_case(cls, case) -> "FourDofParameters":
-        """The 4-DOF model's parameters of a case (``[excitation]``; the bearing damper from ``[bearing]``)."""
+    def from_case(cls, case, location: str) -> "FourDofParameters":
+        """The 4-DOF model's parameters of the bearing at ``location`` of a case (``[excitation]``; the damper of
+        that position, ``[bearings.<location>] damping_n_s_m``)."""
         e = case.raw["excitation"]
         fields = {k: e[k] for k in cls.__dataclass_fields__ if k in e}
-        return cls(bearing_damping_n_s_m=float(case.raw["bearing"]["damping_n_s_m"]), **fields)
+        return cls(bearing_damping_n_s_m=case.bearing_damping_n_s_m(location), **fields)
 
 
 @dataclass
@@ -284,52 +287,6 @@ def _orders_from_record(rel: np.ndarray, periods: int, threshold: float, max_ord
 
 
 # --------------------------------------------------------------------------- quasi-static
-def quasi_static_path_m(bearing: Bearing, radial_load_n, axial_load_n: float, cage_angles_rad,
-                        film_m: float = 0.0, tol_m: float = 1e-15, max_iter: int = 100, shaft_angles_rad=0.0,
-                        spin_angles_rad=0.0, turning_load_n: complex = 0j):
-    """Static equilibrium ``e(theta)`` [m] (N, 2: e_x, e_y) of the bearing with its defects at each cage angle.
-
-    Solves ``F(e, theta; e_z0) + W = 0`` for all angles at once (batched damped Newton with the analytic 2 x 2
-    tangent), the axial displacement held at ``e_z0``, its static value under the axial load. ``shaft_angles_rad``
-    and ``spin_angles_rad`` (broadcast with the cage angles) place inner-race and ball defects and turn the load
-    ``turning_load_n`` [N] that turns with the shaft: the load is ``W + (Re, Im)(R exp(i theta_shaft))``.
-
-    Returns
-    -------
-    path : ndarray (N, 2)
-    state : BearingState
-        The healthy static equilibrium (start of the iteration).
-    iterations : int
-    """
-    w = np.asarray(radial_load_n, dtype=float)
-    state = bearing.state(w[0], w[1], axial_load_n, film_m)
-    e0 = state.displacement_m
-    theta = np.asarray(cage_angles_rad, dtype=float)
-    shape = np.broadcast_shapes(theta.shape, np.shape(shaft_angles_rad), np.shape(spin_angles_rad))
-    theta = np.broadcast_to(theta, shape)
-    if turning_load_n != 0:
-        turn = complex(turning_load_n) * np.exp(1j * np.broadcast_to(np.asarray(shaft_angles_rad, float), shape))
-        w = (w[0] + turn.real, w[1] + turn.imag)
-    ex = np.full(shape, e0[0])
-    ey = np.full(shape, e0[1])
-    for it in range(1, max_iter + 1):
-        fx, fy, (kxx, kxy, kyy) = bearing.forces_n(ex, ey, theta, film_m, with_stiffness=True, e_z_m=e0[2],
-                                                   shaft_angle_rad=shaft_angles_rad, spin_angle_rad=spin_angles_rad)
-        rx, ry = fx + w[0], fy + w[1]
-        det = kxx * kyy - kxy * kxy
-        sx = (kyy * rx - kxy * ry) / det                 # K s = r  (F(e + s) ~ F(e) - K s = -W)
-        sy = (kxx * ry - kxy * rx) / det
-        n = np.hypot(sx, sy)
-        scale = np.minimum(1.0, 2e-6 / np.maximum(n, 1e-300))   # never more than 2 um at once (contacts change)
-        ex += sx * scale
-        ey += sy * scale
-        if np.max(n) <= tol_m:
-            break
-    else:
-        raise RuntimeError(f"quasi-static bearing equilibrium did not converge (last step {np.max(n):.2e} m)")
-    return np.stack([ex, ey], axis=-1), state, it
-
-
 def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n: float = 0.0,
                             samples_per_ball_pass: int = 2048, relative_amplitude_threshold: float = 1e-3,
                             max_order: int = 0, reference_speed_hz: float = 1.0, location: str = "",
@@ -391,7 +348,7 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
     lines = None
     tori = {}
     if rotating_load_n != 0:
-        base = _turning_lines(bearing, load, complex(rotating_load_n), axial_load_n, n, n_slow, film_m, rates)
+        base = turning_lines(bearing, load, complex(rotating_load_n), axial_load_n, n, n_slow, film_m, rates)
         parts = [base]
         race = Bearing(g, defects=[d for d in bearing.defects if defect_kind(d.race).periodic or d.race == "inner"])
         for kind in moving:
@@ -446,62 +403,6 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
         rates_per_hz=rates,
         torus_paths=tori,
     )
-
-
-def _turning_lines(bearing: Bearing, load, turning_load_n: complex, axial_load_n: float, n_fast: int, n_slow: int,
-                   film_m: float, rates) -> LineSet:
-    """Lines of the bearing's races and their defects (every kind but the ball's) under a load that turns with the
-    shaft, on a 2-torus whose slow angle is the shaft angle ``b = theta_shaft`` (where the turning load points)
-    and whose fast angle is the ball-set position: relative to the outer race ``a = z theta_cage`` (healthy races,
-    outer-race defects), or relative to the shaft ``a = z (theta_shaft - theta_cage)`` when an inner-race defect
-    turns with the shaft (its lines need it fast; an outer-race defect in the same bearing would not be resolved
-    then, and is refused). Every grid point is solved (batched Newton); the pure shaft orders are dropped (the FE
-    carries the turning force as a line of its own), and lines below ``_NEGLIGIBLE_M`` (round-off of a nearly
-    uniform bearing) too."""
-    z = bearing.geometry.n_balls
-    slow = n_slow if n_slow > 0 else max(64, 1 << math.ceil(math.log2(8 * z)))
-    if n_fast % slow:
-        raise ValueError(f"samples: {n_fast} per ball pass must be a multiple of the {slow} slow samples")
-    kinds = {d.race for d in bearing.defects if d.race != "ball"}
-    race = Bearing(bearing.geometry, defects=[d for d in bearing.defects if d.race in kinds])
-    if "inner" in kinds:
-        if len(kinds) > 1:
-            raise ValueError("a load that turns with the shaft and both an inner-race and another race defect in one "
-                             "bearing: not resolved on one 2-torus")
-        grid = defect_kind("inner").torus(z, n_fast, slow)
-        phase_map, cage, shaft = grid.phase_map, grid.cage, grid.shaft
-    else:
-        i, j = np.meshgrid(np.arange(n_fast), np.arange(slow), indexing="ij")
-        phase_map = np.array([[0, z, 0, 0], [1, 0, 0, 0]])
-        cage, shaft = TWO_PI * i / (n_fast * z), TWO_PI * j / slow
-    # the races without defects: smooth along the ball-set position, solved on a coarse grid of it
-    coarse = min(n_fast, _TURNING_BASE_SAMPLES)
-    step = n_fast // coarse
-    healthy = Bearing(bearing.geometry)
-    base, _, _ = quasi_static_path_m(healthy, load, axial_load_n, cage[::step], film_m,
-                                     shaft_angles_rad=shaft[::step], turning_load_n=turning_load_n)
-    parts = [lines_from_grid(base[..., ::-1], phase_map, rates, DIRECTIONS)]      # (vertical, horizontal)
-    if race.defects:
-        # what the defects add: nonzero only where a ball meets one, solved there on the fine grid
-        beta = race.ball_angles_rad(cage)
-        touched = np.any(race.defect_set.drop_m(beta, shaft, np.zeros_like(shaft)) > 0.0, axis=-1)
-        diff = np.zeros(cage.shape + (2,))
-        if touched.any():
-            with_d, _, _ = quasi_static_path_m(race, load, axial_load_n, cage[touched], film_m,
-                                               shaft_angles_rad=shaft[touched], turning_load_n=turning_load_n)
-            without, _, _ = quasi_static_path_m(healthy, load, axial_load_n, cage[touched], film_m,
-                                                shaft_angles_rad=shaft[touched], turning_load_n=turning_load_n)
-            diff[touched] = with_d - without
-        parts.append(lines_from_grid(diff[..., ::-1], phase_map, rates, DIRECTIONS))
-    out = union(parts)
-    keep = ~(out.coefficients[:, 1:] == 0).all(axis=1) & (np.abs(out.amplitude).max(axis=1) >= _NEGLIGIBLE_M)
-    return out.subset(keep)
-
-
-#: Samples per ball pass of a healthy bearing's path under a turning load (it is smooth along the ball passage).
-_TURNING_BASE_SAMPLES = 128
-#: Lines of a quasi-static path below this are round-off, not physics (1e-15 m: 1e-6 m/s^2 at 5 kHz).
-_NEGLIGIBLE_M = 1.0e-15
 
 
 def _reference_path(base: Bearing, load, axial_load_n: float, cage, film_m: float, ref):

@@ -10,6 +10,14 @@ Case files
     DEFAULT_CASE     -- the embedded default case, ``electric_motor_6010``
     SCHEMA_VERSION   -- the case schema this version writes
 
+The bearing at each position (module ``positions``)
+===================================================
+    ResolvedBearing  -- a position's bearing: every value found (catalogue, overrides, clearance) and its provenance
+
+The machine baseline's keys (module ``baseline_keys``)
+=====================================================
+    baseline_problem -- the first rule a ``[baseline]`` section breaks (e.g. odd electrical harmonics), or None
+
 Plausibility (module ``plausibility``)
 ======================================
     problem          -- the first implausible value of a case, or None
@@ -36,7 +44,7 @@ Vocabulary (module ``vocabulary``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "problem", "BOUNDS",
+__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "ResolvedBearing", "baseline_problem", "problem", "BOUNDS",
            "CatalogueBearing", "CatalogueError", "lookup", "designations", "radial_clearance_m", "not_a_file", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
@@ -44,8 +52,10 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "CaseError": "case",
     "InputFileError": "case",
     "embedded_cases": "case",
+    "baseline_problem": "baseline_keys",
     "DEFAULT_CASE": "case",
     "SCHEMA_VERSION": "case",
+    "ResolvedBearing": "positions",
     "problem": "plausibility",
     "BOUNDS": "plausibility",
     "CatalogueBearing": "catalogue",
