@@ -477,7 +477,7 @@ def _check_cross(raw: dict, source: str) -> None:
         moving = " and ".join(k.adjective for k in moving_kinds())
         raise CaseError("excitation.method", f"'four_dof' models {periodic} dents only; {moving} defects need "
                         f"'quasi_static'", source)
-    problem = baseline_problem(raw["baseline"], raw["excitation"]["method"])
+    problem = baseline_problem(raw)
     if problem is not None:
         raise CaseError(*problem, source)
     if raw["baseline"]["misalignment_node"] not in shaft_nodes:

@@ -9,7 +9,9 @@ This is the reference BKA-BEM is validated against (paper section 5). It is the 
   own bearing and clearance, the axial displacement held at its static value under the axial load; the defects of
   each bearing) in parallel with the position's viscous bearing damper ``[bearings.*] damping_n_s_m`` (the same
   damper as in the FE and the 4-DOF model);
-* gravity on every mass; constant shaft speed Omega (in ``Omega G``) and each bearing's cage angle
+* gravity on every mass and the coupling's running-speed force, turning with the shaft at its node (``[baseline]
+  coupling_force_n``, :mod:`bkabem_core.reference.coupling`; the other baseline keys stay out);
+* constant shaft speed Omega (in ``Omega G``) and each bearing's cage angle
   ``theta = 2 pi FTF f t`` with its own FTF (t = 0 at cage angle 0, the BKA-BEM phase reference);
 * integrated from the static equilibrium of this nonlinear model (solved, with the dent ignored at t = 0).
 
@@ -70,6 +72,7 @@ from bkabem_core.fe.machine import Machine
 from bkabem_core.fe.rotor import Rotor, rotor_from_case
 from bkabem_core.model.case import Case
 from bkabem_core.model.vocabulary import BEARINGS, DIRECTIONS, LOCATIONS
+from bkabem_core.reference.coupling import RotatingForce
 
 __all__ = ["Tdsm", "TdsmResult", "StaticEquilibrium", "HertzPair", "LinearPair", "LOCATIONS", "DIRECTIONS",
            "BEARINGS"]
@@ -355,6 +358,7 @@ class Tdsm:
                 bmat[idx(sites[b].rotor_node, d), 2 * i + j] = 1.0
                 bmat[idx(sites[b].housing_node, d), 2 * i + j] = -1.0
         self.B = bmat
+        self.coupling = RotatingForce.of_case(case, rot, speed_hz)     # None: no coupling force
         nodes = {"de_rotor": sites["de"].rotor_node, "de_housing": sites["de"].housing_node,
                  "nde_rotor": sites["nde"].rotor_node, "nde_housing": sites["nde"].housing_node}
         self.out_dofs = np.array([[idx(nodes[loc], _DIR_DOF[d]) for d in DIRECTIONS] for loc in LOCATIONS])
@@ -486,14 +490,13 @@ class Tdsm:
         ra = c3 * m - (1.0 + al) * h * (1.0 - gamma - gamma * c3) * cw
         lu = scipy.linalg.lu_factor(s)
         tq = scipy.linalg.lu_solve(lu, np.hstack([rq, rv, ra]))
-        wq = scipy.linalg.lu_solve(lu, self.B)
+        wq = scipy.linalg.lu_solve(lu, self._inputs())
         eye, zero = np.eye(n), np.zeros((n, n))
         ta = c0 * (tq - np.hstack([eye, zero, zero])) - np.hstack([zero, c2 * eye, c3 * eye])
         tv = np.hstack([zero, eye, h * (1.0 - gamma) * eye]) + h * gamma * ta
         self.T = np.ascontiguousarray(np.vstack([tq, tv, ta]))
         w_unit = np.vstack([wq, h * gamma * c0 * wq, c0 * wq])                       # per unit of force
-        self.W = np.ascontiguousarray((1.0 + al) * w_unit)
-        self.Wp = np.ascontiguousarray(-al * w_unit)
+        self._split_inputs((1.0 + al) * w_unit, -al * w_unit)
         bz = np.zeros((4, 3 * n))
         bz[:, :n] = self.B.T
         self.Bz = bz
@@ -519,11 +522,11 @@ class Tdsm:
         a[:n, n:] = np.eye(n)
         a[n:, :n] = -minv @ rot.K
         a[n:, n:] = -minv @ cw
-        bf = np.zeros((2 * n, 4))
-        bf[n:] = minv @ self.B
+        bf = np.zeros((2 * n, self._inputs().shape[1]))
+        bf[n:] = minv @ self._inputs()
         lam, vec = scipy.linalg.eig(a)
         lu = scipy.linalg.lu_factor(vec)
-        gam = scipy.linalg.lu_solve(lu, bf.astype(complex))                             # V^-1 B_f (2n, 4)
+        gam = scipy.linalg.lu_solve(lu, bf.astype(complex))                             # V^-1 B_f (2n, 4+)
         z = lam * h
         small = np.abs(z) < 1e-4
         em1 = np.expm1(z)
@@ -531,8 +534,7 @@ class Tdsm:
             p0 = np.where(small, h * (1 + z / 2 + z * z / 6), em1 / lam)
             p1 = np.where(small, h * (0.5 + z / 6 + z * z / 24), (em1 - z) / (lam * lam * h))
         self.T = np.exp(z)                                                              # diagonal (2n,)
-        self.W = np.ascontiguousarray(p1[:, None] * gam)
-        self.Wp = np.ascontiguousarray((p0 - p1)[:, None] * gam)
+        self._split_inputs(p1[:, None] * gam, (p0 - p1)[:, None] * gam)
         self.Bz = np.ascontiguousarray(self.B.T @ vec[:n])                             # (4, 2n): u = Re(Bz w)
         self.H = (self.Bz @ self.W).real
         self.O = np.ascontiguousarray(vec[self.out_dofs.reshape(-1)])                  # (8, 2n)
@@ -540,6 +542,15 @@ class Tdsm:
         self.eigenvalues = lam
         self._vec, self._vec_lu = vec, lu
         self.to_physical = lambda w: (w @ vec.T).real                                  # (N, 2n) -> [x, v]
+
+    def _inputs(self) -> np.ndarray:
+        """The inputs of a step: the 4 bearing force pairs, then the coupling force's x and y (if any)."""
+        return self.B if self.coupling is None else np.hstack([self.B, self.coupling.pattern])
+
+    def _split_inputs(self, w: np.ndarray, w_p: np.ndarray) -> None:
+        """``W``, ``W_p`` of the bearing forces and the coupling force's step vectors from those of every input."""
+        self.W, self.Wp = np.ascontiguousarray(w[:, :4]), np.ascontiguousarray(w_p[:, :4])
+        self._drive = None if self.coupling is None else self.coupling.step_vectors(w[:, 4:], w_p[:, 4:], self.h)
 
     def to_modal(self, y):
         """A physical state ``[x, v]`` (2 ndof,) as the exponential scheme's modal state."""
@@ -581,7 +592,8 @@ class Tdsm:
             Show a tqdm progress bar.
         initial_state : ndarray (state_size,), optional
             Deviation from the static equilibrium at t = 0: ``[x, v]`` (exponential) or ``[x, v, a]`` (newmark;
-            ``a`` must be consistent with x, v). Default zeros: at rest in the static equilibrium.
+            ``a`` must be consistent with x, v). Default zeros: at rest in the static equilibrium (exponential, with
+            a coupling force: plus the linear rotor's steady response to it, :meth:`RotatingForce.steady_state`).
         record_state : bool
             Also keep the full state of every recorded sample in ``result.state`` (tests).
 
@@ -600,7 +612,9 @@ class Tdsm:
         periods = lambda t: math.ceil(t / self.bpfo_period_s - 1e-9)
         n_rec = max(1, periods(duration_s)) * nbp
         n_samples = n_rec // record_every
-        if initial_state is None:
+        if initial_state is None and self.coupling is not None and self.diagonal:
+            z0 = self.to_modal(np.concatenate(self.coupling.steady_state(self.rotor)))   # the linear 1x response
+        elif initial_state is None:
             z0 = np.zeros(self.state_size, dtype=complex if self.diagonal else float)
         else:
             z0 = self.to_modal(initial_state) if self.diagonal else np.array(initial_state, dtype=float)
@@ -711,6 +725,7 @@ class Tdsm:
         eye4 = np.eye(4)
         solve = np.linalg.solve
         nbp = self.steps_per_bpfo
+        drive, coupling, h = self._drive, self.coupling, self.h
         z, f_dev, f_old = st.z, st.f_dev, st.f_old
         newton_total, newton_max = st.newton_total, st.newton_max
         n0 = st.steps
@@ -736,6 +751,9 @@ class Tdsm:
                     zp = advance(T, z)
                     if use_wp:
                         zp += Wp.dot(f_dev)
+                    if drive is not None:               # the coupling force over the step (first-order hold)
+                        q = coupling.at_step(n_, h)
+                        zp += q.real * drive[0] + q.imag * drive[1]
                     up = Bz.dot(zp).real
                     up += u_s                           # relative displacement without the force f_{n+1}
                     u = up + H.dot(f_dev + f_dev - f_old)   # start: force extrapolated from the last two steps

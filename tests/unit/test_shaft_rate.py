@@ -313,3 +313,15 @@ def test_bad_baseline_values_are_one_line_naming_the_key(extra, method, key, wor
         Case.from_toml(_with_baseline(extra, method), "test.toml")
     text = str(err.value)
     assert "\n" not in text and key in text and words in text, text
+
+
+def test_coupling_force_with_inner_and_outer_race_defects_in_one_bearing_is_refused():
+    """One 2-torus per bearing cannot hold an inner-race defect (turning with the shaft) and an outer-race one
+    (standing) under a turning load: refused in one line naming the key and the bearing."""
+    inner = ('\n[[defects]]\nbearing = "de"\nrace = "inner"\nlength_m = 1.0e-3\ndepth_m = 20.0e-6\n'
+             'angle_deg = 0.0\nedge = "ball"\nedge_fraction = 0.1\n')
+    text = _with_baseline("coupling_force_n = 10.0") + inner
+    with pytest.raises(CaseError) as err:
+        Case.from_toml(text, "test.toml")
+    assert "\n" not in str(err.value) and "baseline.coupling_force_n" in str(err.value) and "de bearing" in str(err.value)
+    Case.from_toml(_with_baseline("coupling_force_n = 0.0") + inner, "test.toml")      # without the force: valid
