@@ -211,10 +211,27 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "max_speed_hz": ("float", _POS),
         "max_sample_rate_hz": ("float", _POS),
     },
+    # the rig's acquisition as the synthesiser's defaults (bkabem_core.synth.measurement); every key optional
+    "measurement": {
+        "sample_rate_hz": ("float", ("range", 100.0, 1.0e6)),
+        "mounting": ("str", ("in", {"stud", "adhesive", "magnet", "probe", "custom"})),
+        "mounting_resonance_hz": ("float", _POS),
+        "mounting_damping_ratio": ("float", ("range_open", 0.0, 1.0)),
+        "anti_alias_hz": ("float", _POS),
+        "anti_alias_order": ("int", ("range", 1, 128)),
+        "anti_alias_phase": ("str", ("in", {"analog", "linear"})),
+        "high_pass_hz": ("float", _POS),
+        "high_pass_order": ("int", ("range", 1, 8)),
+        "tone_frequencies_hz": ("float[]", _POS),
+        "tone_amplitudes_m_s2": ("float[]", _NONNEG),
+        "quantisation_step_m_s2": ("float", _POS),
+        "noise_density_m_s2_per_sqrt_hz": ("float", _NONNEG),
+    },
 }
-TOP_LEVEL = ("case", "bearing", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating")
+TOP_LEVEL = ("case", "bearing", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating",
+             "measurement")
 #: keys a section may leave out (their default: 0 = off), so that cases written before them stay valid
-_OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz",)}
+_OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz",), "measurement": tuple(SCHEMA["measurement"])}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
 _KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
 #: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)
@@ -354,12 +371,16 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
         raise CaseError("defects", "must be an array of tables ([[defects]])", source)
     for i, d in enumerate(raw["defects"]):
         race = d.get("race") if isinstance(d, dict) else None
-        optional = tuple(k for k, names in _KIND_KEYS.items() if race not in names)
-        _check_table(f"defects[{i}]", d, SCHEMA["defects[]"], source, optional=optional)
-        for k in optional:
+        others = tuple(k for k, names in _KIND_KEYS.items() if race not in names)
+        may_omit = tuple(o.name for o in (kind(race).own_keys if race in KINDS else ()) if not o.required)
+        _check_table(f"defects[{i}]", d, SCHEMA["defects[]"], source, optional=others + may_omit)
+        for k in others:
             if k in d:
                 raise CaseError(f"defects[{i}].{k}", f"only for race = {' or '.join(map(repr, _KIND_KEYS[k]))} "
                                 f"(this one is {race!r})", source)
+    if "measurement" in raw:
+        _check_table("measurement", raw["measurement"], SCHEMA["measurement"], source, _OPTIONAL["measurement"])
+        _check_measurement(raw["measurement"], source)
     # bearings.de / bearings.nde
     if "bearings" not in raw:
         raise CaseError("bearings", "missing section", source)
@@ -387,6 +408,41 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
     for i, d in enumerate(raw["rotor"]["disks"]):
         _check_table(f"rotor.disks[{i}]", d, SCHEMA["rotor.disks[]"], source)
     _check_cross(raw, source)
+
+
+def _check_measurement(m: dict, source: str) -> None:
+    """What the keys of ``[measurement]`` must agree on (each alone is checked by the schema)."""
+    freqs, amps = m.get("tone_frequencies_hz"), m.get("tone_amplitudes_m_s2")
+    if (freqs is None) != (amps is None):
+        missing = "tone_amplitudes_m_s2" if amps is None else "tone_frequencies_hz"
+        raise CaseError(f"measurement.{missing}", "missing (tones need both frequencies and amplitudes)", source)
+    if freqs is not None and len(freqs) != len(amps):
+        raise CaseError("measurement.tone_amplitudes_m_s2", f"needs one amplitude per tone frequency: {len(freqs)} "
+                        f"(got {len(amps)})", source)
+    for key in ("mounting_damping_ratio",):
+        if key in m and "mounting" not in m and "mounting_resonance_hz" not in m:
+            raise CaseError(f"measurement.{key}", "needs a mounting (mounting or mounting_resonance_hz)", source)
+    if m.get("mounting") == "custom" and "mounting_resonance_hz" not in m:
+        raise CaseError("measurement.mounting_resonance_hz", "missing (a custom mounting needs its resonance)",
+                        source)
+    for key in ("anti_alias_order", "anti_alias_phase"):
+        if key in m and "anti_alias_hz" not in m:
+            raise CaseError(f"measurement.{key}", "needs measurement.anti_alias_hz", source)
+    if m.get("anti_alias_phase", "analog") == "analog" and m.get("anti_alias_order", 6) > 16:
+        raise CaseError("measurement.anti_alias_order", f"must be <= 16 for an analog filter (got "
+                        f"{m['anti_alias_order']}; a steeper digital filter: anti_alias_phase = \"linear\")", source)
+    if "high_pass_order" in m and "high_pass_hz" not in m:
+        raise CaseError("measurement.high_pass_order", "needs measurement.high_pass_hz", source)
+    if "high_pass_hz" in m and "anti_alias_hz" in m and m["high_pass_hz"] >= m["anti_alias_hz"]:
+        raise CaseError("measurement.high_pass_hz", f"must be below measurement.anti_alias_hz ({m['high_pass_hz']:g} "
+                        f">= {m['anti_alias_hz']:g} Hz)", source)
+    rate = m.get("sample_rate_hz")
+    if rate is not None:
+        for key, values in (("tone_frequencies_hz", freqs or []), ("anti_alias_hz", [m.get("anti_alias_hz", 0.0)])):
+            top = max(values, default=0.0)
+            if top >= rate / 2:
+                raise CaseError(f"measurement.{key}", f"{top:g} Hz is at or above the Nyquist frequency of "
+                                f"measurement.sample_rate_hz ({rate / 2:g} Hz)", source)
 
 
 def _check_cross(raw: dict, source: str) -> None:
@@ -460,7 +516,7 @@ def _check_overlaps(defects: list, bearing: dict, source: str) -> None:
     seen: dict[tuple, list] = {}
     for i, d in enumerate(defects):
         k = kind(d["race"])
-        where = (d["bearing"], d["race"], *(d.get(o.name) for o in k.own_keys))
+        where = (d["bearing"], d["race"], k.part_name(d))
         radius = k.table_race_radius_m(bearing) if hasattr(k, "table_race_radius_m") else \
             bearing["ball_diameter_m"] / 2.0
         half = d["length_m"] / (2.0 * radius)                       # half the angle it spans [rad]

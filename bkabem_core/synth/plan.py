@@ -41,6 +41,7 @@ from collections import OrderedDict
 import numpy as np
 
 from bkabem_core.fe.modal import SpeedCells
+from bkabem_core.synth.balltrack import BallTrack
 from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth.channels import ChannelMap
 from bkabem_core.synth.floor import BroadbandFloor
@@ -73,6 +74,8 @@ class Plan:
         self.settings = settings
         self.channels = ChannelMap(settings.channels)
         self.lines = LineSelection(model, settings.max_order, settings.table_size)
+        #: a ball defect's track wander and spin slip (None: no ball defect, or neither)
+        self.track = BallTrack.of_model(model, self.lines.coefficients)
         self.spectrum = LineSpectrum(model, self.channels.combination, method)
         self.dc = self.channels.static_part(model)
         #: the static part as float64: the chunk features' moments are taken about it
@@ -86,7 +89,7 @@ class Plan:
                                     ch.housing_columns, settings.sample_rate_hz, settings.seed,
                                     settings.sensors) if self.floor_density > 0 else None
         #: shaft speeds [Hz] between which some line is near the Nyquist taper (knot placement)
-        self.taper_speeds_hz = self.lines.taper_speeds_hz(settings.sample_rate_hz)
+        self.taper_speeds_hz = self.lines.taper_speeds_hz(settings.sample_rate_hz, settings.taper_band)
         self.n_channels = len(ch.channels)
         self._seeded(settings)
         self._memo: OrderedDict = OrderedDict()
@@ -95,13 +98,14 @@ class Plan:
         """(line kernels, feature accumulation) for the settings (:class:`~bkabem_core.synth.settings.Settings`
         ``kernel``)."""
         c, fams = len(self.channels.channels), len(self.lines.families.families)
+        spin = self.track.spin_slip if self.track is not None else 0.0
         if (settings.kernel == "auto" and synth_kernel.LINES_AVAILABLE and settings.dtype == np.float32
                 and c <= FUSED_MAX_CHANNELS and fams <= FUSED_MAX_FAMILIES):
-            lines = FusedLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.slip > 0)
+            lines = FusedLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.slip > 0, spin)
             return lines, synth_kernel.accumulate
         compiled = synth_kernel.AVAILABLE and settings.kernel != "reference"
         segment = synth_kernel.segment if compiled else synth_kernel.segment_reference
-        lines = LoopLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.dtype, segment)
+        lines = LoopLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.dtype, segment, spin)
         return lines, synth_kernel.accumulate if compiled else synth_kernel.accumulate_reference
 
     def _seeded(self, settings) -> None:
@@ -110,6 +114,8 @@ class Plan:
                                  settings.seed, settings.dtype)
         if self.floor is not None and self.floor.seed != settings.seed:
             self.floor = self.floor.reseeded(settings.seed)
+        #: the acquisition's output stage bound to the channels and the seed (empty: none)
+        self.output = settings.output.bind(settings.channels, settings.sample_rate_hz, settings.seed)
         gt = self.case.ground_truth()
         gt.update({
             "fault_multipliers": self.model.fault_multipliers.to_dict(),
@@ -120,7 +126,9 @@ class Plan:
             "sample_rate_hz": settings.sample_rate_hz,
             "orders": [int(k) for k in self.lines.orders],
             **settings.sensors.metadata(),
+            **settings.output.metadata(),
             "broadband_force_n_per_sqrt_hz": self.floor_density,
+            **({"ball_track": self.track.to_dict()} if self.track is not None else {}),
             "line_coefficients": self.lines.coefficients.tolist(),
             "line_multipliers": self.lines.nu.tolist(),
         })
@@ -160,7 +168,7 @@ class Plan:
         fade = s * s * (3.0 - 2.0 * s)
         taper = None
         if self.settings.band_limit == "taper" and fade > 0:
-            taper = self.lines.band_taper(f, self.settings.sample_rate_hz)
+            taper = self.lines.band_taper(f, self.settings.sample_rate_hz, self.settings.taper_band)
         return fade, taper
 
     def _through_sensors(self, x: np.ndarray, f: float) -> np.ndarray:
@@ -196,6 +204,22 @@ class Plan:
         if len(self._memo) > AMPLITUDE_MEMO:
             self._memo.popitem(last=False)
         return hit
+
+    def gated_amplitudes(self, f: float, gain: float) -> Amplitudes:
+        """The amplitudes at speed f [Hz] with the ball defect's lines (``track.gated``) times ``gain`` [-] (the
+        track wander at a knot, :mod:`bkabem_core.synth.balltrack`); gain 1: :meth:`amplitudes` itself."""
+        base = self.amplitudes(f)
+        if gain == 1.0:
+            return base
+        x = base.x.copy()
+        x[self.track.gated] *= gain
+        kernel = self.lines_kernel
+        if isinstance(kernel, FusedLines):
+            y, v_iso, tables = kernel.knot(x, base.f, base.fade, base.taper, None)
+        else:
+            y, v_iso, tables = kernel.knot(x, base.f, base.fade, base.taper)
+        return Amplitudes(f=base.f, x=x, fade=base.fade, taper=base.taper, y=y, v_iso=v_iso, tables=tables,
+                          lines=kernel)
 
     # ------------------------------------------------------------------ band
     def check_band(self, f: float, argument: str) -> None:

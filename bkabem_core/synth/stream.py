@@ -48,12 +48,15 @@ class Stream:
     ----------
     walk : SlipWalk or None
         The random walk of the ball-pass phase of the run's seed (its blocks are made as the run advances).
+    gate : TrackGate or None
+        The track wander of a ball defect for the run's seed (:mod:`bkabem_core.synth.balltrack`).
     """
 
-    def __init__(self, walk=None):
+    def __init__(self, walk=None, gate=None):
         self.knots: list[Knot] = []
         self.next_index = 0
         self.walk = walk
+        self.gate = gate
 
     @property
     def speed_hz(self) -> float | None:
@@ -86,11 +89,16 @@ class Stream:
         x = int(x)
         ks = self.knots
         if not ks:
-            ks.append(Knot(x=x, f=float(f), u_int=0, u_frac=0.0, amp=plan.amplitudes(f)))
+            ks.append(Knot(x=x, f=float(f), u_int=0, u_frac=0.0, amp=self._amplitudes(plan, f, 0.0)))
             return
         last = ks[-1]
         span = x - last.x
-        n = min(self.knots_between(plan, last.f, f, max_knots), span)
+        n = self.knots_between(plan, last.f, f, max_knots)
+        track = plan.track
+        if track is not None and track.wanders:         # the wander's time scale: knots every half cage turn
+            passes = plan.lines.bpfo_per_hz / plan.settings.sample_rate_hz * 0.5 * (last.f + f) * span
+            n = max(n, min(math.ceil(passes / track.max_passes_per_knot() - 1e-12), max_knots))
+        n = min(n, span)
         if n == 1:                                      # one step (streaming: nearly always)
             self._add(x, f, plan)
             return
@@ -104,8 +112,17 @@ class Stream:
         du = plan.lines.bpfo_per_hz / plan.settings.sample_rate_hz * 0.5 * (prev.f + f) * (x - prev.x)
         tot = prev.u_frac + du
         fl = math.floor(tot)
-        self.knots.append(Knot(x=int(x), f=float(f), u_int=prev.u_int + int(fl), u_frac=tot - fl,
-                               amp=plan.amplitudes(f)))
+        u_int = prev.u_int + int(fl)
+        self.knots.append(Knot(x=int(x), f=float(f), u_int=u_int, u_frac=tot - fl,
+                               amp=self._amplitudes(plan, f, u_int + (tot - fl))))
+
+    def _amplitudes(self, plan, f: float, passes: float):
+        """The amplitudes of a knot at speed f [Hz] and ``passes`` ball passes since t = 0: the plan's, with a
+        wandering ball defect's lines gated (:mod:`bkabem_core.synth.balltrack`)."""
+        track = plan.track
+        if track is None or not track.wanders or self.gate is None:
+            return plan.amplitudes(f)
+        return plan.gated_amplitudes(f, self.gate.gain(track, passes))
 
     def chunk(self, plan, n0: int, n: int, features: bool) -> Chunk:
         """The chunk of samples [n0, n0 + n) of ``plan`` over the knots (they cover the range; earlier knots are
@@ -115,7 +132,14 @@ class Stream:
         if features:
             acc = np.zeros((plan.n_channels, 6))
             acc[:, 4], acc[:, 5] = -np.inf, np.inf
-        out = _render_samples(plan, self, n0, n, acc)
+        if plan.output:                     # the acquisition's output stage: the features of what it records
+            out = _render_samples(plan, self, n0, n, None)
+            for stage in plan.output:
+                stage.apply(out, n0)
+            if acc is not None:
+                plan.accumulate(out, plan.dc_off, acc)
+        else:
+            out = _render_samples(plan, self, n0, n, acc)
         return _make_chunk(plan, self, n0, n, out, acc)
 
     def _segment_at(self, start: int, pos: float) -> int:
