@@ -102,10 +102,13 @@ def commit(tmp: Path, final: Path) -> None:
 def _synth_options(p: dict) -> dict:
     dens = {q: p[k] for k, q in (("noise_acc", "acceleration"), ("noise_disp", "displacement"),
                                  ("noise_vel", "velocity")) if p[k] and q in p["quantities"]}
-    acc = None if p["accelerometer"] == "none" else Accelerometer.mounted(p["accelerometer"])
+    mount = p["accelerometer"]
+    acc = None if mount == "none" else ("case" if mount == "case" else Accelerometer.mounted(mount))
+    # anti_alias None: the case's filter (the spec gave none and the case has one: spec._measurement_defaults)
+    aa = "case" if p["anti_alias"] is None else (AntiAliasFilter.for_rate(p["sample_rate_hz"]) if p["anti_alias"]
+                                                 else None)
     return dict(quantities=list(p["quantities"]), noise_density=dens or None, slip=p["slip"], seed=p["seed"],
-                band_limit="taper", features=False, accelerometer=acc,
-                anti_alias=AntiAliasFilter.for_rate(p["sample_rate_hz"]) if p["anti_alias"] else None)
+                band_limit="taper", features=False, accelerometer=acc, anti_alias=aa)
 
 
 _SYNTHS: "OrderedDict[str, Synthesizer]" = OrderedDict()
@@ -236,7 +239,7 @@ def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tupl
            "seed": p["seed"], "slip": p["slip"], "noise_acc": p["noise_acc"], "noise_disp": p["noise_disp"],
            "noise_vel": p["noise_vel"], "sample_rate_hz": fs, "quantities": ",".join(p["quantities"]),
            "channels": ",".join(synth.channel_names), "accelerometer": p["accelerometer"],
-           "anti_alias": bool(p["anti_alias"])}
+           "anti_alias": synth.anti_alias is not None}
     for name in ("bpfo", "bpfi", "bsf", "ftf"):
         m = float(getattr(mult, name))
         row[f"{name}_per_hz"] = m

@@ -686,6 +686,8 @@ class Case:
             if dotted.startswith("dent.") and raw["defects"]:       # schema 2's single [dent]: the first defect
                 dotted = "defects.0." + dotted[5:]
             *path, last = dotted.split(".")
+            if path == ["measurement"]:                             # an optional section: made by its first key
+                raw.setdefault("measurement", {})
             node = raw
             for p in path:
                 if isinstance(node, list) and p.isdigit() and int(p) < len(node):
@@ -695,6 +697,8 @@ class Case:
                     raise CaseError(dotted, "unknown key", self.source)
                 node = node[p]
             optional = len(path) == 1 and last in _OPTIONAL.get(path[0], ())
+            if path[:1] == ["defects"] and isinstance(node, dict) and node.get("race") in KINDS:
+                optional = optional or any(o.name == last and not o.required for o in kind(node["race"]).own_keys)
             if not isinstance(node, dict) or (last not in node and not optional):
                 raise CaseError(dotted, "unknown key", self.source)
             node[last] = value

@@ -33,12 +33,25 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from bkabem_core.synth.sensors import (MOUNTING_RESONANCE_HZ, Accelerometer, AntiAliasFilter, HighPassFilter,
-                                       InterferenceTones, Quantiser)
+from bkabem_core.synth.sensors import (
+    MOUNTING_RESONANCE_HZ,
+    Accelerometer,
+    AntiAliasFilter,
+    HighPassFilter,
+    InterferenceTones,
+    Quantiser,
+)
 
 #: What an argument of the synthesiser takes to mean "the case's [measurement] value" (the default).
 FROM_CASE = "case"
 SECTION = "measurement"
+#: Sample rate of a case whose ``[measurement]`` names none [Hz]
+DEFAULT_SAMPLE_RATE_HZ = 25600.0
+
+
+def sample_rate_of(case) -> float:
+    """The case's acquisition rate [Hz]: ``measurement.sample_rate_hz``, else :data:`DEFAULT_SAMPLE_RATE_HZ`."""
+    return float((case.raw.get(SECTION) or {}).get("sample_rate_hz", DEFAULT_SAMPLE_RATE_HZ))
 
 
 @dataclass(frozen=True)

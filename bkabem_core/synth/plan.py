@@ -41,8 +41,8 @@ from collections import OrderedDict
 import numpy as np
 
 from bkabem_core.fe.modal import SpeedCells
-from bkabem_core.synth.balltrack import BallTrack
 from bkabem_core.synth import kernel as synth_kernel
+from bkabem_core.synth.balltrack import BallTrack
 from bkabem_core.synth.channels import ChannelMap
 from bkabem_core.synth.floor import BroadbandFloor
 from bkabem_core.synth.lines import LineSelection

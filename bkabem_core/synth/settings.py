@@ -12,8 +12,15 @@ import numpy as np
 
 from bkabem_core.synth.channels import DEFAULT_QUANTITIES, QUANTITIES, make_channels
 from bkabem_core.synth.profile import SynthError, _finite
-from bkabem_core.synth.sensors import (Accelerometer, AntiAliasFilter, HighPassFilter, InterferenceTones, OutputStage,
-                                       Quantiser, SensorChain)
+from bkabem_core.synth.sensors import (
+    Accelerometer,
+    AntiAliasFilter,
+    HighPassFilter,
+    InterferenceTones,
+    OutputStage,
+    Quantiser,
+    SensorChain,
+)
 
 MAX_SAMPLE_RATE_HZ = 1.0e6
 MAX_SLIP = 0.1

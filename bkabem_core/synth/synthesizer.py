@@ -42,20 +42,17 @@ from typing import Iterator
 import numpy as np
 
 from bkabem_core.solve.harmonic import BkaBem
+from bkabem_core.synth.balltrack import TrackGate
 from bkabem_core.synth.channels import DEFAULT_QUANTITIES
 from bkabem_core.synth.features import Chunk, waveform_features  # noqa: F401  (re-exported)
-from bkabem_core.synth.measurement import FROM_CASE, Measurement
+from bkabem_core.synth.measurement import DEFAULT_SAMPLE_RATE_HZ, FROM_CASE, Measurement  # noqa: F401
 from bkabem_core.synth.plan import Plan, choose_method
 from bkabem_core.synth.profile import SpeedProfile, SynthError, _finite, parse_profile  # noqa: F401  (re-exported)
-from bkabem_core.synth.balltrack import TrackGate
 from bkabem_core.synth.randomness import SlipWalk
 from bkabem_core.synth.sensors import Accelerometer, AntiAliasFilter
 from bkabem_core.synth.settings import Settings
 from bkabem_core.synth.stream import Stream
 from bkabem_core.synth.switch import WarmModel
-
-#: Sample rate of a synthesiser whose case names none (``measurement.sample_rate_hz``) [Hz]
-DEFAULT_SAMPLE_RATE_HZ = 25600.0
 
 
 class Synthesizer:

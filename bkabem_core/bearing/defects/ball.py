@@ -110,10 +110,13 @@ class Ball(DefectKind):
         return None
 
     def dent_fields(self, table: dict) -> dict:
-        return {"ball_index": int(table["ball"]) - 1}
+        """The ball number, and the ball's motion (``own``: carried to the ground truth, not used here)."""
+        return {"ball_index": int(table["ball"]) - 1,
+                "own": (("wander_revolutions", float(table.get("wander_revolutions", DEFAULT_WANDER_REVOLUTIONS))),
+                        ("spin_slip", float(table.get("spin_slip", DEFAULT_SPIN_SLIP))))}
 
     def table_fields(self, dent) -> dict:
-        return {"ball": dent.ball_index + 1}
+        return {"ball": dent.ball_index + 1, **dict(dent.own)}
 
     def part_name(self, fields: Mapping) -> str:
         ball = int(fields.get("ball") or 0)
