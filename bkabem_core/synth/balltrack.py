@@ -30,11 +30,16 @@ Hertz contact ellipse's semi-axis across the track, Brewe & Hamrock, at the most
 static state, the mean of its inner and outer contact), relative to a pit on the track's centre line: 1 on it, 0
 off it (:meth:`BallTrack.gain`). The pit is the defect's round pit of diameter ``length_m``.
 
-In the synthesiser the lines of the ball defect (every line on the spin phase, and the cage orders that are not
-multiples of the ball count: the lines a perfect ball set has none of) are multiplied by the gain at every knot;
-amplitudes are linear in time between knots, and knots lie at most half a cage revolution apart where a ball
-defect wanders (:data:`KNOTS_PER_STEP`), the walk being linear in between. The other lines (the BPFO orders of the
-ball set, the shaft's and the supply's) are not gated: a pit off the track leaves them as they are.
+The gain is taken at every step (each pass of the ball through the load zone) and is linear in time between the
+steps (:meth:`TrackGate.gain`). In the synthesiser the lines of the ball defect (every line on the spin phase, and
+the cage orders that are not multiples of the ball count: the lines a perfect ball set has none of) are multiplied
+by the gain at every knot, and amplitudes are linear in time between knots: so the knots of a wandering ball
+defect sit on the steps (on the nearest sample), where the gain's slope changes, except where the gain, linear
+between the knots kept, stays within :data:`GAIN_TOLERANCE` of it (:func:`keep_knots`): a pit off the track needs
+no knots, a pit that moves over the track's edge one every cage revolution. Such a knot takes the amplitudes of its
+speed segment blended in time (the samples between two knots are so blended anyway) and needs no spectrum of its
+own. The other lines (the BPFO orders of the ball set, the shaft's and the supply's) are not gated: a pit off the
+track leaves them as they are.
 
 **Spin slip** (:class:`~bkabem_core.synth.randomness.SlipWalk`, ``spin``). The ball's spin does not keep its
 kinematic rate against the cage: its phase walks like the ball pass does under random slip, with an independent
@@ -67,9 +72,9 @@ from bkabem_core.bearing.defects.ball import DEFAULT_SPIN_SLIP, DEFAULT_WANDER_R
 #: DEFAULT_SPIN_SLIP: spin slip [fraction of the spin's advance per ball pass]. Ball slip in lightly loaded bearings is of the order
 #: of the cage's (1-2 %, Randall & Antoni 2011); the spin of a ball outside the load zone is freer than the cage.
 #: 2 % gives 2 x BSF a hump of ~0.5 Hz on the CWRU rig by itself, the wander's visits the rest.
-__all__ = ["DEFAULT_SPIN_SLIP", "DEFAULT_WANDER_REVOLUTIONS", "AxisWalk", "BallTrack", "TrackGate"]
-#: Knots per step of the walk (a cage revolution) at least, where a ball defect wanders.
-KNOTS_PER_STEP = 2
+__all__ = ["DEFAULT_SPIN_SLIP", "DEFAULT_WANDER_REVOLUTIONS", "AxisWalk", "BallTrack", "TrackGate", "keep_knots"]
+#: A step of the walk becomes a knot where the gain, linear between the knots kept, would be off by more than this
+GAIN_TOLERANCE = 0.01
 #: Largest correlation the walk takes [steps] (longer: the axis does not move in any run; use 0, a fixed track).
 MAX_CORRELATION_STEPS = 1.0e9
 
@@ -102,6 +107,19 @@ def track_half_width_m(contact, load_n: float) -> float:
         e_bar = 1.0003 + 0.5968 * rx / ry
         out.append((6.0 * ke * ke * e_bar * q * r / (math.pi * contact.effective_modulus_pa)) ** (1.0 / 3.0))
     return 0.5 * (out[0] + out[1])
+
+
+def keep_knots(x: np.ndarray, gain: np.ndarray, tol: float) -> list:
+    """Indices of the inner points of ``(x, gain)`` (the first and the last are knots already) to keep as knots so
+    that the gain, linear between kept points, is within ``tol`` of every point's (greedy: a run of points is
+    bridged while the chord from the last kept point stays within ``tol`` of each)."""
+    kept, a = [], 0
+    for j in range(2, x.size):
+        chord = gain[a] + (gain[j] - gain[a]) * (x[a + 1:j] - x[a]) / (x[j] - x[a])
+        if np.max(np.abs(gain[a + 1:j] - chord)) > tol:
+            kept.append(j - 1)
+            a = j - 1
+    return kept
 
 
 def _disc_below(h, r: float):
@@ -184,10 +202,6 @@ class BallTrack:
         inside = _disc_below(a - s, r) - _disc_below(-a - s, r)
         return inside / (_disc_below(a, r) - _disc_below(-a, r))
 
-    def max_passes_per_knot(self) -> float:
-        """Most ball passes between knots for the walk's time scale."""
-        return self.passes_per_step / KNOTS_PER_STEP
-
     def to_dict(self) -> dict:
         return {"wander_revolutions": self.wander_revolutions, "correlation_cage_revolutions": self.correlation_steps,
                 "spin_slip": self.spin_slip, "pit_radius_m": self.pit_radius_m,
@@ -205,17 +219,17 @@ class AxisWalk:
     Parameters
     ----------
     correlation_steps : float
-        The axis's correlation [steps], >= 1.
+        The axis's correlation [steps], >= 0.5 (a case asks for one cage revolution at least).
     seed : int
     """
 
-    BLOCK = 1 << 10
+    BLOCK = 1 << 7                          # ~10 s of a rig's cage revolutions: a run makes what it needs
     _TAG = 0xA715
 
     def __init__(self, correlation_steps: float, seed: int):
         tau = float(correlation_steps)
-        if not (math.isfinite(tau) and 1.0 <= tau <= MAX_CORRELATION_STEPS):
-            raise ValueError(f"correlation_steps: must be in [1, {MAX_CORRELATION_STEPS:g}] (got {tau!r})")
+        if not (math.isfinite(tau) and 0.5 <= tau <= MAX_CORRELATION_STEPS):
+            raise ValueError(f"correlation_steps: must be in [0.5, {MAX_CORRELATION_STEPS:g}] (got {tau!r})")
         self.correlation_steps = tau
         self.seed = int(seed)
         self.sigma = sigma_for_correlation(tau)
@@ -270,12 +284,9 @@ class AxisWalk:
             k += e - s
         return out
 
-    def sin_latitude(self, steps: float) -> float:
-        """``n_z`` at ``steps`` (>= 0) cage revolutions since t = 0, linear between the steps."""
-        k = int(math.floor(steps))
-        t = steps - k
-        z = self.axes(k, k + 1)[:, 2]
-        return float(z[0] + (z[1] - z[0]) * t)
+    def sin_latitude(self, k0: int, k1: int) -> np.ndarray:
+        """``n_z`` (the sine of the pit's latitude over the rolling great circle) at steps k0..k1 (k0 >= 0)."""
+        return self.axes(k0, k1)[:, 2]
 
 
 class TrackGate:
@@ -285,10 +296,30 @@ class TrackGate:
     def __init__(self, seed: int):
         self.seed = int(seed)
         self._walks: dict[float, AxisWalk] = {}
+        self._gains: OrderedDict = OrderedDict()          # (track, block) -> the gain at the block's steps
 
-    def gain(self, track: BallTrack, passes: float) -> float:
-        """The gain [-] at ``passes`` ball passes since t = 0."""
+    def walk(self, track: BallTrack) -> AxisWalk:
+        """The walk of the run's seed with ``track``'s correlation."""
         walk = self._walks.get(track.correlation_steps)
         if walk is None:
-            walk = self._walks[track.correlation_steps] = AxisWalk(max(track.correlation_steps, 1.0), self.seed)
-        return float(track.gain(walk.sin_latitude(passes / track.passes_per_step)))
+            walk = self._walks[track.correlation_steps] = AxisWalk(track.correlation_steps, self.seed)
+        return walk
+
+    def _step_gain(self, track: BallTrack, k: int) -> float:
+        b = k // AxisWalk.BLOCK
+        key = (id(track), b)
+        g = self._gains.get(key)
+        if g is None:
+            g = self._gains[key] = track.gain(self.walk(track).sin_latitude(b * AxisWalk.BLOCK,
+                                                                            (b + 1) * AxisWalk.BLOCK - 1))
+            while len(self._gains) > 4:
+                self._gains.popitem(last=False)
+        return float(g[k - b * AxisWalk.BLOCK])
+
+    def gain(self, track: BallTrack, passes: float) -> float:
+        """The gain [-] at ``passes`` ball passes since t = 0 (>= 0): the pit's at the steps around it, linear in
+        between."""
+        steps = passes / track.passes_per_step
+        k = int(math.floor(steps))
+        g0, g1 = self._step_gain(track, k), self._step_gain(track, k + 1)
+        return g0 + (g1 - g0) * (steps - k)

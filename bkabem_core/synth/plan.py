@@ -76,6 +76,7 @@ class Plan:
         self.lines = LineSelection(model, settings.max_order, settings.table_size)
         #: a ball defect's track wander and spin slip (None: no ball defect, or neither)
         self.track = BallTrack.of_model(model, self.lines.coefficients)
+        self._gate_families = self._gate_slices = None
         self.spectrum = LineSpectrum(model, self.channels.combination, method)
         self.dc = self.channels.static_part(model)
         #: the static part as float64: the chunk features' moments are taken about it
@@ -205,20 +206,67 @@ class Plan:
             self._memo.popitem(last=False)
         return hit
 
-    def gated_amplitudes(self, f: float, gain: float) -> Amplitudes:
-        """The amplitudes at speed f [Hz] with the ball defect's lines (``track.gated``) times ``gain`` [-] (the
-        track wander at a knot, :mod:`bkabem_core.synth.balltrack`); gain 1: :meth:`amplitudes` itself."""
-        base = self.amplitudes(f)
+    def _gated_families(self):
+        """The families whose lines the track gates, each whole (their tables scale with the gain), or None if a
+        family mixes gated and other lines (the knot is then made from the gated combinations)."""
+        gated = self.track.gated
+        out = []
+        for i, fam in enumerate(self.lines.families.families):
+            g = gated[fam.lines]
+            if g.all():
+                out.append(i)
+            elif g.any():
+                return None
+        return out
+
+    def gated_amplitudes(self, base: Amplitudes, gain: float) -> Amplitudes:
+        """The knot amplitudes ``base`` with the ball defect's lines (``track.gated``) times ``gain`` [-] (the track
+        wander at a knot, :mod:`bkabem_core.synth.balltrack`); gain 1: ``base`` itself. Where the gated lines are
+        whole families, their tables are scaled (the same numbers to float32 rounding); else the knot is made
+        again from the gated combinations."""
         if gain == 1.0:
             return base
-        x = base.x.copy()
-        x[self.track.gated] *= gain
+        gated = self.track.gated
+        if self._gate_families is None:
+            self._gate_families = self._gated_families() or []
+            kernel = self.lines_kernel
+            if isinstance(kernel, FusedLines) and self._gate_families:
+                # the table buffer as runs of (slice, gated): consecutive families of one kind joined
+                slices, runs = kernel.family_tables(), []
+                for i, sl in enumerate(slices):
+                    g = i in self._gate_families
+                    if runs and runs[-1][1] == g and runs[-1][0].stop == sl.start:
+                        runs[-1] = (slice(runs[-1][0].start, sl.stop), g)
+                    else:
+                        runs.append((sl, g))
+                self._gate_slices = runs
         kernel = self.lines_kernel
-        if isinstance(kernel, FusedLines):
-            y, v_iso, tables = kernel.knot(x, base.f, base.fade, base.taper, None)
+        fams = self._gate_families
+        if not fams:                                    # mixed families: the whole knot again
+            x = self.amplitudes(base.f).x.copy() if base.x is None else base.x.copy()
+            x[gated] *= gain
+            if isinstance(kernel, FusedLines):
+                y, v_iso, tables = kernel.knot(x, base.f, base.fade, base.taper, None)
+            else:
+                y, v_iso, tables = kernel.knot(x, base.f, base.fade, base.taper)
         else:
-            y, v_iso, tables = kernel.knot(x, base.f, base.fade, base.taper)
-        return Amplitudes(f=base.f, x=x, fade=base.fade, taper=base.taper, y=y, v_iso=v_iso, tables=tables,
+            g = np.where(gated, gain, 1.0)[:, None]
+            y, v_iso = base.y * g, base.v_iso * g
+            if isinstance(kernel, FusedLines):
+                tables = np.empty_like(base.tables)
+                g32 = np.float32(gain)
+                for sl, on in self._gate_slices:
+                    if on:
+                        np.multiply(base.tables[sl], g32, out=tables[sl])
+                    else:
+                        tables[sl] = base.tables[sl]
+                end = self._gate_slices[-1][0].stop
+                tables[end:] = base.tables[end:]
+            else:
+                tables = list(base.tables)
+                for i in fams:
+                    tables[i] = tuple(t * t.dtype.type(gain) for t in tables[i])
+        return Amplitudes(f=base.f, x=None, fade=base.fade, taper=base.taper, y=y, v_iso=v_iso, tables=tables,
                           lines=kernel)
 
     # ------------------------------------------------------------------ band

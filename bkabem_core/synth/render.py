@@ -38,7 +38,8 @@ _MASK64 = (1 << 64) - 1
 class Amplitudes:
     """What a knot needs at its speed (shared by the knots of one speed)."""
     f: float                    # shaft speed [Hz]
-    x: np.ndarray               # (L, U) complex displacement combinations [m], sensors applied
+    x: np.ndarray | None        # (L, U) complex displacement combinations [m], sensors applied (None: a knot
+                                #  derived from others, a wandering ball defect's: balltrack)
     fade: float                 # low-speed fade of every line
     taper: np.ndarray | None    # (L,) Nyquist taper (None: 1)
     y: np.ndarray               # (L, C) complex channel amplitudes (weights applied)
@@ -50,7 +51,7 @@ class Amplitudes:
     @property
     def weights(self) -> np.ndarray:
         """(L,) line weights (fade x taper)."""
-        return self.fade * (np.ones(self.x.shape[0]) if self.taper is None else self.taper)
+        return self.fade * (np.ones(self.y.shape[0]) if self.taper is None else self.taper)
 
     @property
     def rms(self) -> np.ndarray:
@@ -58,6 +59,35 @@ class Amplitudes:
         if self._rms is None:
             self._rms = np.sqrt(0.5 * np.sum(np.abs(self.y) ** 2, axis=0))
         return self._rms
+
+
+def blend(a: Amplitudes, b: Amplitudes, s: float, f: float) -> Amplitudes:
+    """The amplitudes a fraction ``s`` in [0, 1] of the time from a knot of amplitudes ``a`` to one of ``b`` (the
+    same line kernel), at speed ``f`` [Hz]: linear in time, as the samples between the two knots are (tables,
+    channel amplitudes, ISO velocities, the weights); the knot of a wandering ball defect between two spectra
+    (:mod:`bkabem_core.synth.balltrack`)."""
+    if a is b:
+        return a
+
+    def lerp(u, v):
+        out = np.subtract(v, u)
+        out *= s
+        out += u
+        return out
+
+    if isinstance(a.tables, np.ndarray):
+        tables = np.subtract(b.tables, a.tables)
+        tables *= np.float32(s)
+        tables += a.tables
+    else:
+        tables = [tuple(ta + ta.dtype.type(s) * (tb - ta) for ta, tb in zip(fa, fb))
+                  for fa, fb in zip(a.tables, b.tables)]
+    taper = None
+    if a.taper is not None or b.taper is not None:
+        ones = np.ones(a.y.shape[0])
+        taper = lerp(ones if a.taper is None else a.taper, ones if b.taper is None else b.taper)
+    return Amplitudes(f=float(f), x=None, fade=a.fade + s * (b.fade - a.fade), taper=taper, y=lerp(a.y, b.y),
+                      v_iso=lerp(a.v_iso, b.v_iso), tables=tables, lines=a.lines)
 
 
 def _i64(a) -> np.ndarray:
@@ -162,6 +192,12 @@ class FusedLines:
         return synth_kernel.lines_segment_plan(
             _i64(layout["lg"]), _i64(layout["carrier"]), _i64(layout["offset"]), _i64(wp), _i64(wq),
             _f64(consts).reshape(-1), _f64(np.asarray(kappas, dtype=float)), _i64(csrc).reshape(-1), _i64(walks))
+
+    def family_tables(self) -> list:
+        """Per family the slice of its table(s) in a knot's buffer (floats)."""
+        lay = self._layout
+        rows = (lay["N"] + 3) * (1 + lay["carrier"])
+        return [slice(int(o), int(o + r * self.n_channels)) for o, r in zip(lay["offset"], rows)]
 
     def knot(self, x: np.ndarray, f: float, fade: float, taper, spow) -> tuple:
         """(y, v_iso, tables) at shaft speed ``f`` [Hz]: ``x`` (L, U) complex128 combinations [m] (multiplied in

@@ -17,7 +17,7 @@ from scipy import stats
 
 from bkabem_core.model.case import Case, CaseError
 from bkabem_core.solve.harmonic import BkaBem
-from bkabem_core.synth.balltrack import AxisWalk, BallTrack, rho_of_sigma, sigma_for_correlation
+from bkabem_core.synth.balltrack import AxisWalk, BallTrack, keep_knots, rho_of_sigma, sigma_for_correlation
 from bkabem_core.synth.synthesizer import Synthesizer
 
 FS, SPEED = 25600.0, 25.0
@@ -80,7 +80,7 @@ def test_axis_walk_is_seeded_and_replays():
     assert np.array_equal(a.axes(10, 20), b.axes(10, 20))
     assert not np.allclose(AxisWalk(100.0, 4).axes(0, 10), a.axes(0, 10))
     with pytest.raises(ValueError, match="correlation_steps"):
-        AxisWalk(0.5, 1)
+        AxisWalk(0.4, 1)
 
 
 # --------------------------------------------------------------------------- the pit in the track
@@ -119,27 +119,58 @@ def test_gated_lines_are_the_ball_defects_and_race_defects_have_no_track(fault_l
 
 
 def test_knots_carry_the_gain_of_the_walk_at_their_ball_pass(ball_models):
-    """Every knot's ball-defect lines are the plan's amplitudes times the gain of the walk at the knot's ball
-    passes, and knots lie at most half a cage revolution apart."""
+    """Every knot's ball-defect lines are its amplitudes times the gain of the walk at the knot's ball passes, the
+    other lines untouched; the gain linear between the knots follows the walk's (within the knots' tolerance
+    at the candidates, half a cage revolution apart); the knots between two spectra blend them linearly in
+    time."""
     m = ball_models["fast"]
     s = Synthesizer(m, FS, 0.1, quantities=("acceleration",), seed=4, features=False)
     plan = s._plan
     tr = plan.track
     walk = AxisWalk(tr.correlation_steps, 4)
-    gains = []
-    for _ in range(8):
+    gains, knots = [], []
+    for _ in range(30):
         s.next_chunk(SPEED)
+        knots += [k for k in s._stream.knots if not knots or k.x > knots[-1].x]
         for k in s._stream.knots:
             u = k.u_int + k.u_frac
-            g = tr.gain(walk.sin_latitude(u / tr.passes_per_step))
-            base = plan.amplitudes(k.f)
-            assert np.allclose(k.amp.x[tr.gated], g * base.x[tr.gated], rtol=1e-13, atol=0.0)
-            assert np.array_equal(k.amp.x[~tr.gated], base.x[~tr.gated])
+            g = _walk_gain(tr, walk, u)
+            base = k.base
+            assert np.allclose(k.amp.y[tr.gated], g * base.y[tr.gated], rtol=1e-13, atol=0.0)
+            assert np.array_equal(k.amp.y[~tr.gated], base.y[~tr.gated])
+            assert np.allclose(k.amp.v_iso[tr.gated], g * base.v_iso[tr.gated], rtol=1e-13, atol=0.0)
+            t = np.asarray(base.tables, dtype=np.float64)              # the ball's lines are whole families
+            for sl, on in plan._gate_slices:
+                want = g * t[sl] if on else t[sl]
+                assert np.allclose(k.amp.tables[sl], want, rtol=1e-6, atol=1e-7 * np.abs(t).max())
             gains.append(g)
-        ks = s._stream.knots
-        for a, b in zip(ks, ks[1:]):
-            assert (b.u_int + b.u_frac) - (a.u_int + a.u_frac) <= tr.passes_per_step / 2 + 1e-9
+        for a, b, c in zip(s._stream.knots, s._stream.knots[1:], s._stream.knots[2:]):
+            if b.base is not plan.amplitudes(b.f) and a.base is not b.base:      # b: a knot between spectra
+                w = (b.x - a.x) / (c.x - a.x)
+                assert np.allclose(b.base.y, a.base.y + w * (c.base.y - a.base.y), rtol=1e-12)
     assert len(set(gains)) > 5
+    u = np.array([k.u_int + k.u_frac for k in knots])
+    g = np.array([_walk_gain(tr, walk, v) for v in u])
+    fine = np.arange(u[0], u[-1], tr.passes_per_step / 8)
+    err = np.abs(np.interp(fine, u, g) - np.array([_walk_gain(tr, walk, v) for v in fine]))
+    assert err.max() < 0.012, err.max()                     # the tolerance, and the steps' rounding to samples
+
+
+def test_keep_knots_keeps_the_kinks_only():
+    x = np.arange(9.0)
+    assert keep_knots(x, np.zeros(9), 0.01) == []                           # the pit off the track: none
+    assert keep_knots(x, 0.1 * x, 0.01) == []                               # a straight line: none
+    g = np.array([0, 0, 0, 0.5, 1, 1, 1, 1, 1.0])
+    assert keep_knots(x, g, 0.01) == [2, 4]                                 # the kinks
+    assert keep_knots(x, g + np.array([0, 0.005, 0, 0, 0, 0, 0.009, 0, 0]), 0.01) == [2, 4]
+
+
+def _walk_gain(track, walk, passes: float) -> float:
+    """The gain at ``passes``: the pit's at the two steps around it, linear in between (the definition)."""
+    steps = passes / track.passes_per_step
+    k = int(math.floor(steps))
+    g0, g1 = track.gain(walk.axes(k, k + 1)[:, 2])
+    return float(g0 + (g1 - g0) * (steps - k))
 
 
 # --------------------------------------------------------------------------- seeded, chunk-invariant
