@@ -307,7 +307,7 @@ class TrackGate:
 
     def _step_gain(self, track: BallTrack, k: int) -> float:
         b = k // AxisWalk.BLOCK
-        key = (id(track), b)
+        key = (track.pit_radius_m, track.half_width_m, track.ball_radius_m, track.correlation_steps, b)
         g = self._gains.get(key)
         if g is None:
             g = self._gains[key] = track.gain(self.walk(track).sin_latitude(b * AxisWalk.BLOCK,
