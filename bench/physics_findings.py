@@ -69,7 +69,7 @@ def band_db(a, b, lo, hi):
 def findings(case):
     earlier = case.with_overrides(EARLIER)
     rows = []
-    geo = case.bearing_geometry()
+    geo = case.bearing_geometry("de")
     b0 = Bearing(geo)
     # 1. bearings
     rad = b0.linearise(0.0, -495.0, average_over_pitch=True)
@@ -120,7 +120,7 @@ def findings(case):
     d0 = case.dent()
     cub = Bearing(geo, dataclasses.replace(d0, edge="cubic"))
     ball = Bearing(geo, d0)
-    p82 = dataclasses.replace(FourDofParameters.from_case(case), rotor_mass_kg=82.0, relative_amplitude_threshold=0.0,
+    p82 = dataclasses.replace(FourDofParameters.from_case(case, "de"), rotor_mass_kg=82.0, relative_amplitude_threshold=0.0,
                               max_order=0)
     e_c = compute_excitation(cub, p82, 0.0).all_amplitude_m["vertical"]
     e_b = compute_excitation(ball, p82, 0.0).all_amplitude_m["vertical"]
@@ -140,7 +140,7 @@ def findings(case):
     ex_nde = now.excitations["nde"]
     site = m.sites["de"]
     qs = quasi_static_excitation(site.bearing, 495.0, 390.0, 4096, 0, 0)
-    p = dataclasses.replace(FourDofParameters.from_case(case), rotor_mass_kg=495.0 / G, relative_amplitude_threshold=0.0,
+    p = dataclasses.replace(FourDofParameters.from_case(case, "de"), rotor_mass_kg=495.0 / G, relative_amplitude_threshold=0.0,
                             max_order=0, samples_per_ball_pass=4096)
     fd = compute_excitation(site.bearing, p, 390.0)
     a_q, a_f = qs.all_amplitude_m["vertical"], fd.all_amplitude_m["vertical"]
@@ -168,14 +168,14 @@ def findings(case):
 
 
 def paper_numbers(case):
-    geo = case.bearing_geometry()
+    geo = case.bearing_geometry("de")
     b = case.bearing("de")
-    ex804 = compute_excitation(b, dataclasses.replace(FourDofParameters.from_case(case), rotor_mass_kg=82.0,
+    ex804 = compute_excitation(b, dataclasses.replace(FourDofParameters.from_case(case, "de"), rotor_mass_kg=82.0,
                                                       relative_amplitude_threshold=0, max_order=0), 390.0)
     qs804 = quasi_static_excitation(b, 82 * G, 390.0, 2048, 0, 0)
     model = BkaBem(case)
     ex495 = model.excitations["de"]
-    rad = dataclasses.replace(FourDofParameters.from_case(case), rotor_mass_kg=495.0 / G, relative_amplitude_threshold=0,
+    rad = dataclasses.replace(FourDofParameters.from_case(case, "de"), rotor_mass_kg=495.0 / G, relative_amplitude_threshold=0,
                               max_order=0)
     b_cubic = case.with_overrides({"dent.edge": "cubic"}).bearing("de")
     ex495r = compute_excitation(b_cubic, rad, 0.0)

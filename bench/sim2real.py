@@ -355,6 +355,7 @@ def block(res: dict, me: dict, tw: dict, argv: list[str], img_name: str) -> str:
         f"**Today's twin: `{twin}`.** Code {report.code_version(ROOT)}; {res['wall_s']:.0f} s "
         f"({res['render_s']:.0f} s for the data set).",
         "",
+        "<!-- docs-test: skip: DATA_DIR is the measured records' folder, which the project does not ship -->",
         "```sh",
         " ".join([".venv/bin/python bench/sim2real.py DATA_DIR", *argv]),
         "```",

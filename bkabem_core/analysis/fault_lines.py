@@ -1,9 +1,10 @@
 """Characteristic frequencies, the ground-truth defects of a run, and the spectrum markers drawn
 for them: all from the messages as recorded (``BearingFaultFrequencies``), data-driven.
 
-A run carries a list of defects (:class:`Defect`: kind, bearing, size) and the bearing's
+A run carries a list of defects (:class:`Defect`: kind, bearing, size) and each bearing's
 fault-frequency lines (:data:`LINES`: 1x, FTF, BPFO, BPFI, BSF, 2xBSF, each a multiple of the
-shaft speed). :func:`marker_plan` turns them into the markers of one spectrum view: every line at
+shaft speed; :func:`bearing_line_frequencies`: each position has a bearing of its own, with its
+own cage and spin rates, stated per bearing since bkabem_msgs 0.3.0). :func:`marker_plan` turns them into the markers of one spectrum view: every line at
 its fundamental, and the line a defect of the run excites (its kind's, from the registry of
 :mod:`bkabem_core.bearing.defects`: outer race -> BPFO, inner race -> BPFI, ball -> 2xBSF) also
 at its kind's marked harmonics (2 and 3). So a spectrum whose every line is a BPFO multiple gets
@@ -24,8 +25,8 @@ from dataclasses import dataclass
 
 from bkabem_core.bearing.defects.registry import find
 
-__all__ = ["LINES", "LINE_COLORS", "Defect", "Marker", "Truth", "defects_from_message", "describe_defect",
-           "describe_truth", "line_frequencies", "marker_plan", "truth_from_message"]
+__all__ = ["LINES", "LINE_COLORS", "Defect", "Marker", "Truth", "bearing_line_frequencies", "defects_from_message",
+           "defects_with_lines_of", "describe_defect", "describe_truth", "line_frequencies", "marker_plan", "truth_from_message"]
 
 #: Fault-frequency lines in display order.
 LINES = ("1x", "FTF", "BPFO", "BPFI", "BSF", "2xBSF")
@@ -110,11 +111,27 @@ class Marker:
 
 
 def line_frequencies(msg) -> dict[str, float]:
-    """{line: frequency [Hz]} of a ``BearingFaultFrequencies`` message (1x from its shaft speed
-    [rad/s])."""
-    bsf = float(msg.bsf)
-    return {"1x": float(msg.shaft_speed) / (2.0 * math.pi), "FTF": float(msg.ftf), "BPFO": float(msg.bpfo),
-            "BPFI": float(msg.bpfi), "BSF": bsf, "2xBSF": 2.0 * bsf}
+    """{line: frequency [Hz]} of the single fields of a ``BearingFaultFrequencies`` message: the DE bearing's (1x
+    from its shaft speed [rad/s]); every bearing's: :func:`bearing_line_frequencies`."""
+    return _lines(float(msg.shaft_speed), msg)
+
+
+def _lines(shaft_rad_s: float, k) -> dict[str, float]:
+    bsf = float(k.bsf)
+    return {"1x": shaft_rad_s / (2.0 * math.pi), "FTF": float(k.ftf), "BPFO": float(k.bpfo),
+            "BPFI": float(k.bpfi), "BSF": bsf, "2xBSF": 2.0 * bsf}
+
+
+def bearing_line_frequencies(msg) -> dict[str, dict[str, float]]:
+    """{bearing: {line: frequency [Hz]}} of a ``BearingFaultFrequencies`` message, each bearing its own
+    (its ``bearings``, bkabem_msgs 0.3.0); a message without them (0.1.0, 0.2.0: one bearing type at both
+    positions) gives its single fields for both."""
+    speed = float(msg.shaft_speed)
+    out = {str(b.bearing): _lines(speed, b) for b in (getattr(msg, "bearings", None) or ())}
+    if not out:
+        shared = line_frequencies(msg)
+        out = {"de": shared, "nde": dict(shared)}
+    return out
 
 
 @dataclass(frozen=True)
@@ -222,12 +239,20 @@ def describe_truth(t: Truth) -> list[str]:
     return out
 
 
+def defects_with_lines_of(defects, bearing_lines: dict, loc: str) -> list[Defect]:
+    """The defects in bearings whose fault lines are those of bearing ``loc`` (``bearing_lines``:
+    :func:`bearing_line_frequencies`): every defect when both positions carry one bearing type,
+    only ``loc``'s own when the other bearing is another one (its lines are elsewhere)."""
+    mine = bearing_lines.get(loc)
+    return [d for d in defects if bearing_lines.get(d.bearing, mine) == mine]
+
+
 def marker_plan(lines: dict[str, float], defects: list[Defect], f_max: float,
                 harmonics: tuple[int, ...] | None = None) -> list[Marker]:
-    """Markers for a spectrum shown up to ``f_max`` [Hz]: every line of ``lines`` at its
-    fundamental; the lines excited by ``defects`` also at ``harmonics`` (default: each defect
-    kind's marked harmonics). Lines at 0 Hz (speed 0) and markers above ``f_max`` are left
-    out."""
+    """Markers for a spectrum shown up to ``f_max`` [Hz]: every line of ``lines`` (one bearing's) at
+    its fundamental; the lines excited by ``defects`` (those of bearings with these lines) also at
+    ``harmonics`` (default: each defect kind's marked harmonics). Lines at 0 Hz (speed 0) and markers
+    above ``f_max`` are left out."""
     excited: dict[str, set] = {}
     for d in defects:
         if d.depth_m > 0:

@@ -31,19 +31,27 @@ def line_sources(name: str, loc: str, defects) -> tuple[list, list]:
 
 
 def envelope_finding(f, env, lines: dict[str, float], names: list[str], loc: str = "",
-                     defects=None) -> str:
+                     defects=None, bearing_lines: dict | None = None) -> str:
     """The fault line whose harmonics 1-3 stand out most over the envelope spectrum's median
-    floor (what a monitoring pipeline reads first), for bearing ``loc``. With the ground truth
-    (``defects``: every defect of the machine with its bearing), a line that stands out and
-    belongs only to a defect of another bearing is said to be that defect's, transmitted
-    ("BPFO 89.6 Hz: from the DE outer-race defect (transmitted) ..."), so the panel of a
-    healthy bearing never reads like a fault of its own."""
+    floor (what a monitoring pipeline reads first), for bearing ``loc`` (``lines``: its own
+    bearing's). With the ground truth (``defects``: every defect of the machine with its bearing),
+    a line that stands out and belongs only to a defect of another bearing is said to be that
+    defect's, transmitted ("BPFO 89.6 Hz: from the DE outer-race defect (transmitted) ..."), so the
+    panel of a healthy bearing never reads like a fault of its own. ``bearing_lines`` ({bearing:
+    lines}, a bearing of its own at each position): the defects of a bearing whose lines differ
+    from ``loc``'s are looked for at their own bearing's lines ("DE BPFO 107.6 Hz: from ...")."""
     if env.size == 0 or f.size < 8:
         return "no envelope spectrum yet"
     df = f[1] - f[0]
+    bl = bearing_lines or {}
+    candidates = [(name, lines.get(name, 0.0), "") for name in ("BPFO", "BPFI", "2xBSF", "BSF", "FTF")]
+    for d in defects or ():                       # another bearing's defect at its own bearing's lines
+        other = bl.get(d.bearing)
+        if d.bearing != loc and other is not None and other != lines and d.depth_m > 0:
+            candidates += [(name, other.get(name, 0.0), d.bearing) for name in d.envelope_lines
+                           if (name, other.get(name, 0.0), d.bearing) not in candidates]
     best = None
-    for name in ("BPFO", "BPFI", "2xBSF", "BSF", "FTF"):
-        f0 = lines.get(name, 0.0)
+    for name, f0, src in candidates:
         if not f0 > 2 * df:
             continue
         for c in range(env.shape[0]):
@@ -56,14 +64,22 @@ def envelope_finding(f, env, lines: dict[str, float], names: list[str], loc: str
                 m = np.abs(f - h * f0) <= tol
                 db.append(20 * math.log10(max(float(env[c, m].max()), 1e-30) / floor))
             if db and (best is None or db[0] > best[0][0]):
-                best = (db, name, names[c], f0)
+                best = (db, name, names[c], f0, src)
     if best is None:
         return "no fault line in the envelope range yet"
-    db, name, ch, f0 = best
+    db, name, ch, f0, src = best
     stands = db[0] >= 10
     hs = "/".join(f"{v:.0f}" for v in db)
     numbers = f"harmonics 1-{len(db)} at {hs} dB over the median floor ({ch})"
-    own, other = line_sources(name, loc, defects)
+    if src:                                       # the line of another bearing's defect
+        mine = [d for d in defects if d.bearing == src and name in d.envelope_lines]
+        label = f"{src.upper()} {name} {f0:.1f} Hz"
+        if stands:
+            return (f"{label}: from the {' and '.join(_defect_words(d) for d in mine)} (transmitted), not a fault "
+                    f"of the {loc.upper()} bearing; {numbers}")
+        return f"{label} does not stand out: {numbers}"
+    same = [d for d in defects or () if bl.get(d.bearing, lines) == lines or d.bearing == loc]
+    own, other = line_sources(name, loc, same)
     if stands and other and not own:
         src = " and ".join(_defect_words(d) for d in other)
         return (f"{name} {f0:.1f} Hz: from the {src} (transmitted), not a fault of the "
@@ -101,7 +117,7 @@ def bearing_truth(loc: str, defects: list, truth: "fault_lines.Truth | None" = N
 
 
 def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], iso_zones: str,
-                window_s: float, truth: "fault_lines.Truth | None" = None) -> str:
+                window_s: float, truth: "fault_lines.Truth | None" = None, marked: list | None = None) -> str:
     """Markdown of one bearing's health panel: verdicts first (ISO zone, this bearing's ground
     truth, envelope finding), then the defects of the other bearing (:func:`bearing_truth`), the
     machine-wide ground truth, the numbers the verdicts rest on and the marker key.
@@ -117,7 +133,7 @@ def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], i
     defects : list of fault_lines.Defect
         The run's ground truth.
     run_lines : dict
-        Fault-frequency lines [Hz] of the last message (used when ``h`` has none).
+        The bearing's fault-frequency lines [Hz] of the last message (used when ``h`` has none).
     iso_zones : str
         Key of :data:`bkabem_core.analysis.condition.ISO_ZONE_SETS`.
     window_s : float
@@ -125,6 +141,9 @@ def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], i
     truth : fault_lines.Truth, optional
         The rest of the ground truth (healthy, baseline, scenario state, labels) for the lines
         under the defects.
+    marked : list of fault_lines.Defect, optional
+        The defects whose lines the bearing's markers show at their harmonics (those of bearings
+        with this bearing's lines; default: ``defects``).
     """
     L = loc.upper()
     names = h.get("names", [])
@@ -170,7 +189,7 @@ def health_text(loc: str, h: dict, defects: list, run_lines: dict[str, float], i
     lines = h.get("lines") or run_lines
     if lines:
         excited: dict[str, set] = {}
-        for d in defects:
+        for d in (defects if marked is None else marked):
             excited.setdefault(d.line, set()).update(d.harmonics)
         key = ", ".join(f"{name} {lines[name]:.1f} Hz {fault_lines.LINE_COLOR_NAMES[name]}"
                         + (f" (x{min(excited[name])}-{max(excited[name])})" if name in excited else "")

@@ -152,8 +152,7 @@ def _run_case(run: Run) -> _RunCase:
     """The case of a grid or random ``run``, one object per machine (the spec's machine hash) in the process."""
     case = _CASES.get(run.case_hash)
     if case is None:
-        case = _CASES[run.case_hash] = _RunCase(name=run.case_raw["case"]["name"], source="dataset run",
-                                                raw=run.case_raw)
+        case = _CASES[run.case_hash] = _RunCase.of_valid(run.case_raw, "dataset run")
         while len(_CASES) > POOL_SIZE:
             _CASES.popitem(last=False)
     _CASES.move_to_end(run.case_hash)
@@ -218,11 +217,12 @@ def _fault_label(defects: list[dict]) -> tuple[str, str, str]:
     return kinds, bearings, full
 
 
-def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tuple, mult,
-              synth: Synthesizer, file: str) -> dict:
+def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tuple, mult: dict,
+              channels, file: str, *, anti_alias: bool) -> dict:
     """One row of the labels table: the segment of ``run`` from sample ``first`` (``n`` samples) in the machine
     state of ground truth ``gt`` (docs/datasets.md, "Labels"); ``speeds`` = the segment's shaft speed (mean, min,
-    max) [Hz]."""
+    max) [Hz]; ``mult`` = each bearing's fault multipliers (``{"de": FaultFrequencies, "nde": ...}``);
+    ``channels`` = the names of the run's channels; ``anti_alias`` = whether its acquisition has a low-pass."""
     p = run.params
     fs = p["sample_rate_hz"]
     mean, lo, hi = speeds
@@ -238,16 +238,24 @@ def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tupl
            "load_factor": float(gt.get("load_factor", p["load_factor"] if p["load_factor"] is not None else 1.0)),
            "seed": p["seed"], "slip": p["slip"], "noise_acc": p["noise_acc"], "noise_disp": p["noise_disp"],
            "noise_vel": p["noise_vel"], "sample_rate_hz": fs, "quantities": ",".join(p["quantities"]),
-           "channels": ",".join(synth.channel_names), "accelerometer": p["accelerometer"],
-           "anti_alias": synth.anti_alias is not None}
-    for name in ("bpfo", "bpfi", "bsf", "ftf"):
-        m = float(getattr(mult, name))
+           "channels": ",".join(channels), "accelerometer": p["accelerometer"],
+           "anti_alias": anti_alias}
+    for name in ("bpfo", "bpfi", "bsf", "ftf"):           # the DE bearing's (the columns of one bearing type)
+        m = float(getattr(mult["de"], name))
         row[f"{name}_per_hz"] = m
         row[f"{name}_hz"] = m * mean
+    for b in ("de", "nde"):                                # each bearing's own
+        row[f"{b}_bearing_designation"] = gt["bearings"][b]["designation"] if "bearings" in gt else \
+            gt["bearing_designation"]
+        for name in ("bpfo", "bpfi", "bsf", "ftf"):
+            m = float(getattr(mult[b], name))
+            row[f"{b}_{name}_per_hz"] = m
+            row[f"{b}_{name}_hz"] = m * mean
     row["shaft_hz"] = mean
     for i, d in enumerate(gt["defects"]):
         pre = f"d{i}_"
         row.update({pre + "name": d.get("name", ""), pre + "kind": d["kind"], pre + "bearing": d["bearing"],
+                    pre + "bearing_designation": d.get("bearing_designation", gt["bearing_designation"]),
                     pre + "length_m": d["length_m"], pre + "depth_m": d["depth_m"],
                     pre + "angle_deg": math.degrees(d["angle_rad"]),
                     **{pre + k.name: d.get(k.name) for k in own_keys()},      # a ball defect's ball number
@@ -479,7 +487,7 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
     fs = synth.sample_rate_hz
     n_total = int(round(p["duration_s"] * fs))
     names = list(synth.channel_names)
-    mult = synth.model.fault_multipliers
+    mult = synth.model.bearing_multipliers
     if sinks:                                       # they write beside the Parquet file from the start
         final.parent.mkdir(parents=True, exist_ok=True)
     open_sinks = [_load_sink(s)(run, final.with_suffix(""), synth) for s in sinks]
@@ -510,7 +518,8 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
             if truth is None:                       # a grid run: the case alone (one state, no scenario)
                 alone = Scenario.of_case(_run_case(run))
                 truth = alone.ground_truth(alone.states[0], seg.first / fs)
-            rows.append(label_row(run, dict(truth), k, seg.first, end - seg.first, seg.speeds(), mult, synth, rel))
+            rows.append(label_row(run, dict(truth), k, seg.first, end - seg.first, seg.speeds(), mult,
+                                  synth.channel_names, rel, anti_alias=synth.anti_alias is not None))
         meta = {"run_id": run.run_id, "run_hash": run.run_hash, "run_index": run.index, "params": run.params,
                 "machine_hash": run.case_hash, "sample_rate_hz": fs, "n_samples": n_total,
                 "channel_names": names, "units": list(synth.units),

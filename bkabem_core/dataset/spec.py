@@ -568,14 +568,13 @@ class DatasetSpec:
         fkey = keys.get("fault", "run.fault")
         defects = parse_fault(params["fault"], params["bearing"] or "de", fkey, src)
         tables = []
-        bearing = self.base_case.raw["bearing"]
         used = set()
         for b, name in defects:
             k = kind(name)
             t = {"bearing": b, "race": name, "length_m": params["length_m"], "depth_m": params["depth_m"],
                  "angle_deg": params["angle_deg"], "edge": params["edge"], "edge_fraction": 0.1}
             for o in k.own_keys:                     # the keys only this kind has (a ball defect's ball number)
-                reason = k.check_own_key(o.name, params[o.name], bearing)
+                reason = k.check_own_key(o.name, params[o.name], self.base_case.bearing_table(b))
                 if reason:
                     raise DatasetSpecError(keys.get(o.name, f"run.{o.name}"), reason + where, src)
                 t[o.name] = params[o.name]

@@ -3,6 +3,7 @@
 Lines (module ``lines``)
 ========================
     LineSet               -- lines with integer coefficients on the base phases and complex amplitudes
+    MachinePhases         -- the base phases of a machine: shaft, each bearing's cage and spin, line
     union                 -- one set holding every line of several sets
     lines_from_grid       -- lines of a function sampled on a 2-torus (2-D FFT)
     line_label            -- what a line is: "BPFO", "BPFI - 1 f_r", "2 BSF + FTF", "1x" (module ``line_names``)
@@ -23,10 +24,11 @@ Machine baseline (module ``baseline``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["LineSet", "union", "lines_from_grid", "line_label", "Excitation", "quasi_static_excitation", "torus_path", "FourDofModel", "compute_excitation", "rates_per_hz", "baseline_forces"]
+__all__ = ["LineSet", "MachinePhases", "union", "line_label", "lines_from_grid", "Excitation", "quasi_static_excitation", "torus_path", "FourDofModel", "compute_excitation", "rates_per_hz", "baseline_forces"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "LineSet": "lines",
+    "MachinePhases": "lines",
     "union": "lines",
     "lines_from_grid": "lines",
     "line_label": "line_names",

@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from bkabem_core.excitation.lines import LineSet
+from bkabem_core.excitation.lines import N_PHASES, LineSet
 
 TWO_PI = 2.0 * math.pi
 #: Force patterns of the baseline, in the order BkaBem appends them to its input patterns.
@@ -52,8 +52,9 @@ def baseline_forces(case, rotor, rates_per_hz) -> tuple[LineSet, dict]:
     case : Case
     rotor : Rotor
         The FE model (``dof_index``, ``ndof``).
-    rates_per_hz : ndarray (4,)
-        Base-phase rates of the machine (:func:`bkabem_core.excitation.quasi_static.rates_per_hz`).
+    rates_per_hz : ndarray (6,)
+        Base-phase rates of the machine (:class:`~bkabem_core.excitation.lines.MachinePhases`): the baseline's
+        lines follow the shaft and the supply only.
 
     Returns
     -------
@@ -75,14 +76,14 @@ def baseline_forces(case, rotor, rates_per_hz) -> tuple[LineSet, dict]:
                 v[idx(int(d["node"]), axis)] += float(d["mass_kg"])
             patterns[f"unbalance.{axis}"] = v
         a = e * TWO_PI ** 2 * np.exp(1j * math.radians(b["unbalance_phase_deg"]))
-        rows.append(((1, 0, 0, 0), {"unbalance.x": a, "unbalance.y": -1j * a}, 2))
+        rows.append(((1, 0, 0, 0, 0, 0), {"unbalance.x": a, "unbalance.y": -1j * a}, 2))
     f_mis = float(b["misalignment_force_n"])
     if f_mis > 0.0:
         for axis in ("x", "y"):
             v = np.zeros(rotor.ndof)
             v[idx(int(b["misalignment_node"]), axis)] = 1.0
             patterns[f"misalignment.{axis}"] = v
-        rows.append(((2, 0, 0, 0), {"misalignment.x": f_mis, "misalignment.y": -1j * f_mis}, 0))
+        rows.append(((2, 0, 0, 0, 0, 0), {"misalignment.x": f_mis, "misalignment.y": -1j * f_mis}, 0))
     f_el = float(b["electrical_force_n"])
     if f_el > 0.0 and disks:
         core = [d for d in disks if str(d["name"]).startswith("core")] or list(disks)
@@ -91,9 +92,9 @@ def baseline_forces(case, rotor, rates_per_hz) -> tuple[LineSet, dict]:
         for d in core:
             v[idx(int(d["node"]), "y")] += float(d["mass_kg"]) / total
         patterns["electrical.y"] = v
-        rows.append(((0, 0, 0, 2), {"electrical.y": f_el}, 0))
+        rows.append(((0, 0, 0, 0, 0, 2), {"electrical.y": f_el}, 0))
     names = tuple(n for n in PATTERNS if n in patterns)
-    coef = np.array([r[0] for r in rows], dtype=np.int64).reshape(-1, 4)
+    coef = np.array([r[0] for r in rows], dtype=np.int64).reshape(-1, N_PHASES)
     amp = np.zeros((len(rows), len(names)), complex)
     for i, (_, vals, _) in enumerate(rows):
         for n, v in vals.items():

@@ -1,6 +1,8 @@
 """Sets of lines: the interface between excitation, harmonic solve, improved method and synthesiser.
 
-Every signal of bkabem is a sum of lines whose phases are integer combinations of a few *base phases*:
+Every signal of bkabem is a sum of lines whose phases are integer combinations of a few *base phases*. One
+bearing's lines (its excitation, :mod:`bkabem_core.excitation.quasi_static`) use the phases of that bearing,
+:data:`BEARING_PHASES`:
 
     x(t) = DC + sum_j Re(A_j exp(i c_j . Phi(t))),      Phi = (theta_shaft, theta_cage, theta_spin, theta_line)
 
@@ -11,6 +13,14 @@ reference); ``theta_line`` is the supply's electrical angle (rate f_line, fixed 
 ``mu_j = c_j[3] f_line`` [Hz]. Examples (z balls): BPFO order k is ``c = (0, k z, 0, 0)``, BPFI is
 ``(z, -z, 0, 0)``, its sideband at + f_r ``(z + 1, -z, 0, 0)``, 2 x BSF ``(0, 0, 2, 0)``, unbalance 1x
 ``(1, 0, 0, 0)``, the electrical 2 x line frequency ``(0, 0, 0, 2)``.
+
+A machine has a bearing of its own at each position, with its own cage and spin rates: its lines use the
+machine's phases :data:`BASE_PHASES`, ``(shaft, cage_de, spin_de, cage_nde, spin_nde, line)``, with rates
+``(1, FTF_de, BSF_de, FTF_nde, BSF_nde, 0)`` (:class:`MachinePhases`). A bearing's lines are placed there by
+:meth:`MachinePhases.place` (its cage and spin on its position's columns); a line never mixes two bearings' cage or
+spin (checked). When both positions turn their cages and balls at the same rates (the same bearing at both ends, or
+two with the same kinematics) there is one cage and one spin phase: every line is written on the DE columns and the
+NDE columns stay 0, so the lines and every number are those of a machine with one bearing type.
 
 Each line is kept once with ``f_j > 0`` (its conjugate is implied by the real part). Amplitudes are complex per
 input (e.g. the vertical and horizontal relative displacement of a bearing [m], or a force pattern [N]), and may
@@ -26,8 +36,36 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-BASE_PHASES = ("shaft", "cage", "spin", "line")
+#: The phases of one bearing (its excitation's lines, the defect kinds' tori).
+BEARING_PHASES = ("shaft", "cage", "spin", "line")
+#: The phases of a machine with a bearing at each position (:class:`MachinePhases`).
+BASE_PHASES = ("shaft", "cage_de", "spin_de", "cage_nde", "spin_nde", "line")
 N_PHASES = len(BASE_PHASES)
+#: The cage and spin columns of each position in :data:`BASE_PHASES`.
+BEARING_COLUMNS = {"de": (1, 2), "nde": (3, 4)}
+_PHASE_NAMES = {len(BEARING_PHASES): BEARING_PHASES, N_PHASES: BASE_PHASES}
+
+
+def _multipliers(coefficients: np.ndarray, rates: np.ndarray) -> np.ndarray:
+    """``nu_j`` [Hz per shaft Hz] of coefficient rows on :data:`BEARING_PHASES` or :data:`BASE_PHASES`: each row
+    as a sum over (shaft, its bearing's cage, its bearing's spin) in that order, so that a machine's line has
+    the bit-for-bit multiplier of the same line on one bearing's phases."""
+    c = np.asarray(coefficients)
+    if c.shape[1] == len(BEARING_PHASES):
+        return c[:, :3] @ rates[:3]
+    de = c[:, :3] @ rates[:3]
+    if not c[:, 3:5].any():
+        return de
+    nde = c[:, [0, 3, 4]] @ rates[[0, 3, 4]]
+    return np.where(c[:, 3:5].any(axis=1), nde, de)
+
+
+def _check_one_bearing(coefficients: np.ndarray) -> None:
+    """A line on the machine's phases never mixes the two bearings' cage or spin phases."""
+    c = coefficients
+    mixed = c[:, 1:3].any(axis=1) & c[:, 3:5].any(axis=1)
+    if mixed.any():
+        raise ValueError(f"a line mixes the DE and NDE bearings' cage/spin phases: {c[np.flatnonzero(mixed)[0]].tolist()}")
 
 
 @dataclass
@@ -36,14 +74,15 @@ class LineSet:
 
     Attributes
     ----------
-    coefficients : ndarray of int64 (L, 4)
-        ``c_j`` on (shaft, cage, spin, line).
+    coefficients : ndarray of int64 (L, N)
+        ``c_j`` on one bearing's phases (N = 4: shaft, cage, spin, line) or on the machine's (N = 6: shaft,
+        cage_de, spin_de, cage_nde, spin_nde, line); N is the length of ``rates_per_hz``.
     amplitude : ndarray complex (L, P)
         ``A_j`` per input, cosine convention ``x = Re(A exp(i c . Phi))`` [input units].
     inputs : tuple of str (P,)
         Names of the inputs (e.g. ``("vertical", "horizontal")``).
-    rates_per_hz : ndarray (4,)
-        Rate of each base phase per shaft Hz: (1, FTF, BSF, 0).
+    rates_per_hz : ndarray (N,)
+        Rate of each base phase per shaft Hz: (1, FTF, BSF, 0), or (1, FTF_de, BSF_de, FTF_nde, BSF_nde, 0).
     line_hz : float
         Supply frequency [Hz] (rate of ``theta_line``), 0 if no line uses it.
     speed_power : ndarray of int (L,)
@@ -62,10 +101,15 @@ class LineSet:
     source: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        self.coefficients = np.asarray(self.coefficients, dtype=np.int64).reshape(-1, N_PHASES)
+        self.rates_per_hz = np.asarray(self.rates_per_hz, dtype=float)
+        width = self.rates_per_hz.size
+        if width not in _PHASE_NAMES:
+            raise ValueError(f"rates_per_hz: {width} base phases (one bearing's 4 or a machine's 6)")
+        self.coefficients = np.asarray(self.coefficients, dtype=np.int64).reshape(-1, width)
+        if width == N_PHASES:
+            _check_one_bearing(self.coefficients)
         n = self.coefficients.shape[0]
         self.amplitude = np.asarray(self.amplitude, dtype=complex).reshape(n, len(self.inputs))
-        self.rates_per_hz = np.asarray(self.rates_per_hz, dtype=float)
         self.speed_power = (np.zeros(n, dtype=np.int64) if self.speed_power is None
                             else np.asarray(self.speed_power, dtype=np.int64).reshape(n))
         self.dc = np.zeros(len(self.inputs)) if self.dc is None else np.asarray(self.dc, dtype=float)
@@ -73,15 +117,16 @@ class LineSet:
     # -- construction
     @classmethod
     def empty(cls, inputs, rates_per_hz, line_hz: float = 0.0) -> "LineSet":
-        return cls(np.zeros((0, N_PHASES), np.int64), np.zeros((0, len(inputs)), complex), tuple(inputs),
+        width = np.size(rates_per_hz)
+        return cls(np.zeros((0, width), np.int64), np.zeros((0, len(inputs)), complex), tuple(inputs),
                    rates_per_hz, line_hz)
 
     @classmethod
     def from_orders(cls, orders, amplitude, n_balls: int, rates_per_hz, inputs, dc=None) -> "LineSet":
-        """BPFO orders k (cage coefficient k z) with amplitudes (K, P): the excitation of an outer race or a
-        healthy bearing."""
+        """BPFO orders k (cage coefficient k z) with amplitudes (K, P) on one bearing's phases: the excitation of an
+        outer race or a healthy bearing."""
         k = np.asarray(orders, dtype=np.int64)
-        c = np.zeros((k.size, N_PHASES), np.int64)
+        c = np.zeros((k.size, np.size(rates_per_hz)), np.int64)
         c[:, 1] = k * int(n_balls)
         return cls(c, amplitude, tuple(inputs), rates_per_hz, dc=dc)
 
@@ -90,19 +135,24 @@ class LineSet:
         return int(self.coefficients.shape[0])
 
     @property
+    def phase_names(self) -> tuple:
+        """The names of the base phases of the coefficients' columns."""
+        return _PHASE_NAMES[self.coefficients.shape[1]]
+
+    @property
     def multipliers(self) -> np.ndarray:
         """``nu_j`` [Hz per shaft Hz] (the speed-proportional part of each line's frequency)."""
-        return self.coefficients[:, :3] @ self.rates_per_hz[:3]
+        return _multipliers(self.coefficients, self.rates_per_hz)
 
     @property
     def fixed_hz(self) -> np.ndarray:
         """``mu_j`` [Hz] (the part of each line's frequency that does not scale with speed)."""
-        return self.coefficients[:, 3] * float(self.line_hz)
+        return self.coefficients[:, -1] * float(self.line_hz)
 
     @property
     def speed_locked(self) -> np.ndarray:
         """(L,) bool: lines whose frequency is proportional to the shaft speed (no ``line`` coefficient)."""
-        return self.coefficients[:, 3] == 0
+        return self.coefficients[:, -1] == 0
 
     def frequency_hz(self, speed_hz: float) -> np.ndarray:
         """Line frequencies [Hz] at a shaft speed [Hz]."""
@@ -123,7 +173,7 @@ class LineSet:
 
     def on(self, coefficients) -> "LineSet":
         """The same inputs on the given lines (zero amplitude where a line is not in this set)."""
-        coefficients = np.asarray(coefficients, dtype=np.int64).reshape(-1, N_PHASES)
+        coefficients = np.asarray(coefficients, dtype=np.int64).reshape(-1, self.coefficients.shape[1])
         pos = {k: i for i, k in enumerate(self.keys())}
         amp = np.zeros((coefficients.shape[0], len(self.inputs)), complex)
         power = np.zeros(coefficients.shape[0], np.int64)
@@ -160,7 +210,7 @@ class LineSet:
         return replace(self, amplitude=amp, inputs=tuple(inputs), dc=dc)
 
     def to_dict(self) -> dict:
-        return {"base_phases": list(BASE_PHASES), "rates_per_hz": self.rates_per_hz.tolist(),
+        return {"base_phases": list(self.phase_names), "rates_per_hz": self.rates_per_hz.tolist(),
                 "line_hz": self.line_hz, "coefficients": self.coefficients.tolist(),
                 "multipliers": self.multipliers.tolist(), "inputs": list(self.inputs),
                 "amplitude": {name: np.abs(self.amplitude[:, i]).tolist() for i, name in enumerate(self.inputs)},
@@ -174,19 +224,22 @@ def union(sets) -> LineSet:
     defect's load zone and the unbalance; the first set's rates)."""
     sets = [s for s in sets if s is not None]
     first = sets[0]
+    width = first.coefficients.shape[1]
     dc = np.zeros(len(first.inputs))
     line_hz = 0.0
     for s in sets:
         if s.inputs != first.inputs:
             raise ValueError(f"union: inputs differ ({s.inputs} vs {first.inputs})")
+        if s.coefficients.shape[1] != width:
+            raise ValueError(f"union: base phases differ ({s.phase_names} vs {first.phase_names})")
         dc = dc + s.dc
-        if np.any(s.coefficients[:, 3] != 0):
+        if np.any(s.coefficients[:, -1] != 0):
             line_hz = s.line_hz
     keys = np.concatenate([np.column_stack([s.coefficients, s.speed_power]) for s in sets]).astype(np.int64)
-    uniq, inverse = np.unique(keys.reshape(-1, N_PHASES + 1), axis=0, return_inverse=True)
+    uniq, inverse = np.unique(keys.reshape(-1, width + 1), axis=0, return_inverse=True)
     amp = np.zeros((uniq.shape[0], len(first.inputs)), complex)
     np.add.at(amp, inverse.reshape(-1), np.concatenate([s.amplitude for s in sets]))   # in order: as a loop adds
-    out = LineSet(uniq[:, :N_PHASES], amp, first.inputs, first.rates_per_hz, line_hz, uniq[:, N_PHASES], dc)
+    out = LineSet(uniq[:, :width], amp, first.inputs, first.rates_per_hz, line_hz, uniq[:, width], dc)
     return out.sorted()
 
 
@@ -197,8 +250,9 @@ def lines_from_grid(values: np.ndarray, phase_map: np.ndarray, rates_per_hz, inp
     ----------
     values : ndarray (N1, N2, P)
         Samples at ``(a_1, a_2) = 2 pi (i / N1, j / N2)``, real.
-    phase_map : ndarray of int (2, 4)
-        Coefficients of the grid's two angles on the base phases: ``a_r = phase_map[r] . Phi``.
+    phase_map : ndarray of int (2, N)
+        Coefficients of the grid's two angles on the base phases: ``a_r = phase_map[r] . Phi`` (N = the length of
+        ``rates_per_hz``).
     rates_per_hz, inputs :
         As :class:`LineSet`.
 
@@ -216,9 +270,12 @@ def lines_from_grid(values: np.ndarray, phase_map: np.ndarray, rates_per_hz, inp
     ok2 = np.abs(m2) < n2 / 2
     g1, g2 = np.meshgrid(m1, m2, indexing="ij")
     pm = np.asarray(phase_map, dtype=np.int64)
-    coef = g1[..., None] * pm[0] + g2[..., None] * pm[1]                         # (N1, N2, 4)
+    coef = g1[..., None] * pm[0] + g2[..., None] * pm[1]                         # (N1, N2, N)
     rates = np.asarray(rates_per_hz, dtype=float)
-    f1 = coef[..., :3] @ rates[:3]
+    if coef.shape[-1] == len(BEARING_PHASES):
+        f1 = coef[..., :3] @ rates[:3]
+    else:
+        f1 = _multipliers(coef.reshape(-1, coef.shape[-1]), rates).reshape(coef.shape[:2])
     keep = (f1 > 1e-12) & ok1[:, None] & ok2[None, :]
     c = coef[keep]
     a = 2.0 * spec[keep]
@@ -234,3 +291,69 @@ def primitive(vector) -> tuple:
     if g == 0:
         return 0, tuple(v)
     return g, tuple(x // g for x in v)
+
+
+@dataclass(frozen=True)
+class MachinePhases:
+    """The base phases of a machine with a bearing at each position (module docstring).
+
+    Attributes
+    ----------
+    rates_per_hz : ndarray (6,)
+        ``(1, FTF_de, BSF_de, FTF_nde, BSF_nde, 0)`` [Hz per shaft Hz] on :data:`BASE_PHASES`.
+    shared : bool
+        Both bearings turn their cage and balls at the same rates (equal FTF and BSF multipliers): one cage and one
+        spin phase, every line on the DE columns.
+    """
+
+    rates_per_hz: np.ndarray
+    shared: bool
+
+    @classmethod
+    def of(cls, multipliers: dict) -> "MachinePhases":
+        """The phases of a machine whose bearings have the fault multipliers ``multipliers`` (``{"de": ...,
+        "nde": ...}``, :class:`~bkabem_core.bearing.deep_groove.FaultFrequencies` per shaft Hz)."""
+        de, nde = multipliers["de"], multipliers["nde"]
+        rates = np.array([1.0, de.ftf, de.bsf, nde.ftf, nde.bsf, 0.0])
+        return cls(rates, bool(de.ftf == nde.ftf and de.bsf == nde.bsf))
+
+    def columns(self, location: str) -> tuple[int, int]:
+        """The (cage, spin) columns of the bearing at ``location`` (``"de"``/``"nde"``) in :data:`BASE_PHASES`."""
+        return BEARING_COLUMNS["de" if self.shared else location]
+
+    def bearing_rates(self, location: str) -> np.ndarray:
+        """(4,) rates of the phases of the bearing at ``location`` (:data:`BEARING_PHASES`): (1, FTF, BSF, 0)."""
+        cage, spin = BEARING_COLUMNS[location]
+        return self.rates_per_hz[[0, cage, spin, N_PHASES - 1]]
+
+    def place_coefficients(self, coefficients, location: str) -> np.ndarray:
+        """(L, 6) coefficients on the machine's phases of lines (L, 4) on the phases of the bearing at
+        ``location``."""
+        c = np.asarray(coefficients, dtype=np.int64).reshape(-1, len(BEARING_PHASES))
+        out = np.zeros((c.shape[0], N_PHASES), np.int64)
+        cage, spin = self.columns(location)
+        out[:, 0], out[:, cage], out[:, spin], out[:, -1] = c[:, 0], c[:, 1], c[:, 2], c[:, 3]
+        return out
+
+    def place(self, lines: LineSet, location: str) -> LineSet:
+        """The lines of the bearing at ``location`` (on its own phases) on the machine's phases."""
+        return replace(lines, coefficients=self.place_coefficients(lines.coefficients, location),
+                       rates_per_hz=self.rates_per_hz)
+
+    def line_bearings(self, coefficients) -> list[str]:
+        """Per line the bearing whose cage or spin it follows: ``"de"``, ``"nde"``, ``"de+nde"`` (shared phases:
+        both bearings' lines are one line), or ``""`` (shaft and supply only: unbalance, misalignment, the
+        electrical line, a shaft order)."""
+        c = np.asarray(coefficients, dtype=np.int64).reshape(-1, N_PHASES)
+        de, nde = c[:, 1:3].any(axis=1), c[:, 3:5].any(axis=1)
+        return ["de+nde" if a and self.shared else "de" if a else "nde" if b else "" for a, b in zip(de, nde)]
+
+    def on_one_bearing(self, lines: LineSet) -> LineSet:
+        """The machine's lines on one bearing's phases (shaft, cage, spin, line), the form of a machine with one
+        bearing type: possible when no line follows the NDE's own cage or spin (shared phases, or an NDE
+        that is not excited); ValueError otherwise."""
+        c = lines.coefficients
+        if c[:, 3:5].any():
+            raise ValueError("the lines follow two bearings' cages (different bearings at DE and NDE): they have no "
+                             "form on one bearing's phases")
+        return replace(lines, coefficients=c[:, [0, 1, 2, N_PHASES - 1]], rates_per_hz=self.bearing_rates("de"))

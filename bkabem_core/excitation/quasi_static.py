@@ -96,11 +96,12 @@ class FourDofParameters:
     max_order: int = 0
 
     @classmethod
-    def from_case(cls, case) -> "FourDofParameters":
-        """The 4-DOF model's parameters of a case (``[excitation]``; the bearing damper from ``[bearing]``)."""
+    def from_case(cls, case, location: str) -> "FourDofParameters":
+        """The 4-DOF model's parameters of the bearing at ``location`` of a case (``[excitation]``; the damper of
+        that position, ``[bearings.<location>] damping_n_s_m``)."""
         e = case.raw["excitation"]
         fields = {k: e[k] for k in cls.__dataclass_fields__ if k in e}
-        return cls(bearing_damping_n_s_m=float(case.raw["bearing"]["damping_n_s_m"]), **fields)
+        return cls(bearing_damping_n_s_m=case.bearing_damping_n_s_m(location), **fields)
 
 
 @dataclass

@@ -4,10 +4,11 @@ Every part of bkabem describes the same machine (docs/method.md):
 
 1. The FE rotor (:func:`bkabem_core.fe.rotor.rotor_from_case`) gives each bearing's static radial load under gravity.
    Two bearings make the rotor statically determinate, so these loads do not depend on any stiffness.
-2. Each bearing (:class:`bkabem_core.bearing.deep_groove.Bearing`, the same Sopanen model with the case's clearance) is put
-   at its static equilibrium under that load and its axial load (:class:`BearingSite`).
-3. The FE's linear bearing elements are that bearing linearised there (``linearisation = "model"``: mean tangent
-   over a ball pitch, axial displacement held, the case's viscous bearing damper), or paper Table 1's values
+2. Each bearing (:class:`bkabem_core.bearing.deep_groove.Bearing`, the same Sopanen model; at each position the
+   bearing of that position, :meth:`Case.bearing_geometry`, with its own clearance) is put at its static
+   equilibrium under that load and its axial load (:class:`BearingSite`).
+3. The FE's linear bearing elements are each bearing linearised there (``linearisation = "model"``: mean tangent
+   over its ball pitch, axial displacement held, the position's viscous bearing damper), or paper Table 1's values
    (``"table"``).
 4. The FE mesh is refined so that every mode below the case's highest frequency is converged
    (:func:`bkabem_core.fe.rotor.mesh_for`), with the rotor's structural damping.
@@ -134,11 +135,11 @@ class Machine:
                 loads = rotor_from_case(raw, damping={}).static_bearing_loads_n(g)      # statically determinate
             except (scipy.linalg.LinAlgWarning, np.linalg.LinAlgError) as exc:
                 raise singular_stiffness(case, str(exc).rstrip(".")) from None
-        geometry = case.bearing_geometry()
-        damper = case.bearing_damping_n_s_m
         self.sites: dict[str, BearingSite] = {}
         for name in BEARINGS:
             b = raw["bearings"][name]
+            geometry = case.bearing_geometry(name)                 # each position's own bearing
+            damper = case.bearing_damping_n_s_m(name)
             bearing = Bearing(geometry, defects=[d for d in case.defects(name) if d.depth_m > 0.0])
             fx, fy = loads[name]
             w = np.array([-fx, -fy], dtype=float)                 # the load on the shaft the bearing carries
@@ -168,7 +169,7 @@ class Machine:
         and the highest kept order (the frequency the mesh is converged up to)."""
         import json
 
-        raw = {k: v for k, v in case.raw.items() if k not in ("case", "defects", "baseline", "excitation")}
+        raw = {k: v for k, v in case.resolved.items() if k not in ("case", "defects", "baseline", "excitation")}
         ex = case.raw["excitation"]
         raw["excitation"] = {k: ex[k] for k in ("gravity_m_s2", "max_order")}
         return json.dumps(raw, sort_keys=True)
@@ -224,7 +225,7 @@ class Machine:
             return quasi_static_excitation(site.bearing, w, site.axial_load_n, int(ex["samples_per_ball_pass"]),
                                            float(ex["relative_amplitude_threshold"]), int(ex["max_order"]),
                                            float(ex["reference_speed_hz"]), location=name)
-        params = dataclasses.replace(FourDofParameters.from_case(self.case), rotor_mass_kg=w / self.case.gravity_m_s2)
+        params = dataclasses.replace(FourDofParameters.from_case(self.case, name), rotor_mass_kg=w / self.case.gravity_m_s2)
         return compute_excitation(site.bearing, params, site.axial_load_n, location=name)
 
     def excitations(self) -> dict[str, Excitation]:

@@ -1,7 +1,8 @@
 """Case files: TOML with every parameter of a machine, validated key by key.
 
-A case describes one machine: the bearing type, the dent, the 4-DOF excitation model, the FE rotor with its
-bearing and housing elements, and the operating range. The embedded default ``electric_motor_6010`` ships in
+A case describes one machine: the bearing at each position (``[bearings.de]``, ``[bearings.nde]``: its type by
+catalogue designation with any number overridden, and its FE element; :mod:`bkabem_core.model.positions`), the
+defects, the baseline, the excitation model, the FE rotor with its housings, and the operating range. The embedded default ``electric_motor_6010`` ships in
 ``bkabem_core/embedded/cases/``; user cases are loaded by path. Every key carries its unit as a suffix.
 
 Validation is strict and explains itself: a missing key, an unknown key, a wrong type or a value outside its
@@ -15,84 +16,33 @@ import hashlib
 import json
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent
+from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent, FaultFrequencies
 from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
 from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, moving_kinds, own_keys, periodic_kinds
 from bkabem_core.model import plausibility
-from bkabem_core.model.files import not_a_file
+from bkabem_core.model.files import InputFileError, embedded_names, parse_toml, read_input_text
+from bkabem_core.model.positions import (
+    BEARING_KEYS,
+    OPTIONAL,
+    BearingTableError,
+    geometry_of,
+    migrate_shared,
+    resolve,
+)
+from bkabem_core.model.vocabulary import BEARINGS
 
 DEFAULT_CASE = "electric_motor_6010"
-#: Version of the case format this code reads; older files are migrated (:func:`migrate_v1`, :func:`migrate_v2`).
-SCHEMA_VERSION = 3
-
-
-class InputFileError(ValueError):
-    """An input file (case, scenario, data-set spec) is invalid: ``key`` is the dotted key at fault (or the file),
-    ``reason`` says why, ``source`` names the file. Each kind of file raises its own subclass."""
-
-    def __init__(self, key: str, reason: str, source: str = ""):
-        self.key = key
-        self.reason = reason
-        self.source = source
-        where = f"{source}: " if source else ""
-        super().__init__(f"{where}{key}: {reason}")
-
-
-def embedded_names(folder: str) -> list[str]:
-    """Names of the TOML files shipped in the package folder ``folder`` (``cases``, ``scenarios``, ``datasets``)."""
-    try:
-        files = resources.files("bkabem_core.embedded").joinpath(folder).iterdir()
-    except FileNotFoundError:
-        return []
-    return sorted(p.name[:-5] for p in files if p.name.endswith(".toml"))
-
-
-def read_input_text(name_or_path: str | Path, folder: str, what: str, key: str,
-                    error: type[InputFileError]) -> tuple[str, str, Path | None]:
-    """(text, source, base directory) of an input file: the embedded ``<folder>/<name>.toml`` when
-    ``name_or_path`` is a bare name (no ``.toml`` suffix, no ``/``, no such file here), else the file at that
-    path (UTF-8). ``source`` is ``"embedded:<name>"`` or the path; the base directory (for paths inside the
-    file) is None for an embedded file. Errors are ``error`` for ``key`` ("no embedded <what> named ...",
-    "file not found", "cannot read") or for ``toml`` (not UTF-8); an empty name is refused."""
-    s = str(name_or_path)
-    if not s.strip():
-        raise error(key, "empty name")
-    if not s.endswith(".toml") and "/" not in s and not Path(s).exists():
-        try:
-            text = resources.files("bkabem_core.embedded").joinpath(folder, f"{s}.toml").read_text()
-        except FileNotFoundError:
-            raise error(key, f"no embedded {what} named {s!r} (available: "
-                             f"{', '.join(embedded_names(folder))})") from None
-        return text, f"embedded:{s}", None
-    p = Path(s)
-    why = not_a_file(p)
-    if why:
-        raise error(key, why)
-    try:
-        text = p.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise error("toml", f"not a UTF-8 text file (byte {exc.start}: {exc.reason})", str(p)) from None
-    except OSError as exc:
-        raise error(key, f"cannot read {p}: {exc.strerror}") from None
-    return text, str(p), p.parent
+#: Version of the case format this code reads; older files are migrated (:func:`migrate_v1`, :func:`migrate_v2`,
+#: :func:`migrate_v3`).
+SCHEMA_VERSION = 4
 
 
 class CaseError(InputFileError):
     """A case file is invalid. ``key`` is the dotted key at fault (or the file)."""
-
-
-def parse_toml(text: str, source: str, error: type[InputFileError]) -> dict:
-    """The tables of a TOML text; a syntax error or a too deep nesting raises ``error`` for the key ``toml``."""
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise error("toml", f"not valid TOML: {exc}", source) from None
-    except RecursionError:
-        raise error("toml", "nested too deeply (arrays or tables inside each other)", source) from None
 
 
 # --------------------------------------------------------------------------- schema
@@ -106,26 +56,6 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "name": ("str", None),
         "description": ("str", None),
         "schema_version": ("int", ("in", {SCHEMA_VERSION})),
-    },
-    "bearing": {
-        "designation": ("str", None),
-        "bore_diameter_m": ("float", _POS),
-        "outer_diameter_m": ("float", _POS),
-        "pitch_diameter_m": ("float", _POS),
-        "ball_diameter_m": ("float", _POS),
-        "n_balls": ("int", ("ge", 3)),
-        "diametral_clearance_m": ("float", _NONNEG),
-        "inner_conformity": ("float", ("gt", 0.5)),
-        "outer_conformity": ("float", ("gt", 0.5)),
-        "contact_angle_deg": ("float", ("range", 0.0, 45.0)),
-        "static_load_rating_n": ("float", _POS),
-        "youngs_modulus_pa": ("float", _POS),
-        "poisson_ratio": ("float", ("range_open", 0.0, 0.5)),
-        "pressure_viscosity_m2_n": ("float", _NONNEG),
-        "dynamic_viscosity_pa_s": ("float", _NONNEG),
-        "ehl_film": ("bool", None),
-        "first_ball_angle_deg": ("float", ("range", -360.0, 360.0)),
-        "damping_n_s_m": ("float", _NONNEG),
     },
     "defects[]": {
         "bearing": ("str", ("in", {"de", "nde"})),
@@ -166,6 +96,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "max_order": ("int", ("ge", 0)),
     },
     "bearings.*": {
+        **BEARING_KEYS,                        # the bearing type of the position (model/positions.py)
         "rotor_node": ("int", ("ge", 1)),
         "housing_node": ("int", ("ge", 1)),
         "axial_load_n": ("float", _NONNEG),
@@ -228,16 +159,19 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "noise_density_m_s2_per_sqrt_hz": ("float", _NONNEG),
     },
 }
-TOP_LEVEL = ("case", "bearing", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating",
-             "measurement")
-#: keys a section may leave out (their default: 0 = off), so that cases written before them stay valid
-_OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz",), "measurement": tuple(SCHEMA["measurement"])}
+#: The one ``[bearing]`` of a schema-3 case, used at both positions (:func:`migrate_v3`): every key but the class.
+SCHEMA_V3_BEARING = {k: v for k, v in BEARING_KEYS.items() if k != "clearance_class"}
+TOP_LEVEL = ("case", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating", "measurement")
+#: keys a section may leave out (their default: 0 = off; a position's bearing keys: the catalogue's or the model's;
+#: the acquisition's: the synthesiser's), so that cases written before them stay valid
+_OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz",), "bearings.*": OPTIONAL,
+             "measurement": tuple(SCHEMA["measurement"])}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
 _KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
 #: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)
 BASELINE_OFF = {"unbalance_grade_mm_s": 0.0, "unbalance_phase_deg": 0.0, "misalignment_force_n": 0.0,
                 "misalignment_node": 1, "electrical_force_n": 0.0, "line_frequency_hz": 50.0}
-BEARING_NAMES = ("de", "nde")
+BEARING_NAMES = BEARINGS
 
 
 def _type_ok(kind: str, value) -> bool:
@@ -303,8 +237,8 @@ def _check_table(prefix: str, table, schema: dict, source: str, optional=()):
         _check_value(key, v, check, source)
 
 
-def migrate_v1(raw: dict) -> dict:
-    """A schema-version-1 case as version 3 (through 2: :func:`migrate_v2`), describing the model version 1
+def migrate_v1(raw: dict, source: str = "") -> dict:
+    """A schema-version-1 case as version 4 (through 2 and 3: :func:`migrate_v2`), describing the model version 1
     computed.
 
     Version 1 had the paper's configuration built in: FE bearings from Table 1 (``stiffness_*`` keys), the 4-DOF
@@ -317,7 +251,7 @@ def migrate_v1(raw: dict) -> dict:
     raw.setdefault("bearing", {})["damping_n_s_m"] = damper
     raw.setdefault("dent", {}).setdefault("edge", "cubic")
     raw.setdefault("case", {})["schema_version"] = 2
-    return migrate_v2(_migrate_v1_to_v2(raw))
+    return migrate_v2(_migrate_v1_to_v2(raw), source)
 
 
 def _migrate_v1_to_v2(raw: dict) -> dict:
@@ -340,8 +274,8 @@ def _migrate_v1_to_v2(raw: dict) -> dict:
     return raw
 
 
-def migrate_v2(raw: dict) -> dict:
-    """A schema-version-2 case as version 3, describing the model version 2 computed.
+def migrate_v2(raw: dict, source: str = "") -> dict:
+    """A schema-version-2 case as version 4 (through 3), describing the model version 2 computed.
 
     Version 2 had one outer-race ``[dent]`` and nothing but the bearings: the dent becomes the single entry of
     ``[[defects]]`` (depth 0: a defect no ball feels, as before), ``[baseline]`` is switched off.
@@ -351,6 +285,24 @@ def migrate_v2(raw: dict) -> dict:
     if isinstance(dent, dict):
         raw["defects"] = [dent]
     raw.setdefault("baseline", dict(BASELINE_OFF))
+    raw.setdefault("case", {})["schema_version"] = 3
+    return migrate_v3(raw, source)
+
+
+def migrate_v3(raw: dict, source: str = "") -> dict:
+    """A schema-version-3 case as version 4, computing exactly the same numbers.
+
+    Version 3 had one ``[bearing]`` table, the bearing type used at both positions (every key required): it is
+    checked as version 3 checked it (the errors name ``bearing.<key>``), then written with every key into
+    ``[bearings.de]`` and ``[bearings.nde]`` (:func:`bkabem_core.model.positions.migrate_shared`), so no value comes
+    from the catalogue. ``[plausibility]`` bounds named ``bearing.<key>`` become ``bearings.*.<key>``.
+    """
+    raw = copy.deepcopy(raw)
+    if "bearing" not in raw:
+        raise CaseError("bearing", "missing section (a schema-3 case has one [bearing] table; schema 4 gives each "
+                        "position's bearing in [bearings.de] and [bearings.nde])", source)
+    _check_table("bearing", raw["bearing"], SCHEMA_V3_BEARING, source)
+    migrate_shared(raw, BEARING_NAMES)
     raw.setdefault("case", {})["schema_version"] = SCHEMA_VERSION
     return raw
 
@@ -360,7 +312,7 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
     for k in raw:
         if k not in TOP_LEVEL:
             raise CaseError(k, f"unknown section (allowed: {', '.join(TOP_LEVEL)})", source)
-    for sec in ("case", "bearing", "baseline", "excitation", "rotor", "operating"):
+    for sec in ("case", "baseline", "excitation", "rotor", "operating"):
         if sec not in raw:
             raise CaseError(sec, "missing section", source)
         _check_table(sec, raw[sec], SCHEMA[sec], source, optional=_OPTIONAL.get(sec, ()))
@@ -392,8 +344,9 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
             raise CaseError(f"bearings.{name}", "unknown bearing (allowed: de, nde)", source)
     for name in BEARING_NAMES:
         if name not in brg:
-            raise CaseError(f"bearings.{name}", "missing", source)
-        _check_table(f"bearings.{name}", brg[name], SCHEMA["bearings.*"], source)
+            raise CaseError(f"bearings.{name}", "missing (each position has its bearing: designation, damper, FE "
+                            "element)", source)
+        _check_table(f"bearings.{name}", brg[name], SCHEMA["bearings.*"], source, optional=_OPTIONAL["bearings.*"])
     # housings
     hs = raw.get("housings")
     if hs is None:
@@ -407,7 +360,38 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
         raise CaseError("housings", f"need exactly one housing named 'de' and one named 'nde' (got {names})", source)
     for i, d in enumerate(raw["rotor"]["disks"]):
         _check_table(f"rotor.disks[{i}]", d, SCHEMA["rotor.disks[]"], source)
-    _check_cross(raw, source)
+
+
+def resolve_bearings(raw: dict, source: str = "") -> dict:
+    """Each position's bearing of a schema-valid case (:func:`bkabem_core.model.positions.resolve`):
+    ``{"de": ResolvedBearing, "nde": ResolvedBearing}``; :class:`CaseError` naming the key when one cannot be."""
+    out = {}
+    for name in BEARING_NAMES:
+        try:
+            out[name] = resolve(raw["bearings"][name], f"bearings.{name}")
+        except BearingTableError as exc:
+            raise CaseError(exc.key, exc.reason, source) from None
+    return out
+
+
+def resolved_raw(raw: dict, bearings: dict) -> dict:
+    """The case with each position table holding every key of its bearing (:func:`resolve_bearings`)."""
+    out = copy.deepcopy(raw)
+    for name, rb in bearings.items():
+        out["bearings"][name].update(rb.table)
+    return out
+
+
+def _check_bearing(prefix: str, b: dict, source: str) -> None:
+    if b["ball_diameter_m"] >= b["pitch_diameter_m"]:
+        raise CaseError(f"{prefix}.ball_diameter_m", f"must be smaller than {prefix}.pitch_diameter_m "
+                        f"({b['ball_diameter_m']} >= {b['pitch_diameter_m']})", source)
+    if not b["bore_diameter_m"] < b["pitch_diameter_m"] < b["outer_diameter_m"]:
+        raise CaseError(f"{prefix}.pitch_diameter_m", f"must lie between {prefix}.bore_diameter_m and "
+                        f"{prefix}.outer_diameter_m", source)
+    if b["n_balls"] * b["ball_diameter_m"] >= math.pi * b["pitch_diameter_m"]:
+        raise CaseError(f"{prefix}.n_balls", f"{b['n_balls']} balls of {b['ball_diameter_m']} m do not fit on the "
+                        f"pitch circle of {b['pitch_diameter_m']} m", source)
 
 
 def _check_measurement(m: dict, source: str) -> None:
@@ -446,24 +430,17 @@ def _check_measurement(m: dict, source: str) -> None:
 
 
 def _check_cross(raw: dict, source: str) -> None:
+    """Relations between keys of a schema-valid case whose position tables are resolved (:func:`resolved_raw`)."""
     if not raw["case"]["name"].strip():
         raise CaseError("case.name", "must not be empty (it names the case in every output)", source)
-    b = raw["bearing"]
-    if b["ball_diameter_m"] >= b["pitch_diameter_m"]:
-        raise CaseError("bearing.ball_diameter_m", f"must be smaller than bearing.pitch_diameter_m "
-                        f"({b['ball_diameter_m']} >= {b['pitch_diameter_m']})", source)
-    if not b["bore_diameter_m"] < b["pitch_diameter_m"] < b["outer_diameter_m"]:
-        raise CaseError("bearing.pitch_diameter_m", "must lie between bearing.bore_diameter_m and "
-                        "bearing.outer_diameter_m", source)
-    if b["n_balls"] * b["ball_diameter_m"] >= math.pi * b["pitch_diameter_m"]:
-        raise CaseError("bearing.n_balls", f"{b['n_balls']} balls of {b['ball_diameter_m']} m do not fit on the "
-                        f"pitch circle of {b['pitch_diameter_m']} m", source)
-    # each defect against its bearing: its kind's own keys (a ball number) and its size against its surface
+    for name in BEARING_NAMES:
+        _check_bearing(f"bearings.{name}", raw["bearings"][name], source)
+    # each defect against its own bearing: its kind's own keys (a ball number) and its size against its surface
     for i, d in enumerate(raw["defects"]):
-        problem = kind(d["race"]).check_table(d, b)
+        problem = kind(d["race"]).check_table(d, raw["bearings"][d["bearing"]])
         if problem is not None:
             raise CaseError(f"defects[{i}].{problem[0]}", problem[1], source)
-    _check_overlaps(raw["defects"], b, source)
+    _check_overlaps(raw["defects"], raw["bearings"], source)
     # rotor geometry
     r = raw["rotor"]
     z = r["node_positions_m"]
@@ -510,12 +487,13 @@ def _check_cross(raw: dict, source: str) -> None:
                         f"(got {raw['baseline']['misalignment_node']})", source)
 
 
-def _check_overlaps(defects: list, bearing: dict, source: str) -> None:
+def _check_overlaps(defects: list, bearings: dict, source: str) -> None:
     """Two defects on the same surface (bearing and kind, and the kind's own place: the same ball) must not overlap:
     the model would take the deeper of the two pits where they meet, one defect silently standing for both."""
     seen: dict[tuple, list] = {}
     for i, d in enumerate(defects):
         k = kind(d["race"])
+        bearing = bearings[d["bearing"]]
         where = (d["bearing"], d["race"], k.part_name(d))
         radius = k.table_race_radius_m(bearing) if hasattr(k, "table_race_radius_m") else \
             bearing["ball_diameter_m"] / 2.0
@@ -542,12 +520,21 @@ class Case:
     source : str
         Path of the file, or ``"embedded:<name>"``.
     raw : dict
-        The parsed TOML (validated), the single source of truth for builders such as ``rotor_from_case``.
+        The parsed TOML (migrated to the current schema, validated) as written: what :meth:`with_overrides` edits
+        and builders such as ``rotor_from_case`` read.
+    resolved : dict
+        ``raw`` with each position table (``bearings.de``, ``bearings.nde``) holding every key of its bearing,
+        the catalogue's values and the model's defaults filled in (:mod:`bkabem_core.model.positions`): the
+        numbers every model uses, and the case's identity (:attr:`case_hash`).
+    positions : dict
+        ``{"de": ResolvedBearing, "nde": ResolvedBearing}``: each position's bearing with its provenance.
     """
 
     name: str
     source: str
     raw: dict
+    resolved: dict = field(repr=False, default_factory=dict)
+    positions: dict = field(repr=False, default_factory=dict)
 
     # -- loading --
     @classmethod
@@ -567,43 +554,78 @@ class Case:
         raw = copy.deepcopy(raw)
         version = raw["case"].get("schema_version") if isinstance(raw.get("case"), dict) else None
         if version == 1:
-            raw = migrate_v1(raw)
+            raw = migrate_v1(raw, source)
         elif version == 2:
-            raw = migrate_v2(raw)
+            raw = migrate_v2(raw, source)
+        elif version == 3:
+            raw = migrate_v3(raw, source)
         validate_case_dict({k: v for k, v in raw.items() if k != plausibility.SECTION}, source)
-        bad = plausibility.problem(raw)           # physical bounds (unit slips) and computing limits
+        positions = resolve_bearings(raw, source)
+        full = resolved_raw(raw, positions)
+        _check_cross(full, source)
+        bad = plausibility.problem(full)           # physical bounds (unit slips) and computing limits
         if bad is not None:
             raise CaseError(*bad, source)
-        return cls(name=raw["case"]["name"], source=source, raw=raw)
+        return cls(name=raw["case"]["name"], source=source, raw=raw, resolved=full, positions=positions)
+
+    @classmethod
+    def of_valid(cls, raw: dict, source: str = "") -> "Case":
+        """The case of ``raw`` that was validated already (a :meth:`raw` of a case made by :meth:`from_dict`, kept
+        with a data-set run): its bearings resolved again, nothing checked again."""
+        positions = resolve_bearings(raw, source)
+        return cls(name=raw["case"]["name"], source=source, raw=raw, resolved=resolved_raw(raw, positions),
+                   positions=positions)
 
     # -- identity --
     @property
     def case_hash(self) -> str:
-        """SHA-256 (first 16 hex digits) of the canonical JSON of the parameters: the case identity."""
-        blob = json.dumps(self.raw, sort_keys=True, separators=(",", ":")).encode()
+        """SHA-256 (first 16 hex digits) of the canonical JSON of the resolved parameters (:attr:`resolved`): the
+        case identity (two files that give the same numbers, one by designation and one key by key, are one
+        machine)."""
+        blob = json.dumps(self.resolved, sort_keys=True, separators=(",", ":")).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
 
-    # -- builders --
-    def bearing_geometry(self) -> BearingGeometry:
-        b = self.raw["bearing"]
-        return BearingGeometry(
-            designation=b["designation"],
-            ball_diameter_m=float(b["ball_diameter_m"]),
-            pitch_diameter_m=float(b["pitch_diameter_m"]),
-            n_balls=int(b["n_balls"]),
-            diametral_clearance_m=float(b["diametral_clearance_m"]),
-            inner_conformity=float(b["inner_conformity"]),
-            outer_conformity=float(b["outer_conformity"]),
-            contact_angle_rad=math.radians(b["contact_angle_deg"]),
-            youngs_modulus_pa=float(b["youngs_modulus_pa"]),
-            poisson_ratio=float(b["poisson_ratio"]),
-            bore_diameter_m=float(b["bore_diameter_m"]),
-            outer_diameter_m=float(b["outer_diameter_m"]),
-            static_load_rating_n=float(b["static_load_rating_n"]),
-            pressure_viscosity_m2_n=float(b["pressure_viscosity_m2_n"]),
-            dynamic_viscosity_pa_s=float(b["dynamic_viscosity_pa_s"]),
-            first_ball_angle_rad=math.radians(b["first_ball_angle_deg"]),
-        )
+    # -- the bearing of each position --
+    def _position(self, location: str) -> str:
+        if location not in BEARING_NAMES:
+            raise ValueError(f"bearing position: one of {', '.join(BEARING_NAMES)} (got {location!r})")
+        return location
+
+    def bearing_table(self, location: str) -> dict:
+        """The resolved table of the bearing at ``location`` (``"de"``/``"nde"``): its type (every key of
+        :data:`~bkabem_core.model.positions.BEARING_KEYS`) and its FE element (a copy)."""
+        return dict(self.resolved["bearings"][self._position(location)])
+
+    def bearing_geometry(self, location: str) -> BearingGeometry:
+        """Geometry and material of the bearing at ``location`` (``"de"``/``"nde"``)."""
+        return geometry_of(self.resolved["bearings"][self._position(location)])
+
+    def bearing_provenance(self, location: str) -> dict:
+        """Where the bearing at ``location`` comes from: designation, catalogue row, geometry status and source,
+        the keys the case overrides, how the clearance was found (:meth:`ResolvedBearing.provenance`)."""
+        return self.positions[self._position(location)].provenance()
+
+    def fault_multipliers(self, location: str) -> FaultFrequencies:
+        """FTF, BPFO, BPFI, BSF per shaft Hz of the bearing at ``location`` (its own kinematics)."""
+        return Bearing(self.bearing_geometry(location)).fault_multipliers()
+
+    def kinematics(self, speed_hz: float) -> dict:
+        """Each bearing's type and fault frequencies at shaft speed ``speed_hz`` [Hz]: ``{"de": {...}, "nde":
+        {...}}`` with ``designation``, ``n_balls``, ``ball_diameter_m``, ``pitch_diameter_m``, ``contact_angle_rad``
+        and ``ftf``, ``bpfo``, ``bpfi``, ``bsf`` [Hz]."""
+        out = {}
+        for name in BEARING_NAMES:
+            g = self.bearing_geometry(name)
+            ff = Bearing(g).fault_frequencies_hz(speed_hz)
+            out[name] = {"designation": g.designation, "n_balls": g.n_balls, "ball_diameter_m": g.ball_diameter_m,
+                         "pitch_diameter_m": g.pitch_diameter_m, "contact_angle_rad": g.contact_angle_rad,
+                         **ff.to_dict()}
+        return out
+
+    @property
+    def same_bearings(self) -> bool:
+        """Whether both positions carry the same bearing (identical geometry and material)."""
+        return self.bearing_geometry("de") == self.bearing_geometry("nde")
 
     def defects(self, location: str | None = None) -> list[Dent]:
         """The case's defects (``[[defects]]``), all or those of bearing ``location`` (``"de"``/``"nde"``)."""
@@ -637,19 +659,21 @@ class Case:
             return self
         return self.with_overrides({"defects.0.depth_m": float(depth_m)})
 
-    def bearing(self, location: str | None = None) -> Bearing:
-        """The bearing at ``location`` (``"de"``/``"nde"``; default: the faulty one) with its defects, if any."""
-        loc = self.faulty_bearing if location is None else location
-        return Bearing(self.bearing_geometry(), defects=self.defects(loc))
+    def bearing(self, location: str) -> Bearing:
+        """The bearing at ``location`` (``"de"``/``"nde"``) with its defects, if any."""
+        return Bearing(self.bearing_geometry(location), defects=self.defects(location))
 
     def axial_load_n(self, location: str) -> float:
         """Axial load of bearing ``location`` [N]."""
-        return float(self.raw["bearings"][location]["axial_load_n"])
+        return float(self.raw["bearings"][self._position(location)]["axial_load_n"])
 
-    @property
-    def bearing_damping_n_s_m(self) -> float:
-        """The viscous damper across each bearing [N s/m]."""
-        return float(self.raw["bearing"]["damping_n_s_m"])
+    def bearing_damping_n_s_m(self, location: str) -> float:
+        """The viscous damper across the bearing at ``location``, rotor to housing [N s/m]."""
+        return float(self.resolved["bearings"][self._position(location)]["damping_n_s_m"])
+
+    def ehl_film(self, location: str) -> bool:
+        """Whether the bearing at ``location`` adds the EHL film thickness to its ball deformations (TDSM)."""
+        return bool(self.resolved["bearings"][self._position(location)]["ehl_film"])
 
     @property
     def gravity_m_s2(self) -> float:
@@ -658,9 +682,10 @@ class Case:
     @property
     def max_frequency_hz(self) -> float:
         """Highest frequency the model must serve [Hz]: half the case's highest sample rate, or the highest kept
-        order at the highest speed if that is more (the FE mesh is converged up to it)."""
+        order of either bearing's BPFO at the highest speed if that is more (the FE mesh is converged up to it)."""
         op, ex = self.raw["operating"], self.raw["excitation"]
-        top = ex["max_order"] * self.bearing().fault_multipliers().bpfo * op["max_speed_hz"]
+        bpfo = max(self.fault_multipliers(b).bpfo for b in BEARING_NAMES)
+        top = ex["max_order"] * bpfo * op["max_speed_hz"]
         return float(max(0.5 * op["max_sample_rate_hz"], top))
 
     @property
@@ -679,10 +704,19 @@ class Case:
 
     def with_overrides(self, overrides: dict) -> "Case":
         """A new validated case with ``{"section.key": value}`` overrides (e.g. ``{"defects.0.depth_m": 20e-6}``:
-        an integer picks an entry of an array of tables; ``dent.<key>``, the single defect of schema 2, is the first
-        defect)."""
+        an integer picks an entry of an array of tables; ``bearings.nde.designation``, ``bearings.de.n_balls``: a
+        position's bearing, a key the table leaves to the catalogue included; ``dent.<key>``, the single defect of
+        schema 2, is the first defect; ``bearing.<key>``, the shared bearing of schema 3, is that key at both
+        positions)."""
         raw = copy.deepcopy(self.raw)
+        expanded = {}
         for dotted, value in overrides.items():
+            if dotted.startswith("bearing."):                    # schema 3's shared [bearing]: both positions
+                for name in BEARING_NAMES:
+                    expanded[f"bearings.{name}.{dotted[8:]}"] = value
+            else:
+                expanded[dotted] = value
+        for dotted, value in expanded.items():
             if dotted.startswith("dent.") and raw["defects"]:       # schema 2's single [dent]: the first defect
                 dotted = "defects.0." + dotted[5:]
             *path, last = dotted.split(".")
@@ -696,7 +730,8 @@ class Case:
                 if not isinstance(node, dict) or p not in node or not isinstance(node[p], (dict, list)):
                     raise CaseError(dotted, "unknown key", self.source)
                 node = node[p]
-            optional = len(path) == 1 and last in _OPTIONAL.get(path[0], ())
+            optional = (len(path) == 1 and last in _OPTIONAL.get(path[0], ())) or \
+                (len(path) == 2 and path[0] == "bearings" and last in _OPTIONAL["bearings.*"])
             if path[:1] == ["defects"] and isinstance(node, dict) and node.get("race") in KINDS:
                 optional = optional or any(o.name == last and not o.required for o in kind(node["race"]).own_keys)
             if not isinstance(node, dict) or (last not in node and not optional):
@@ -705,21 +740,33 @@ class Case:
         return Case.from_dict(raw, self.source + " (overridden)")
 
     def ground_truth(self) -> dict:
-        """What a labelled data set needs: bearing designation and geometry, its fault multipliers (FTF, BPFO, BPFI,
-        BSF per shaft Hz), every defect (kind, bearing, size, position, fault-frequency multiplier), the machine
-        baseline, case identity.
+        """What a labelled data set needs: each position's bearing (designation, geometry, fault multipliers,
+        provenance), every defect (kind, bearing, size, position, its own bearing's designation and fault-frequency
+        multiplier), the machine baseline, case identity.
 
-        ``defects``: one entry per ``[[defects]]`` table, with ``fault_frequency`` (``"bpfo"``, ``"bpfi"`` or
-        ``"bsf"``) and ``fault_multiplier`` [Hz per shaft Hz] of its textbook signature (a ball defect strikes at
-        2 x BSF: ``strike_multiplier``). ``defect``: the first one (as in earlier versions; ``None`` if healthy).
+        ``bearings``: ``{"de": {...}, "nde": {...}}``. ``defects``: one entry per ``[[defects]]`` table, with
+        ``fault_frequency`` (``"bpfo"``, ``"bpfi"`` or ``"bsf"``) and ``fault_multiplier`` [Hz per shaft Hz] of its
+        textbook signature **of its own bearing** (a ball defect strikes at 2 x BSF: ``strike_multiplier``),
+        ``bearing_designation``. ``defect``: the first one (as in earlier versions; ``None`` if healthy).
+        ``bearing_designation`` and ``bearing_geometry`` are the DE bearing's (the fields of earlier versions,
+        where both positions had one bearing).
         """
-        g = self.bearing_geometry()
-        fm = Bearing(g).fault_multipliers()
+        per = {}
+        for name in BEARING_NAMES:
+            g = self.bearing_geometry(name)
+            fm = Bearing(g).fault_multipliers()
+            per[name] = {"designation": g.designation,
+                         "geometry": {"ball_diameter_m": g.ball_diameter_m, "pitch_diameter_m": g.pitch_diameter_m,
+                                      "n_balls": g.n_balls, "diametral_clearance_m": g.diametral_clearance_m,
+                                      "contact_angle_rad": g.contact_angle_rad},
+                         "fault_multipliers": fm.to_dict(), "provenance": self.bearing_provenance(name)}
         defects = []
         for d in self.defects():
             k = kind(d.race)
+            fm = FaultFrequencies(**per[d.bearing]["fault_multipliers"])
             entry = {"kind": d.race, "bearing": d.bearing, "race": d.race, "length_m": d.length_m,
                      "depth_m": d.depth_m, "angle_rad": d.angle_rad, "edge": d.edge,
+                     "bearing_designation": per[d.bearing]["designation"],
                      "fault_frequency": k.fault_frequency, "fault_multiplier": k.fault_multiplier(fm),
                      "strike_multiplier": k.strike_multiplier(fm)}
             entry.update(k.table_fields(d))
@@ -728,13 +775,10 @@ class Case:
         return {
             "case": self.name,
             "case_hash": self.case_hash,
-            "bearing_designation": g.designation,
-            "bearing_geometry": {
-                "ball_diameter_m": g.ball_diameter_m, "pitch_diameter_m": g.pitch_diameter_m,
-                "n_balls": g.n_balls, "diametral_clearance_m": g.diametral_clearance_m,
-                "contact_angle_rad": g.contact_angle_rad,
-            },
-            "fault_multipliers": fm.to_dict(),
+            "bearing_designation": per["de"]["designation"],
+            "bearing_geometry": dict(per["de"]["geometry"]),
+            "fault_multipliers": dict(per["de"]["fault_multipliers"]),
+            "bearings": per,
             "healthy": not any(d["depth_m"] > 0 for d in defects),
             "defects": defects,
             "defect": None if first is None else {k: first[k] for k in ("bearing", "race", "length_m", "depth_m",

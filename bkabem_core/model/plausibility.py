@@ -7,8 +7,9 @@ cannot compute with (a zero gravity leaves the bearing unloaded; 1e-300 kg has n
 never ends; 1e9 samples per ball pass do not fit in memory).
 
 :data:`BOUNDS` maps ``"section.key"`` to ``(low, high, why)`` (inclusive, SI units as the key says). Keys of
-tables in arrays are written ``housings[].mass_kg``, ``rotor.disks[].mass_kg``, ``bearings.*.stiffness_vertical_n_m``
-(every element is checked and named, e.g. ``rotor.disks[3].mass_kg``); an array value (``rotor.outer_diameters_m``)
+tables in arrays are written ``housings[].mass_kg``, ``rotor.disks[].mass_kg``, ``bearings.*.n_balls`` (every
+element is checked and named, e.g. ``rotor.disks[3].mass_kg``, ``bearings.nde.n_balls``: each position's bearing
+has its own bounds, checked on the values the model uses, the catalogue's included); an array value (``rotor.outer_diameters_m``)
 is checked element by element. Bounds of keys a case does not have are skipped (the schema decides what exists).
 
 Computing limits (:func:`cost_problem`), two derived quantities with bounds of their own: the 4-DOF integration
@@ -57,21 +58,21 @@ _DISK_INERTIA = (0.0, 1e5, "disk inertias are 0 .. 1e5 kg m^2")
 
 #: "section.key" -> (low, high, why): inclusive physical bounds.
 BOUNDS: dict[str, tuple[float, float, str]] = {
-    # bearing geometry and material (deep-groove ball bearings from miniature to large slewing sizes)
-    "bearing.bore_diameter_m": (1e-3, 2.0, "ball bearing bores are 1 mm .. 2 m"),
-    "bearing.outer_diameter_m": (2e-3, 3.0, "ball bearing outer diameters are 2 mm .. 3 m"),
-    "bearing.pitch_diameter_m": (1.5e-3, 2.5, "ball bearing pitch diameters are 1.5 mm .. 2.5 m"),
-    "bearing.ball_diameter_m": (0.3e-3, 0.3, "rolling balls are 0.3 mm .. 300 mm"),
-    "bearing.n_balls": (3, 200, "3 .. 200 balls"),
-    "bearing.diametral_clearance_m": (0.0, 1e-3, "diametral clearances are 0 .. 1 mm (C5 of large bearings ~0.3 mm)"),
-    "bearing.inner_conformity": (0.5, 0.7, "groove radius / ball diameter is 0.5 .. 0.7 (typically 0.51-0.54)"),
-    "bearing.outer_conformity": (0.5, 0.7, "groove radius / ball diameter is 0.5 .. 0.7 (typically 0.51-0.54)"),
-    "bearing.static_load_rating_n": (10.0, 1e8, "static load ratings are 10 N .. 100 MN"),
-    "bearing.youngs_modulus_pa": (1e9, 1e12, "bearing materials are 1 GPa (polymers) .. 1 TPa (ceramics ~0.3 TPa)"),
-    "bearing.pressure_viscosity_m2_n": (0.0, 1e-7, "pressure-viscosity coefficients are 0 .. 1e-7 m^2/N "
+    # each position's bearing: geometry and material (deep-groove ball bearings from miniature to slewing sizes)
+    "bearings.*.bore_diameter_m": (1e-3, 2.0, "ball bearing bores are 1 mm .. 2 m"),
+    "bearings.*.outer_diameter_m": (2e-3, 3.0, "ball bearing outer diameters are 2 mm .. 3 m"),
+    "bearings.*.pitch_diameter_m": (1.5e-3, 2.5, "ball bearing pitch diameters are 1.5 mm .. 2.5 m"),
+    "bearings.*.ball_diameter_m": (0.3e-3, 0.3, "rolling balls are 0.3 mm .. 300 mm"),
+    "bearings.*.n_balls": (3, 200, "3 .. 200 balls"),
+    "bearings.*.diametral_clearance_m": (0.0, 1e-3, "diametral clearances are 0 .. 1 mm (C5 of large bearings ~0.3 mm)"),
+    "bearings.*.inner_conformity": (0.5, 0.7, "groove radius / ball diameter is 0.5 .. 0.7 (typically 0.51-0.54)"),
+    "bearings.*.outer_conformity": (0.5, 0.7, "groove radius / ball diameter is 0.5 .. 0.7 (typically 0.51-0.54)"),
+    "bearings.*.static_load_rating_n": (10.0, 1e8, "static load ratings are 10 N .. 100 MN"),
+    "bearings.*.youngs_modulus_pa": (1e9, 1e12, "bearing materials are 1 GPa (polymers) .. 1 TPa (ceramics ~0.3 TPa)"),
+    "bearings.*.pressure_viscosity_m2_n": (0.0, 1e-7, "pressure-viscosity coefficients are 0 .. 1e-7 m^2/N "
                                                    "(mineral oils ~2e-8)"),
-    "bearing.dynamic_viscosity_pa_s": (0.0, 10.0, "lubricant viscosities are 0 .. 10 Pa s"),
-    "bearing.damping_n_s_m": _BEARING_DAMPING,
+    "bearings.*.dynamic_viscosity_pa_s": (0.0, 10.0, "lubricant viscosities are 0 .. 10 Pa s"),
+    "bearings.*.damping_n_s_m": _BEARING_DAMPING,
     # the defects (schema 3; a schema-2 [dent] is migrated to the first entry)
     "defects[].length_m": (1e-6, 0.1, "dents are 1 um .. 100 mm long"),
     "defects[].depth_m": (0.0, 1e-3, "dents are 0 .. 1 mm deep"),
@@ -112,9 +113,9 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
                                    "(3e9 is ~1 min on two cores)"),
     # FE bearing and support elements
     "bearings.*.axial_load_n": (0.0, 1e7, "axial bearing loads are 0 .. 10 MN"),
-    # derived: axial load / bearing.static_load_rating_n (deep-groove ball bearings carry ~0.5 C0 axially)
-    "bearings.*.axial_load_ratio": (0.0, 1.0, "the axial load is at most the static load rating "
-                                              "bearing.static_load_rating_n"),
+    # derived: axial load / the position's static_load_rating_n (deep-groove ball bearings carry ~0.5 C0 axially)
+    "bearings.*.axial_load_ratio": (0.0, 1.0, "the axial load is at most the bearing's static load rating "
+                                              "static_load_rating_n"),
     "bearings.*.table_stiffness_vertical_n_m": _BEARING_STIFFNESS,
     "bearings.*.table_stiffness_horizontal_n_m": _BEARING_STIFFNESS,
     "bearings.*.table_damping_vertical_n_s_m": _BEARING_DAMPING,
@@ -220,60 +221,70 @@ def problem(raw: dict) -> tuple[str, str] | None:
 
 
 def relation_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] | None:
-    """Bounds on ratios of two keys (``bearings.*.axial_load_ratio``), or None (also when a key does not exist)."""
+    """Bounds on ratios of two keys (``bearings.*.axial_load_ratio``: each position's axial load over its own
+    bearing's static load rating), or None (also when a key does not exist)."""
     bounds = BOUNDS if bounds is None else bounds
-    c0 = raw.get("bearing", {}).get("static_load_rating_n") if isinstance(raw.get("bearing"), dict) else None
-    if not isinstance(c0, (int, float)) or isinstance(c0, bool) or not c0 > 0:
-        return None
     lo, hi, why = bounds["bearings.*.axial_load_ratio"]
-    for key, fa in _values(raw, "bearings.*.axial_load_n"):
-        if isinstance(fa, (int, float)) and not isinstance(fa, bool) and not lo <= fa / c0 <= hi:
-            return key, (f"{fa!r} N is {fa / c0:.3g} x bearing.static_load_rating_n ({c0:g} N), outside "
-                         f"[{_fmt(lo)}, {_fmt(hi)}]: {why}{_UNIT_SLIP}; if it is right, widen it in the case: "
-                         f'[{SECTION}] "bearings.*.axial_load_ratio" = [low, high]')
+    brg = raw.get("bearings")
+    for name, table in (brg.items() if isinstance(brg, dict) else ()):
+        if not isinstance(table, dict):
+            continue
+        c0, fa = table.get("static_load_rating_n"), table.get("axial_load_n")
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (c0, fa)) or not c0 > 0:
+            continue
+        if not lo <= fa / c0 <= hi:
+            return f"bearings.{name}.axial_load_n", (
+                f"{fa!r} N is {fa / c0:.3g} x bearings.{name}.static_load_rating_n ({c0:g} N), outside "
+                f"[{_fmt(lo)}, {_fmt(hi)}]: {why}{_UNIT_SLIP}; if it is right, widen it in the case: "
+                f'[{SECTION}] "bearings.*.axial_load_ratio" = [low, high]')
     return None
 
 
 def cost_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] | None:
     """The 4-DOF computing limits (``excitation.ball_passes``, ``excitation.recorded_samples``; see the module
-    docstring), or None (also when the keys they are made of do not exist)."""
+    docstring) for the bearing of each position, or None (also when the keys they are made of do not exist)."""
     bounds = BOUNDS if bounds is None else bounds
     try:
-        b, e = raw["bearing"], raw["excitation"]
-        d, pd, z = float(b["ball_diameter_m"]), float(b["pitch_diameter_m"]), int(b["n_balls"])
-        alpha = math.radians(float(b["contact_angle_deg"]))
+        e = raw["excitation"]
         f_ref = float(e["reference_speed_hz"])
         settle, periods, per_pass = float(e["settle_time_s"]), int(e["record_cage_periods"]), \
             int(e["samples_per_ball_pass"])
-    except (KeyError, TypeError, ValueError):
+        sets = []
+        for b in raw["bearings"].values():
+            d, pd, z = float(b["ball_diameter_m"]), float(b["pitch_diameter_m"]), int(b["n_balls"])
+            sets.append((d, pd, z, math.radians(float(b["contact_angle_deg"]))))
+    except (KeyError, TypeError, ValueError, AttributeError):
         return None
     override = f'widen it in the case: [{SECTION}] "%s" = [low, high]'
-    n_rec = periods * z * per_pass
-    lo, hi, why = bounds["excitation.recorded_samples"]
-    if not lo <= n_rec <= hi:
-        return ("excitation.samples_per_ball_pass",
-                f"record_cage_periods x n_balls x samples_per_ball_pass = {periods} x {z} x {per_pass} = {n_rec} "
-                f"recorded samples, more than {_fmt(hi)}: {why}; " + override % "excitation.recorded_samples")
     max_order = e.get("max_order")
     if isinstance(max_order, int) and not isinstance(max_order, bool) and max_order > per_pass // 2:
         return ("excitation.max_order",
                 f"{max_order} is more than the {per_pass // 2} orders excitation.samples_per_ball_pass = {per_pass} "
                 f"resolves (half of it); 0 keeps every resolved order")
     kinds = {dd.get("race") for dd in raw.get("defects", []) if isinstance(dd, dict)}
-    if kinds & {"inner", "ball"}:
-        slow = max(32, 1 << math.ceil(math.log2(4 * z)))
-        n_torus = per_pass * slow
-        lo, hi, why = bounds["excitation.torus_samples"]
-        if not lo <= n_torus <= hi:
+    for d, pd, z, alpha in sets:
+        n_rec = periods * z * per_pass
+        lo, hi, why = bounds["excitation.recorded_samples"]
+        if not lo <= n_rec <= hi:
             return ("excitation.samples_per_ball_pass",
-                    f"an inner-race or ball defect is solved on samples_per_ball_pass x {slow} = {per_pass} x {slow} "
-                    f"= {n_torus} angles, more than {_fmt(hi)}: {why}; " + override % "excitation.torus_samples")
-    f_bp = z * 0.5 * (1.0 - d / pd * math.cos(alpha)) * f_ref
-    passes = settle * f_bp + periods * z
-    lo, hi, why = bounds["excitation.ball_passes"]
-    if not lo <= passes <= hi:
-        return ("excitation.settle_time_s",
-                f"settle_time_s {settle:g} s at reference_speed_hz {f_ref:g} Hz + {periods} cage period(s) = "
-                f"{passes:.0f} ball passes to integrate, more than {_fmt(hi)}: {why}; "
-                + override % "excitation.ball_passes")
+                    f"record_cage_periods x n_balls x samples_per_ball_pass = {periods} x {z} x {per_pass} = "
+                    f"{n_rec} recorded samples, more than {_fmt(hi)}: {why}; "
+                    + override % "excitation.recorded_samples")
+        if kinds & {"inner", "ball"}:
+            slow = max(32, 1 << math.ceil(math.log2(4 * z)))
+            n_torus = per_pass * slow
+            lo, hi, why = bounds["excitation.torus_samples"]
+            if not lo <= n_torus <= hi:
+                return ("excitation.samples_per_ball_pass",
+                        f"an inner-race or ball defect is solved on samples_per_ball_pass x {slow} = {per_pass} x "
+                        f"{slow} = {n_torus} angles, more than {_fmt(hi)}: {why}; "
+                        + override % "excitation.torus_samples")
+        f_bp = z * 0.5 * (1.0 - d / pd * math.cos(alpha)) * f_ref
+        passes = settle * f_bp + periods * z
+        lo, hi, why = bounds["excitation.ball_passes"]
+        if not lo <= passes <= hi:
+            return ("excitation.settle_time_s",
+                    f"settle_time_s {settle:g} s at reference_speed_hz {f_ref:g} Hz + {periods} cage period(s) = "
+                    f"{passes:.0f} ball passes to integrate, more than {_fmt(hi)}: {why}; "
+                    + override % "excitation.ball_passes")
     return None

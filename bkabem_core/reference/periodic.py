@@ -91,6 +91,9 @@ def harmonic_balance(model: Tdsm, n_orders: int = 50, n_time: int = 8192, linear
     """
     if model.bearing_model != "hertz":
         raise ValueError("harmonic_balance needs the Hertz bearing model")
+    if not model.one_ball_set:
+        raise ValueError("harmonic_balance: the DE and NDE bearings have two ball-pass periods (different ball sets "
+                         "or kinematics); their steady state is not BPFO-periodic (validate_lines fits its lines)")
     t0 = time.perf_counter()
     m = model
     rot = m.rotor

@@ -5,12 +5,12 @@ This is the reference BKA-BEM is validated against (paper section 5). It is the 
 
 * the FE rotor (Timoshenko shaft refined for the case's highest frequency, disks, both housings on their
   supports, the rotor's structural damping) with, between rotor node and housing node of each bearing, the
-  nonlinear Sopanen ball force of :class:`bkabem_core.bearing.deep_groove.Bearing` (Hertz contacts, the case's clearance, the
-  axial displacement held at its static value under the axial load; the dent in the faulty bearing, the other one
-  healthy) in parallel with the viscous bearing damper ``[bearing] damping_n_s_m`` (the same damper as in the FE
-  and the 4-DOF model);
-* gravity on every mass; constant shaft speed Omega (in ``Omega G``) and cage angle ``theta = 2 pi FTF f t``
-  (t = 0 at cage angle 0, the BKA-BEM phase reference);
+  nonlinear Sopanen ball force of :class:`bkabem_core.bearing.deep_groove.Bearing` (Hertz contacts, the position's
+  own bearing and clearance, the axial displacement held at its static value under the axial load; the defects of
+  each bearing) in parallel with the position's viscous bearing damper ``[bearings.*] damping_n_s_m`` (the same
+  damper as in the FE and the 4-DOF model);
+* gravity on every mass; constant shaft speed Omega (in ``Omega G``) and each bearing's cage angle
+  ``theta = 2 pi FTF f t`` with its own FTF (t = 0 at cage angle 0, the BKA-BEM phase reference);
 * integrated from the static equilibrium of this nonlinear model (solved, with the dent ignored at t = 0).
 
 The linear part is written with the FE's linear bearing springs ``K_b`` inside (the machine's linearisation) and
@@ -46,7 +46,10 @@ otherwise).
 The step is chosen as ``h = T_bpfo / N`` (N integer, ``h <= max_step_s``), so every BPFO period holds exactly N
 steps: the steady-state response is BPFO-periodic and its FFT over whole periods has no leakage. The ball
 positions (and the dent depth felt by each ball) are tabulated once for one BPFO period: after one period the
-ball set has turned by exactly one ball pitch and the table repeats.
+ball set has turned by exactly one ball pitch and the table repeats. Two different bearings (another ball set or
+other cage and spin rates at the NDE) have two ball-pass periods: T_bpfo is the DE bearing's, and each bearing's
+ball angles are computed at every step from its own cage angle (:meth:`HertzPair.rows`); the response is then
+quasi-periodic (its lines are fitted, :func:`bkabem_core.reference.validation.validate_lines`).
 
 Units: SI (m, s, N, rad). Axes as in :mod:`bkabem_core.fe.rotor`: x horizontal, y vertical (up), z axial.
 """
@@ -60,7 +63,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
-from bkabem_core.bearing.contacts import HertzPair, LinearPair
+from bkabem_core.bearing.contacts import HertzPair, LinearPair, same_ball_set
 from bkabem_core.bearing.deep_groove import TWO_PI
 from bkabem_core.bearing.defects.registry import kind as defect_kind
 from bkabem_core.fe.machine import Machine
@@ -284,8 +287,8 @@ class Tdsm:
     hht_alpha : float
         HHT-alpha parameter in [-1/3, 0] of the ``"newmark"`` scheme; 0 = average acceleration.
     bearing_damping_n_s_m : float, optional
-        Viscous damper between rotor and housing at each bearing [N s/m] (default: the case's
-        ``[bearing] damping_n_s_m``).
+        Viscous damper between rotor and housing at both bearings [N s/m] (default: each position's
+        ``[bearings.*] damping_n_s_m``).
     bearing_model : {"hertz", "linear"}
         ``"linear"`` replaces the ball forces by the FE's linear bearing springs (integrator tests: the model is
         then exactly the linear FE).
@@ -331,15 +334,16 @@ class Tdsm:
         self.newton_tol_m = float(newton_tol_m)
         self.max_newton = int(max_newton)
         self.gravity_m_s2 = case.gravity_m_s2
-        self.bearing_damping_n_s_m = float(case.bearing_damping_n_s_m if bearing_damping_n_s_m is None
-                                           else bearing_damping_n_s_m)
+        #: the viscous damper across each bearing [N s/m]: {"de": ..., "nde": ...}
+        self.bearing_damping_n_s_m = {b: float(case.bearing_damping_n_s_m(b) if bearing_damping_n_s_m is None
+                                               else bearing_damping_n_s_m) for b in BEARINGS}
         self.machine = machine if machine is not None else Machine(case, mesh=mesh)
         sites = self.machine.sites
 
-        # ---- FE model: the machine's rotor, its linear bearing springs K_b and the bearing damper
+        # ---- FE model: the machine's rotor, its linear bearing springs K_b and the bearing dampers
         cb = self.bearing_damping_n_s_m
         self._k_ref = np.array([sites[b].stiffness_n_m for b in BEARINGS], dtype=float)     # (2, 2): xx, yy
-        elements = {b: (self._k_ref[i, 0], self._k_ref[i, 1], cb, cb) for i, b in enumerate(BEARINGS)}
+        elements = {b: (self._k_ref[i, 0], self._k_ref[i, 1], cb[b], cb[b]) for i, b in enumerate(BEARINGS)}
         self.rotor: Rotor = rotor_from_case(case.raw, bearings=elements, mesh=self.machine.mesh)
         rot = self.rotor
         n = rot.ndof
@@ -356,37 +360,45 @@ class Tdsm:
         self.out_dofs = np.array([[idx(nodes[loc], _DIR_DOF[d]) for d in DIRECTIONS] for loc in LOCATIONS])
         self._kb = np.diag(self._k_ref.reshape(4))
 
-        # ---- bearings and kinematics
+        # ---- bearings and kinematics (each bearing its own; the step follows the DE bearing's ball pass)
         self.bearings = (sites["de"].bearing, sites["nde"].bearing)
         self.axial_m = tuple(float(sites[b].state.displacement_m[2]) for b in BEARINGS)
-        fm = self.bearings[0].fault_multipliers()
+        fms = [b.fault_multipliers() for b in self.bearings]
+        fm = fms[0]
+        self.one_ball_set = same_ball_set(*self.bearings)      # one table of ball angles, BPFO-periodic
         self.ftf_hz = fm.ftf * speed_hz
         self.bpfo_hz = fm.bpfo * speed_hz
         self.cage_speed_rad_s = TWO_PI * self.ftf_hz
+        #: each bearing's cage speed [rad/s] (DE, NDE)
+        self.cage_speeds_rad_s = tuple(TWO_PI * f.ftf * speed_hz for f in fms)
         self.bpfo_period_s = 1.0 / self.bpfo_hz
         if max_step_s is None:
             max_step_s = self.MAX_STEP_S
             moving = [b for b in self.bearings if b.defect_set.moving]
             for b in moving:                 # moving kinds (inner race, ball): their own relative speeds
                 max_step_s = min(max_step_s, b.shortest_defect_event_s(speed_hz) / self.STEPS_PER_DENT_EDGE)
-            faulty = [b for b in self.bearings if b.dent is not None and b.dent_effective_depth_m > 0.0
-                      and defect_kind(b.dent.race).periodic]
-            if faulty:
-                ramp = faulty[0].dent_entry_ramp_rad
-                edge = ramp if ramp > 0.0 else 0.25 * faulty[0].dent_half_angle_rad
-                max_step_s = min(max_step_s, edge / self.cage_speed_rad_s / self.STEPS_PER_DENT_EDGE)
+            for b, w_cage in zip(self.bearings, self.cage_speeds_rad_s):
+                if b.dent is not None and b.dent_effective_depth_m > 0.0 and defect_kind(b.dent.race).periodic:
+                    ramp = b.dent_entry_ramp_rad
+                    edge = ramp if ramp > 0.0 else 0.25 * b.dent_half_angle_rad
+                    max_step_s = min(max_step_s, edge / w_cage / self.STEPS_PER_DENT_EDGE)
+                    if self.one_ball_set:
+                        break                   # the first dented bearing's, as for one bearing type
         self.steps_per_bpfo = max(1, math.ceil(self.bpfo_period_s / max_step_s - 1e-9))
         self.h = self.bpfo_period_s / self.steps_per_bpfo
-        if case.raw["bearing"].get("ehl_film", False):
-            films = tuple(b.ehl_film_thickness_m(speed_hz, float(np.hypot(*sites[name].radial_load_n)))
-                          for b, name in zip(self.bearings, BEARINGS))
-        else:
-            films = (0.0, 0.0)
+        films = tuple(b.ehl_film_thickness_m(speed_hz, float(np.hypot(*sites[name].radial_load_n)))
+                      if case.ehl_film(name) else 0.0 for b, name in zip(self.bearings, BEARINGS))
         self.films_m = films
-        cage = self.cage_speed_rad_s * self.h * np.arange(self.steps_per_bpfo)
+        steps = np.arange(self.steps_per_bpfo)
+        cage = self.cage_speed_rad_s * self.h * steps if self.one_ball_set else \
+            np.stack([w * self.h * steps for w in self.cage_speeds_rad_s], axis=1)
         if bearing_model == "hertz":
             self.forces = HertzPair(self.bearings, cage, films, self.axial_m)
-            self.forces.set_clock(self.h, TWO_PI * speed_hz, TWO_PI * fm.bsf * speed_hz)
+            if self.one_ball_set:
+                self.forces.set_clock(self.h, TWO_PI * speed_hz, TWO_PI * fm.bsf * speed_hz)
+            else:
+                self.forces.set_clock(self.h, TWO_PI * speed_hz, [TWO_PI * f.bsf * speed_hz for f in fms],
+                                      self.cage_speeds_rad_s)
         else:
             self.forces = LinearPair(self._k_ref, self.steps_per_bpfo)
 
@@ -597,7 +609,7 @@ class Tdsm:
         if self.forces.periodic:
             f0, _ = self.forces.evaluate(self._u_static + du0, 0)
         else:
-            f0, _ = self.forces.evaluate(self._u_static + du0, 0, self.forces.ar0_rows(0, 1)[0])
+            f0, _ = self.forces.evaluate(self._u_static + du0, 0, self.forces.rows(0, 1)[0])
         st.f_dev = f0 - self._f_static + self._kb.dot(du0)
         st.f_old = st.f_dev.copy()
         bar = None
@@ -710,7 +722,7 @@ class Tdsm:
             k0 = 0
             while k0 < n_steps:
                 k1 = min(n_steps, k0 + chunk)
-                rows = None if periodic else self.forces.ar0_rows(n0 + k0 + 1, n0 + k1 + 1)
+                rows = None if periodic else self.forces.rows(n0 + k0 + 1, n0 + k1 + 1)
                 for k in range(k0, k1):
                     if rec is not None and k % rec_every == 0:
                         i = k // rec_every

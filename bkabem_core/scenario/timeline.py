@@ -418,10 +418,10 @@ class Scenario:
             t, f = [0.0] + t, [1.0] + f
         return tuple(t), tuple(f)
 
-    def _own_keys(self, key: str, d: dict, k, source: str) -> tuple:
-        """The keys only kind ``k`` has of the ``[[defects]]`` table ``d`` (checked against the case's bearing), as
-        ``((key, value), ...)``; a key of another kind is refused."""
-        bearing = self.case.raw["bearing"]
+    def _own_keys(self, key: str, d: dict, k, source: str, position: str) -> tuple:
+        """The keys only kind ``k`` has of the ``[[defects]]`` table ``d`` (checked against the case's bearing at
+        ``position``), as ``((key, value), ...)``; a key of another kind is refused."""
+        bearing = self.case.bearing_table(position)
         mine = {o.name: o for o in k.own_keys}
         out = []
         for o in own_keys():
@@ -457,7 +457,7 @@ class Scenario:
             names.add(name)
             bearing = _string(f"{key}.bearing", d["bearing"], source, ("de", "nde"))
             race = _string(f"{key}.race", d["race"], source, KINDS)
-            own = self._own_keys(key, d, kind(race), source)
+            own = self._own_keys(key, d, kind(race), source, bearing)
             angle = _number(f"{key}.angle_deg", d.get("angle_deg", 0.0), source, -360.0, 360.0)
             edge = _string(f"{key}.edge", d.get("edge", EDGE_PROFILES[0]), source, EDGE_PROFILES)
             edge_fraction = _number(f"{key}.edge_fraction", d.get("edge_fraction", 0.1), source, 0.0, 1.0)

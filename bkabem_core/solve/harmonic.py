@@ -47,8 +47,8 @@ import numpy as np
 from bkabem_core.bearing.deep_groove import FaultFrequencies
 from bkabem_core.excitation.baseline import baseline_forces
 from bkabem_core.excitation.line_names import line_labels
-from bkabem_core.excitation.lines import LineSet, union
-from bkabem_core.excitation.quasi_static import Excitation, rates_per_hz
+from bkabem_core.excitation.lines import BASE_PHASES, BEARING_COLUMNS, LineSet, MachinePhases, union
+from bkabem_core.excitation.quasi_static import Excitation
 from bkabem_core.fe.budget import check_line_modes, singular_stiffness
 from bkabem_core.fe.machine import Machine
 from bkabem_core.fe.modal import LineModes, ModalBasis, OrderModalForm, SpeedCells  # noqa: F401  (SpeedCells: for synth)
@@ -82,11 +82,18 @@ class Spectrum:
     dc_m : ndarray (4, 2)
         Static (k = 0) displacement [m] from the DC of the excitation.
     fault_frequencies_hz : FaultFrequencies
-        FTF, BPFO, BPFI, BSF [Hz] at this speed.
-    coefficients : ndarray of int (K, 4), optional
-        Each line's coefficients on the base phases (:mod:`bkabem_core.excitation.lines`).
+        FTF, BPFO, BPFI, BSF [Hz] at this speed of the DE bearing (the field of earlier versions, where both
+        positions had one bearing); every bearing's: ``bearing_fault_frequencies_hz``.
+    coefficients : ndarray of int (K, 6), optional
+        Each line's coefficients on the machine's base phases (:data:`~bkabem_core.excitation.lines.BASE_PHASES`).
+    bearing_fault_frequencies_hz : dict, optional
+        ``{"de": FaultFrequencies, "nde": FaultFrequencies}`` [Hz] at this speed: each bearing's own.
+    line_bearings : list of str, optional
+        Per line the bearing whose cage or spin it follows (``"de"``, ``"nde"``, ``"de+nde"`` when both bearings
+        share their kinematics, ``""`` for a shaft or supply line; :meth:`MachinePhases.line_bearings`).
     labels : tuple of str (K,), optional
-        What each line is (:mod:`bkabem_core.excitation.line_names`: ``"BPFO"``, ``"BPFI - 1 f_r"``, ``"1x"``).
+        What each line is (:mod:`bkabem_core.excitation.line_names`: ``"BPFO"``, ``"BPFI - 1 f_r"``, ``"1x"``;
+        with two different bearings the bearing's name follows: ``"BPFO (NDE)"``).
     band_hz : float
         Highest frequency the model serves [Hz] (the case's band, :attr:`Case.max_frequency_hz`): lines above it
         at this speed are beyond the converged FE model and every sample rate of the case; the overall RMS
@@ -100,6 +107,8 @@ class Spectrum:
     dc_m: np.ndarray
     fault_frequencies_hz: FaultFrequencies
     coefficients: np.ndarray | None = None
+    bearing_fault_frequencies_hz: dict | None = None
+    line_bearings: list | None = None
     labels: tuple | None = None
     band_hz: float = math.inf
 
@@ -135,8 +144,21 @@ class Spectrum:
                "band_hz": self.band_hz if math.isfinite(self.band_hz) else None}
         if self.labels is not None:
             out["lines"] = list(self.labels)
+        if self.bearing_fault_frequencies_hz is not None:
+            out["bearing_fault_frequencies_hz"] = {b: ff.to_dict() for b, ff in
+                                                   self.bearing_fault_frequencies_hz.items()}
         if self.coefficients is not None:
-            out["line_coefficients"] = self.coefficients.tolist()
+            c = np.asarray(self.coefficients)
+            if c.shape[1] == len(BASE_PHASES):     # each line on its own bearing's phases (shaft, cage, spin, line)
+                own = [BEARING_COLUMNS["nde" if b == "nde" else "de"] for b in (self.line_bearings or ["de"] * len(c))]
+                out["line_coefficients"] = [[int(r[0]), int(r[cg]), int(r[sp]), int(r[-1])]
+                                            for r, (cg, sp) in zip(c, own)]
+                out["base_phases"] = list(BASE_PHASES)
+                out["line_coefficients_machine"] = c.tolist()
+            else:
+                out["line_coefficients"] = c.tolist()
+        if self.line_bearings is not None:
+            out["line_bearings"] = list(self.line_bearings)
         disp, acc, vel = self.displacement, self.acceleration, self.velocity
         for li, loc in enumerate(LOCATIONS):
             out[loc] = {}
@@ -250,8 +272,18 @@ class BkaBem:
     rotor : Rotor
     excitations : dict name -> Excitation
         The applied excitation of each excited bearing, on the common ``orders``.
+    bearing_multipliers : dict name -> FaultFrequencies
+        FTF, BPFO, BPFI, BSF per shaft Hz of the bearing at each position (its own kinematics).
+    phases : MachinePhases
+        The machine's base phases (a cage and a spin phase per bearing, shared when their rates are equal).
+    lines : LineSet
+        Every line on the machine's base phases, sorted by frequency.
     orders : ndarray of int
-        The union of the bearings' kept orders.
+        Per line its BPFO order of the DE bearing (``orders x bpfo_per_hz`` is its multiplier) when the line is one;
+        0 for any other line (an inner-race or ball line, a shaft or supply line, a line of a different NDE
+        bearing).
+    bpfo_per_hz : float
+        The DE bearing's BPFO per shaft Hz: the unit of ``orders``.
     preparation_time_s : dict
         Wall time of each preparation stage [s].
     """
@@ -279,10 +311,11 @@ class BkaBem:
         t2 = time.perf_counter()
         self.preparation_time_s["fe_assembly"] = t1 - t0
         self.preparation_time_s["excitation"] = t2 - t1 if excitation is None else 0.0
-        self.fault_multipliers = case.bearing().fault_multipliers()
-        self.bpfo_per_hz = self.fault_multipliers.bpfo
-        self.n_balls = int(case.bearing_geometry().n_balls)
-        rates = rates_per_hz(self.fault_multipliers)
+        self.bearing_multipliers = {b: case.fault_multipliers(b) for b in BEARINGS}
+        self.phases = MachinePhases.of(self.bearing_multipliers)
+        self.bpfo_per_hz = self.bearing_multipliers["de"].bpfo           # the unit of `orders`
+        self.n_balls = int(case.bearing_geometry("de").n_balls)
+        rates = self.phases.rates_per_hz
         self.force_model = case.raw["excitation"]["force"]
 
         # input patterns: a force pair across each bearing (+ rotor node, - housing node), vertical and horizontal,
@@ -307,7 +340,7 @@ class BkaBem:
         self._out_dofs = np.array([[idx(nodes[loc], _DIR_DOF[d]) for d in DIRECTIONS] for loc in LOCATIONS])
 
         # the lines: every bearing's excitation lines and the baseline's, on one set (sorted by frequency)
-        self.bearing_lines = {b: e.line_set() for b, e in raw.items()}
+        self.bearing_lines = {b: self.phases.place(e.line_set(), b) for b, e in raw.items()}
         disp = [ls.with_inputs(names[:4], [names.index(f"{b}.{d}") for d in DIRECTIONS])
                 for b, ls in self.bearing_lines.items()]
         everything = union([u.with_inputs(self.input_names, range(4)) for u in disp]
@@ -316,7 +349,7 @@ class BkaBem:
         n_k = len(everything)
         z = self.n_balls
         c = everything.coefficients
-        pure = (c[:, 0] == 0) & (c[:, 2] == 0) & (c[:, 3] == 0) & (c[:, 1] % z == 0)
+        pure = (c[:, [0, 2, 3, 4, 5]] == 0).all(axis=1) & (c[:, 1] % z == 0)        # the DE bearing's BPFO orders
         self.orders = np.where(pure, c[:, 1] // z, 0).astype(int)
         self.excitations = {b: (e.on_orders(self.orders[pure]) if e.lines is None else e) for b, e in raw.items()}
         # force per line on the patterns: F = a + i omega b  (K, P) [N], [N s]; bearing columns k_b U (+ c_b U)
@@ -367,10 +400,45 @@ class BkaBem:
         self.preparation_time_s["total"] = sum(v for kk, v in self.preparation_time_s.items() if kk != "total")
 
     @property
+    def fault_multipliers(self):
+        """FTF, BPFO, BPFI, BSF per shaft Hz of the machine's bearings when both positions have the same ones (one
+        bearing type); ValueError for two different bearings (:attr:`bearing_multipliers` has each)."""
+        de, nde = self.bearing_multipliers["de"], self.bearing_multipliers["nde"]
+        if de != nde:
+            raise ValueError("the DE and NDE bearings have different kinematics: bearing_multipliers[position] "
+                             "gives each bearing's fault multipliers")
+        return de
+
+    def shared_phase_lines(self) -> LineSet:
+        """:attr:`lines` on one bearing's base phases (shaft, cage, spin, line): the form of a machine whose two
+        bearings turn their cages and balls at the same rates (:meth:`MachinePhases.on_one_bearing`). ValueError
+        for two bearings of different kinematics."""
+        return self.phases.on_one_bearing(self.lines)
+
+    def fault_frequencies_hz(self, speed_hz: float) -> dict:
+        """``{"de": FaultFrequencies, "nde": FaultFrequencies}`` [Hz] at a shaft speed [Hz]."""
+        return {b: fm.at_speed(speed_hz) for b, fm in self.bearing_multipliers.items()}
+
+    def spectrum_fields(self, speed_hz: float) -> dict:
+        """The kinematic fields of a :class:`Spectrum` at ``speed_hz`` [Hz]: the DE bearing's fault frequencies,
+        every bearing's, and each line's coefficients and bearing."""
+        ff = self.fault_frequencies_hz(speed_hz)
+        return {"fault_frequencies_hz": ff["de"], "bearing_fault_frequencies_hz": ff,
+                "coefficients": self.lines.coefficients.copy(),
+                "line_bearings": self.phases.line_bearings(self.lines.coefficients)}
+
+    @property
     def is_order_set(self) -> bool:
-        """Whether every line is a BPFO order (an outer-race or healthy bearing set without baseline): the form
-        of the earlier versions, which the improved method and the TDSM validation take."""
-        return bool(np.all(self.orders > 0))
+        """Whether every line is a BPFO order of the DE bearing (an outer-race or healthy bearing set without
+        baseline, one bearing type or the NDE not excited): the form of the earlier versions, which the improved
+        method's orders form and the TDSM's order-by-order validation take."""
+        return bool(np.all(self.orders > 0)) and self.one_ball_pass
+
+    @property
+    def one_ball_pass(self) -> bool:
+        """Whether both bearings have the same fault multipliers (one ball-pass period: one bearing type, or two of
+        the same kinematics and ball count), so that the machine's steady state repeats with the DE's BPFO."""
+        return self.bearing_multipliers["de"] == self.bearing_multipliers["nde"]
 
     @property
     def fixed_hz(self) -> np.ndarray:
@@ -390,7 +458,16 @@ class BkaBem:
     @property
     def line_labels(self) -> tuple:
         """What each line is (``"BPFO"``, ``"BPFI - 1 f_r"``, ``"2 BSF + FTF"``, ``"1x"``), (K,)."""
-        return tuple(line_labels(self.lines.coefficients, self.n_balls))
+        c = self.lines.coefficients
+        out = []
+        for j, b in enumerate(self.phases.line_bearings(c)):
+            own = b.split("+")[0] or "de"                      # a shaft or supply line: no cage, any bearing's columns
+            cage, spin = self.phases.columns(own)
+            four = np.array([c[j, 0], c[j, cage], c[j, spin], c[j, -1]])
+            z = int(self.case.bearing_geometry(own).n_balls)
+            label = line_labels(four[None, :], z)[0]
+            out.append(label if self.phases.shared or b in ("", "de+nde") else f"{label} ({own.upper()})")
+        return tuple(out)
 
     # ------------------------------------------------------------------ solve
     @property
@@ -479,10 +556,8 @@ class BkaBem:
         speed_hz = float(speed_hz)
         x = self.response([speed_hz])[0]
         return Spectrum(speed_hz=speed_hz, orders=self.orders.copy(), frequency_hz=self.frequency_hz(speed_hz),
-                        displacement=x, dc_m=self._dc.copy(),
-                        fault_frequencies_hz=self.fault_multipliers.at_speed(speed_hz),
-                        coefficients=self.lines.coefficients.copy(), labels=self.line_labels,
-                        band_hz=self.band_hz)
+                        displacement=x, dc_m=self._dc.copy(), **self.spectrum_fields(speed_hz),
+                        labels=self.line_labels, band_hz=self.band_hz)
 
     def sweep(self, speeds_hz, batch: int = 16, progress: bool = False) -> Sweep:
         """Responses over many speeds [Hz], computed in batches (memory bounded)."""

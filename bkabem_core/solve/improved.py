@@ -28,14 +28,16 @@ Any line set
 ------------
 Inner-race and ball defects move with the shaft and with their ball's spin: their lines (``m BPFI +- n f_r``,
 ``m 2 BSF +- n FTF``) are not harmonics of one period, and the same step runs on the lattice of the line set
-instead (``method="lattice"``, the default for such sets): every line ``c`` (coefficients on shaft, cage, spin) is
-written ``c = y B`` on a basis ``B`` (r, 4) of the lattice the lines and the defects' phases span
-(:func:`lattice_basis`: r = 1 for BPFO orders, 2 for one moving kind, 3 for inner-race and ball defects together),
-and ``k`` becomes ``y``:
+instead (``method="lattice"``, the default for such sets): every line ``c`` (coefficients on the machine's base
+phases: shaft, each bearing's cage and spin, line) is written ``c = y B`` on a basis ``B`` (r, 6) of the lattice the
+lines and the defects' phases span (:func:`lattice_basis`: r = 1 for BPFO orders, 2 for one moving kind, 3 for
+inner-race and ball defects together, one more for the ball passage of a second, different bearing), and ``k``
+becomes ``y``:
 
 * the stiffness modulation ``dK(y - y')`` comes from the tangent stiffness along the quasi-static path split as the
-  excitation splits it: the bearing without its moving defects over one ball pitch (BPFO harmonics) plus, for each
-  moving kind, the difference it makes on its own 2-torus (:func:`~bkabem_core.excitation.quasi_static.torus_path`);
+  excitation splits it: each bearing without its moving defects over one of its ball pitches (its BPFO harmonics,
+  on its own cage phase) plus, for each moving kind, the difference it makes on its own 2-torus
+  (:func:`~bkabem_core.excitation.quasi_static.torus_path`);
 * the ball forces of a series ``U`` are evaluated on a rank-1 lattice of the r-torus, ``n`` points
   ``phi_j = 2 pi j w / n`` (:func:`rank1_lattice`), where harmonic ``y`` is DFT bin ``y . w mod n``: one force
   evaluation and one FFT per speed, whatever the number of phases. ``w`` is chosen so that no two lines share a bin.
@@ -116,8 +118,8 @@ class HillCorrection:
         if self.method == "auto":
             self.method = "lattice"
         if self.method == "orders" and not model.is_order_set:
-            raise ValueError("HillCorrection: method 'orders' needs a model whose lines are all BPFO orders "
-                             "(BkaBem(..., baseline=False) of an outer-race or healthy bearing set)")
+            raise ValueError("HillCorrection: method 'orders' needs a model whose lines are all BPFO orders of one "
+                             "bearing type (BkaBem(..., baseline=False) of an outer-race or healthy bearing set)")
         if self.method == "lattice":
             self._lattice = _LatticeHill(model, n_time, n_precompute, tol, n_lattice)
             self.preparation_time_s = time.perf_counter() - t0
@@ -213,7 +215,7 @@ class HillCorrection:
         dc = (h[kk] @ (phi1[kk] + self._kb * self._u_s)).real.reshape(4, 2)
         m = self.model
         return Spectrum(speed_hz=f, orders=m.orders.copy(), frequency_hz=m.orders * m.bpfo_per_hz * f,
-                        displacement=disp, dc_m=dc, fault_frequencies_hz=m.fault_multipliers.at_speed(f))
+                        displacement=disp, dc_m=dc, **m.spectrum_fields(f))
 
 
 class _LatticeHill:
@@ -241,10 +243,11 @@ class _LatticeHill:
         self.last_iterations = 0
         machine, case = model.machine, model.case
         lines = model.lines
+        phases = model.phases
         sites = [machine.sites[b] for b in BEARINGS]
-        z = int(sites[0].bearing.geometry.n_balls)
+        zs = [int(s.bearing.geometry.n_balls) for s in sites]
+        z = zs[0]
         n_fast = int(case.raw["excitation"]["samples_per_ball_pass"])
-        n_slow = max(32, 1 << math.ceil(math.log2(4 * z)))
         amp = lines.amplitude[:, :4][:, _PATTERN_OF]                    # HertzPair order [de x, de y, nde x, nde y]
         rows = np.flatnonzero(lines.speed_locked & (np.abs(amp).max(axis=1) > 0.0))   # the bearing lines
         self._rows = rows                                                # model line indices
@@ -254,21 +257,24 @@ class _LatticeHill:
         c = lines.coefficients[rows]
         n_k = rows.size
         self.n_lines = n_k
-        cs = np.concatenate([c, -c, np.zeros((1, 4), np.int64)])        # S: lines, conjugates, mean
+        cs = np.concatenate([c, -c, np.zeros((1, c.shape[1]), np.int64)])   # S: lines, conjugates, mean
         self._n_s = cs.shape[0]
-        # the lattice of S and of every phase the ball forces depend on (so that the samples below are exact)
-        gens = [cs, np.array([[0, z, 0, 0]])]
-        for s in sites:
+        # the lattice of S and of every phase the ball forces depend on (so that the samples below are exact): each
+        # bearing's ball passage on its own cage phase, each moving kind's torus on its bearing's phases
+        gens = [cs]
+        for b, zb in zip(BEARINGS, zs):
+            gens.append(phases.place_coefficients([[0, zb, 0, 0]], b))
+        for b, s, zb in zip(BEARINGS, sites, zs):
             for kind in s.bearing.defect_set.moving:
-                gens.append(kind.phase_map(z))
-        self.basis = lattice_basis(np.concatenate(gens))                 # (r, 4)
+                gens.append(phases.place_coefficients(kind.phase_map(zb), b))
+        self.basis = lattice_basis(np.concatenate(gens))                 # (r, 6)
         y = lattice_coordinates(cs, self.basis)                          # (|S|, r)
         self.rank = self.basis.shape[0]
         bearings = tuple(s.bearing for s in sites)
         axial = tuple(float(s.state.displacement_m[2]) for s in sites)
         if self.rank == 1:                   # the orders method's grids: one ball pitch, n_precompute and n_time
-            self._grid0 = _Rank1Grid(self.basis, y, int(n_precompute), np.ones(1, np.int64), bearings, axial)
-            self._grid = _Rank1Grid(self.basis, y, int(n_time), np.ones(1, np.int64), bearings, axial)
+            self._grid0 = _Rank1Grid(self.basis, y, int(n_precompute), np.ones(1, np.int64), bearings, axial, phases)
+            self._grid = _Rank1Grid(self.basis, y, int(n_time), np.ones(1, np.int64), bearings, axial, phases)
         else:
             n = int(n_lattice) if n_lattice else max(int(n_time), 1 << math.ceil(math.log2(16 * self._n_s)))
             while True:                  # more points until one generating vector separates S (rank 3: mixed kinds)
@@ -279,7 +285,7 @@ class _LatticeHill:
                     if n_lattice or n >= MAX_LATTICE_POINTS:
                         raise
                     n *= 2
-            self._grid = self._grid0 = _Rank1Grid(self.basis, y, n, w, bearings, axial)
+            self._grid = self._grid0 = _Rank1Grid(self.basis, y, n, w, bearings, axial, phases)
         self.n_time, self.w = self._grid.n, self._grid.w
         self._u_s = np.concatenate([s.state.displacement_m[:2] for s in sites])
         self._f_s = np.concatenate([-s.radial_load_n for s in sites])
@@ -291,26 +297,32 @@ class _LatticeHill:
         u0[2 * n_k] = dc - self._u_s
         self._u0 = u0
         self._phi0 = self._forces(u0, self._grid0)
-        # stiffness modulation of each bearing (1-D ball passage at the truncated path + moving defects' tori)
-        on_pitch = (cs[:, 0] == 0) & (cs[:, 2] == 0) & (cs[:, 3] == 0) & (cs[:, 1] % z == 0)
-        u_pitch = np.where(on_pitch[:, None], u0, 0.0)
-        k_pitch = cs[:, 1] // z
+        # stiffness modulation of each bearing (1-D ball passage at the truncated path + moving defects' tori): each
+        # bearing's path over one of its own ball pitches, from the lines that are its BPFO orders
         n0 = int(n_precompute)
         grid = np.zeros((n0, 4), complex)
-        np.add.at(grid, k_pitch[on_pitch] % n0, u_pitch[on_pitch])
+        for bi, (name, zb) in enumerate(zip(BEARINGS, zs)):
+            cage = phases.columns(name)[0]
+            on_pitch = _on_cage_orders(cs, cage, zb)
+            k_pitch = cs[:, cage] // zb
+            u_pitch = np.where(on_pitch[:, None], u0[:, 2 * bi:2 * bi + 2], 0.0)
+            np.add.at(grid[:, 2 * bi:2 * bi + 2], k_pitch[on_pitch] % n0, u_pitch[on_pitch])
         u_tr = (np.fft.ifft(grid, axis=0) * n0).real + self._u_s
-        theta0 = TWO_PI / z * np.arange(n0) / n0
+        steps = np.arange(n0) / n0
+        theta0 = TWO_PI / z * steps if zs[0] == zs[1] else np.stack([TWO_PI / zb * steps for zb in zs], axis=1)
         outer = tuple(Bearing(b.geometry, defects=b.periodic_defects) for b in bearings)
         _, kt_pitch = HertzPair(outer, theta0, axial_m=axial).forces_many(u_tr)
         spec_pitch = np.fft.fft(kt_pitch, axis=0) / n0
         self._t = []
         self.stiffness_sources = {}
-        for bi, (name, site) in enumerate(zip(BEARINGS, sites)):
+        for bi, (name, site, zb) in enumerate(zip(BEARINGS, sites, zs)):
             base = spec_pitch[:, 2 * bi:2 * bi + 2, 2 * bi:2 * bi + 2]
-            tori = _stiffness_tori(site, machine.excitation_load_n(name), n_fast, n_slow,
-                                   model.excitations.get(name))
+            n_slow = max(32, 1 << math.ceil(math.log2(4 * zb)))
+            tori = [(k, phases.place_coefficients(pm, name), spec) for k, pm, spec in
+                    _stiffness_tori(site, machine.excitation_load_n(name), n_fast, n_slow, model.excitations.get(name))]
             self.stiffness_sources[name] = ["ball passage"] + [t[0] for t in tori]
-            self._t.append(_toeplitz(cs, z, base, tori, np.diag(self._kb[2 * bi:2 * bi + 2])))
+            self._t.append(_toeplitz(cs, phases.columns(name)[0], zb, base, tori,
+                                     np.diag(self._kb[2 * bi:2 * bi + 2])))
 
     def _forces(self, u: np.ndarray, grid: "_Rank1Grid") -> np.ndarray:
         """``Phi(U) = F[f(u) - f_s] + K_b U`` on S (|S|, 4) [N]: the ball forces of the series ``U`` (|S|, 4) [m]
@@ -354,26 +366,30 @@ class _LatticeHill:
             disp[self._rows[j]] += np.einsum("kup,kp->ku", h_all[:, :, 4:], fb)
         dc = (h[2 * n_k] @ (phi1[2 * n_k] + self._kb * self._u_s)).real.reshape(4, 2)
         return Spectrum(speed_hz=f, orders=m.orders.copy(), frequency_hz=m.frequency_hz(f),
-                        displacement=disp.reshape(-1, 4, 2), dc_m=dc,
-                        fault_frequencies_hz=m.fault_multipliers.at_speed(f),
-                        coefficients=m.lines.coefficients.copy(), labels=m.line_labels,
-                        band_hz=m.band_hz)
+                        displacement=disp.reshape(-1, 4, 2), dc_m=dc, **m.spectrum_fields(f),
+                        labels=m.line_labels, band_hz=m.band_hz)
 
 
 class _Rank1Grid:
-    """``n`` points ``phi_j = 2 pi j w / n`` of the torus of a lattice ``basis`` (r, 4), the bins ``y . w mod n``
-    of harmonics ``y`` (M, r), and the ball-force table of both bearings at the points' base phases."""
+    """``n`` points ``phi_j = 2 pi j w / n`` of the torus of a lattice ``basis`` (r, 6), the bins ``y . w mod n``
+    of harmonics ``y`` (M, r), and the ball-force table of both bearings at the points' base phases (each bearing
+    at its own cage and spin phase of ``phases``)."""
 
-    def __init__(self, basis, y, n: int, w, bearings, axial):
+    def __init__(self, basis, y, n: int, w, bearings, axial, phases):
         self.n, self.w = int(n), np.asarray(w, dtype=np.int64)
         self.bins = (y @ self.w) % self.n
         theta = lattice_phases(basis, TWO_PI * (np.outer(np.arange(self.n), self.w) % self.n) / self.n)  # [rad]
-        self.pair = HertzPair(bearings, theta[:, 1], axial_m=axial).bake_phases(theta[:, 0], theta[:, 2])
+        (c0, s0), (c1, s1) = phases.columns("de"), phases.columns("nde")
+        if (c0, s0) == (c1, s1):
+            self.pair = HertzPair(bearings, theta[:, c0], axial_m=axial).bake_phases(theta[:, 0], theta[:, s0])
+        else:
+            self.pair = HertzPair(bearings, theta[:, [c0, c1]], axial_m=axial).bake_phases(theta[:, 0],
+                                                                                          theta[:, [s0, s1]])
 
 
 # --------------------------------------------------------------------------- lattices
 def lattice_basis(c: np.ndarray) -> np.ndarray:
-    """A basis (r, 4) of the integer lattice spanned by the rows of ``c`` (M, 4), its Hermite normal form: row i
+    """A basis (r, N) of the integer lattice spanned by the rows of ``c`` (M, N), its Hermite normal form: row i
     has its first nonzero (positive) entry, its pivot, in a column right of row i-1's, and the entries above a
     pivot lie in [0, pivot) (integer row reduction, Euclid). E.g. an inner-race line set: ``[[1, 0, 0, 0],
     [0, z, 0, 0]]`` (shaft, z x cage); a ball defect's: ``[[0, 1, 0, 0], [0, 0, 1, 0]]`` (cage, spin)."""
@@ -405,7 +421,7 @@ def _pivots(basis: np.ndarray) -> np.ndarray:
 
 
 def lattice_coordinates(c: np.ndarray, basis: np.ndarray) -> np.ndarray:
-    """Integer coordinates y (M, r) with ``y @ basis = c`` for lattice vectors ``c`` (M, 4) (ValueError if one is
+    """Integer coordinates y (M, r) with ``y @ basis = c`` for lattice vectors ``c`` (M, N) (ValueError if one is
     not on the lattice)."""
     rest = np.array(c, dtype=np.int64)
     y = np.zeros((rest.shape[0], basis.shape[0]), dtype=np.int64)
@@ -421,7 +437,7 @@ def lattice_coordinates(c: np.ndarray, basis: np.ndarray) -> np.ndarray:
 
 
 def lattice_phases(basis: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Base phases theta (N, 4) [rad] with ``basis @ theta = phi`` (N, r) [rad]: the non-pivot phases 0, the
+    """Base phases theta (n, N) [rad] with ``basis @ theta = phi`` (n, r) [rad]: the non-pivot phases 0, the
     pivots by back substitution. Any solution is as good as another for a function whose Fourier coefficients lie
     on the lattice (it cannot tell them apart)."""
     theta = np.zeros((phi.shape[0], basis.shape[1]))
@@ -469,7 +485,8 @@ def rank1_lattice(y: np.ndarray, n: int, max_step: int = 4096, seed: int = 0) ->
 
 
 def _stiffness_tori(site, load_n: float, n_fast: int, n_slow: int, excitation=None):
-    """Per moving defect kind of the bearing: ``(kind, phase_map (2, 4), 2-D spectrum (n_fast, n_slow, 2, 2))`` of
+    """Per moving defect kind of the bearing: ``(kind, phase_map (2, 4) on the bearing's own phases, 2-D spectrum
+    (n_fast, n_slow, 2, 2))`` of
     the tangent stiffness difference the kind makes on its torus along the exact quasi-static path [N/m] (zero
     where no ball meets the defect). The torus paths of the bearing's ``excitation`` are used where it has them on
     this grid (the same paths its lines came from), else they are solved here."""
@@ -507,11 +524,12 @@ def _tangent(bearing, path, cage, e_z, shaft=0.0, spin=0.0) -> np.ndarray:
 
 
 def _torus_index(d: np.ndarray, phase_map: np.ndarray, n_fast: int, n_slow: int):
-    """Grid indices (i, j) of lattice differences d (M, 4) on a torus with ``phase_map`` (2, 4), and the mask of
+    """Grid indices (i, j) of lattice differences d (M, N) on a torus with ``phase_map`` (2, N), and the mask of
     those on it and inside the grid's band (|m| < N / 2)."""
     pm = np.asarray(phase_map, dtype=np.int64)
-    for i in range(4):
-        for j in range(i + 1, 4):
+    width = pm.shape[1]
+    for i in range(width):
+        for j in range(i + 1, width):
             det = pm[0, i] * pm[1, j] - pm[0, j] * pm[1, i]
             if det != 0:
                 break
@@ -527,20 +545,28 @@ def _torus_index(d: np.ndarray, phase_map: np.ndarray, n_fast: int, n_slow: int)
     return m1 % n_fast, m2 % n_slow, ok
 
 
-def _toeplitz(cs: np.ndarray, z: int, base: np.ndarray, tori, kb: np.ndarray, chunk: int = 256):
-    """The stiffness modulation of one bearing as an operator on S: ``T[(s, r), (s', l)] = dK(c_s - c_s')[r, l]``
-    ((2 |S|) x (2 |S|) [N/m]), ``dK = K_t - K_b`` (the FE's linear spring ``kb`` (2, 2) off the mean). Dense if
-    the bearing has moving defects (their broad spectra couple every pair of lines), else sparse (ball passage
-    only: pairs a BPFO multiple apart)."""
+def _on_cage_orders(c: np.ndarray, cage: int, z: int) -> np.ndarray:
+    """(M,) bool: rows of ``c`` (M, N) that are BPFO orders of the bearing whose cage phase is column ``cage``: a
+    multiple of its ``z`` there, 0 on every other phase."""
+    others = np.ones(c.shape[1], bool)
+    others[cage] = False
+    return (c[:, others] == 0).all(axis=1) & (c[:, cage] % z == 0)
+
+
+def _toeplitz(cs: np.ndarray, cage: int, z: int, base: np.ndarray, tori, kb: np.ndarray, chunk: int = 256):
+    """The stiffness modulation of one bearing (cage phase in column ``cage`` of the lines ``cs``, ``z`` balls) as
+    an operator on S: ``T[(s, r), (s', l)] = dK(c_s - c_s')[r, l]`` ((2 |S|) x (2 |S|) [N/m]), ``dK = K_t - K_b``
+    (the FE's linear spring ``kb`` (2, 2) off the mean). Dense if the bearing has moving defects (their broad
+    spectra couple every pair of lines), else sparse (ball passage only: pairs a BPFO multiple of its own apart)."""
     n_s = cs.shape[0]
     n_fast = base.shape[0]
     dense = np.zeros((n_s, 2, n_s, 2), complex) if tori else None
     rows, cols, vals = [], [], []
     for a in range(0, n_s, chunk):
-        d = (cs[a:a + chunk, None, :] - cs[None, :, :]).reshape(-1, 4)
+        d = (cs[a:a + chunk, None, :] - cs[None, :, :]).reshape(-1, cs.shape[1])
         blk = np.zeros((d.shape[0], 2, 2), complex)
-        on = (d[:, 0] == 0) & (d[:, 2] == 0) & (d[:, 3] == 0) & (d[:, 1] % z == 0)
-        k = d[:, 1] // z
+        on = _on_cage_orders(d, cage, z)
+        k = d[:, cage] // z
         on &= np.abs(k) < n_fast / 2
         blk[on] += base[k[on] % n_fast]
         for _, pm, spec in tori:

@@ -172,10 +172,10 @@ class BallTrack:
         spin_slip = float(table.get("spin_slip", DEFAULT_SPIN_SLIP))
         if wander == 0.0 and spin_slip == 0.0:
             return None
-        geometry = case.bearing_geometry()
+        geometry = case.bearing_geometry(table["bearing"])
         bearing = case.bearing(table["bearing"])
         load = float(np.max(model.machine.sites[table["bearing"]].state.ball_loads_n))
-        fm = model.fault_multipliers
+        fm = model.bearing_multipliers[table["bearing"]]          # the defective ball's own bearing
         z = int(geometry.n_balls)
         c = np.asarray(coefficients)
         gated = (c[:, 2] != 0) | (c[:, 1] % z != 0)

@@ -273,7 +273,11 @@ class LineSelection:
     """
 
     def __init__(self, model, max_order: int | None = None, table_size: int | None = None):
-        lines = model.lines
+        try:
+            lines = model.shared_phase_lines()          # the lines on one bearing's phases (shaft, cage, spin, line)
+        except ValueError:
+            raise SynthError("model", "synthesis of two bearings of different kinematics (their own cages and "
+                                      "balls) is not supported yet") from None
         nu, mu = np.asarray(model.multipliers, dtype=float), lines.fixed_hz
         bpfo = float(model.bpfo_per_hz)
         keep = np.ones(len(lines), bool)

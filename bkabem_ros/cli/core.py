@@ -65,7 +65,7 @@ def _largest(amplitude, max_rows: int):
     return np.argsort(-a, kind="stable")[:max_rows]
 
 
-def _excitation_table(ex, max_rows: int = 24) -> str:
+def _excitation_table(ex, max_rows: int = 24, designation: str = "") -> str:
     import numpy as np
 
     from bkabem_core.excitation.line_names import line_labels
@@ -77,7 +77,7 @@ def _excitation_table(ex, max_rows: int = 24) -> str:
     kept = f"{len(ex.orders)} BPFO orders kept of {len(ex.all_orders)}" if ex.lines is None else \
         f"{len(ls)} lines of its defects"
     lines = [
-        f"{(ex.bearing or '').upper()} bearing, {what} under {ex.radial_load_n:.1f} N radial + {ex.axial_load_n:.0f} N "
+        f"{(ex.bearing or '').upper()} bearing{' ' + designation if designation else ''}, {what} under {ex.radial_load_n:.1f} N radial + {ex.axial_load_n:.0f} N "
         f"axial  (BPFO {ex.bpfo_per_hz:.4f} x shaft Hz, clearance {ex.clearance_m * 1e6:.1f} um, {kept})",
         f"  DC           vertical {d['dc_m']['vertical'] * 1e6:9.3f} um   horizontal "
         f"{d['dc_m']['horizontal'] * 1e6:9.4f} um",
@@ -101,14 +101,23 @@ def _excitation_table(ex, max_rows: int = 24) -> str:
     return "\n".join(lines)
 
 
-def _spectrum_table(sp, max_rows: int = 12) -> str:
+def _spectrum_table(sp, max_rows: int = 12, designations: dict | None = None) -> str:
     import numpy as np
 
     from bkabem_core.model.vocabulary import LOCATIONS
 
-    ff = sp.fault_frequencies_hz
-    lines = [f"BKA-BEM spectrum at {sp.speed_hz:g} Hz shaft speed ({sp.speed_hz * 60:.0f} rpm): FTF {ff.ftf:.3f} Hz, "
-             f"BPFO {ff.bpfo:.3f} Hz, BPFI {ff.bpfi:.3f} Hz, BSF {ff.bsf:.3f} Hz"]
+    per = sp.bearing_fault_frequencies_hz or {"de": sp.fault_frequencies_hz, "nde": sp.fault_frequencies_hz}
+    names = designations or {}
+
+    def kin(ff):
+        return f"FTF {ff.ftf:.3f} Hz, BPFO {ff.bpfo:.3f} Hz, BPFI {ff.bpfi:.3f} Hz, BSF {ff.bsf:.3f} Hz"
+
+    head = f"BKA-BEM spectrum at {sp.speed_hz:g} Hz shaft speed ({sp.speed_hz * 60:.0f} rpm): "
+    if per["de"] == per["nde"]:
+        lines = [head + kin(per["de"])]
+    else:                                            # a bearing of its own at each position: each its own lines
+        lines = [head.rstrip(": ")] + [f"  {b.upper()} bearing{' ' + names[b] if names.get(b) else ''}: {kin(ff)}"
+                                       for b, ff in per.items()]
     acc = np.abs(sp.acceleration)
     disp = np.abs(sp.displacement)
     band = np.flatnonzero(sp.in_band)
@@ -158,6 +167,7 @@ def cmd_excitation(args) -> int:
     machine = Machine(case, mesh=None)
     names = BEARINGS if args.all_bearings else machine.excited_bearings()
     exs = {n: machine.excitation(n, method=args.method) for n in names}
+    kin = case.kinematics(1.0)                       # each bearing's designation and fault multipliers
     ex = exs.get(case.faulty_bearing, next(iter(exs.values())))
     for n, e in exs.items():
         _check_finite(f"excitation of the {n} bearing", list(_numbers(e.to_dict())))
@@ -168,10 +178,18 @@ def cmd_excitation(args) -> int:
             plot_excitation(ex, args.png)
     if args.json:
         out = _excitation_dict(ex)          # the faulty bearing's at the top level, every bearing below
-        out["bearings"] = {n: _excitation_dict(e) for n, e in exs.items()}
+
+        def with_kin(n, d):
+            k = kin[n]
+            d.update(designation=k["designation"], n_balls=k["n_balls"],
+                     fault_multipliers_per_shaft_hz={f: k[f] for f in ("ftf", "bpfo", "bpfi", "bsf")})
+            return d
+
+        with_kin(ex.bearing or case.faulty_bearing, out)
+        out["bearings"] = {n: with_kin(n, _excitation_dict(e)) for n, e in exs.items()}
         _print_json(out)
     else:
-        print("\n\n".join(_excitation_table(e) for e in exs.values()))
+        print("\n\n".join(_excitation_table(e, designation=kin[n]["designation"]) for n, e in exs.items()))
         if args.png:
             print(f"wrote {args.png}")
     return 0
@@ -191,7 +209,7 @@ def cmd_spectrum(args) -> int:
     if args.json:
         _print_json(sp.to_dict())
     else:
-        print(_spectrum_table(sp))
+        print(_spectrum_table(sp, designations={b: case.bearing_geometry(b).designation for b in ("de", "nde")}))
         if args.png:
             print(f"wrote {args.png}")
     return 0
@@ -376,7 +394,7 @@ def cmd_validate(args) -> int:
         _check_speeds(case, [args.speed_hz], "--speed-hz")
         kwargs["speed_hz"] = args.speed_hz
     speed_hz = kwargs.get("speed_hz", validation.DEFAULT_SPEED_HZ)
-    bpfo_hz = case.bearing().fault_multipliers().bpfo * speed_hz
+    bpfo_hz = case.bearing(case.faulty_bearing).fault_multipliers().bpfo * speed_hz
     duration = validation.DEFAULT_DURATION_S if args.duration is None else args.duration
     if duration * bpfo_hz < VALIDATE_MIN_PERIODS - 1e-9:
         raise UsageError(f"--duration: {duration:g} s{' (the default)' if args.duration is None else ''} is shorter than {VALIDATE_MIN_PERIODS} BPFO periods at "
@@ -389,6 +407,8 @@ def cmd_validate(args) -> int:
 
     plain = BkaBem(case, baseline=False)
     if args.max_step_us is not None:
+        import numpy as np
+
         _check_tdsm_step(args.max_step_us * 1e-6, bpfo_hz, duration, int(np.max(plain.orders, initial=1)))
         kwargs["max_step_s"] = args.max_step_us * 1e-6
     result = validation.validate(case, progress=not args.json and sys.stderr.isatty(), plain=plain, **kwargs)

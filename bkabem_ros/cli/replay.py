@@ -17,7 +17,7 @@ __all__ = ["add_parser", "main"]
 
 def add_parser(sub, add_case=None):
     """Register ``bkabem replay`` on an argparse subparsers object."""
-    from bkabem_ros.cli.base import finite_float, output_path
+    from bkabem_ros.cli.base import finite_float, output_path, pos_int
     from bkabem_ros.viewer.blueprint import DEFAULT_CONNECT_URL
 
     p = sub.add_parser("replay", help="republish an MCAP recording on ROS 2 and/or convert it for Rerun",
@@ -39,7 +39,9 @@ def add_parser(sub, add_case=None):
                    help="refuse to publish a recording with a pause between two messages that would take longer than "
                         "this to replay (default 600 s: a clock jump is not waited out)")
     p.add_argument("--wait-subscribers", type=finite_float("--wait-subscribers", 0.0), default=0.0,
-                   help="wait up to this long (s) until every topic has a subscriber")
+                   help="wait up to this long (s) until every topic has --subscribers subscribers")
+    p.add_argument("--subscribers", type=pos_int("--subscribers", 1, 1000), default=1,
+                   help="how many subscribers each topic waits for with --wait-subscribers (default 1)")
     p.add_argument("--rerun-save", metavar="OUT.rrd", default=None, type=output_path("--rerun-save", (".rrd",)),
                    help="write the recording as a Rerun file")
     p.add_argument("--rerun-connect", nargs="?", const=DEFAULT_CONNECT_URL, default=None, metavar="URL",
@@ -132,6 +134,7 @@ def main(args) -> int:
                               remap=remap, topics=args.topics, clock=args.clock is not None,
                               clock_hz=args.clock or 100.0, publish=publish, rerun_logger=logger,
                               namespace=args.namespace, wait_for_subscribers_s=args.wait_subscribers,
+                              subscribers=args.subscribers,
                               progress=say, ros_args=args.ros_args, allow_damaged=args.allow_damaged,
                               integrity=integrity)
         finally:

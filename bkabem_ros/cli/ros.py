@@ -118,11 +118,13 @@ def cmd_node(args) -> int:
             attached.append(sinks)
             if args.record and sinks.mcap is None:
                 sinks()
-                raise UsageError(f"--record: {sinks.start_errors.get('--record', 'the recording could not start')}")
+                why = sinks.start_errors.get("--record")
+                raise UsageError("--record: the recording could not start" + (f": {why}" if why else ""))
             if (args.rerun_save or connect) and sinks.rerun is None:
                 sinks()
                 option = "--rerun-save" if args.rerun_save else "--rerun-connect"
-                raise UsageError(f"{option}: {sinks.start_errors.get(option, 'the Rerun output could not start')}")
+                why = sinks.start_errors.get(option)
+                raise UsageError(f"{option}: the Rerun output could not start" + (f": {why}" if why else ""))
             return sinks
         on_node = attach
 

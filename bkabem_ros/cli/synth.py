@@ -216,6 +216,8 @@ def _check_free_space(out: Path, n_bytes: int) -> None:
     value ~16 characters), before any of it is written."""
     import shutil
 
+    from bkabem_core.synth.synthesizer import SynthError
+
     try:
         free = shutil.disk_usage(out.parent if str(out.parent) else ".").free
     except OSError:

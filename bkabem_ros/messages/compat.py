@@ -5,6 +5,8 @@ Versions (``msg_defs/README.md``, "Versions"; the old ``.msg`` files are kept in
 ========  ==========================================================================================
 0.1.0     VibrationWaveform, VibrationSpectrum, BearingFaultFrequencies (one defect: ``defect_*``)
 0.2.0     + Defect, GroundTruth; ``GroundTruth ground_truth`` appended to all three
+0.3.0     + BearingKinematics; ``BearingKinematics[] bearings`` appended to BearingFaultFrequencies (each
+          bearing's own fault frequencies; the single ``ftf``, ``bpfo``, ... fields are the DE bearing's)
 ========  ==========================================================================================
 
 A recording keeps the definitions it was written with (its MCAP ``ros2msg`` schemas). :func:`same_as_installed`
@@ -13,8 +15,9 @@ nested type; comments, constants and layout do not count). Where they differ, :c
 the recorded definition and :func:`upgrade` turns the result into an instance of today's class: each field takes
 the recorded value of the same name, a field the recording did not have keeps its default. A 0.1.0
 ``BearingFaultFrequencies`` also gets its ground truth from its ``defect_*`` fields; 0.1.0 waveforms and spectra had
-none (``ground_truth.available`` stays false). Because 0.2.0 only appended fields, a reader built from the 0.1.0
-definitions still decodes the fields it knows from 0.2.0 messages.
+none (``ground_truth.available`` stays false). A 0.1.0 or 0.2.0 ``BearingFaultFrequencies`` (one bearing type at
+both positions) gets ``bearings``: both positions with its single fields. Because every version only appended
+fields, a reader built from older definitions still decodes the fields it knows from newer messages.
 
 No ROS graph needed; rclpy only for the message classes and serialisation.
 """
@@ -87,10 +90,15 @@ def same_as_installed(type_name: str, recorded_text: str | None) -> bool:
 
 
 def version_of(type_name: str, recorded_text: str | None) -> str:
-    """``"0.1.0"`` for a bkabem_msgs type recorded without ``ground_truth``, else ``"current"``."""
-    if msgs.type_name(type_name).startswith("bkabem_msgs/") and recorded_text and \
-            "ground_truth" not in {n for _, n in definition_signature(recorded_text)[0][1]}:
-        return "0.1.0"
+    """``"0.1.0"`` for a bkabem_msgs type recorded without ``ground_truth``, ``"0.2.0"`` for a
+    ``BearingFaultFrequencies`` recorded without ``bearings``, else ``"current"``."""
+    full = msgs.type_name(type_name)
+    if full.startswith("bkabem_msgs/") and recorded_text:
+        fields = {n for _, n in definition_signature(recorded_text)[0][1]}
+        if "ground_truth" not in fields:
+            return "0.1.0"
+        if full == "bkabem_msgs/msg/BearingFaultFrequencies" and "bearings" not in fields:
+            return "0.2.0"
     return "current"
 
 
@@ -138,8 +146,12 @@ def upgrade(type_name: str, old: Any, cls=None):
         elif "/" in ftype:
             value = upgrade(_full(ftype), value, _class_of(ftype))
         setattr(new, name, value)
-    if msgs.type_name(type_name) == "bkabem_msgs/msg/BearingFaultFrequencies" and not hasattr(old, "ground_truth"):
-        _truth_from_defect_fields(new)
+    if msgs.type_name(type_name) == "bkabem_msgs/msg/BearingFaultFrequencies":
+        if not hasattr(old, "ground_truth"):
+            _truth_from_defect_fields(new)
+        if not hasattr(old, "bearings"):                     # one bearing type at both positions (0.1.0, 0.2.0)
+            new.bearings = [msgs.bearing_kinematics_message({"bearing": b, **k})
+                            for b, k in msgs.bearing_kinematics(new).items()]
     return new
 
 

@@ -37,6 +37,8 @@ __all__ = [
     "QUANTITIES",
     "SI_UNITS",
     "SpectrumArrays",
+    "bearing_kinematics",
+    "bearing_kinematics_message",
     "fault_frequencies_message",
     "ground_truth_dict",
     "ground_truth_message",
@@ -312,6 +314,7 @@ def fault_frequencies_message(
     stamp: Any = None,
     frame_id: str = "",
     ground_truth=None,
+    bearings: Sequence[dict] | None = None,
 ):
     """Build a ``bkabem_msgs/BearingFaultFrequencies``.
 
@@ -320,11 +323,11 @@ def fault_frequencies_message(
     shaft_speed : float
         Shaft speed (rad/s).
     ftf, bpfo, bpfi, bsf : float
-        Cage, outer-race ball pass, inner-race ball pass and ball spin frequencies (Hz).
+        Cage, outer-race ball pass, inner-race ball pass and ball spin frequencies of the DE bearing (Hz).
     machine_id : str
         Machine (fleet) identifier.
     bearing_designation : str
-        Designation of the defective bearing, e.g. "6205".
+        Designation of the DE bearing, e.g. "6205".
     defect_bearing : {"de", "nde"}
         Which bearing has the defect.
     defect_length : float
@@ -342,6 +345,10 @@ def fault_frequencies_message(
     ground_truth : bkabem_msgs.msg.GroundTruth, optional
         Every defect and the rest of the ground truth (:func:`ground_truth_message`); the ``defect_*`` fields are
         the first defect only (the 0.1.0 layout).
+    bearings : sequence of dict, optional
+        Every bearing of the machine, DE first (:func:`bearing_kinematics_message`: ``bearing``, ``designation``,
+        ``n_balls``, ``ball_diameter_m``, ``pitch_diameter_m``, ``contact_angle_rad``, ``ftf``, ``bpfo``,
+        ``bpfi``, ``bsf`` [Hz]); the ``bearings`` field of bkabem_msgs 0.3.0.
 
     Returns
     -------
@@ -363,7 +370,44 @@ def fault_frequencies_message(
     m.defect_angle = _finite("defect_angle", defect_angle)
     if ground_truth is not None:
         m.ground_truth = ground_truth
+    if bearings is not None:
+        m.bearings = [bearing_kinematics_message(b) for b in bearings]
     return m
+
+
+def bearing_kinematics_message(d: dict):
+    """A ``bkabem_msgs/BearingKinematics`` from a dict: ``bearing`` ("de"/"nde"), ``designation``, ``n_balls``,
+    ``ball_diameter_m``, ``pitch_diameter_m``, ``contact_angle_rad`` (optional, 0 when unknown), ``ftf``, ``bpfo``,
+    ``bpfi``, ``bsf`` [Hz]."""
+    return _msgs().BearingKinematics(
+        bearing=_choice("bearings.bearing", d["bearing"], LOCATIONS), designation=str(d.get("designation", "")),
+        n_balls=int(d.get("n_balls", 0)),
+        ball_diameter=_finite("bearings.ball_diameter_m", d.get("ball_diameter_m", 0.0), nonneg=True),
+        pitch_diameter=_finite("bearings.pitch_diameter_m", d.get("pitch_diameter_m", 0.0), nonneg=True),
+        contact_angle=_finite("bearings.contact_angle_rad", d.get("contact_angle_rad", 0.0)),
+        **{k: _finite(f"bearings.{k}", d[k], nonneg=True) for k in ("ftf", "bpfo", "bpfi", "bsf")})
+
+
+def bearing_kinematics(msg) -> dict:
+    """Each bearing's kinematics of a ``BearingFaultFrequencies`` message, ``{"de": {...}, "nde": {...}}`` with
+    ``designation``, ``n_balls``, ``ball_diameter_m``, ``pitch_diameter_m``, ``contact_angle_rad``, ``ftf``,
+    ``bpfo``, ``bpfi``, ``bsf`` [Hz]. A message without the ``bearings`` field (bkabem_msgs 0.1.0, 0.2.0: one
+    bearing type at both positions) gives its single fields for both bearings (``n_balls`` = BPFO / FTF, diameters
+    0: not stated). Works on rclpy messages and the dynamic objects of mcap_ros2 / rosbags."""
+    out = {}
+    for b in getattr(msg, "bearings", None) or ():
+        out[str(b.bearing)] = {"designation": str(b.designation), "n_balls": int(b.n_balls),
+                               "ball_diameter_m": float(b.ball_diameter), "pitch_diameter_m": float(b.pitch_diameter),
+                               "contact_angle_rad": float(b.contact_angle), "ftf": float(b.ftf),
+                               "bpfo": float(b.bpfo), "bpfi": float(b.bpfi), "bsf": float(b.bsf)}
+    if not out:
+        ftf, bpfo = float(msg.ftf), float(msg.bpfo)
+        shared = {"designation": str(getattr(msg, "bearing_designation", "")),
+                  "n_balls": int(round(bpfo / ftf)) if ftf > 0 else 0, "ball_diameter_m": 0.0,
+                  "pitch_diameter_m": 0.0, "contact_angle_rad": 0.0, "ftf": ftf, "bpfo": bpfo,
+                  "bpfi": float(msg.bpfi), "bsf": float(msg.bsf)}
+        out = {b: dict(shared) for b in LOCATIONS}
+    return out
 
 
 def ground_truth_message(gt: dict, labels: dict | None = None):
@@ -374,8 +418,9 @@ def ground_truth_message(gt: dict, labels: dict | None = None):
     gt : dict
         :meth:`bkabem_core.scenario.timeline.Scenario.ground_truth` (a plain case: ``Scenario.of_case(case)``):
         ``defects`` (each with ``name``, ``race``, ``bearing``, ``length_m``, ``depth_m``, ``angle_rad``, ``edge``,
-        ``fault_frequency``, ``fault_multiplier``, ``strike_multiplier``, optional ``ball`` and
-        ``strike_frequency_hz``), ``bearing_designation``, ``healthy``, ``baseline`` (case ``[baseline]`` keys),
+        ``fault_frequency``, ``fault_multiplier``, ``strike_multiplier``, optional ``ball``,
+        ``bearing_designation`` (its own bearing's) and ``strike_frequency_hz``), ``bearing_designation``,
+        ``healthy``, ``baseline`` (case ``[baseline]`` keys),
         ``case``, ``case_hash``, ``scenario``, ``scenario_hash``, ``state_index``, ``state_label``,
         ``state_start_s``, ``scenario_time_s``, ``time_scale``, ``load_factor``, ``labels``.
     labels : dict, optional
@@ -388,11 +433,12 @@ def ground_truth_message(gt: dict, labels: dict | None = None):
     """
     M = _msgs()
     defects = []
-    designation = str(gt.get("bearing_designation", ""))
+    designation = str(gt.get("bearing_designation", ""))            # the DE bearing's (a ground truth of 0.2.0)
     for d in gt.get("defects", []):
         defects.append(M.Defect(
             name=str(d.get("name", "")), kind=_choice("defects.race", d["race"], RACES),
-            bearing=_choice("defects.bearing", d["bearing"], LOCATIONS), bearing_designation=designation,
+            bearing=_choice("defects.bearing", d["bearing"], LOCATIONS),
+            bearing_designation=str(d.get("bearing_designation", designation)),
             ball=int(d.get("ball", 0) or 0), length=_finite("defects.length_m", d["length_m"], nonneg=True),
             depth=_finite("defects.depth_m", d["depth_m"], nonneg=True),
             angle=_finite("defects.angle_rad", d["angle_rad"]), edge=str(d.get("edge", "")),

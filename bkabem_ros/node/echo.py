@@ -69,9 +69,12 @@ def summarize(topic: str, type_name: str, msg, receive_ns: int | None = None) ->
                    rms=[float(v) for v in rms], unit=msg.unit, speed_rad_s=float(msg.shaft_speed),
                    machine_id=msg.machine_id)
     elif type_name.endswith("BearingFaultFrequencies"):
+        from bkabem_ros.messages.convert import bearing_kinematics
+
         out.update(stamp_ns=stamp_to_ns(msg.header), index=None, speed_rad_s=float(msg.shaft_speed),
                    ftf_hz=msg.ftf, bpfo_hz=msg.bpfo, bpfi_hz=msg.bpfi, bsf_hz=msg.bsf,
-                   defect_depth_m=msg.defect_depth, machine_id=msg.machine_id)
+                   defect_depth_m=msg.defect_depth, machine_id=msg.machine_id,
+                   bearings=bearing_kinematics(msg))       # each bearing's own; the single fields: the DE's
     elif type_name.endswith("Float64"):
         out.update(stamp_ns=receive_ns, index=None, value=float(msg.data))
     else:
@@ -111,6 +114,10 @@ def format_line(d: dict) -> str:
     elif d["type"] == "BearingFaultFrequencies":
         parts += ["index=-", f"ftf={d['ftf_hz']:.4f} bpfo={d['bpfo_hz']:.4f} bpfi={d['bpfi_hz']:.4f} "
                   f"bsf={d['bsf_hz']:.4f} Hz", f"speed={d['speed_rad_s']:.4f} rad/s"]
+        nde = d.get("bearings", {}).get("nde")
+        if nde is not None and nde["bpfo"] != d["bpfo_hz"]:         # another bearing at the NDE: its own too
+            parts.insert(-1, f"nde {nde['designation']}: ftf={nde['ftf']:.4f} bpfo={nde['bpfo']:.4f} "
+                             f"bpfi={nde['bpfi']:.4f} bsf={nde['bsf']:.4f} Hz")
     elif d["type"] == "Float64":
         parts += ["index=-", f"value={d['value']:.6g}"]
     truth = _truth_text(d.get("ground_truth"))

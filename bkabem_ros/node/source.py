@@ -309,13 +309,15 @@ class MachineSource:
                 out.append((b, SPECTRUM_TYPE, spectrum_message(
                     freq, k_all, amp, ph, shaft_speed=speed_rad_s, machine_id=self.machine_id, location=b,
                     quantity=q, channel_names=CHANNELS, stamp=stamp, frame_id=self.frames[b], ground_truth=truth)))
-        ff = self.model.fault_multipliers.at_speed(speed_hz)
+        kin = self.case.kinematics(speed_hz)                 # each bearing's own; the single fields: the DE's
+        de = kin["de"]
         dent = self.case.dent()
         out.append((None, FAULT_TYPE, fault_frequencies_message(
-            shaft_speed=speed_rad_s, ftf=ff.ftf, bpfo=ff.bpfo, bpfi=ff.bpfi, bsf=ff.bsf, machine_id=self.machine_id,
-            bearing_designation=self.case.bearing_geometry().designation, defect_bearing=dent.bearing,
+            shaft_speed=speed_rad_s, ftf=de["ftf"], bpfo=de["bpfo"], bpfi=de["bpfi"], bsf=de["bsf"],
+            machine_id=self.machine_id, bearing_designation=de["designation"], defect_bearing=dent.bearing,
             defect_race=dent.race, defect_length=dent.length_m, defect_depth=dent.depth_m,
-            defect_angle=dent.angle_rad, stamp=stamp, frame_id=self.frames[dent.bearing], ground_truth=truth)))
+            defect_angle=dent.angle_rad, stamp=stamp, frame_id=self.frames[dent.bearing], ground_truth=truth,
+            bearings=[{"bearing": b, **k} for b, k in kin.items()])))
         self.changed = False
         return out
 

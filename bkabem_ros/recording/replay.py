@@ -111,7 +111,7 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
            remap: Mapping[str, str] | None = None, topics: Iterable[str] | None = None,
            clock: bool = False, clock_hz: float = 100.0, publish: bool = True,
            rerun_logger=None, node=None, namespace: str = "",
-           wait_for_subscribers_s: float = 0.0, stop: threading.Event | None = None,
+           wait_for_subscribers_s: float = 0.0, subscribers: int = 1, stop: threading.Event | None = None,
            progress: Callable[[str], None] | None = None, ros_args: list[str] | None = None,
            linger_s: float = 0.3, allow_damaged: bool = False, integrity=None) -> ReplayStats:
     """Replay ``path`` on ROS 2 (``publish``) and/or into a :class:`~bkabem_ros.viewer.rerun_io.RerunLogger`.
@@ -140,7 +140,10 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
     namespace : str
         Prefix for recorded topic names (after remapping), e.g. ``/replayed``.
     wait_for_subscribers_s : float
-        Before starting, wait up to this long until every publisher has a subscriber.
+        Before starting, wait up to this long until every publisher has ``subscribers`` subscribers.
+    subscribers : int
+        How many subscribers each topic waits for (default 1; more when several readers must see the
+        first message: a reliable reader that matches after a message was sent never gets it).
     stop : threading.Event, optional
         Set it to end the replay early.
     linger_s : float
@@ -234,7 +237,7 @@ def replay(path, *, rate: float = 1.0, loop: bool = False, start_offset_s: float
         if wait_for_subscribers_s > 0:   # matching happens in the middleware: no spinning needed
             t_end = time.monotonic() + wait_for_subscribers_s
             while (time.monotonic() < t_end and not stop.is_set()
-                   and any(p.get_subscription_count() == 0 for p in pubs.values())):
+                   and any(p.get_subscription_count() < subscribers for p in pubs.values())):
                 time.sleep(0.02)
             # The writer seeing the reader does not mean the reader has matched the writer yet; a
             # best-effort reader drops what arrives before that (seen in CI: the first message lost).

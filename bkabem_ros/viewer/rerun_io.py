@@ -29,12 +29,14 @@ The messages are SI; the viewer shows engineers' units, named in every series an
 ``/<loc>/health``                              ``TextDocument``: zone, impulsiveness, envelope
                                                finding, static displacement, ground truth
 ``/speed/shaft_hz``, ``/speed/shaft_hz_waveform``  shaft speed input / used per chunk [Hz]
-``/fault_frequencies``                         1x, FTF, BPFO, BPFI, BSF, 2xBSF [Hz]
+``/fault_frequencies``                         1x, FTF, BPFO, BPFI, BSF, 2xBSF [Hz] (of the DE bearing)
+``/fault_frequencies/nde``                     the same of the NDE bearing, when it is another bearing
 =============================================  ================================================
 
 The condition window (:mod:`bkabem_core.analysis.condition`) collects the acceleration of each bearing
 for ``condition_window_s`` and logs its results at the window's end. Markers come from the
-defects and fault-frequency lines of the recording (:mod:`bkabem_core.analysis.fault_lines`).
+defects and fault-frequency lines of the recording (:mod:`bkabem_core.analysis.fault_lines`): each
+bearing's panels mark its own bearing's lines (a bearing of its own at each position, bkabem_msgs 0.3.0).
 
 Nothing here listens on a port: :class:`RerunLogger` either writes a file or connects to a
 viewer (default ``rerun+http://127.0.0.1:9876/proxy``, i.e. ``rerun`` started on this machine,
@@ -52,6 +54,7 @@ import numpy as np
 from bkabem_core.analysis import condition, fault_lines, health
 from bkabem_ros.messages import convert as msgs
 from bkabem_ros.viewer.blueprint import DEFAULT_CONNECT_URL, DISPLAY_UNITS, TIMELINE, blueprint
+from bkabem_ros.viewer.rrd import optimize_rrd, rerun_binary
 
 __all__ = ["DEFAULT_CONNECT_URL", "TIMELINE", "RerunLogger", "RerunSink", "blueprint", "rerun_binary"]
 
@@ -82,40 +85,6 @@ MARKER_WIDTH = 0.008
 #: Marker bars are re-logged when a frequency moves by more than this fraction or the height
 #: (the spectrum's top) by more than 15 %: in a steady state they cost nothing.
 _MARKER_TOLERANCE = 0.003
-
-
-def rerun_binary() -> str:
-    """Path of the real ``rerun`` executable shipped in ``rerun_cli`` (not the Python wrapper,
-    whose PID is not the viewer's)."""
-    import os  # noqa: PLC0415
-
-    import rerun_cli  # noqa: PLC0415
-
-    return os.path.join(os.path.dirname(rerun_cli.__file__), "rerun")
-
-
-def optimize_rrd(path) -> str | None:
-    """Compact the chunks of an ``.rrd`` in place with ``rerun rrd optimize`` (the SDK writes one
-    chunk per send; the viewer loads fewer, larger chunks faster). Returns None, or why the
-    file was left as written."""
-    import os  # noqa: PLC0415
-    import subprocess  # noqa: PLC0415
-
-    path = str(path)
-    tmp = path + ".optimizing.rrd"
-    try:
-        size = os.path.getsize(path)
-        r = subprocess.run([rerun_binary(), "rrd", "optimize", path, "-o", tmp], capture_output=True, text=True,
-                           timeout=60 + size / 5e6, stdin=subprocess.DEVNULL)
-        if r.returncode != 0 or not os.path.exists(tmp):
-            return f"rerun rrd optimize failed ({r.returncode}): {r.stderr.strip()[-300:]}"
-        os.replace(tmp, path)
-        return None
-    except (OSError, subprocess.SubprocessError) as exc:
-        return f"rerun rrd optimize: {type(exc).__name__}: {exc}"
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
 
 
 def _peak_hold(f: np.ndarray, amp: np.ndarray, bars: int) -> tuple[np.ndarray, np.ndarray, int]:
@@ -254,8 +223,10 @@ class RerunLogger:
         self._last_spectrum: dict[tuple[str, str], int] = {}
         self._markers: dict[str, tuple[tuple[float, ...], float]] = {}
         self._windows: dict[str, _Window] = {}
-        # the run's fault-frequency lines at the speed `_lines_speed` [rad/s], and its defects
+        # the run's fault-frequency lines at the speed `_lines_speed` [rad/s] (the DE bearing's, and each bearing's),
+        # and its defects
         self._lines: dict[str, float] = {}
+        self._bearing_lines: dict[str, dict[str, float]] = {}
         self._lines_speed = 0.0
         self._defects: list[fault_lines.Defect] = []
         self._truth: fault_lines.Truth | None = None
@@ -379,13 +350,17 @@ class RerunLogger:
         table = _LIGHT_COLORS if light else _CHANNEL_COLORS
         return table.get(channel, _FALLBACK_COLORS[c % len(_FALLBACK_COLORS)])
 
-    def _lines_at(self, speed_rad_s: float) -> dict[str, float]:
-        """Fault-frequency lines scaled to ``speed_rad_s`` (they are kinematic: proportional to
-        the shaft speed), from the last fault-frequency message."""
-        if not self._lines or not self._lines_speed > 0:
-            return dict(self._lines)
+    def _lines_at(self, speed_rad_s: float, loc: str) -> dict[str, float]:
+        """The fault-frequency lines of bearing ``loc`` scaled to ``speed_rad_s`` (they are kinematic:
+        proportional to the shaft speed), from the last fault-frequency message."""
+        lines = self._bearing_lines.get(loc, self._lines)
+        if not lines or not self._lines_speed > 0:
+            return dict(lines)
         r = speed_rad_s / self._lines_speed
-        return {k: v * r for k, v in self._lines.items()}
+        return {k: v * r for k, v in lines.items()}
+
+    def _defects_with_lines_of(self, loc: str) -> list:
+        return fault_lines.defects_with_lines_of(self._defects, self._bearing_lines, loc)
 
     # ---------------------------------------------------------------- waveforms
     def log_waveform(self, msg) -> None:
@@ -474,8 +449,8 @@ class RerunLogger:
         kurt = condition.kurtosis(x)
         crest = condition.crest_factor(x)
         band = self.envelope_band_hz or condition.default_envelope_band(fs)
-        lines = self._lines_at(speed_rad_s)
-        f_top = self._envelope_range(lines, band)
+        lines = self._lines_at(speed_rad_s, loc)
+        f_top = self._envelope_range(lines, band, loc)
         f, env = condition.envelope_spectrum(x, fs, band, f_top, ws=ws)
         limits = condition.ISO_ZONE_SETS[self.iso_zones]
         self._at(stamp)
@@ -496,25 +471,28 @@ class RerunLogger:
             self._bars(f"/{loc}/envelope/{ch}", eg[c], fg + (c - (nch - 1) / 2) * dfg / nch,
                        np.full(fg.size, 0.9 * dfg / nch, dtype=np.float32), colors[c])
         top = float(env.max()) if env.size else 0.0
-        self._log_markers(f"/{loc}/envelope/markers", lines, f_top, top)
+        self._log_markers(f"/{loc}/envelope/markers", lines, f_top, top, loc)
         h = self._health.setdefault(loc, {})
         h.update(iso=iso, zone=[condition.iso_zone(v, limits) for v in iso], kurt=kurt, crest=crest,
                  rms=np.sqrt(np.mean(x * x, axis=1, dtype=np.float64)), peak=np.max(np.abs(x), axis=1).astype(np.float64),
                  names=names,
                  band=band, window_s=x.shape[1] / fs, env_df=(f[1] - f[0]) if f.size > 1 else 0.0, env_group=group,
-                 finding=health.envelope_finding(f, env, lines, names, loc, self._defects),
+                 finding=health.envelope_finding(f, env, lines, names, loc, self._defects,
+                                                 {b: self._lines_at(speed_rad_s, b) for b in self._bearing_lines}),
                  speed_hz=speed_rad_s / (2 * math.pi), lines=lines)
-        text = health.health_text(loc, self._health.get(loc, {}), self._defects, self._lines, self.iso_zones,
-                                  self.condition_window_s, self._truth)
+        text = health.health_text(loc, self._health.get(loc, {}), self._defects,
+                                  self._bearing_lines.get(loc, self._lines), self.iso_zones, self.condition_window_s,
+                                  self._truth, marked=self._defects_with_lines_of(loc))
         self.rec.log(f"/{loc}/health", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
 
-    def _envelope_range(self, lines: dict[str, float], band: tuple[float, float]) -> float:
+    def _envelope_range(self, lines: dict[str, float], band: tuple[float, float], loc: str) -> float:
         """Envelope spectrum shown up to 3.5x the highest line a defect excites and past every
         fundamental, at most half the band width [Hz]; 500 Hz while no lines are known."""
         cap = (band[1] - band[0]) / 2
         if not lines or not max(lines.values()) > 0:
             return min(500.0, cap)
-        excited = [lines[d.line] for d in self._defects if d.line in lines] or [lines.get("BPFO", 0.0)]
+        excited = [lines[d.line] for d in self._defects_with_lines_of(loc) if d.line in lines] or \
+            [lines.get("BPFO", 0.0)]
         want = max(3.5 * max(excited), 1.15 * max(lines.values()))
         return float(min(cap, 50.0 * math.ceil(want / 50.0)))
 
@@ -539,7 +517,7 @@ class RerunLogger:
         names = list(msg.channel_names) or [f"ch{c}" for c in range(amp.shape[0])]
         nz = k > 0
         bpfo = float(np.median(f[nz] / k[nz])) if np.any(nz) else 0.0
-        lines = self._lines_at(float(msg.shaft_speed)) or ({"BPFO": bpfo} if bpfo > 0 else {})
+        lines = self._lines_at(float(msg.shaft_speed), loc) or ({"BPFO": bpfo} if bpfo > 0 else {})
         static = amp[:, ~nz].sum(axis=1) * factor if np.any(~nz) else np.zeros(amp.shape[0])
         fl, al = f[nz], amp[:, nz] * factor
         if al.size:
@@ -555,7 +533,8 @@ class RerunLogger:
                 self._bars(f"/{loc}/spectrum/{q}/{ch}", al[c], fl,
                            np.full(fl.size, width / (1 + c), dtype=np.float32), self._color(ch, c))
             f_top = float(fl[-1]) + width if fl.size else 0.0
-            self._log_markers(f"/{loc}/spectrum/{q}/markers", lines, f_top, float(al.max()) if al.size else 0.0)
+            self._log_markers(f"/{loc}/spectrum/{q}/markers", lines, f_top, float(al.max()) if al.size else 0.0,
+                              loc)
             h = self._health.setdefault(loc, {})
             h.setdefault("spectra", {})[q] = {
                 "unit": unit, "static": static, "names": names, "bpfo": bpfo,
@@ -564,12 +543,14 @@ class RerunLogger:
                 "shaft_hz": float(msg.shaft_speed) / (2 * math.pi)}
         return True
 
-    def _log_markers(self, prefix: str, lines: dict[str, float], f_max: float, top: float) -> None:
-        """One bar-chart entity per fault-frequency line under ``prefix``: bars at the marked
-        harmonics up to ``f_max`` [Hz], below the zero line (``MARKER_DEPTH`` x ``top`` deep, so
-        they never cover the spectrum's lines)."""
+    def _log_markers(self, prefix: str, lines: dict[str, float], f_max: float, top: float, loc: str) -> None:
+        """One bar-chart entity per fault-frequency line of bearing ``loc`` under ``prefix``: bars at the
+        marked harmonics up to ``f_max`` [Hz] (the harmonics of the lines the defects of bearings with
+        these lines excite), below the zero line (``MARKER_DEPTH`` x ``top`` deep, so they never cover
+        the spectrum's lines)."""
         rr = self._rr
-        plan = fault_lines.marker_plan(lines, self._defects, f_max) if f_max > 0 and top > 0 else []
+        defects = self._defects_with_lines_of(loc)
+        plan = fault_lines.marker_plan(lines, defects, f_max) if f_max > 0 and top > 0 else []
         by_line: dict[str, list[float]] = {}
         for m in plan:
             by_line.setdefault(m.line, []).append(m.frequency_hz)
@@ -604,14 +585,21 @@ class RerunLogger:
         """``BearingFaultFrequencies``: the lines (1x, FTF, BPFO, BPFI, BSF, 2xBSF [Hz]) in the
         marker colours, and the run's ground truth (every defect, the machine's state) for
         markers, health panels and the ground-truth trend (defect depths over the run)."""
-        lines = fault_lines.line_frequencies(msg)
+        per = fault_lines.bearing_line_frequencies(msg)
+        lines = per["de"]
         truth = fault_lines.truth_from_message(msg)
         stamp = msgs.stamp_to_ns(msg.header)
         with self._lock:
             self._series("/fault_frequencies", [f"{name} [Hz]" for name in fault_lines.LINES],
                          [fault_lines.LINE_COLORS[name] for name in fault_lines.LINES])
             self._scalars("/fault_frequencies", [lines[name] for name in fault_lines.LINES], stamp, batch=False)
+            if per.get("nde", lines) != lines:            # another bearing at the NDE: its own lines
+                self._series("/fault_frequencies/nde", [f"NDE {name} [Hz]" for name in fault_lines.LINES],
+                             [fault_lines.LINE_COLORS[name] for name in fault_lines.LINES], widths=[1.0] * 6)
+                self._scalars("/fault_frequencies/nde", [per["nde"][name] for name in fault_lines.LINES], stamp,
+                              batch=False)
             self._lines, self._lines_speed = lines, float(msg.shaft_speed)
+            self._bearing_lines = per
             self._defects = list(truth.defects)
             self._truth = truth
             self._log_truth_trend(truth, stamp)

@@ -33,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bkabem_ros.viewer.rerun_io import TIMELINE, rerun_binary
+from bkabem_ros.viewer.rerun_io import TIMELINE
+from bkabem_ros.viewer.rrd import rerun_binary
 
 __all__ = ["HeadlessViewer", "ViewStats", "expected_legends", "legend_dots", "listening_addresses", "locate", "main",
            "tab_strip", "view_statistics"]

@@ -88,3 +88,53 @@ def test_bad_case_file_exit_2(tmp_path):
     p = run("excitation", "--case", str(bad), check=False)
     assert p.returncode == 2
     assert p.stderr.strip().count("\n") == 0 and "defects[0].depth_m" in p.stderr and "must be >= 0" in p.stderr
+
+
+# --------------------------------------------------------------------------- a bearing of its own at each position
+@pytest.mark.parametrize("old, new, key, fragment", [
+    ('designation = "6010"', 'designation = "6299"', "bearings.de.designation", "unknown designation '6299'"),
+    ("diametral_clearance_m = 0.059e-3", 'clearance_class = "C4"\nbore_diameter_m = 5.0e-3',
+     "bearings.de.clearance_class", "no ISO 5753-1 value"),
+    ("diametral_clearance_m = 0.059e-3", 'clearance_class = "C9"', "bearings.de.clearance_class", "must be one of"),
+    ("[bearings.nde]", "[bearings.middle]", "bearings.middle", "unknown bearing"),
+])
+def test_bad_position_bearing_exit_2(tmp_path, old, new, key, fragment):
+    from case_files import embedded_text
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text(embedded_text().replace(old, new, 1))
+    for cmd in (["spectrum", "--speed-hz", "20"], ["excitation"]):
+        p = run(*cmd, "--case", str(bad), check=False)
+        assert p.returncode == 2
+        assert p.stderr.strip().count("\n") == 0 and key in p.stderr and fragment in p.stderr, p.stderr
+
+
+def test_two_bearings_in_the_tables_and_json(tmp_path):
+    """A 6205 DE and 6203 NDE: the spectrum table states each bearing's fault frequencies and which bearing each
+    line follows; the JSON gives each bearing's; the excitation of every bearing has its own BPFO multiplier."""
+    from case_files import textbook_multipliers, two_bearing_text
+
+    from bkabem_core.model.case import Case
+
+    f = tmp_path / "two.toml"
+    f.write_text(two_bearing_text())
+    case = Case.load(f)
+    mult = {b: textbook_multipliers(case.bearing_table(b)) for b in ("de", "nde")}
+    out = run("spectrum", "--case", str(f), "--speed-hz", "30").stdout
+    assert f"DE bearing 6205: FTF {mult['de']['ftf'] * 30:.3f} Hz, BPFO {mult['de']['bpfo'] * 30:.3f} Hz" in out
+    assert f"NDE bearing 6203: FTF {mult['nde']['ftf'] * 30:.3f} Hz, BPFO {mult['nde']['bpfo'] * 30:.3f} Hz" in out
+    rows = [ln.split() for ln in out.splitlines() if ln.strip() and ln.split()[0].isdigit()]
+    assert {r[2] for r in rows} == {"de", "nde"}
+    for r in rows:                                       # order k of its own bearing's BPFO
+        assert float(r[1]) == pytest.approx(int(r[0]) * mult[r[2]]["bpfo"] * 30, abs=0.006)
+    d = json.loads(run("spectrum", "--case", str(f), "--speed-hz", "30", "--json").stdout)
+    for b in ("de", "nde"):
+        assert d["bearing_fault_frequencies_hz"][b]["bpfi"] == pytest.approx(mult[b]["bpfi"] * 30, rel=1e-9)
+    assert set(d["line_bearings"]) == {"de", "nde"}
+    e = json.loads(run("excitation", "--case", str(f), "--all-bearings", "--json").stdout)
+    for b, des in (("de", "6205"), ("nde", "6203")):
+        assert e["bearings"][b]["designation"] == des
+        assert e["bearings"][b]["bpfo_per_hz"] == pytest.approx(mult[b]["bpfo"], rel=1e-12)
+        assert e["bearings"][b]["fault_multipliers_per_shaft_hz"]["bsf"] == pytest.approx(mult[b]["bsf"], rel=1e-12)
+    table = run("excitation", "--case", str(f), "--all-bearings").stdout
+    assert f"DE bearing 6205, quasi-static" in table and f"BPFO {mult['nde']['bpfo']:.4f} x shaft Hz" in table

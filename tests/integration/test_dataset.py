@@ -102,10 +102,9 @@ def kinds(tmp_path_factory):
 
 
 # --------------------------------------------------------------------------- labels
-def _textbook_multipliers(raw: dict) -> dict:
-    """BPFO, BPFI, BSF, FTF per Hz of shaft speed from the geometry (stationary outer race, contact angle as
+def _textbook_multipliers(b: dict) -> dict:
+    """BPFO, BPFI, BSF, FTF per Hz of shaft speed from a bearing's geometry (stationary outer race, contact angle as
     given): e.g. Randall & Antoni, Mech. Syst. Signal Process. 25 (2011), eq. 1-4."""
-    b = raw["bearing"]
     z, d, dp = b["n_balls"], b["ball_diameter_m"], b["pitch_diameter_m"]
     c = math.cos(math.radians(b["contact_angle_deg"]))
     r = d / dp * c
@@ -119,7 +118,7 @@ def test_labels_match_the_spec_and_the_ground_truth(kinds):
     csv_lines = (out / "labels.csv").read_text().strip().splitlines()
     assert len(labels) == 8 and len(csv_lines) == 9                   # one row per run (one state each) + header
     base = Case.load("motor_6010_healthy")
-    mult = _textbook_multipliers(base.raw)
+    mult = _textbook_multipliers(base.bearing_table("de"))           # the 6010 at both positions
     expected = [(f, s) for f in ("healthy", "outer", "inner", "ball") for s in (15.0, 25.0)]
     for i, (row, (fault, speed)) in enumerate(zip(labels, expected)):
         assert row["run_index"] == i and row["fault"] == fault and row["healthy"] == (fault == "healthy")
@@ -135,6 +134,9 @@ def test_labels_match_the_spec_and_the_ground_truth(kinds):
         assert row["case_hash"] == Case.from_dict(raw).case_hash
         for name, m in mult.items():
             assert row[f"{name}_hz"] == pytest.approx(m * speed, rel=1e-9), name
+            for b in ("de", "nde"):                   # each bearing's own columns: the same 6010 here
+                assert row[f"{b}_{name}_hz"] == pytest.approx(m * speed, rel=1e-9), (b, name)
+        assert row["de_bearing_designation"] == row["nde_bearing_designation"] == "6010"
         if fault == "healthy":
             assert row["n_defects"] == 0 and row["d0_kind"] is None
         else:

@@ -155,7 +155,7 @@ def test_machine_work_once_per_process_not_per_run_or_task(tmp_path, monkeypatch
     for r, run in zip(first + second, runs):
         assert r["run_id"] == run.run_id and run_path(out, run).exists()
         assert r["bytes"] == run_path(out, run).stat().st_size
-        assert r["labels"][0]["case_hash"] == Case(name="x", source="", raw=run.case_raw).case_hash == run.case_hash
+        assert r["labels"][0]["case_hash"] == Case.of_valid(run.case_raw).case_hash == run.case_hash
         assert r["labels"][0]["seed"] == run.params["seed"]
     monkeypatch.undo()
 

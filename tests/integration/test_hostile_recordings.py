@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import os
 import random
+import signal
 import struct
 import subprocess
 import sys
@@ -152,25 +153,32 @@ def _bkabem(*args, deadline: float = 60.0):
     return p.returncode, out, err, time.monotonic() - t0
 
 
+#: Runs a command and writes its peak RSS [kB] to a file. Linux keeps a process's peak RSS across fork and exec, so
+#: a child of this (large) test process would report the test's own peak; a child of this small launcher reports its
+#: own.
+_LAUNCHER = ("import resource, subprocess, sys\n"
+             "code = subprocess.call(sys.argv[2:])\n"
+             "open(sys.argv[1], 'w').write(str(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss))\n"
+             "sys.exit(code)\n")
+
+
 def _bkabem_rss(*args, deadline: float = 60.0):
-    """Like :func:`_bkabem`, reaping the child with ``wait4`` to read its own peak RSS [MB]."""
+    """Like :func:`_bkabem`, with the command's own peak RSS [MB] (through :data:`_LAUNCHER`)."""
     t0 = time.monotonic()
-    with tempfile.TemporaryFile("w+") as fo, tempfile.TemporaryFile("w+") as fe:
-        p = subprocess.Popen([sys.executable, "-m", "bkabem_ros", *map(str, args)], stdout=fo, stderr=fe, text=True,
-                             cwd=ROOT, env=_env())
-        while True:
-            pid, status, ru = os.wait4(p.pid, os.WNOHANG)
-            if pid:
-                break
-            if time.monotonic() - t0 > deadline:
-                p.kill()
-                pid, status, ru = os.wait4(p.pid, 0)
-                break
-            time.sleep(0.02)
-        p.returncode = os.waitstatus_to_exitcode(status)
+    with tempfile.TemporaryFile("w+") as fo, tempfile.TemporaryFile("w+") as fe, \
+            tempfile.NamedTemporaryFile("r") as peak:
+        p = subprocess.Popen([sys.executable, "-c", _LAUNCHER, peak.name, sys.executable, "-m", "bkabem_ros",
+                              *map(str, args)], stdout=fo, stderr=fe, text=True, cwd=ROOT, env=_env(),
+                             start_new_session=True)
+        try:
+            p.wait(timeout=deadline)
+        except subprocess.TimeoutExpired:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait()
         fo.seek(0)
         fe.seek(0)
-        return p.returncode, fo.read(), fe.read(), time.monotonic() - t0, ru.ru_maxrss / 1024
+        text = Path(peak.name).read_text()
+        return p.returncode, fo.read(), fe.read(), time.monotonic() - t0, (int(text) / 1024 if text else float("inf"))
 
 
 def _one_line(err: str, *fragments: str) -> str:

@@ -68,7 +68,11 @@ def _faults(i: int):
         shaft_speed=2 * math.pi * 25.0, ftf=9.9, bpfo=89.4 + i, bpfi=135.6, bsf=58.9,
         machine_id="m1", bearing_designation="6010", defect_bearing="de", defect_length=1.0e-3,
         defect_depth=20e-6, defect_angle=-math.pi / 2, stamp=_stamp(i), frame_id="de_bearing",
-        ground_truth=_truth())
+        ground_truth=_truth(), bearings=[           # a bearing of its own at each position (bkabem_msgs 0.3.0)
+            {"bearing": "de", "designation": "6205", "n_balls": 9, "ball_diameter_m": 7.94e-3,
+             "pitch_diameter_m": 39.04e-3, "ftf": 9.96, "bpfo": 89.4 + i, "bpfi": 135.4, "bsf": 58.9},
+            {"bearing": "nde", "designation": "6203", "n_balls": 8, "ball_diameter_m": 6.746e-3,
+             "pitch_diameter_m": 28.5e-3, "ftf": 9.54, "bpfo": 76.3, "bpfi": 123.7, "bsf": 49.8}])
 
 
 def _speed(i: int):
@@ -115,6 +119,8 @@ def _same(decoded, m) -> None:
                 want.frame_id, want.stamp.sec, want.stamp.nanosec)
         elif f == "ground_truth":            # nested messages: compared as what a reader gets (two defects, labels)
             assert msgs.ground_truth_dict(got) == msgs.ground_truth_dict(want)
+        elif f == "bearings":                # each bearing's kinematics (0.3.0), as a reader gets them
+            assert msgs.bearing_kinematics(decoded) == msgs.bearing_kinematics(m)
         elif isinstance(want, (list, tuple)) and want and hasattr(want[0], "get_fields_and_field_types"):
             assert len(got) == len(want), f                # a sequence of messages (DiagnosticStatus[]): each one
             for g, w in zip(got, want):

@@ -210,9 +210,11 @@ def test_definition_text_layout(name):
     assert parts[0].lstrip().startswith("#") and "std_msgs/Header header" in parts[0]
     heads = [p.split("\n", 1)[0] for p in parts[1:]]
     # rosbag2's order (LocalMessageDefinitionSource: each type's dependencies as a std::set, i.e. sorted, each
-    # followed by its own, every type once): GroundTruth (0.2.0) and its Defect, then Header and its Time
-    assert heads == ["MSG: bkabem_msgs/GroundTruth", "MSG: bkabem_msgs/Defect", "MSG: std_msgs/Header",
-                     "MSG: builtin_interfaces/Time"]
+    # followed by its own, every type once): BearingKinematics (0.3.0, fault frequencies only), GroundTruth (0.2.0)
+    # and its Defect, then Header and its Time
+    kin = ["MSG: bkabem_msgs/BearingKinematics"] if name == "BearingFaultFrequencies" else []
+    assert heads == kin + ["MSG: bkabem_msgs/GroundTruth", "MSG: bkabem_msgs/Defect", "MSG: std_msgs/Header",
+                           "MSG: builtin_interfaces/Time"]
     assert msgs.message_definition_text(f"bkabem_msgs/{name}") == text
     assert msgs.type_hash(f"bkabem_msgs/{name}").startswith("RIHS01_")
     assert len(msgs.type_hash(f"bkabem_msgs/msg/{name}")) == len("RIHS01_") + 64

@@ -64,7 +64,7 @@ def stack():
         time.sleep(2 * CHUNK + 0.1)
         case = Case.load()
         yield {"lis": lis, "ns": ns, "procs": procs, "case": case, "Float64": Float64, "speed_sub": speed_sub,
-               "bpfo_per_hz": case.bearing().fault_multipliers().bpfo}
+               "bpfo_per_hz": case.bearing("de").fault_multipliers().bpfo}
     finally:
         for p in procs.values():
             p.kill()
@@ -108,6 +108,13 @@ def test_message_fields(stack):
     assert f.defect_angle == pytest.approx(gt["defect"]["angle_rad"])
     assert f.bpfo == pytest.approx(stack["bpfo_per_hz"] * f.shaft_speed / (2 * math.pi))
     assert f.header.frame_id == f"{gt['defect']['bearing']}_bearing"
+    # each bearing's own (bkabem_msgs 0.3.0): the 6010 at both positions
+    assert [b.bearing for b in f.bearings] == ["de", "nde"]
+    for b in f.bearings:
+        fm = case.fault_multipliers(b.bearing)
+        assert (b.designation, b.n_balls) == ("6010", 14)
+        assert b.bpfo == pytest.approx(fm.bpfo * f.shaft_speed / (2 * math.pi), rel=1e-12)
+        assert b.bsf == pytest.approx(fm.bsf * f.shaft_speed / (2 * math.pi), rel=1e-12)
 
 
 def test_indices_continuous_and_stamps_from_sample_counter(stack):

@@ -1,6 +1,7 @@
-"""Recordings made with the previous message definitions (bkabem_msgs 0.1.0: no ground truth) still work with
-today's tools: read (``mcap_io.iter_messages``), converted to Rerun, replayed on ROS 2 and echoed; and a reader
-built from the 0.1.0 definitions still decodes today's messages (0.2.0 only appended fields).
+"""Recordings made with the previous message definitions (bkabem_msgs 0.1.0: no ground truth; 0.2.0: one bearing
+type, no per-bearing kinematics) still work with today's tools: read (``mcap_io.iter_messages``), converted to Rerun,
+replayed on ROS 2 and echoed; and a reader built from older definitions still decodes today's messages (each version
+only appended fields).
 
 Two old recordings: the committed ``recordings/example_runup.mcap`` (made by the node in 0.1.0 days) and one written
 here with the 0.1.0 ``.msg`` texts kept in ``msg_defs/history/0.1.0`` (mcap_ros2's writer, its own CDR encoder: no
@@ -217,8 +218,13 @@ def test_old_recordings_replay_to_todays_subscribers_and_echo(tmp_path):
     echo = Proc(bkabem_cmd("echo", "--namespace", ns, "--qos", "reliable", "--json", "--seconds", "60"), name="echo")
     try:
         time.sleep(1.0)
-        r = subprocess.run(bkabem_cmd("replay", str(path), "--wait-subscribers", "20"), capture_output=True,
-                           text=True, timeout=120, env=ros_env())
+        # the listener and echo both read the waveform and ground-truth topics: wait for both (a reliable
+        # reader matched after the first message never gets it)
+        nde = f"{ns}/vibration/nde/acceleration"
+        lis.subscribe(nde, VibrationWaveform, reliable=True)
+        r = subprocess.run(bkabem_cmd("replay", str(path), "--wait-subscribers", "20", "--subscribers", "2",
+                                      "--topics", acc, nde, ff),
+                           capture_output=True, text=True, timeout=120, env=ros_env())
         assert r.returncode == 0, r.stderr[-3000:]
         lis.wait_for(acc, lambda it: len(it) >= 12, timeout=20)
         lis.wait_for(ff, lambda it: len(it) >= 3, timeout=20)
@@ -272,3 +278,138 @@ def test_committed_example_replays_and_echoes_as_text():
     lines = [ln for ln in echo.lines if ln.startswith(topic)]
     assert len(lines) == 5 and all("truth=n/a" in ln and "index=" in ln for ln in lines), echo.text
 
+
+
+# --------------------------------------------------------------------------- bkabem_msgs 0.2.0
+HISTORY_020 = REPO / "msg_defs" / "history" / "0.2.0"
+
+
+def definition_020(name: str) -> str:
+    """The 0.2.0 definition of ``bkabem_msgs/<name>`` as rosbag2 embeds it: the type, then GroundTruth and its
+    Defect, then Header and its Time (one bearing type at both positions: no ``bearings``)."""
+    nested = "".join(f"\n{DELIM}\nMSG: bkabem_msgs/{n}\n" + (HISTORY_020 / f"{n}.msg").read_text()
+                     for n in ("GroundTruth", "Defect"))
+    return (HISTORY_020 / f"{name}.msg").read_text() + nested + f"\n{DELIM}\nMSG: std_msgs/Header\n" + \
+        msgs.message_definition_text("std_msgs/msg/Header")
+
+
+def _truth_020() -> dict:
+    defect = {"name": "spall", "kind": "inner", "bearing": "nde", "bearing_designation": "6010", "ball": 0,
+              "length": 1e-3, "depth": 2e-5, "angle": 0.0, "edge": "ball", "fault_frequency": "bpfi",
+              "fault_multiplier": 7.94, "strike_multiplier": 7.94, "strike_frequency": 198.5}
+    return {"available": True, "healthy": False, "defects": [defect], "unbalance_grade": 0.0025,
+            "unbalance_phase": 0.0, "misalignment_force": 0.0, "electrical_force": 0.0, "line_frequency": 50.0,
+            "load_factor": 1.0, "case_name": "motor_6010_inner", "case_hash": "0123456789abcdef", "scenario": "",
+            "scenario_hash": "", "state_index": 0, "state_label": "", "state_start_time": 0.0,
+            "scenario_time": 1.0, "time_scale": 1.0, "label_keys": [], "label_values": []}
+
+
+def write_020_recording(path: Path, ns: str = "") -> list:
+    """Fault-frequency messages and waveforms as bkabem_msgs 0.2.0 wrote them (mcap_ros2's own encoder)."""
+    from mcap_ros2.writer import Writer
+
+    t0 = 1_700_000_000_000_000_000
+    items = []
+    for i in range(6):
+        t = t0 + i * 100_000_000
+        stamp = {"sec": t // 1_000_000_000, "nanosec": t % 1_000_000_000}
+        items.append((f"{ns}/vibration/fault_frequencies", "BearingFaultFrequencies", {
+            "header": {"stamp": stamp, "frame_id": "nde_bearing"}, "machine_id": "two_o", "shaft_speed": 2 * math.pi * 25.0,
+            "ftf": 10.57, "bpfo": 151.5, "bpfi": 198.5, "bsf": 71.3, "bearing_designation": "6010",
+            "defect_bearing": "nde", "defect_race": "inner", "defect_length": 1e-3, "defect_depth": 2e-5,
+            "defect_angle": 0.0, "ground_truth": _truth_020()}, t))
+        x = np.sin(2 * np.pi * 60 * (i * N + np.arange(N)) / FS).astype(np.float32)
+        items.append((f"{ns}/vibration/nde/acceleration", "VibrationWaveform", {
+            "header": {"stamp": stamp, "frame_id": "nde_bearing"}, "machine_id": "two_o", "location": "nde",
+            "quantity": "acceleration", "unit": "m/s^2", "channel_names": ["vertical", "horizontal"],
+            "sample_rate": FS, "first_sample_index": i * N, "shaft_speed": 2 * math.pi * 25.0,
+            "samples_per_channel": N, "data": np.concatenate([x, -0.5 * x]).tolist(),
+            "ground_truth": _truth_020()}, t))
+    with open(path, "wb") as fh:
+        w = Writer(fh)
+        schemas = {n: w.register_msgdef(f"bkabem_msgs/msg/{n}", definition_020(n))
+                   for n in ("VibrationWaveform", "BearingFaultFrequencies")}
+        speed = w.register_msgdef("std_msgs/msg/Float64", "float64 data")
+        t_first = items[0][3] - 2_000_000_000
+        w.write_message(f"{ns}/speed", speed, {"data": 157.0}, log_time=t_first, publish_time=t_first)
+        for topic, name, d, t in items:
+            w.write_message(topic, schemas[name], d, log_time=t, publish_time=t)
+        w.finish()
+    return items
+
+
+def test_a_020_recording_reads_with_its_bearing_at_both_positions(tmp_path):
+    """A 0.2.0 fault-frequency message (one bearing type) reads as today's: ``bearings`` holds its single fields at
+    both positions, its ground truth is kept; its waveforms read as recorded."""
+    from bkabem_msgs.msg import BearingFaultFrequencies
+
+    path = tmp_path / "v020.mcap"
+    items = write_020_recording(path)
+    text = mcap_io._schema_texts(path)["bkabem_msgs/msg/BearingFaultFrequencies"]
+    assert msg_compat.version_of("bkabem_msgs/msg/BearingFaultFrequencies", text) == "0.2.0"
+    assert msg_compat.version_of("bkabem_msgs/msg/VibrationWaveform",
+                                 mcap_io._schema_texts(path)["bkabem_msgs/msg/VibrationWaveform"]) == "current"
+    got = list(mcap_io.iter_messages(path))[1:]
+    assert len(got) == len(items)
+    ff = [m.msg for m in got if m.type_name.endswith("BearingFaultFrequencies")]
+    assert len(ff) == 6 and all(isinstance(m, BearingFaultFrequencies) for m in ff)
+    kin = msgs.bearing_kinematics(ff[0])
+    assert [b.bearing for b in ff[0].bearings] == ["de", "nde"]            # filled, not only read as such
+    for b in ("de", "nde"):
+        assert (kin[b]["designation"], kin[b]["n_balls"], kin[b]["bpfo"], kin[b]["bsf"]) == ("6010", 14, 151.5, 71.3)
+    gt = msgs.ground_truth_dict(ff[0])
+    assert [(d["kind"], d["bearing"], d["bearing_designation"]) for d in gt["defects"]] == [("inner", "nde", "6010")]
+    waves = [m.msg for m in got if m.type_name.endswith("VibrationWaveform")]
+    np.testing.assert_array_equal(msgs.waveform_array(waves[2]).ravel(), np.asarray(items[5][2]["data"], np.float32))
+    # the Rerun conversion of the old recording: the replay tool, to a file
+    out = tmp_path / "v020.rrd"
+    r = subprocess.run(bkabem_cmd("replay", str(path), "--rerun-save", str(out)), capture_output=True, text=True,
+                       timeout=180, env=ros_env())
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert out.stat().st_size > 5_000
+
+
+def test_a_reader_of_020_reads_todays_fault_frequencies():
+    """0.3.0 appended ``bearings``: the 0.2.0 definition decodes today's message's fields (the single ones: the DE
+    bearing's), and today's reader gets each bearing's own."""
+    from mcap_ros2._dynamic import generate_dynamic
+    from rclpy.serialization import serialize_message
+
+    kin = [{"bearing": "de", "designation": "6205", "n_balls": 9, "ftf": 11.95, "bpfo": 107.6, "bpfi": 162.4,
+            "bsf": 70.8},
+           {"bearing": "nde", "designation": "6203", "n_balls": 8, "ftf": 11.45, "bpfo": 91.6, "bpfi": 148.4,
+            "bsf": 59.8}]
+    ff = msgs.fault_frequencies_message(shaft_speed=2 * math.pi * 30.0, ftf=11.95, bpfo=107.6, bpfi=162.4, bsf=70.8,
+                                        machine_id="m", bearing_designation="6205", defect_bearing="nde",
+                                        defect_race="outer", defect_length=1e-3, defect_depth=2e-5,
+                                        defect_angle=-math.pi / 2, bearings=kin)
+    old = generate_dynamic("bkabem_msgs/msg/BearingFaultFrequencies",
+                           definition_020("BearingFaultFrequencies"))["bkabem_msgs/msg/BearingFaultFrequencies"]
+    m = old(serialize_message(ff))
+    assert (m.bpfo, m.bearing_designation, m.defect_bearing) == (107.6, "6205", "nde")
+    assert not hasattr(m, "bearings")
+    got = msgs.bearing_kinematics(ff)
+    assert (got["nde"]["designation"], got["nde"]["bpfo"], got["de"]["bpfo"]) == ("6203", 91.6, 107.6)
+
+
+def test_a_020_recording_replays_with_each_bearing(tmp_path):
+    """Replayed on ROS 2, a 0.2.0 fault-frequency message reaches today's subscribers with ``bearings`` filled."""
+    from bkabem_msgs.msg import BearingFaultFrequencies
+
+    ns = unique_namespace("o020")
+    path = tmp_path / "v020_ns.mcap"
+    write_020_recording(path, ns)
+    lis = Listener("o020_listener")
+    ff = f"{ns}/vibration/fault_frequencies"
+    lis.subscribe(ff, BearingFaultFrequencies, reliable=True)
+    try:
+        time.sleep(1.0)
+        r = subprocess.run(bkabem_cmd("replay", str(path), "--wait-subscribers", "20"), capture_output=True,
+                           text=True, timeout=120, env=ros_env())
+        assert r.returncode == 0, r.stderr[-3000:]
+        lis.wait_for(ff, lambda it: len(it) >= 3, timeout=20)
+    finally:
+        lis.close()
+    m = lis.get(ff)[-1][1]
+    assert [b.bearing for b in m.bearings] == ["de", "nde"] and m.bearings[1].bpfo == 151.5
+    assert msgs.ground_truth_dict(m)["defects"][0]["bearing"] == "nde"

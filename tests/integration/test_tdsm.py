@@ -74,8 +74,8 @@ def test_static_state_is_an_equilibrium_of_the_discrete_model(case):
 # --------------------------------------------------------------------------- integrator, linear model
 def _linear_reference(m):
     """The linear FE with the machine's bearing springs and the TDSM damper, assembled again from the case."""
-    c = m.bearing_damping_n_s_m
-    el = {b: (s.stiffness_n_m[0], s.stiffness_n_m[1], c, c) for b, s in m.machine.sites.items()}
+    c = m.bearing_damping_n_s_m                      # each position's damper
+    el = {b: (s.stiffness_n_m[0], s.stiffness_n_m[1], c[b], c[b]) for b, s in m.machine.sites.items()}
     return rotor_from_case(m.case.raw, bearings=el, mesh=m.machine.mesh)
 
 
@@ -254,6 +254,82 @@ def test_against_independent_stiff_ode_solver(case):
     scale = np.max(np.abs(u_ref), axis=0)
     assert scale[0] > 0.3e-6                                   # the dent crossing really happened
     assert np.max(np.abs(u_tdsm - u_ref) / scale) < 1e-3
+
+
+@pytest.mark.parametrize("nde_race", ["outer", "inner"])
+def test_two_different_bearings_against_independent_stiff_ode_solver(nde_race):
+    """A 6205 at the DE and a 6203 at the NDE, an outer-race dent in the DE and an outer- or inner-race dent in the
+    NDE: each bearing's balls turn at its own cage speed and spin at its own rate (the TDSM takes each bearing's
+    ball angles and defect drops from its own clock at every step). The same independent LSODA model as above, each
+    bearing's Bearing.forces_n at its own cage angle 2 pi FTF_b f t (shaft angle 2 pi f t, spin 2 pi BSF_b f t), over
+    the first 7.6 ms (the NDE's first outer-race dent crossing from t = 0, the DE's at about 7 ms at 30 Hz)."""
+    from case_files import two_bearing_text
+
+    from bkabem_core.model.case import Case
+
+    case = Case.from_toml(two_bearing_text().replace('bearing = "nde"\nrace = "outer"',
+                                                     f'bearing = "nde"\nrace = "{nde_race}"'), "two.toml")
+    assert case.defects("nde")[0].race == nde_race
+    m = coarse(case, max_step_s=5e-6)
+    assert not m.one_ball_set and m.forces.split and not m.forces.periodic
+    w = [2 * math.pi * case.fault_multipliers(b).ftf * SPEED for b in ("de", "nde")]
+    spin = [2 * math.pi * case.fault_multipliers(b).bsf * SPEED for b in ("de", "nde")]
+    assert m.cage_speeds_rad_s == pytest.approx(w, rel=1e-15) and w[0] != w[1]
+    t_end = 7.6e-3
+    r = m.run(t_end, settle_s=0.0, progress=False)
+    n = m.ndof
+    rot = m.rotor
+    minv = np.linalg.inv(rot.M)
+    cw = rot.C + 2 * math.pi * SPEED * rot.G
+    u_s = np.concatenate([m.static.relative_m["de"], m.static.relative_m["nde"]])
+    f_s = np.concatenate([m.static.force_n["de"], m.static.force_n["nde"]])
+    bearings = (case.bearing("de"), case.bearing("nde"))
+    ez = [m.machine.sites[b].state.displacement_m[2] for b in ("de", "nde")]
+    k_free = rot.K - m.B @ m._kb @ m.B.T
+
+    def rhs(t, y):
+        x, v = y[:n], y[n:]
+        u = u_s + m.B.T @ x
+        f = np.array([c for i, b in enumerate(bearings)
+                      for c in b.forces_n(u[2 * i], u[2 * i + 1], w[i] * t, e_z_m=ez[i],
+                                          shaft_angle_rad=2 * math.pi * SPEED * t, spin_angle_rad=spin[i] * t)]) - f_s
+        return np.r_[v, minv @ (-cw @ v - k_free @ x + m.B @ f)]
+
+    def jac(t, y):
+        u = u_s + m.B.T @ y[:n]
+        kt = np.zeros((4, 4))
+        for i, b in enumerate(bearings):
+            _, _, (kxx, kxy, kyy) = b.forces_n(u[2 * i], u[2 * i + 1], w[i] * t, with_stiffness=True, e_z_m=ez[i],
+                                               shaft_angle_rad=2 * math.pi * SPEED * t, spin_angle_rad=spin[i] * t)
+            kt[2 * i:2 * i + 2, 2 * i:2 * i + 2] = [[kxx, kxy], [kxy, kyy]]
+        j = np.zeros((2 * n, 2 * n))
+        j[:n, n:] = np.eye(n)
+        j[n:, :n] = -minv @ (k_free + m.B @ kt @ m.B.T)
+        j[n:, n:] = -minv @ cw
+        return j
+
+    keep = r.time_s <= t_end - 1e-4
+    t_eval = r.time_s[keep][::10]
+    sol = solve_ivp(rhs, (0, t_eval[-1]), np.zeros(2 * n), method="LSODA", t_eval=t_eval, jac=jac, rtol=1e-7,
+                    atol=1e-13, max_step=2e-5)
+    assert sol.success
+    for i, b in enumerate(("de", "nde")):
+        rotor, housing = m.out_dofs[2 * i], m.out_dofs[2 * i + 1]
+        u_ref = np.stack([sol.y[rotor[0]] - sol.y[housing[0]], sol.y[rotor[1]] - sol.y[housing[1]]], axis=1)
+        u_tdsm = r.bearing_relative_m[keep][::10, i, :] - m.static.relative_m[b][::-1]
+        scale = np.max(np.abs(u_ref), axis=0)
+        assert scale[0] > 0.1e-6, b                            # each bearing's dent crossing really happened
+        assert np.max(np.abs(u_tdsm - u_ref) / scale) < 1e-3, b
+
+
+def test_harmonic_balance_needs_one_ball_set():
+    from case_files import two_bearing_text
+
+    from bkabem_core.model.case import Case
+
+    m = coarse(Case.from_toml(two_bearing_text(), "two.toml"))
+    with pytest.raises(ValueError, match="two ball-pass periods"):
+        harmonic_balance(m, n_orders=5)
 
 
 def test_harmonic_balance_and_time_integration_agree(case, tdsm):

@@ -26,7 +26,7 @@ def test_embedded_case_loads_and_has_an_identity():
     c = Case.load()
     assert c.name == "electric_motor_6010" and "electric_motor_6010" in embedded_cases()
     assert len(c.case_hash) == 16 and c.case_hash == Case.load("electric_motor_6010").case_hash
-    assert c.bearing().fault_multipliers().bpfo == pytest.approx(6.0598, abs=1e-4)
+    assert c.bearing("de").fault_multipliers().bpfo == pytest.approx(6.0598, abs=1e-4)
     assert c.dent().bearing == "de"
 
 
@@ -39,18 +39,22 @@ def test_user_case_by_path(tmp_path):
 
 
 @pytest.mark.parametrize("text_fn, key, reason", [
-    (lambda: _sub(r"^ball_diameter_m = .*\n", ""), "bearing.ball_diameter_m", "missing"),
-    (lambda: _sub(r"^n_balls = 14", 'n_balls = "14"'), "bearing.n_balls", "must be an integer"),
-    (lambda: _sub(r"^n_balls = 14", "n_balls = 14.0"), "bearing.n_balls", "must be an integer"),
+    (lambda: _sub(r"^designation = .*\n", ""), "bearings.de.designation", "missing"),
+    (lambda: _sub(r"^damping_n_s_m = .*\n", ""), "bearings.de.damping_n_s_m", "missing"),
+    (lambda: _sub(r"^ball_diameter_m = .*", 'ball_diameter_m = 8.73e-3\nn_balls = "14"'), "bearings.de.n_balls",
+     "must be an integer"),
+    (lambda: _sub(r"^ball_diameter_m = .*", "ball_diameter_m = 8.73e-3\nn_balls = 14.0"), "bearings.de.n_balls",
+     "must be an integer"),
     (lambda: _sub(r"^length_m = 2.0e-3", "length_m = -2.0e-3"), "defects[0].length_m", "must be > 0"),
     (lambda: _sub(r"^length_m = 2.0e-3", "length_m = 0.25"), "defects[0].length_m", "circumference"),
     (lambda: _sub(r"^length_m = 2.0e-3", "length_m = 0.02"), "defects[0].length_m", "ball pitch"),
     (lambda: _sub(r"^diametral_clearance_m = .*", "diametral_clearance_m = -1e-6"),
-     "bearing.diametral_clearance_m", "must be >= 0"),
-    (lambda: _sub(r"^n_balls = 14", "n_balls = 14\nball_count = 3"), "bearing.ball_count", "unknown key"),
+     "bearings.de.diametral_clearance_m", "must be >= 0"),
+    (lambda: _sub(r"^ball_diameter_m = .*", "ball_diameter_m = 8.73e-3\nball_count = 3"), "bearings.de.ball_count",
+     "unknown key"),
     (lambda: _text() + "\n[extra]\nx = 1\n", "extra", "unknown section"),
-    (lambda: _sub(r"^inner_conformity = 0.52", "inner_conformity = 0.5"), "bearing.inner_conformity", "> 0.5"),
-    (lambda: _sub(r"^poisson_ratio = 0.3", "poisson_ratio = nan"), "bearing.poisson_ratio", "finite"),
+    (lambda: _sub(r"^inner_conformity = 0.52", "inner_conformity = 0.5"), "bearings.de.inner_conformity", "> 0.5"),
+    (lambda: _sub(r"^poisson_ratio = 0.3", "poisson_ratio = nan"), "bearings.de.poisson_ratio", "finite"),
     (lambda: _sub(r'^bearing = "de"', 'bearing = "middle"'), "defects[0].bearing", "one of"),
     (lambda: _sub(r'^race = "outer"', 'race = "cage"'), "defects[0].race", "one of"),
     (lambda: _sub(r'^race = "outer"', 'race = "ball"'), "defects[0].ball", "missing"),
@@ -65,7 +69,7 @@ def test_user_case_by_path(tmp_path):
      "excitation.method", "outer-race"),
     (lambda: _sub(r"^rotor_node = 5", "rotor_node = 40"), "bearings.de.rotor_node", "shaft node"),
     (lambda: _sub(r"^max_order = 50", "max_order = -1"), "excitation.max_order", ">= 0"),
-    (lambda: _sub(r"^ehl_film = false", "ehl_film = 0"), "bearing.ehl_film", "true or false"),
+    (lambda: _sub(r"^ehl_film = false", "ehl_film = 0"), "bearings.de.ehl_film", "true or false"),
     (lambda: "not = [valid", "toml", "not valid TOML"),
 ])
 def test_bad_case_values_name_the_key(tmp_path, text_fn, key, reason):
@@ -98,9 +102,16 @@ def test_overrides_are_validated_too():
         c.with_overrides({"defects.3.depth_m": 1e-5})
 
 
+def _v3_text() -> str:
+    """The embedded case as schema version 3 wrote it: one [bearing] for both positions."""
+    from pathlib import Path
+
+    return (Path(__file__).parents[1] / "fixtures" / "electric_motor_6010_v3.toml").read_text()
+
+
 def _v2_text() -> str:
     """The embedded case as schema version 2 wrote it: one [dent], no [baseline]."""
-    text = _text()
+    text = _v3_text()
     start, mid, end = text.index("[[defects]]"), text.index("[baseline]"), text.index("[excitation]")
     dent = "\n".join(line.split("#")[0].rstrip() for line in text[start:mid].splitlines()
                      if line.strip() and not line.lstrip().startswith("#") and not line.startswith("["))
@@ -109,7 +120,7 @@ def _v2_text() -> str:
 
 
 def test_version_2_cases_migrate_to_the_same_machine(tmp_path):
-    """A v2 file (single [dent]) is read as v3: its dent is the one defect, the baseline is off, and its bearing
+    """A v2 file (single [dent]) is read as v4: its dent is the one defect, the baseline is off, and its bearing
     excitation is the embedded case's, bit for bit."""
     from bkabem_core.fe.machine import Machine
 
@@ -117,7 +128,7 @@ def test_version_2_cases_migrate_to_the_same_machine(tmp_path):
     p.write_text(_v2_text())
     old = Case.load(p)
     new = Case.load()
-    assert old.raw["case"]["schema_version"] == 3 and "dent" not in old.raw
+    assert old.raw["case"]["schema_version"] == 4 and "dent" not in old.raw and "bearing" not in old.raw
     assert old.defects() == new.defects()
     assert old.baseline["unbalance_grade_mm_s"] == 0.0
     a, b = Machine(old).excitation("de"), Machine(new).excitation("de")

@@ -94,7 +94,7 @@ def test_quasi_static_limit_of_the_4dof_model(machine):
     site = machine.sites["de"]
     w = 495.0
     qs = quasi_static_excitation(site.bearing, w, site.axial_load_n, 4096)
-    params = dataclasses.replace(FourDofParameters.from_case(machine.case), rotor_mass_kg=w / 9.80665,
+    params = dataclasses.replace(FourDofParameters.from_case(machine.case, "de"), rotor_mass_kg=w / 9.80665,
                                  relative_amplitude_threshold=0.0, max_order=0, samples_per_ball_pass=4096)
     slow = compute_excitation(site.bearing, dataclasses.replace(params, reference_speed_hz=0.1, settle_time_s=0.5),
                               site.axial_load_n)
@@ -111,8 +111,8 @@ def test_quasi_static_limit_of_the_4dof_model(machine):
 def test_amplitudes_and_phases_stable_to_integration_tolerance(case, four_dof_excitation):
     ex = four_dof_excitation
     w = ex.radial_load_n
-    tight = dataclasses.replace(FourDofParameters.from_case(case), rotor_mass_kg=w / 9.80665, rtol=1e-9, atol_m=1e-14)
-    ref = compute_excitation(case.bearing(), tight, ex.axial_load_n)
+    tight = dataclasses.replace(FourDofParameters.from_case(case, "de"), rotor_mass_kg=w / 9.80665, rtol=1e-9, atol_m=1e-14)
+    ref = compute_excitation(case.bearing("de"), tight, ex.axial_load_n)
     for d in ("vertical", "horizontal"):
         a, a0 = ex.all_amplitude_m[d][:24], ref.all_amplitude_m[d][:24]
         assert np.max(np.abs(a - a0)) < 1e-5 * a0.max()
@@ -152,14 +152,14 @@ def test_housing_resonance_reported(four_dof_excitation, excitation):
 def test_fast_bearing_path_equals_the_bearing_model(case):
     """The integrator's scalar force path is the same physics as Bearing.forces_n (dent and held axial
     displacement included)."""
-    bearing = case.bearing()
-    model = FourDofModel(bearing, FourDofParameters.from_case(case), axial_load_n=390.0)
+    bearing = case.bearing("de")
+    model = FourDofModel(bearing, FourDofParameters.from_case(case, "de"), axial_load_n=390.0)
     e_z = model.state.displacement_m[2]
     rng = np.random.default_rng(0)
     hits = 0
     for _ in range(3000):
         ex, ey, t = rng.normal(0, 3e-6), -12e-6 + rng.normal(0, 5e-6), rng.uniform(0, 3)
-        theta = 2 * np.pi * model.ftf * FourDofParameters.from_case(case).reference_speed_hz * t
+        theta = 2 * np.pi * model.ftf * FourDofParameters.from_case(case, "de").reference_speed_hz * t
         fx, fy, (kxx, kxy, kyy) = bearing.forces_n(ex, ey, theta, with_stiffness=True, e_z_m=e_z)
         got = model._bearing(ex, ey, t)
         assert np.allclose(got, [fx, fy, kxx, kxy, kyy], rtol=1e-9, atol=1e-6)

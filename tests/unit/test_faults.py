@@ -162,7 +162,7 @@ def test_baseline_adds_its_lines_without_touching_the_bearing_lines(models):
     """Superposition: the G 2.5 machine's BPFO lines are the bare machine's (linear FE), plus a 1x line."""
     bare = BkaBem(Case.load().with_overrides({"excitation.max_order": 0}))     # the library's lines: no order cap
     m = models["outer"]
-    assert m.lines.keys()[0] == (1, 0, 0, 0) and not m.is_order_set
+    assert m.lines.keys()[0] == (1, 0, 0, 0, 0, 0) and not m.is_order_set
     pure = m.orders > 0
     x, y = m.response([25.0])[0][pure], bare.response([25.0])[0]
     assert np.max(np.abs(x - y)) <= 1e-9 * np.abs(y).max()
@@ -174,7 +174,7 @@ def test_unbalance_force_follows_iso_21940(models):
     case = m.case
     e = 2.5e-3 / (2 * math.pi * case.max_speed_hz)
     mass = sum(d["mass_kg"] for d in case.raw["rotor"]["disks"])
-    i = m.lines.keys().index((1, 0, 0, 0))
+    i = m.lines.keys().index((1, 0, 0, 0, 0, 0))
     col = m.input_names.index("unbalance.x")
     force_25 = abs(m._force_a[i, col]) * mass * 25.0 ** 2
     assert force_25 == pytest.approx(mass * e * (2 * math.pi * 25.0) ** 2, rel=1e-12)
@@ -200,7 +200,7 @@ def test_healthy_machine_at_25_hz_looks_healthy(models):
     mm/s RMS) computed here from the lines in 10-1000 Hz."""
     m = models["healthy"]
     sp = m.spectrum(25.0)
-    i1 = m.lines.keys().index((1, 0, 0, 0))
+    i1 = m.lines.keys().index((1, 0, 0, 0, 0, 0))
     for li in (1, 3):
         for di in (0, 1):
             a = np.abs(sp.acceleration[:, li, di])
@@ -353,7 +353,7 @@ def test_misalignment_and_electrical_lines():
                                                            "baseline.electrical_force_n": 25.0})
     m = BkaBem(case)
     keys = m.lines.keys()
-    i2, ie = keys.index((2, 0, 0, 0)), keys.index((0, 0, 0, 2))
+    i2, ie = keys.index((2, 0, 0, 0, 0, 0)), keys.index((0, 0, 0, 0, 0, 2))
     rot = m.rotor
     core = [d for d in case.raw["rotor"]["disks"] if d["name"].startswith("core")]
     mass = sum(d["mass_kg"] for d in core)

@@ -31,7 +31,8 @@ def _with(path: str, value, raw=None):
 
 
 @pytest.mark.parametrize("path, value, named", [
-    ("bearing.ball_diameter_m", "*1000", "bearing."),                  # mm written as m (a cross-check or bound)
+    ("bearings.de.ball_diameter_m", "*1000", "bearings.de."),          # mm written as m (a cross-check or bound)
+    ("bearings.nde.n_balls", 1000, "bearings.nde.n_balls"),             # each position's bearing has its bounds
     ("rotor.outer_diameters_m", "*1000", "rotor.outer_diameters_m"),
     ("rotor.node_positions_m", "*1000", "rotor.node_positions_m"),
     ("operating.max_speed_hz", "*60", "operating.max_speed_hz"),        # rpm written as Hz
@@ -49,7 +50,7 @@ def _with(path: str, value, raw=None):
     ("excitation.gravity_m_s2", 0.0, "excitation.gravity_m_s2"),
     ("excitation.rotor_mass_kg", 1e-300, "excitation.rotor_mass_kg"),
     ("excitation.reference_speed_hz", 1e-300, "excitation.reference_speed_hz"),
-    ("bearing.youngs_modulus_pa", "*1e-9", "bearing.youngs_modulus_pa"),   # GPa written as Pa
+    ("bearings.de.youngs_modulus_pa", "*1e-9", "bearings.de.youngs_modulus_pa"),   # GPa written as Pa
     ("excitation.settle_time_s", 1e9, "excitation.settle_time_s"),
     ("excitation.record_cage_periods", 1_000_000, "excitation.record_cage_periods"),
     ("excitation.samples_per_ball_pass", 1_000_000_000, "excitation.samples_per_ball_pass"),

@@ -434,6 +434,6 @@ def test_scenario_ground_truth_has_the_fault_multipliers():
     from bkabem_core.scenario.timeline import Scenario
 
     s = Scenario.load("de_outer_run_to_failure")
-    fm = Bearing(s.case.bearing_geometry()).fault_multipliers().to_dict()
+    fm = Bearing(s.case.bearing_geometry("de")).fault_multipliers().to_dict()
     for state in (s.states[0], s.states[-1]):
         assert s.ground_truth(state, state.start_s, 24.6)["fault_multipliers"] == fm

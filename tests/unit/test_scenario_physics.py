@@ -48,7 +48,7 @@ def test_the_docs_table_is_the_model(states):
         d = st.defects[0]
         assert d["length_m"] * 1e3 == pytest.approx(length_mm, abs=0.006)
         assert d["depth_m"] * 1e6 == pytest.approx(depth_um, abs=0.6)
-        g = st.case.bearing_geometry()
+        g = st.case.bearing_geometry("de")
         v = 2 * math.pi * m.fault_multipliers.ftf * SPEED_HZ * (g.pitch_diameter_m + g.ball_diameter_m) / 2
         assert LINE_HZ * d["length_m"] / v == pytest.approx(ft, abs=0.006)
         u = m.bearing_lines["de"]
