@@ -30,6 +30,7 @@ Bearing catalogue (module ``catalogue``)
 Input files (module ``files``)
 ==============================
     not_a_file       -- why a path cannot be read as an input file (missing, a directory, a FIFO), or None
+    InputFileError   -- an invalid input file: the key at fault and why (each kind of file has its subclass)
 
 Vocabulary (module ``vocabulary``)
 ==================================
@@ -46,7 +47,7 @@ __all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CAS
 __getattr__, __dir__ = lazy_face(__name__, {
     "Case": "case",
     "CaseError": "case",
-    "InputFileError": "case",
+    "InputFileError": "files",
     "embedded_cases": "case",
     "DEFAULT_CASE": "case",
     "SCHEMA_VERSION": "case",
