@@ -205,8 +205,8 @@ def expand(raw: dict, source: str, error) -> tuple[dict, dict]:
     # the shaft, the features on it, the nodes
     steps = _steps(chk, m)
     length = steps[-1][1]
-    disks, disk_of = _disks(chk, m, length)
     bearing_tables = _bearings(chk, m, length)
+    disks, disk_of = _disks(chk, m, length)
     baseline = dict(BASELINE_DEFAULTS)
     given = raw.get("baseline", {})
     if isinstance(given, dict):

@@ -24,9 +24,10 @@ from __future__ import annotations
 
 import math
 
-from bkabem_core.model.catalogue import lookup
+from bkabem_core.model.catalogue import CatalogueError, lookup
 
-__all__ = ["CORE_DENSITY_KG_M3", "PRELOAD_N_PER_MM", "StartingMachine", "starting_machine", "starting_case"]
+__all__ = ["CORE_DENSITY_KG_M3", "PRELOAD_N_PER_MM", "StartingError", "StartingMachine", "starting_machine",
+           "starting_case"]
 
 #: Effective density of a rotor core (laminations with their winding or cage) [kg/m^3]; the embedded motor's is
 #: 7338 (docs/surrogate_motor.md).
@@ -38,6 +39,15 @@ _STEEL_KG_M3 = 7850.0
 _PAPER_ROTOR_KG, _PAPER_HOUSING_KG, _PAPER_SUPPORT_N_M, _PAPER_SUPPORT_N_S_M = 82.0, 3.17, 1.0e6, 1.0e4
 _PAPER_DAMPER_N_S_M = 550.0
 _CORE_ASPECT = 1.2
+
+
+class StartingError(ValueError):
+    """The rules cannot make a machine of these numbers: ``what`` is the input at fault (``"de"``, ``"nde"``,
+    ``"rotor_mass_kg"``), the message says why."""
+
+    def __init__(self, what: str, reason: str):
+        self.what = what
+        super().__init__(reason)
 
 
 class StartingMachine:
@@ -56,11 +66,14 @@ class StartingMachine:
     def __init__(self, de: str, nde: str, rotor_mass_kg: float):
         rows = {}
         for name, designation in (("de", de), ("nde", nde)):
-            row = lookup(designation)                           # CatalogueError naming the designation
+            try:
+                row = lookup(designation)
+            except CatalogueError as exc:
+                raise StartingError(name, str(exc)) from None
             for what in ("bore_diameter_m", "width_m"):
                 if not math.isfinite(getattr(row, what)):
-                    raise ValueError(f"{name}: the catalogue has no {what.split('_')[0]} for {row.catalogue_key} "
-                                     f"(a starting case needs a bearing of known dimensions)")
+                    raise StartingError(name, f"the catalogue has no {what.split('_')[0]} for {row.catalogue_key} "
+                                              f"(a starting case needs a bearing of known dimensions)")
             rows[name] = row
         bore = {n: r.bore_diameter_m for n, r in rows.items()}
         width = {n: r.width_m for n, r in rows.items()}
@@ -75,11 +88,11 @@ class StartingMachine:
 
         lightest = total(body)
         if not rotor_mass_kg > lightest:
-            raise ValueError(f"rotor mass {rotor_mass_kg:g} kg: the shaft these bearings need weighs "
+            raise StartingError("rotor_mass_kg", f"{rotor_mass_kg:g} kg: the shaft these bearings need weighs "
                              f"{lightest:.3g} kg already (a rotor core needs more)")
         lo, hi = body, 10.0
         if total(hi) < rotor_mass_kg:
-            raise ValueError(f"rotor mass {rotor_mass_kg:g} kg: more than a rotor core of 10 m diameter on this "
+            raise StartingError("rotor_mass_kg", f"{rotor_mass_kg:g} kg is more than a rotor core of 10 m diameter on this "
                              f"shaft weighs")
         for _ in range(100):                                    # bisection: total() rises with the diameter
             mid = 0.5 * (lo + hi)
@@ -120,8 +133,8 @@ def _steel(length: float, diameter: float) -> float:
 
 
 def starting_machine(de: str, nde: str, rotor_mass_kg: float) -> StartingMachine:
-    """The starting machine's numbers (module docstring); :class:`~bkabem_core.model.catalogue.CatalogueError` for
-    a designation the catalogue does not have, ValueError for a rotor mass the rules cannot meet."""
+    """The starting machine's numbers (module docstring); :class:`StartingError` naming the input the rules cannot
+    use (a designation the catalogue does not have or has no dimensions for, a rotor mass they cannot meet)."""
     return StartingMachine(de, nde, rotor_mass_kg)
 
 

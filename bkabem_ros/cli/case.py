@@ -81,7 +81,7 @@ def add_parser(sub):
 def cmd_new(args) -> int:
     import bkabem_core.model.catalogue as catalogue
     from bkabem_core.model.case import Case, CaseError
-    from bkabem_core.model.starting import starting_case, starting_machine
+    from bkabem_core.model.starting import StartingError, starting_case, starting_machine
 
     for option, designation in (("--de", args.de), ("--nde", args.nde)):
         try:
@@ -103,9 +103,8 @@ def cmd_new(args) -> int:
         try:
             t = starting_case(args.de, args.nde, args.rotor_mass, args.speed_range, name, cls, args.sample_rate,
                               slices)
-        except ValueError as exc:                 # CatalogueError is one: a designation without dimensions
-            option = "--rotor-mass" if str(exc).startswith("rotor mass") else \
-                "--nde" if str(exc).startswith("nde") else "--de"
+        except StartingError as exc:
+            option = {"de": "--de", "nde": "--nde", "rotor_mass_kg": "--rotor-mass"}[exc.what]
             raise UsageError(f"{option}: {exc}") from None
         try:
             return t, Case.from_toml(t, source=str(args.out))
