@@ -213,3 +213,48 @@ def test_a_light_rotor_in_loose_bearings_is_refused_in_one_line():
     assert "preload" in info.value.reason
     raw["machine"]["bearings"]["de"]["axial_load_n"] = raw["machine"]["bearings"]["nde"]["axial_load_n"] = 50.0
     assert Case.from_dict(raw).raw["rotor"]["node_positions_m"][-1] == 0.244
+
+
+def test_a_fleet_mixes_machines_each_with_its_own_truth(tmp_path):
+    """A fleet scenario of three machines: the fault library's motor, the small motor on 6205s and a compact case
+    file next to the fleet file; each machine of the plan runs its own, with its own bearings and fault lines."""
+    from bkabem_core.scenario.fleet import FleetScenario
+    from bkabem_ros.fleet import plan as fleet_plan
+    from bkabem_ros.fleet.launcher import plan
+
+    (tmp_path / "cases").mkdir()
+    (tmp_path / "cases" / "motor_compact.toml").write_text(COMPACT_MOTOR.read_text())
+    (tmp_path / "mixed.toml").write_text("""
+[fleet]
+name = "machines"
+schema_version = 1
+
+[[fleet.machines]]
+case = "motor_6010_outer"
+labels = { machine = "motor_82kg" }
+
+[[fleet.machines]]
+case = "small_motor_6205_outer"
+labels = { machine = "motor_6kg" }
+
+[[fleet.machines]]
+case = "cases/motor_compact.toml"
+labels = { machine = "motor_compact" }
+""")
+    fleet = FleetScenario.load(tmp_path / "mixed.toml")
+    machines = fleet_plan.apply(plan(6, [], 0, "machine_", None), fleet)
+    cases = [Case.load(m["overrides"]["case"]) for m in machines]
+    assert [c.name for c in cases] == ["motor_6010_outer", "small_motor_6205_outer",
+                                       "electric_motor_6010_compact"] * 2
+    assert [m["overrides"]["labels"].split(",")[1] for m in machines[:3]] == \
+        ["machine=motor_82kg", "machine=motor_6kg", "machine=motor_compact"]
+    truth = [c.ground_truth() for c in cases[:3]]
+    assert [t["bearings"]["de"]["designation"] for t in truth] == ["6010", "6205", "6010"]
+    assert [t["defects"][0]["bearing_designation"] for t in truth] == ["6010", "6205", "6010"]
+    for c, t in zip(cases[:3], truth):
+        g = c.bearing_geometry("de")
+        bpfo = g.n_balls / 2.0 * (1.0 - g.ball_diameter_m / g.pitch_diameter_m)      # textbook, contact angle 0
+        assert t["defects"][0]["fault_multiplier"] == pytest.approx(bpfo, rel=1e-12)
+        assert c.kinematics(20.0)["de"]["bpfo"] == pytest.approx(20.0 * bpfo, rel=1e-12)
+    assert truth[0]["fault_multipliers"]["bpfo"] != pytest.approx(truth[1]["fault_multipliers"]["bpfo"], rel=1e-3)
+    assert cases[0].max_speed_hz == 75.0 and cases[1].max_speed_hz == 50.0
