@@ -103,7 +103,10 @@ def test_fleet_of_mixed_machines():
         assert "Traceback" not in fleet.text, fleet.text[-3000:]
     finally:
         if fleet is not None:
-            fleet.kill()
+            try:
+                fleet.stop(signal.SIGINT)      # forwarded to the workers (a SIGKILL of the parent orphans them)
+            finally:
+                fleet.kill()
         lis.close()
 
 
