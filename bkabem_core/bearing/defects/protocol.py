@@ -56,6 +56,8 @@ class DefectKey:
         What it is, for people (with its unit and range).
     unit : str
         Its unit ("" for a number without one).
+    required : bool
+        Whether a ``[[defects]]`` table of the kind must give it (else it may leave it out: ``default``).
     """
 
     name: str
@@ -64,6 +66,7 @@ class DefectKey:
     default: object
     doc: str
     unit: str = ""
+    required: bool = True
 
     @property
     def schema(self) -> tuple:
@@ -219,8 +222,10 @@ class DefectKind(ABC):
 
     def check_table(self, table: dict, bearing: dict) -> tuple[str, str] | None:
         """``(key, reason)`` of the first problem of a type-checked ``[[defects]]`` table of this kind against the
-        case's ``[bearing]``: its own keys, then its size (None: none)."""
+        case's ``[bearing]``: its own keys (those it gives), then its size (None: none)."""
         for k in self.own_keys:
+            if k.name not in table and not k.required:
+                continue
             reason = self.check_own_key(k.name, table[k.name], bearing)
             if reason:
                 return k.name, reason
