@@ -21,7 +21,7 @@ from importlib import resources
 from pathlib import Path
 
 from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent, FaultFrequencies
-from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
+from bkabem_core.bearing.defects.profiles import EDGE_PROFILES, SHAPES
 from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, moving_kinds, own_keys, periodic_kinds
 from bkabem_core.model import plausibility
 from bkabem_core.model.files import not_a_file
@@ -127,6 +127,8 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "edge": ("str", ("in", set(EDGE_PROFILES))),
         "edge_fraction": ("float", ("range", 0.0, 1.0)),
         **{k.name: k.schema for k in own_keys()},           # the keys only some kinds have (a ball defect's ball)
+        "shape": ("str", ("in", set(SHAPES))),              # optional: "slot" (across the track) or "round_pit"
+        "clock": ("int", ("range", 1, 12)),                 # optional, for angle_deg: the clock position (12 = top)
     },
     "baseline": {
         "unbalance_grade_mm_s": ("float", _NONNEG),
@@ -212,6 +214,7 @@ TOP_LEVEL = ("case", "defects", "baseline", "excitation", "bearings", "housings"
 _OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz",), "bearings.*": OPTIONAL}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
 _KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
+_DEFECT_OPTIONAL = ("shape", "clock")        #: [[defects]] keys left out: a slot as before; angle_deg, not clock
 #: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)
 BASELINE_OFF = {"unbalance_grade_mm_s": 0.0, "unbalance_phase_deg": 0.0, "misalignment_force_n": 0.0,
                 "misalignment_node": 1, "electrical_force_n": 0.0, "line_frequency_hz": 50.0}
@@ -368,7 +371,8 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
     for i, d in enumerate(raw["defects"]):
         race = d.get("race") if isinstance(d, dict) else None
         optional = tuple(k for k, names in _KIND_KEYS.items() if race not in names)
-        _check_table(f"defects[{i}]", d, SCHEMA["defects[]"], source, optional=optional)
+        clock = ("angle_deg",) if isinstance(d, dict) and "clock" in d else ()     # the angle from the clock
+        _check_table(f"defects[{i}]", d, SCHEMA["defects[]"], source, optional=optional + _DEFECT_OPTIONAL + clock)
         for k in optional:
             if k in d:
                 raise CaseError(f"defects[{i}].{k}", f"only for race = {' or '.join(map(repr, _KIND_KEYS[k]))} "
@@ -503,7 +507,7 @@ def _check_overlaps(defects: list, bearings: dict, source: str) -> None:
         radius = k.table_race_radius_m(bearing) if hasattr(k, "table_race_radius_m") else \
             bearing["ball_diameter_m"] / 2.0
         half = d["length_m"] / (2.0 * radius)                       # half the angle it spans [rad]
-        centre = math.radians(d["angle_deg"])
+        centre = math.radians(k.table_angle_deg(d))
         for j, (c, h) in seen.get(where, []):
             gap = abs(math.remainder(centre - c, 2.0 * math.pi))
             if gap < half + h:
@@ -638,9 +642,11 @@ class Case:
         for d in self.raw["defects"]:
             if location is not None and d["bearing"] != location:
                 continue
+            k = kind(d["race"])
             out.append(Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]),
-                            angle_rad=math.radians(d["angle_deg"]), edge_fraction=float(d["edge_fraction"]),
-                            bearing=d["bearing"], race=d["race"], edge=d["edge"], **kind(d["race"]).dent_fields(d)))
+                            angle_rad=math.radians(k.table_angle_deg(d)), edge_fraction=float(d["edge_fraction"]),
+                            bearing=d["bearing"], race=d["race"], edge=d["edge"], shape=d.get("shape", SHAPES[0]),
+                            **k.dent_fields(d)))
         return out
 
     def dent(self) -> Dent:
@@ -734,7 +740,8 @@ class Case:
                     raise CaseError(dotted, "unknown key", self.source)
                 node = node[p]
             optional = (len(path) == 1 and last in _OPTIONAL.get(path[0], ())) or \
-                (len(path) == 2 and path[0] == "bearings" and last in _OPTIONAL["bearings.*"])
+                (len(path) == 2 and path[0] == "bearings" and last in _OPTIONAL["bearings.*"]) or \
+                (len(path) == 2 and path[0] == "defects" and last in _DEFECT_OPTIONAL)
             if not isinstance(node, dict) or (last not in node and not optional):
                 raise CaseError(dotted, "unknown key", self.source)
             node[last] = value
@@ -766,7 +773,7 @@ class Case:
             k = kind(d.race)
             fm = FaultFrequencies(**per[d.bearing]["fault_multipliers"])
             entry = {"kind": d.race, "bearing": d.bearing, "race": d.race, "length_m": d.length_m,
-                     "depth_m": d.depth_m, "angle_rad": d.angle_rad, "edge": d.edge,
+                     "depth_m": d.depth_m, "angle_rad": d.angle_rad, "edge": d.edge, "shape": d.shape,
                      "bearing_designation": per[d.bearing]["designation"],
                      "fault_frequency": k.fault_frequency, "fault_multiplier": k.fault_multiplier(fm),
                      "strike_multiplier": k.strike_multiplier(fm)}
