@@ -227,26 +227,42 @@ def _profile(pit: PitContact) -> PitProfile:
     a, b = pit.contact_ellipse_m()
     dx = min(b, rho) / _CELLS_PER_SEMI_AXIS
     dy = min(a, rho) / _CELLS_PER_SEMI_AXIS
-    grow = 1.5
+    last = math.ceil((rho + b) / dx) + 1                      # the pit's rim a contact half-length and a cell away
+    steps = np.unique(np.round(np.linspace(0.0, last, _POSITIONS)).astype(int))
+    half_x, half_y = _reach_m(pit, steps * dx, pit.hertz_approach_m())
+    grow = 1.25
     for _ in range(6):
         try:
-            return _solve_profile(pit, a, b, dx, dy, grow * rigid_centre, grow)
+            return _solve_profile(pit, dx, dy, grow * half_x + 2 * dx, grow * half_y + 2 * dy, steps)
         except ContactDomainError:
             grow *= 1.5
     raise RuntimeError(f"round pit of {pit.diameter_m * 1e3:g} mm: its contact does not fit a grid of "
                        f"{_MAX_CELLS} cells")
 
 
-def _solve_profile(pit: PitContact, a: float, b: float, dx: float, dy: float, drop_m: float, grow: float):
-    """The half-space profile on a grid ``grow`` x the largest contact (intact, or sunk by ``drop_m``)."""
+def _reach_m(pit: PitContact, arcs_m: np.ndarray, margin_m: float) -> tuple[float, float]:
+    """Half-widths (x, y) [m] of the region a rigid ball could touch at any of the arcs: where the gap is within
+    ``margin_m`` of its rigid drop there, outside the pit (the elastic contact stays inside it for a margin of the
+    intact contact's approach: Hertz's ellipse is 1/sqrt(2) of the rigid overlap at its approach)."""
+    reach = float(pit.rigid_drop_m(0.0)) + margin_m
+    x = np.linspace(-1.0, 1.0, 401) * math.sqrt(2.0 * pit.rx_m * reach)
+    y = np.linspace(0.0, 1.0, 401) * min(math.sqrt(2.0 * pit.ry_m * reach), 0.95 * pit.ball_radius_m)
+    gap = pit.gap_m(x[:, None], y[None, :])
+    touch = np.zeros(gap.shape, dtype=bool)
+    for s, drop in zip(arcs_m, pit.rigid_drop_m(arcs_m)):
+        touch |= (gap <= drop + margin_m) & ((x[:, None] + s) ** 2 + y[None, :] ** 2 >= pit.radius_m ** 2)
+    return float(np.abs(x[touch.any(axis=1)]).max()), float(y[touch.any(axis=0)].max())
+
+
+def _solve_profile(pit: PitContact, dx: float, dy: float, half_x: float, half_y: float, steps: np.ndarray):
+    """The half-space profile on a grid of these half-widths [m], the ball's contact at ``steps`` cells from the
+    pit's centre."""
     rho = pit.radius_m
-    half_x = grow * math.sqrt(b * b + 2.0 * pit.rx_m * drop_m)
-    half_y = min(grow * math.sqrt(a * a + 2.0 * pit.ry_m * drop_m), 0.95 * pit.ball_radius_m)
+    half_y = min(half_y, 0.95 * pit.ball_radius_m)
     nx, ny = 2 * math.ceil(half_x / dx), 2 * math.ceil(half_y / dy)
     if nx * ny > _MAX_CELLS:                                  # a contact far smaller than the pit: coarser cells
-        scale = math.sqrt(nx * ny / _MAX_CELLS)
-        dx, dy = dx * scale, dy * scale
-        nx, ny = 2 * math.ceil(half_x / dx), 2 * math.ceil(half_y / dy)
+        raise RuntimeError(f"round pit of {pit.diameter_m * 1e3:g} mm at {pit.load_n:g} N: its contact needs "
+                           f"{nx * ny} cells (more than {_MAX_CELLS})")
     nx, ny = fft.next_fast_len(nx) // 2 * 2, fft.next_fast_len(ny) // 2 * 2    # even, and twice fast for the FFT
     grid = HalfSpaceGrid(nx, ny, dx, dy, combined_modulus_pa(pit.effective_modulus_pa))
     # cell centres relative to the contact point; the ball sits at whole cells from the pit's centre, so the pit
@@ -255,8 +271,6 @@ def _solve_profile(pit: PitContact, a: float, b: float, dx: float, dy: float, dr
     y = (np.arange(ny) - ny / 2 + 0.5) * dy
     gap = pit.gap_m(x[:, None], y[None, :])
     intact = grid.solve(gap, pit.load_n)
-    last = math.ceil((rho + b) / dx) + 1                      # the pit's rim a contact half-length and a cell away
-    steps = np.unique(np.round(np.linspace(0.0, last, _POSITIONS)).astype(int))
     drops, guess = [], intact.pressure_pa
     for k in steps:
         inside = (x[:, None] + k * dx) ** 2 + y[None, :] ** 2 < rho * rho
