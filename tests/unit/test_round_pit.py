@@ -244,3 +244,23 @@ def test_the_envelope_line_of_a_7_mil_pit_is_weaker_than_a_21_mil_pits():
         around = (np.abs(fr - bpfo) < 0.4 * speed) & ~line
         ratio[mils] = spec[line].max() / np.median(spec[around])
     assert ratio[21] > 4.0 and ratio[21] > 3.0 * ratio[7], ratio
+
+
+@pytest.mark.parametrize("race", ["outer", "inner", "ball"])
+def test_every_kind_takes_a_round_pit(race):
+    """The shape is the same for every kind: its drop is deepest at the pit's centre on the kind's own surface and
+    zero beyond the profile's half-angle; a pit in a ball has a profile at each of its two contacts (the outer
+    contact's longer ellipse lets the ball down less)."""
+    from bkabem_core.bearing.defects.base import DefectProfile
+
+    g = BearingGeometry("6205", D_BALL, D_PITCH, 9)
+    b = Bearing(g, defects=[Dent(14 * MIL, CWRU_DEPTH, 0.0, race=race, shape="round_pit", bridging_load_n=25.0)])
+    p = DefectProfile(b.defects[0], b.contact_geometry)
+    for contact in p.kind.contacts:
+        rel = np.linspace(0.0, 1.2 * p.half_angle_rad, 241)
+        h = p.drop_m(rel, contact)
+        assert h[0] == h.max() > 0.0 and np.all(h[rel >= p.half_angle_rad] == 0.0)
+    if race == "ball":
+        assert p.drop_m(0.0, "outer") < p.drop_m(0.0, "inner") == p.depth_eff_m
+    slot = DefectProfile(Dent(14 * MIL, CWRU_DEPTH, 0.0, race=race), b.contact_geometry)
+    assert p.depth_eff_m < 0.1 * slot.depth_eff_m
