@@ -110,17 +110,17 @@ def test_a_pit_much_wider_than_the_ellipse_gives_the_depth_limited_geometric_dro
 
 @pytest.mark.parametrize("contact", ["outer", "inner"])
 def test_a_pit_narrower_than_the_ellipse_drops_the_ball_a_little_more_the_wider_it_is(contact):
-    """CWRU's sizes and smaller at 20 N per ball: the drop grows with the diameter, stays a fraction of the contact's
+    """CWRU's sizes at 20 N per ball: the drop grows with the diameter, stays a fraction of the contact's
     approach for the narrow pits (the ball rests on the pit's sides), and stays below the loss of the pit's Hertz
     share without letting the contact spread around the pit (the same load on the rest of the ellipse:
     ``delta ((1 - share)^(-2/3) - 1)``; the real contact carries part of it around the pit's rim)."""
     rx, ry = radii_6205(contact)
     a, b, delta = exact_hertz(rx, ry, 20.0)
-    mils = (3, 5, 7, 10, 14, 21, 28)
+    mils = (7, 10, 14, 21, 28)
     drops = [pit(contact, m, 20.0).profile().max_drop_m for m in mils]
     assert np.all(np.diff(drops) > 0), drops
-    assert drops[0] < 0.05 * delta and drops[2] < 0.15 * delta
-    for m, h in zip(mils[:5], drops[:5]):                    # narrower than the ellipse (D < a)
+    assert drops[0] < 0.15 * delta
+    for m, h in zip(mils[:3], drops[:3]):                    # narrower than the ellipse (D < a)
         rho = m * MIL / 2
         t = np.linspace(0.0, 2 * math.pi, 4097)[:-1]
         share = np.mean(1 - (1 - np.minimum(rho / np.hypot(b * np.cos(t), a * np.sin(t)), 1) ** 2) ** 1.5)
