@@ -323,25 +323,27 @@ class LineSelection:
             lim = np.where(self.nu > 0, (nyq - self.mu) / np.maximum(self.nu, 1e-300), np.inf)
         return float(max(lim.min(), 0.0))
 
-    def taper_speeds_hz(self, sample_rate_hz: float) -> tuple[float, float]:
-        """Shaft speeds [Hz] between which some line is near the Nyquist taper (0.8 .. 0.95 of Nyquist); an empty
-        range (lo > hi) when no line moves with speed."""
+    def taper_speeds_hz(self, sample_rate_hz: float, band=(0.8, 0.85, 0.95, 0.1)) -> tuple[float, float]:
+        """Shaft speeds [Hz] between which some line is near the Nyquist taper (``band[0]`` .. ``band[2]`` of
+        Nyquist: 0.8 .. 0.95 by default; ``band`` as :data:`~bkabem_core.synth.settings.TAPER_BAND`); an empty range
+        (lo > hi) when no line moves with speed."""
         nyq = sample_rate_hz / 2
         moving = self.nu > 0
         if not moving.any():
             return math.inf, 0.0
         nu, mu = self.nu[moving], self.mu[moving]
-        lo = float(np.min(np.maximum((0.8 * nyq - mu) / nu, 1e-9)))
-        hi = float(np.max((0.95 * nyq - mu) / nu))
+        lo = float(np.min(np.maximum((band[0] * nyq - mu) / nu, 1e-9)))
+        hi = float(np.max((band[2] * nyq - mu) / nu))
         return lo, hi
 
-    def band_taper(self, speed_hz: float, sample_rate_hz: float) -> np.ndarray | None:
-        """The Nyquist taper per line at a shaft speed (raised cosine from 0.85 to 0.95 of Nyquist), or None when
-        every line is below 0.85."""
+    def band_taper(self, speed_hz: float, sample_rate_hz: float, band=(0.8, 0.85, 0.95, 0.1)) -> np.ndarray | None:
+        """The Nyquist taper per line at a shaft speed (raised cosine from ``band[1]`` to ``band[2]`` of Nyquist,
+        0.85 to 0.95 by default), or None when every line is below ``band[1]``."""
+        _, lo, hi, width = band
         r = (self.nu * speed_hz + self.mu) / (sample_rate_hz / 2)
-        if r.max() <= 0.85:
+        if r.max() <= lo:
             return None
-        return np.where(r <= 0.85, 1.0, np.where(r >= 0.95, 0.0, 0.5 * (1 + np.cos(np.pi * (r - 0.85) / 0.1))))
+        return np.where(r <= lo, 1.0, np.where(r >= hi, 0.0, 0.5 * (1 + np.cos(np.pi * (r - lo) / width))))
 
     def phases_rad(self, shaft_rad: float, cage_rad: float, t_s: float, spin_per_cage: float) -> np.ndarray:
         """(L,) phase ``c . Phi`` of every line [rad] at shaft and cage angles [rad] and time [s]."""

@@ -38,7 +38,8 @@ _MASK64 = (1 << 64) - 1
 class Amplitudes:
     """What a knot needs at its speed (shared by the knots of one speed)."""
     f: float                    # shaft speed [Hz]
-    x: np.ndarray               # (L, U) complex displacement combinations [m], sensors applied
+    x: np.ndarray | None        # (L, U) complex displacement combinations [m], sensors applied (None: a knot
+                                #  derived from others, a wandering ball defect's: balltrack)
     fade: float                 # low-speed fade of every line
     taper: np.ndarray | None    # (L,) Nyquist taper (None: 1)
     y: np.ndarray               # (L, C) complex channel amplitudes (weights applied)
@@ -50,7 +51,7 @@ class Amplitudes:
     @property
     def weights(self) -> np.ndarray:
         """(L,) line weights (fade x taper)."""
-        return self.fade * (np.ones(self.x.shape[0]) if self.taper is None else self.taper)
+        return self.fade * (np.ones(self.y.shape[0]) if self.taper is None else self.taper)
 
     @property
     def rms(self) -> np.ndarray:
@@ -58,6 +59,35 @@ class Amplitudes:
         if self._rms is None:
             self._rms = np.sqrt(0.5 * np.sum(np.abs(self.y) ** 2, axis=0))
         return self._rms
+
+
+def blend(a: Amplitudes, b: Amplitudes, s: float, f: float) -> Amplitudes:
+    """The amplitudes a fraction ``s`` in [0, 1] of the time from a knot of amplitudes ``a`` to one of ``b`` (the
+    same line kernel), at speed ``f`` [Hz]: linear in time, as the samples between the two knots are (tables,
+    channel amplitudes, ISO velocities, the weights); the knot of a wandering ball defect between two spectra
+    (:mod:`bkabem_core.synth.balltrack`)."""
+    if a is b:
+        return a
+
+    def lerp(u, v):
+        out = np.subtract(v, u)
+        out *= s
+        out += u
+        return out
+
+    if isinstance(a.tables, np.ndarray):
+        tables = np.subtract(b.tables, a.tables)
+        tables *= np.float32(s)
+        tables += a.tables
+    else:
+        tables = [tuple(ta + ta.dtype.type(s) * (tb - ta) for ta, tb in zip(fa, fb))
+                  for fa, fb in zip(a.tables, b.tables)]
+    taper = None
+    if a.taper is not None or b.taper is not None:
+        ones = np.ones(a.y.shape[0])
+        taper = lerp(ones if a.taper is None else a.taper, ones if b.taper is None else b.taper)
+    return Amplitudes(f=float(f), x=None, fade=a.fade + s * (b.fade - a.fade), taper=taper, y=lerp(a.y, b.y),
+                      v_iso=lerp(a.v_iso, b.v_iso), tables=tables, lines=a.lines)
 
 
 def _i64(a) -> np.ndarray:
@@ -94,11 +124,14 @@ class FusedLines:
     sample_rate_hz : float
     slip : bool
         Whether the stream has random slip (the families' slip offsets are computed in the segment call).
+    spin_slip : float
+        The balls' spin slip (:mod:`bkabem_core.synth.balltrack`): the families of the spin phase read the walk of
+        cage and spin slip together (0: none).
     """
 
     renders_floor = True
 
-    def __init__(self, selection, channels, dc, sample_rate_hz: float, slip: bool):
+    def __init__(self, selection, channels, dc, sample_rate_hz: float, slip: bool, spin_slip: float = 0.0):
         fams = selection.families
         c = len(channels)
         layout = fams.layout(c)
@@ -116,15 +149,20 @@ class FusedLines:
         self._work = np.empty(2 * layout["max_n"] * c)
         # per phase (each family's, then its carrier's) the constants of phase_args (rate / BPFO, fixed, rate,
         # rate / 2), the slip-offset row of each family's phase and carrier (-1: none) over the distinct slip
-        # factors, the carrier sums
-        kappas: list = []
+        # factors and walks (0: the cage's slip; 1: the cage's and the spin's, for the families of the spin phase),
+        # the carrier sums
+        rows: list = []
+        self.spin_slip = float(spin_slip)
 
-        def row(kappa: float) -> int:
-            if not slip or kappa == 0.0:
+        def row(kappa: float, walk: int = 0) -> int:
+            if kappa == 0.0 or (walk == 0 and not slip):
                 return -1
-            if kappa not in kappas:
-                kappas.append(kappa)
-            return kappas.index(kappa)
+            if (kappa, walk) not in rows:
+                rows.append((kappa, walk))
+            return rows.index((kappa, walk))
+
+        def walk_of(p) -> int:
+            return 1 if self.spin_slip > 0 and p[2] != 0 else 0
 
         ff = fams.families
         bpfo = self.bpfo_per_hz
@@ -133,22 +171,33 @@ class FusedLines:
             consts[2 * i] = (f.rate_p / bpfo, f.fixed_p, f.rate_p, 0.5 * f.rate_p)
             if f.carrier:
                 consts[2 * i + 1] = (f.rate_q / bpfo, f.fixed_q, f.rate_q, 0.5 * f.rate_q)
-        self.wp = np.array([row(f.kappa_p) for f in ff], dtype=np.int64)
-        self.wq = np.array([row(f.kappa_q) if f.carrier else -1 for f in ff], dtype=np.int64)
-        self.kappas = tuple(kappas)
+        self.wp = np.array([row(f.kappa_p, walk_of(f.p)) for f in ff], dtype=np.int64)
+        self.wq = np.array([row(f.kappa_q, walk_of(f.q)) if f.carrier else -1 for f in ff], dtype=np.int64)
+        self.kappas = tuple(r[0] for r in rows)
+        self.walks = tuple(r[1] for r in rows)
+        #: the spin slip of the walks the segments read (None: the cage's walk alone)
+        self.walk_spin = self.spin_slip if any(self.walks) else None
         self.csrc = carrier_sums(ff)
         self._layout, self._consts = layout, consts
-        self._segment_plan = self.segment_plan(layout, consts, self.kappas, self.wp, self.wq, self.csrc)
+        self._segment_plan = self.segment_plan(layout, consts, self.kappas, self.wp, self.wq, self.csrc, self.walks)
         self._warp: dict = {}
 
     @staticmethod
-    def segment_plan(layout: dict, consts: np.ndarray, kappas, wp, wq, csrc):
+    def segment_plan(layout: dict, consts: np.ndarray, kappas, wp, wq, csrc, walks=None):
         """The segment kernel's plan (checked in C): the families' ``layout``, per phase (each family's, then its
-        carrier's) ``consts`` (rate / BPFO, fixed, rate, rate / 2), the distinct slip factors ``kappas``, each
-        family's slip rows ``wp``, ``wq`` (-1: none) and carrier sums ``csrc`` (F, 2)."""
+        carrier's) ``consts`` (rate / BPFO, fixed, rate, rate / 2), the distinct slip rows' factors ``kappas`` and
+        walks ``walks`` (None: the cage's walk for every one), each family's slip rows ``wp``, ``wq`` (-1: none)
+        and carrier sums ``csrc`` (F, 2)."""
+        walks = np.zeros(len(kappas), dtype=np.int64) if walks is None else walks
         return synth_kernel.lines_segment_plan(
             _i64(layout["lg"]), _i64(layout["carrier"]), _i64(layout["offset"]), _i64(wp), _i64(wq),
-            _f64(consts).reshape(-1), _f64(np.asarray(kappas, dtype=float)), _i64(csrc).reshape(-1))
+            _f64(consts).reshape(-1), _f64(np.asarray(kappas, dtype=float)), _i64(csrc).reshape(-1), _i64(walks))
+
+    def family_tables(self) -> list:
+        """Per family the slice of its table(s) in a knot's buffer (floats)."""
+        lay = self._layout
+        rows = (lay["N"] + 3) * (1 + lay["carrier"])
+        return [slice(int(o), int(o + r * self.n_channels)) for o, r in zip(lay["offset"], rows)]
 
     def knot(self, x: np.ndarray, f: float, fade: float, taper, spow) -> tuple:
         """(y, v_iso, tables) at shaft speed ``f`` [Hz]: ``x`` (L, U) complex128 combinations [m] (multiplied in
@@ -176,7 +225,7 @@ class FusedLines:
             bpfo, fs = self.bpfo_per_hz, self.sample_rate_hz
             c1u = bpfo / fs * a.f
             c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
-            w, jw0 = walk.window(a.u_int, j, m, c1u, c2u, a.u_frac)
+            w, jw0 = walk.window(a.u_int, j, m, c1u, c2u, a.u_frac, self.walk_spin)
             warp = self._warp.get(m)
             if warp is None:
                 warp = self._warp[m] = np.empty(len(self.kappas) * m, dtype=np.int64)
@@ -206,8 +255,9 @@ class LoopLines:
 
     renders_floor = False
 
-    def __init__(self, selection, channels, dc, sample_rate_hz: float, dtype, segment_fn):
+    def __init__(self, selection, channels, dc, sample_rate_hz: float, dtype, segment_fn, spin_slip: float = 0.0):
         self.families = selection.families
+        self.spin_slip = float(spin_slip)
         self.nu, self.mu = selection.nu, selection.mu
         self.bpfo_per_hz = selection.bpfo_per_hz
         self.sample_rate_hz = float(sample_rate_hz)
@@ -252,13 +302,15 @@ class LoopLines:
         c1u = bpfo / fs * a.f
         c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
 
-        def warp_of(kappa: float):
-            """Fixed-point slip offsets of a phase that moves kappa turns per ball pass of slip (None: no slip)."""
-            if walk is None or kappa == 0.0:
+        def warp_of(kappa: float, p):
+            """Fixed-point slip offsets of a phase ``p`` that moves kappa turns per ball pass of slip (None: no
+            slip): the cage's walk, with the spin's for a phase of the balls' spin."""
+            spin = self.spin_slip if self.spin_slip > 0 and p[2] != 0 else None
+            if walk is None or kappa == 0.0 or (spin is None and walk.sigma == 0.0):
                 return None
-            if kappa not in warps:
-                warps[kappa] = walk.warp_fixed(a.u_int, j, m, c1u, c2u, a.u_frac, (kappa,))[0]
-            return warps[kappa]
+            if (kappa, spin) not in warps:
+                warps[kappa, spin] = walk.warp_fixed(a.u_int, j, m, c1u, c2u, a.u_frac, (kappa,), spin)[0]
+            return warps[kappa, spin]
 
         out[...] = self.dc
         scratch = self._scratch.get(m)
@@ -272,7 +324,7 @@ class LoopLines:
         blend = 65536.0 / length
         for fi, fam in enumerate(self.families.families):
             phase0, dphase0, dd = phase_args(fam.rate_p, fam.fixed_p, a, b, j, fs, bpfo)
-            warp = warp_of(fam.kappa_p)
+            warp = warp_of(fam.kappa_p, fam.p)
             ta, tb = a.amp.tables[fi], (None if same else b.amp.tables[fi])
             for ti in range(len(ta)):
                 self._segment_fn(phase0, dphase0, dd, warp, ta[ti], None if tb is None else tb[ti], float(j), blend,
@@ -281,7 +333,7 @@ class LoopLines:
                 out += scratch[0]
                 continue
             q0, dq0, ddq = phase_args(fam.rate_q, fam.fixed_q, a, b, j, fs, bpfo)
-            self._segment_fn(q0, dq0, ddq, warp_of(fam.kappa_q), self._carrier_table, None, float(j), blend,
+            self._segment_fn(q0, dq0, ddq, warp_of(fam.kappa_q, fam.q), self._carrier_table, None, float(j), blend,
                              scratch[2], None, None)
             synth_kernel.carrier_mix(scratch[2], scratch[0], scratch[1], out)
         return False

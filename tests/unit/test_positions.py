@@ -347,7 +347,7 @@ def test_labels_carry_each_bearings_frequencies(two, tmp_path):
     alone = Scenario.of_case(case)
     gt = alone.ground_truth(alone.states[0], 0.0)
     mult = {b: case.fault_multipliers(b) for b in ("de", "nde")}
-    row = label_row(run, gt, 0, 0, 6400, (25.0, 25.0, 25.0), mult, ["de_vertical"], "runs/x.parquet")
+    row = label_row(run, gt, 0, 0, 6400, (25.0, 25.0, 25.0), mult, ["de_vertical"], "runs/x.parquet", anti_alias=False)
     for b in ("de", "nde"):
         want = _textbook(two.bearing_table(b))
         assert row[f"{b}_bpfo_per_hz"] == pytest.approx(want["bpfo"], rel=1e-12)

@@ -58,6 +58,8 @@ class DefectKey:
         What it is, for people (with its unit and range).
     unit : str
         Its unit ("" for a number without one).
+    required : bool
+        Whether a ``[[defects]]`` table of the kind must give it (else it may leave it out: ``default``).
     """
 
     name: str
@@ -66,6 +68,7 @@ class DefectKey:
     default: object
     doc: str
     unit: str = ""
+    required: bool = True
 
     @property
     def schema(self) -> tuple:
@@ -221,8 +224,8 @@ class DefectKind(ABC):
 
     def check_table(self, table: dict, bearing: dict) -> tuple[str, str] | None:
         """``(key, reason)`` of the first problem of a type-checked ``[[defects]]`` table of this kind against the
-        case's ``[bearing]``: its place (``angle_deg`` or ``clock``), its own keys, its size, then its shape (a round
-        pit's width; None: none)."""
+        case's ``[bearing]``: its place (``angle_deg`` or ``clock``), its own keys (those it gives), its size, then its
+        shape (a round pit's width; None: none)."""
         if "clock" in table:
             if "angle_deg" in table:
                 return "clock", "give angle_deg or clock, not both"
@@ -230,6 +233,8 @@ class DefectKind(ABC):
                 return "clock", (f"only for a pit fixed in the bearing plane (an outer-race defect); a {self.adjective} "
                                  f"defect's place is angle_deg")
         for k in self.own_keys:
+            if k.name not in table and not k.required:
+                continue
             reason = self.check_own_key(k.name, table[k.name], bearing)
             if reason:
                 return k.name, reason
