@@ -145,12 +145,13 @@ class Machine:
             b = raw["bearings"][name]
             geometry = case.bearing_geometry(name)                 # each position's own bearing
             damper = case.bearing_damping_n_s_m(name)
-            bearing = Bearing(geometry, defects=[d for d in case.defects(name) if d.depth_m > 0.0])
             fx, fy = loads[name]
             w = np.array([-fx, -fy], dtype=float)                 # the load on the shaft the bearing carries
             axial = float(b["axial_load_n"])
             lin = Bearing(geometry).linearise(w[0], w[1], axial_load_n=axial, damping_n_s_m=damper,
                                               average_over_pitch=True)
+            bearing = Bearing(geometry, defects=[d for d in case.defects(name) if d.depth_m > 0.0])
+            bearing = bearing.with_bridging_load(bearing.peak_ball_load_n(lin.state))   # round pits: at its load
             if b["linearisation"] == "model":
                 k = np.array([lin.stiffness_horizontal_n_m, lin.stiffness_vertical_n_m])
                 c = np.array([lin.damping_horizontal_n_s_m, lin.damping_vertical_n_s_m])

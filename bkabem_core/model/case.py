@@ -21,7 +21,7 @@ from importlib import resources
 from pathlib import Path
 
 from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent, FaultFrequencies
-from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
+from bkabem_core.bearing.defects.profiles import EDGE_PROFILES, SHAPES
 from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, moving_kinds, own_keys, periodic_kinds
 from bkabem_core.model import plausibility
 from bkabem_core.model.baseline_keys import BASELINE_KEYS, BASELINE_OFF, BASELINE_OPTIONAL, baseline_problem
@@ -68,6 +68,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "edge": ("str", ("in", set(EDGE_PROFILES))),
         "edge_fraction": ("float", ("range", 0.0, 1.0)),
         **{k.name: k.schema for k in own_keys()},           # the keys only some kinds have (a ball defect's ball)
+        "shape": ("str", ("in", set(SHAPES))), "clock": ("int", ("range", 1, 12)),  # optional (docs/faults.md 3a)
     },
     "baseline": BASELINE_KEYS,
     "excitation": {
@@ -160,8 +161,9 @@ TOP_LEVEL = ("case", "defects", "baseline", "excitation", "bearings", "housings"
 #: the acquisition's: the synthesiser's), so that cases written before them stay valid
 _OPTIONAL = {"baseline": BASELINE_OPTIONAL, "bearings.*": OPTIONAL,
              "measurement": tuple(SCHEMA["measurement"])}
-#: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
+#: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it; keys any table may leave out
 _KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
+_DEFECT_OPTIONAL = ("shape", "clock")        # a slot, as before; angle_deg instead of the clock
 BEARING_NAMES = BEARINGS
 
 
@@ -316,6 +318,7 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
         race = d.get("race") if isinstance(d, dict) else None
         others = tuple(k for k, names in _KIND_KEYS.items() if race not in names)
         may_omit = tuple(o.name for o in (kind(race).own_keys if race in KINDS else ()) if not o.required)
+        may_omit += _DEFECT_OPTIONAL + (("angle_deg",) if isinstance(d, dict) and "clock" in d else ())   # or clock
         _check_table(f"defects[{i}]", d, SCHEMA["defects[]"], source, optional=others + may_omit)
         for k in others:
             if k in d:
@@ -492,7 +495,7 @@ def _check_overlaps(defects: list, bearings: dict, source: str) -> None:
         radius = k.table_race_radius_m(bearing) if hasattr(k, "table_race_radius_m") else \
             bearing["ball_diameter_m"] / 2.0
         half = d["length_m"] / (2.0 * radius)                       # half the angle it spans [rad]
-        centre = math.radians(d["angle_deg"])
+        centre = math.radians(k.table_angle_deg(d))
         for j, (c, h) in seen.get(where, []):
             gap = abs(math.remainder(centre - c, 2.0 * math.pi))
             if gap < half + h:
@@ -629,9 +632,10 @@ class Case:
         for d in self.raw["defects"]:
             if location is not None and d["bearing"] != location:
                 continue
-            out.append(Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]),
-                            angle_rad=math.radians(d["angle_deg"]), edge_fraction=float(d["edge_fraction"]),
-                            bearing=d["bearing"], race=d["race"], edge=d["edge"], **kind(d["race"]).dent_fields(d)))
+            k = kind(d["race"])
+            out.append(Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]), shape=d.get("shape", SHAPES[0]),
+                            angle_rad=math.radians(k.table_angle_deg(d)), edge_fraction=float(d["edge_fraction"]),
+                            bearing=d["bearing"], race=d["race"], edge=d["edge"], **k.dent_fields(d)))
         return out
 
     def dent(self) -> Dent:
@@ -729,7 +733,8 @@ class Case:
             optional = (len(path) == 1 and last in _OPTIONAL.get(path[0], ())) or \
                 (len(path) == 2 and path[0] == "bearings" and last in _OPTIONAL["bearings.*"])
             if path[:1] == ["defects"] and isinstance(node, dict) and node.get("race") in KINDS:
-                optional = optional or any(o.name == last and not o.required for o in kind(node["race"]).own_keys)
+                optional = optional or last in _DEFECT_OPTIONAL or any(o.name == last and not o.required
+                                                                       for o in kind(node["race"]).own_keys)
             if not isinstance(node, dict) or (last not in node and not optional):
                 raise CaseError(dotted, "unknown key", self.source)
             node[last] = value
@@ -761,7 +766,7 @@ class Case:
             k = kind(d.race)
             fm = FaultFrequencies(**per[d.bearing]["fault_multipliers"])
             entry = {"kind": d.race, "bearing": d.bearing, "race": d.race, "length_m": d.length_m,
-                     "depth_m": d.depth_m, "angle_rad": d.angle_rad, "edge": d.edge,
+                     "depth_m": d.depth_m, "angle_rad": d.angle_rad, "edge": d.edge, "shape": d.shape,
                      "bearing_designation": per[d.bearing]["designation"],
                      "fault_frequency": k.fault_frequency, "fault_multiplier": k.fault_multiplier(fm),
                      "strike_multiplier": k.strike_multiplier(fm)}
