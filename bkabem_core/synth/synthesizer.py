@@ -230,15 +230,11 @@ class Synthesizer:
     channel_names = property(lambda self: self._plan.channels.names)
     units = property(lambda self: self._plan.channels.units)
     orders = property(lambda self: self._plan.lines.orders, doc="BPFO order of each kept line (0: not an order).")
-    coefficients = property(lambda self: self._plan.lines.coefficients,
-                            doc="(L, 6) coefficients of the kept lines on the machine's phases (shaft, cage_de, "
-                                "spin_de, cage_nde, spin_nde, line).")
+    coefficients = property(lambda self: self._plan.lines.coefficients, doc="(L, 6) on the machine's phases.")
     bpfo_per_hz = property(lambda self: self._plan.lines.bpfo_per_hz, doc="The DE bearing's BPFO per shaft Hz.")
     n_balls = property(lambda self: self._plan.lines.n_balls, doc="The DE bearing's ball count.")
-    fault_multipliers = property(lambda self: self._plan.lines.multipliers["de"],
-                                 doc="The DE bearing's fault multipliers (:attr:`bearing_multipliers`: each's).")
-    bearing_multipliers = property(lambda self: dict(self._plan.lines.multipliers),
-                                   doc="Each bearing's fault multipliers per shaft Hz, ``{\"de\": .., \"nde\": ..}``.")
+    fault_multipliers = property(lambda self: self._plan.lines.multipliers["de"], doc="The DE bearing's.")
+    bearing_multipliers = property(lambda self: dict(self._plan.lines.multipliers), doc="Each bearing's.")
     highest_order = property(lambda self: self._plan.lines.highest_order)
     table_size = property(lambda self: self._plan.lines.families.table_size)
     floor_density = property(lambda self: self._plan.floor_density)
