@@ -7,8 +7,9 @@ updates arriving between chunks). The method, its error bounds and the realism o
 
 * **Angle domain.** Speed is integrated exactly (it is piecewise linear in time, so every line's phase is a
   quadratic per segment) and a line of coefficients ``c`` contributes ``Re(Y exp(i c . Phi))`` where ``Phi`` are
-  the shaft, cage, ball-spin and supply phases since t = 0 (cage angle 0 at t = 0, the convention of
-  :mod:`bkabem_core.solve.harmonic`); BPFO order ``k`` is ``Re(Y_k exp(i k u 2 pi))`` with ``u`` the ball passes.
+  the shaft phase, each bearing's cage and ball-spin phases and the supply phase since t = 0 (cage angles 0 at
+  t = 0, the convention of :mod:`bkabem_core.solve.harmonic`); BPFO order ``k`` is ``Re(Y_k exp(i k u 2 pi))``
+  with ``u`` the ball passes. Each bearing slips by a walk of its own (docs/synthesis.md).
   Signals are continuous in value and slope across chunks and speed changes.
 * **Knots.** The complex amplitudes ``Y`` (per channel) are evaluated at *knots*: every chunk border in streaming,
   every ``knot_s`` of run time and every profile breakpoint when rendering a profile, plus subdivisions so that the
