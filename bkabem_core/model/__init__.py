@@ -10,6 +10,11 @@ Case files
     DEFAULT_CASE     -- the embedded default case, ``electric_motor_6010``
     SCHEMA_VERSION   -- the case schema this version writes
 
+The compact machine form (modules ``compact``, ``starting``)
+============================================================
+    machine_case     -- a case written as [machine] (shaft steps, disks, bearing positions, housings) loaded
+    starting_case    -- the documented starting case of ``bkabem case new`` (two designations, a rotor mass)
+
 The bearing at each position (module ``positions``)
 ===================================================
     ResolvedBearing  -- a position's bearing: every value found (catalogue, overrides, clearance) and its provenance
@@ -41,7 +46,7 @@ Vocabulary (module ``vocabulary``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "ResolvedBearing", "problem", "BOUNDS",
+__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "machine_case", "starting_case", "ResolvedBearing", "problem", "BOUNDS",
            "CatalogueBearing", "CatalogueError", "lookup", "designations", "radial_clearance_m", "not_a_file", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
@@ -51,6 +56,8 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "embedded_cases": "case",
     "DEFAULT_CASE": "case",
     "SCHEMA_VERSION": "case",
+    "machine_case": "compact",
+    "starting_case": "starting",
     "ResolvedBearing": "positions",
     "problem": "plausibility",
     "BOUNDS": "plausibility",

@@ -24,6 +24,7 @@ from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent, Faul
 from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
 from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, moving_kinds, own_keys, periodic_kinds
 from bkabem_core.model import plausibility
+from bkabem_core.model.compact import machine_case
 from bkabem_core.model.files import InputFileError, embedded_names, parse_toml, read_input_text
 from bkabem_core.model.positions import (
     BEARING_KEYS,
@@ -551,6 +552,8 @@ class Case:
 
     @classmethod
     def from_dict(cls, raw: dict, source: str = "") -> "Case":
+        if "machine" in raw:                # the compact form (model/compact.py): loaded as the full form it gives
+            return machine_case(raw, source, cls.from_dict, CaseError)
         raw = copy.deepcopy(raw)
         version = raw["case"].get("schema_version") if isinstance(raw.get("case"), dict) else None
         if version == 1:

@@ -194,6 +194,9 @@ def _full(tmp_path: Path, name: str) -> Path:
     (lambda d: ["replay", REPO / "recordings" / "example_runup.mcap", "--rerun-save", _full(d, "f.rrd")],
      "--rerun-save"),
     (lambda d: ["replay", REPO / "recordings" / "example_runup.mcap", "--start-offset", "1e308"], "--start-offset"),
+    (lambda d: ["excitation", "--case", case_with(d, "max_speed_hz", "1797.0")],     # r/min written as Hz
+     "limiting speed of bearings.de, 183.3 Hz (6010"),
+    (lambda d: ["node", "--ros-args", "-p", "max_speed:=5000.0"], "above the bearings' limiting speed"),
     (lambda d: ["node", "--namespace", "bad ns"], "--namespace"),
     (lambda d: ["node", "--name", "1x"], "--name"),
     (lambda d: ["speed", "--topic", "bad topic", "--seconds", "1"], "--topic"),
