@@ -141,14 +141,20 @@ class BallTrack:
     ball_radius_m : float
     correlation_steps : float
         The spin axis's correlation [cage revolutions]; 0: the pit stays on the track (gain 1).
-    passes_per_step : int
-        Ball passes per cage revolution (the ball count).
+    passes_per_step : int or float
+        Ball passes of the DE (the stream's clock) per revolution of the defective ball's cage: its ball count for a
+        ball of the DE, or of a machine whose bearings share their kinematics; ``BPFO_de / FTF_nde`` for a ball of
+        an NDE bearing of its own.
     spin_slip : float
         Relative standard deviation of the spin's advance per ball pass [-].
     gated : ndarray of bool (L,)
         The kept lines the gain multiplies.
     wander_revolutions : float
         ``correlation_steps`` in ball revolutions (the case key).
+    bearing : str
+        The defective ball's bearing (``"de"``, ``"nde"``).
+    spin_column : int
+        The column of its spin phase in the machine's phases (2: the DE's, also for shared kinematics; 4: the NDE's).
     """
 
     pit_radius_m: float
@@ -159,11 +165,15 @@ class BallTrack:
     spin_slip: float
     gated: np.ndarray
     wander_revolutions: float
+    bearing: str = "de"
+    spin_column: int = 2
 
     @classmethod
     def of_model(cls, model, coefficients: np.ndarray) -> "BallTrack | None":
-        """The ball track of ``model``'s first ball defect for its kept lines of ``coefficients`` (L, 4) (None: the
-        model has no ball defect, or neither wander nor spin slip)."""
+        """The ball track of ``model``'s first ball defect for its kept lines of ``coefficients`` (L, 6) on the
+        machine's phases (None: the model has no ball defect, or neither wander nor spin slip). The gated lines are
+        those on the defective ball's own bearing's cage and spin columns (the DE's where both bearings share their
+        kinematics)."""
         case = model.case
         table = next((d for d in case.raw["defects"] if d["race"] == "ball"), None)
         if table is None:
@@ -175,14 +185,17 @@ class BallTrack:
         geometry = case.bearing_geometry(table["bearing"])
         bearing = case.bearing(table["bearing"])
         load = float(np.max(model.machine.sites[table["bearing"]].state.ball_loads_n))
-        fm = model.bearing_multipliers[table["bearing"]]          # the defective ball's own bearing
+        own = table["bearing"]
+        fm = model.bearing_multipliers[own]                       # the defective ball's own bearing
         z = int(geometry.n_balls)
         c = np.asarray(coefficients)
-        gated = (c[:, 2] != 0) | (c[:, 1] % z != 0)
+        cage, spin = model.phases.columns(own)
+        gated = (c[:, spin] != 0) | (c[:, cage] % z != 0)
         steps = wander / (fm.bsf / fm.ftf)
+        per_step = z if cage == 1 else model.bpfo_per_hz / fm.ftf
         return cls(pit_radius_m=0.5 * float(table["length_m"]), half_width_m=track_half_width_m(bearing.contact, load),
-                   ball_radius_m=0.5 * geometry.ball_diameter_m, correlation_steps=steps, passes_per_step=z,
-                   spin_slip=spin_slip, gated=gated, wander_revolutions=wander)
+                   ball_radius_m=0.5 * geometry.ball_diameter_m, correlation_steps=steps, passes_per_step=per_step,
+                   spin_slip=spin_slip, gated=gated, wander_revolutions=wander, bearing=own, spin_column=spin)
 
     @property
     def wanders(self) -> bool:

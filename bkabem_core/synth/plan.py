@@ -99,14 +99,16 @@ class Plan:
         """(line kernels, feature accumulation) for the settings (:class:`~bkabem_core.synth.settings.Settings`
         ``kernel``)."""
         c, fams = len(self.channels.channels), len(self.lines.families.families)
-        spin = self.track.spin_slip if self.track is not None else 0.0
+        spin, column = (self.track.spin_slip, self.track.spin_column) if self.track is not None else (0.0, 2)
         if (settings.kernel == "auto" and synth_kernel.LINES_AVAILABLE and settings.dtype == np.float32
                 and c <= FUSED_MAX_CHANNELS and fams <= FUSED_MAX_FAMILIES):
-            lines = FusedLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.slip > 0, spin)
+            lines = FusedLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.slip > 0, spin,
+                               column)
             return lines, synth_kernel.accumulate
         compiled = synth_kernel.AVAILABLE and settings.kernel != "reference"
         segment = synth_kernel.segment if compiled else synth_kernel.segment_reference
-        lines = LoopLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.dtype, segment, spin)
+        lines = LoopLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.dtype, segment, spin,
+                          column)
         return lines, synth_kernel.accumulate if compiled else synth_kernel.accumulate_reference
 
     def _seeded(self, settings) -> None:
@@ -119,7 +121,7 @@ class Plan:
         self.output = settings.output.bind(settings.channels, settings.sample_rate_hz, settings.seed)
         gt = self.case.ground_truth()
         gt.update({
-            "fault_multipliers": self.model.fault_multipliers.to_dict(),
+            "fault_multipliers": self.lines.multipliers["de"].to_dict(),          # the DE bearing's
             "seed": settings.seed,
             "slip_std_fraction": settings.slip,
             "noise_density": settings.noise,
@@ -131,6 +133,7 @@ class Plan:
             "broadband_force_n_per_sqrt_hz": self.floor_density,
             **({"ball_track": self.track.to_dict()} if self.track is not None else {}),
             "line_coefficients": self.lines.coefficients.tolist(),
+            "line_bearings": self.model.phases.line_bearings(self.lines.coefficients),
             "line_multipliers": self.lines.nu.tolist(),
         })
         #: the run's ground truth (JSON-ready; a chunk adds its speed and fault frequencies)
@@ -280,7 +283,7 @@ class Plan:
         fs = self.settings.sample_rate_hz
         top = self.lines.top_hz(f)
         k = self.lines.highest_order
-        per_order = self.lines.bpfo_per_hz * f
+        per_order = self.lines.top_bpfo_per_hz * f
         fit = min(int(fs / 2 / per_order) if f > 0 else k, k - 1)
         return (f"sample rate {fs:g} Hz is below twice the highest kept line: {top:.1f} Hz at {f:g} Hz shaft speed "
                 f"(order {k}; needs a rate > {2 * top:.1f} Hz, or max_order <= {fit}, or band_limit='taper')")
@@ -299,10 +302,10 @@ class Plan:
         if f_hi_hz >= f_lo_hz:
             self.spectrum.build(f_lo_hz, f_hi_hz)
 
-    def line_phases_rad(self, shaft_rad: float, cage_rad: float, t_s: float) -> np.ndarray:
-        """(L,) phase of every kept line [rad] at shaft and cage angles [rad] and time [s]."""
-        fm = self.model.fault_multipliers
-        return self.lines.phases_rad(shaft_rad, cage_rad, t_s, fm.bsf / fm.ftf)
+    def line_phases_rad(self, shaft_rad: float, cage_rad: dict, t_s: float) -> np.ndarray:
+        """(L,) phase of every kept line [rad] at the shaft angle, each bearing's cage angle (``{"de": ..,
+        "nde": ..}``) [rad] and time [s]."""
+        return self.lines.phases_rad(shaft_rad, cage_rad, t_s)
 
 
 # =========================================================================== the spectrum at a knot

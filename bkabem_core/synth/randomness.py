@@ -1,6 +1,7 @@
 """The synthesiser's randomness, indexed by absolute position so that chunking never changes it.
 
-:class:`SlipWalk` is the random walk of the ball-pass phase (random slip, Antoni & Randall), :class:`SensorNoise`
+:class:`SlipWalk` is the random walk of a bearing's ball-pass phase (random slip, Antoni & Randall), :class:`SlipWalks`
+those of a machine's bearings (each its own, seeded by the run's seed and the bearing's name), :class:`SensorNoise`
 the sensor noise of a set of channels (made in the C sample loops from :func:`noise_key`; :class:`NoiseBlocks`,
 numpy's generator in seeded blocks, where the kernels are not built). Units: ball passes, standard normal
 numbers, noise in the channels' units.
@@ -19,11 +20,11 @@ from bkabem_core.synth.features import _FOLD
 
 class _Walk:
     """A Gaussian random walk at integer passes j, ``X_0 = 0``, ``X_{j+1} - X_j ~ N(0, sigma^2)``, made in blocks of
-    :data:`SlipWalk.BLOCK` increments, each block from ``SeedSequence([seed, tag, block])`` (values depend on
-    (seed, tag, j) alone; a block goes on from the last one's end)."""
+    :data:`SlipWalk.BLOCK` increments, each block from ``SeedSequence([*key, block])`` (``key``: the seed, a tag and
+    any further words; values depend on (key, j) alone; a block goes on from the last one's end)."""
 
-    def __init__(self, sigma: float, seed: int, tag: int, block: int):
-        self.sigma, self.seed, self.tag, self.size = float(sigma), int(seed), int(tag), int(block)
+    def __init__(self, sigma: float, key: tuple, block: int):
+        self.sigma, self.key, self.size = float(sigma), tuple(int(v) for v in key), int(block)
         self.reset()
 
     def reset(self):
@@ -37,7 +38,7 @@ class _Walk:
         if b < self._next_block:                         # went back beyond the kept blocks: replay
             self.reset()
         while self._next_block <= b:
-            rng = np.random.default_rng(np.random.SeedSequence([self.seed, self.tag, self._next_block]))
+            rng = np.random.default_rng(np.random.SeedSequence([*self.key, self._next_block]))
             eps = self.sigma * rng.standard_normal(self.size)
             w = np.empty(self.size)
             w[0] = 0.0
@@ -67,12 +68,20 @@ class _Walk:
         return out
 
 
+def bearing_word(bearing: str) -> int:
+    """The word of a bearing's name in its walks' seeds (the name's ASCII bytes as one integer: ``"nde"`` is
+    0x6E6465)."""
+    return int.from_bytes(str(bearing).encode("ascii"), "big")
+
+
 class SlipWalk:
-    """Random walk W_j of the ball-pass phase [passes] at integer nominal passes j (W_j = 0 for j <= 0).
+    """Random walk W_j of a bearing's ball-pass phase [passes] at integer nominal passes j (W_j = 0 for j <= 0).
 
     ``W_{j+1} - W_j ~ N(0, sigma^2)`` i.i.d.: the j-th inter-arrival lasts ``1 - (W_{j+1} - W_j)`` nominal passes,
     i.e. a relative jitter of standard deviation ``sigma`` (Antoni & Randall's random slip). Increments come in
-    blocks of 2^14 passes, each from its own seeded generator, so values depend only on (seed, j).
+    blocks of 2^14 passes, each from its own seeded generator, so values depend only on (seed, bearing, j): the DE's
+    blocks from ``SeedSequence([seed, tag, block])`` (the walk of a machine with one bearing type), another
+    bearing's from ``SeedSequence([seed, tag, bearing_word(bearing), block])``.
 
     The balls' spin slip (:mod:`bkabem_core.synth.balltrack`) is a second, independent walk ``s V_j`` of the same
     form, ``V`` of unit steps and ``s`` the spin slip [fraction of the spin's advance per pass]: the spin phase of
@@ -82,11 +91,13 @@ class SlipWalk:
     BLOCK = 1 << 14
     _TAG, _SPIN_TAG = 0x51117, 0x5B1A
 
-    def __init__(self, sigma: float, seed: int):
+    def __init__(self, sigma: float, seed: int, bearing: str = "de"):
         self.sigma = float(sigma)
         self.seed = int(seed)
-        self._cage = _Walk(self.sigma, self.seed, self._TAG, self.BLOCK)
-        self._spin = _Walk(1.0, self.seed, self._SPIN_TAG, self.BLOCK)
+        self.bearing = str(bearing)
+        own = () if self.bearing == "de" else (bearing_word(self.bearing),)
+        self._cage = _Walk(self.sigma, (self.seed, self._TAG, *own), self.BLOCK)
+        self._spin = _Walk(1.0, (self.seed, self._SPIN_TAG, *own), self.BLOCK)
 
     def reset(self):
         self._cage.reset()
@@ -144,6 +155,60 @@ class SlipWalk:
         if spin is not None:
             w = np.concatenate([w, w + float(spin) * self._spin.values(u_int + jw0, u_int + jw0 + w.size - 1)])
         return w, jw0
+
+
+class SlipWalks:
+    """The slip walks of a machine's bearings for one run: each bearing's cage slips on its own (a :class:`SlipWalk`
+    per bearing, made when first read), all of relative standard deviation ``sigma`` per ball pass and all read at
+    the DE's ball passes (the stream's clock; :mod:`bkabem_core.synth.lines` scales the NDE's step to its own
+    passes). A machine whose two bearings share their kinematics has its lines on the DE's phases and reads the DE's
+    walk alone: the run's one walk.
+
+    Parameters
+    ----------
+    sigma : float
+        Relative standard deviation of a ball pass's inter-arrival [-].
+    seed : int
+    """
+
+    def __init__(self, sigma: float, seed: int):
+        self.sigma = float(sigma)
+        self.seed = int(seed)
+        self._walks: dict[str, SlipWalk] = {}
+
+    def bearing(self, bearing: str) -> SlipWalk:
+        """The walk of ``bearing`` (``"de"``, ``"nde"``)."""
+        walk = self._walks.get(bearing)
+        if walk is None:
+            walk = self._walks[bearing] = SlipWalk(self.sigma, self.seed, bearing)
+        return walk
+
+    def reset(self) -> None:
+        for walk in self._walks.values():
+            walk.reset()
+
+    def warp_fixed(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float, kappas=(1.0,),
+                   spin: float | None = None, bearing: str = "de") -> list:
+        """:meth:`SlipWalk.warp_fixed` of the walk of ``bearing``."""
+        return self.bearing(bearing).warp_fixed(u_int, j0, m, c1, c2, u_frac, kappas, spin)
+
+    def window(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float, sources) -> tuple:
+        """(values, pass of the first) of the walks ``sources`` (each (bearing, spin slip or None): a bearing's
+        cage walk W, or ``W + s V`` with its spin walk) that a segment's samples need (:meth:`SlipWalk.window`),
+        one walk's values after the other in one array (the line-set kernel's walks)."""
+        if len(sources) == 1 and sources[0][1] is None:
+            return self.bearing(sources[0][0]).window(u_int, j0, m, c1, c2, u_frac)
+        cage: dict = {}
+        parts, jw0 = [], 0
+        for bearing, spin in sources:
+            walk = self.bearing(bearing)
+            if bearing not in cage:
+                cage[bearing] = walk.window(u_int, j0, m, c1, c2, u_frac)
+            w, jw0 = cage[bearing]
+            if spin is not None:
+                w = w + float(spin) * walk._spin.values(u_int + jw0, u_int + jw0 + w.size - 1)
+            parts.append(w)
+        return np.concatenate(parts), jw0
 
 
 def noise_key(seed: int) -> int:

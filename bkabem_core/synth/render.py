@@ -125,13 +125,16 @@ class FusedLines:
     slip : bool
         Whether the stream has random slip (the families' slip offsets are computed in the segment call).
     spin_slip : float
-        The balls' spin slip (:mod:`bkabem_core.synth.balltrack`): the families of the spin phase read the walk of
-        cage and spin slip together (0: none).
+        The balls' spin slip (:mod:`bkabem_core.synth.balltrack`): the families of the spin phase of the bearing
+        whose spin is in column ``spin_column`` read the walk of that bearing's cage and spin slip together (0: none).
+    spin_column : int
+        The column of the defective ball's spin phase in the machine's phases (2: the DE's, 4: the NDE's).
     """
 
     renders_floor = True
 
-    def __init__(self, selection, channels, dc, sample_rate_hz: float, slip: bool, spin_slip: float = 0.0):
+    def __init__(self, selection, channels, dc, sample_rate_hz: float, slip: bool, spin_slip: float = 0.0,
+                 spin_column: int = 2):
         fams = selection.families
         c = len(channels)
         layout = fams.layout(c)
@@ -149,20 +152,21 @@ class FusedLines:
         self._work = np.empty(2 * layout["max_n"] * c)
         # per phase (each family's, then its carrier's) the constants of phase_args (rate / BPFO, fixed, rate,
         # rate / 2), the slip-offset row of each family's phase and carrier (-1: none) over the distinct slip
-        # factors and walks (0: the cage's slip; 1: the cage's and the spin's, for the families of the spin phase),
-        # the carrier sums
+        # factors and walks, the carrier sums. A walk is a bearing's cage slip, or its cage's and its balls' spin
+        # slip together (the families of the defective ball's spin phase): ``walk_sources`` (bearing, spin slip or
+        # None) in the order of their index, only those some row reads
         rows: list = []
         self.spin_slip = float(spin_slip)
 
-        def row(kappa: float, walk: int = 0) -> int:
-            if kappa == 0.0 or (walk == 0 and not slip):
+        def row(kappa: float, source) -> int:
+            if kappa == 0.0 or (source[1] is None and not slip):
                 return -1
-            if (kappa, walk) not in rows:
-                rows.append((kappa, walk))
-            return rows.index((kappa, walk))
+            if (kappa, source) not in rows:
+                rows.append((kappa, source))
+            return rows.index((kappa, source))
 
-        def walk_of(p) -> int:
-            return 1 if self.spin_slip > 0 and p[2] != 0 else 0
+        def source_of(v, bearing: str) -> tuple:
+            return bearing, (self.spin_slip if self.spin_slip > 0 and v[spin_column] != 0 else None)
 
         ff = fams.families
         bpfo = self.bpfo_per_hz
@@ -171,12 +175,13 @@ class FusedLines:
             consts[2 * i] = (f.rate_p / bpfo, f.fixed_p, f.rate_p, 0.5 * f.rate_p)
             if f.carrier:
                 consts[2 * i + 1] = (f.rate_q / bpfo, f.fixed_q, f.rate_q, 0.5 * f.rate_q)
-        self.wp = np.array([row(f.kappa_p, walk_of(f.p)) for f in ff], dtype=np.int64)
-        self.wq = np.array([row(f.kappa_q, walk_of(f.q)) if f.carrier else -1 for f in ff], dtype=np.int64)
+        self.wp = np.array([row(f.kappa_p, source_of(f.p, f.bearing_p)) for f in ff], dtype=np.int64)
+        self.wq = np.array([row(f.kappa_q, source_of(f.q, f.bearing_q)) if f.carrier else -1 for f in ff],
+                           dtype=np.int64)
         self.kappas = tuple(r[0] for r in rows)
-        self.walks = tuple(r[1] for r in rows)
-        #: the spin slip of the walks the segments read (None: the cage's walk alone)
-        self.walk_spin = self.spin_slip if any(self.walks) else None
+        #: the walks the segments read, (bearing, spin slip or None) each, DE first and the cage's alone first
+        self.walk_sources = tuple(sorted({r[1] for r in rows}, key=lambda w: (w[0] != "de", w[1] is not None)))
+        self.walks = tuple(self.walk_sources.index(r[1]) for r in rows)
         self.csrc = carrier_sums(ff)
         self._layout, self._consts = layout, consts
         self._segment_plan = self.segment_plan(layout, consts, self.kappas, self.wp, self.wq, self.csrc, self.walks)
@@ -186,7 +191,7 @@ class FusedLines:
     def segment_plan(layout: dict, consts: np.ndarray, kappas, wp, wq, csrc, walks=None):
         """The segment kernel's plan (checked in C): the families' ``layout``, per phase (each family's, then its
         carrier's) ``consts`` (rate / BPFO, fixed, rate, rate / 2), the distinct slip rows' factors ``kappas`` and
-        walks ``walks`` (None: the cage's walk for every one), each family's slip rows ``wp``, ``wq`` (-1: none)
+        walks ``walks`` (indices into :attr:`walk_sources`; None: the first walk for every one), each family's slip rows ``wp``, ``wq`` (-1: none)
         and carrier sums ``csrc`` (F, 2)."""
         walks = np.zeros(len(kappas), dtype=np.int64) if walks is None else walks
         return synth_kernel.lines_segment_plan(
@@ -225,7 +230,7 @@ class FusedLines:
             bpfo, fs = self.bpfo_per_hz, self.sample_rate_hz
             c1u = bpfo / fs * a.f
             c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
-            w, jw0 = walk.window(a.u_int, j, m, c1u, c2u, a.u_frac, self.walk_spin)
+            w, jw0 = walk.window(a.u_int, j, m, c1u, c2u, a.u_frac, self.walk_sources)
             warp = self._warp.get(m)
             if warp is None:
                 warp = self._warp[m] = np.empty(len(self.kappas) * m, dtype=np.int64)
@@ -251,13 +256,17 @@ class LoopLines:
     dtype : numpy dtype of the samples
     segment_fn : callable
         :func:`~bkabem_core.synth.kernel.segment` or its numpy reference.
+    spin_slip, spin_column : float, int
+        As :class:`FusedLines`.
     """
 
     renders_floor = False
 
-    def __init__(self, selection, channels, dc, sample_rate_hz: float, dtype, segment_fn, spin_slip: float = 0.0):
+    def __init__(self, selection, channels, dc, sample_rate_hz: float, dtype, segment_fn, spin_slip: float = 0.0,
+                 spin_column: int = 2):
         self.families = selection.families
         self.spin_slip = float(spin_slip)
+        self.spin_column = int(spin_column)
         self.nu, self.mu = selection.nu, selection.mu
         self.bpfo_per_hz = selection.bpfo_per_hz
         self.sample_rate_hz = float(sample_rate_hz)
@@ -302,15 +311,17 @@ class LoopLines:
         c1u = bpfo / fs * a.f
         c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
 
-        def warp_of(kappa: float, p):
-            """Fixed-point slip offsets of a phase ``p`` that moves kappa turns per ball pass of slip (None: no
-            slip): the cage's walk, with the spin's for a phase of the balls' spin."""
-            spin = self.spin_slip if self.spin_slip > 0 and p[2] != 0 else None
+        def warp_of(kappa: float, p, bearing: str):
+            """Fixed-point slip offsets of a phase ``p`` of ``bearing`` that moves kappa turns per step of its
+            bearing's walk (None: no slip): that bearing's cage walk, with its spin walk for a phase of the
+            defective ball's spin."""
+            spin = self.spin_slip if self.spin_slip > 0 and p[self.spin_column] != 0 else None
             if walk is None or kappa == 0.0 or (spin is None and walk.sigma == 0.0):
                 return None
-            if (kappa, spin) not in warps:
-                warps[kappa, spin] = walk.warp_fixed(a.u_int, j, m, c1u, c2u, a.u_frac, (kappa,), spin)[0]
-            return warps[kappa, spin]
+            if (kappa, spin, bearing) not in warps:
+                warps[kappa, spin, bearing] = walk.warp_fixed(a.u_int, j, m, c1u, c2u, a.u_frac, (kappa,), spin,
+                                                              bearing)[0]
+            return warps[kappa, spin, bearing]
 
         out[...] = self.dc
         scratch = self._scratch.get(m)
@@ -324,7 +335,7 @@ class LoopLines:
         blend = 65536.0 / length
         for fi, fam in enumerate(self.families.families):
             phase0, dphase0, dd = phase_args(fam.rate_p, fam.fixed_p, a, b, j, fs, bpfo)
-            warp = warp_of(fam.kappa_p, fam.p)
+            warp = warp_of(fam.kappa_p, fam.p, fam.bearing_p)
             ta, tb = a.amp.tables[fi], (None if same else b.amp.tables[fi])
             for ti in range(len(ta)):
                 self._segment_fn(phase0, dphase0, dd, warp, ta[ti], None if tb is None else tb[ti], float(j), blend,
@@ -333,7 +344,7 @@ class LoopLines:
                 out += scratch[0]
                 continue
             q0, dq0, ddq = phase_args(fam.rate_q, fam.fixed_q, a, b, j, fs, bpfo)
-            self._segment_fn(q0, dq0, ddq, warp_of(fam.kappa_q, fam.q), self._carrier_table, None, float(j), blend,
+            self._segment_fn(q0, dq0, ddq, warp_of(fam.kappa_q, fam.q, fam.bearing_q), self._carrier_table, None, float(j), blend,
                              scratch[2], None, None)
             synth_kernel.carrier_mix(scratch[2], scratch[0], scratch[1], out)
         return False

@@ -1,11 +1,11 @@
-"""The mutable state of a synthesiser's run (its knots, the next sample, the position of the slip walk), and the
+"""The mutable state of a synthesiser's run (its knots, the next sample, the position of the slip walks), and the
 samples and metadata of a chunk over its knots.
 
 Speed is piecewise linear in time between *knots* (every chunk border in streaming; every ``knot_s`` of run time and
 every profile breakpoint when rendering a profile; subdivided so that the speed moves by at most
-``max_speed_step_hz`` between knots). A knot holds its sample position, its speed, the ball passes since t = 0
-(integer part and fraction: the ball-pass phase is integrated exactly, a quadratic in time per segment) and the
-line amplitudes at its speed. Everything else a run needs is the plan's (:mod:`bkabem_core.synth.plan`), fixed.
+``max_speed_step_hz`` between knots). A knot holds its sample position, its speed, the DE bearing's ball passes since t = 0
+(integer part and fraction: the ball-pass phase is integrated exactly, a quadratic in time per segment; every other
+phase, the NDE's cage and spin among them, is a multiple of it) and the line amplitudes at its speed. Everything else a run needs is the plan's (:mod:`bkabem_core.synth.plan`), fixed.
 
 A chunk (:meth:`Stream.chunk`) is rendered segment by segment by the plan's line kernels
 (:mod:`bkabem_core.synth.render`). With the C kernels the sensor noise and the broadband floor are added inside the
@@ -49,8 +49,9 @@ class Stream:
 
     Parameters
     ----------
-    walk : SlipWalk or None
-        The random walk of the ball-pass phase of the run's seed (its blocks are made as the run advances).
+    walk : SlipWalks or None
+        The random walks of the bearings' ball-pass phases of the run's seed (their blocks are made as the run
+        advances).
     gate : TrackGate or None
         The track wander of a ball defect for the run's seed (:mod:`bkabem_core.synth.balltrack`).
     """
@@ -325,11 +326,11 @@ def _iso_velocity(plan, f: float, a, b, s: float) -> dict:
 def _make_chunk(plan, stream, n0: int, n: int, out: np.ndarray, acc) -> Chunk:
     """The :class:`Chunk` of samples ``out`` of [n0, n0 + n): speed, angles, features, ground truth."""
     fs = plan.settings.sample_rate_hz
-    bpfo, nb = plan.lines.bpfo_per_hz, plan.lines.n_balls
+    bpfo = plan.lines.bpfo_per_hz
     f0, ui, uf, *_ = stream.state_at(n0, bpfo, fs)
     f_end, *_ = stream.state_at(n0 + n, bpfo, fs)
     passes = ui + uf
-    cage = (TWO_PI * (passes / nb)) % TWO_PI
+    cages = plan.lines.cage_angles_rad(passes)
     shaft = (TWO_PI * (passes / bpfo)) % TWO_PI
     feats = {}
     if acc is not None:
@@ -340,9 +341,11 @@ def _make_chunk(plan, stream, n0: int, n: int, out: np.ndarray, acc) -> Chunk:
         feats["iso10816_velocity_rms_mm_s"] = _iso_velocity(plan, f, a, b, s)
     gt = dict(plan.ground_truth)
     gt["shaft_speed_hz"] = f0
-    fm = plan.model.fault_multipliers
-    gt["fault_frequencies_hz"] = {"ftf": fm.ftf * f0, "bpfo": fm.bpfo * f0, "bpfi": fm.bpfi * f0, "bsf": fm.bsf * f0}
+    per = {b: {"ftf": fm.ftf * f0, "bpfo": fm.bpfo * f0, "bpfi": fm.bpfi * f0, "bsf": fm.bsf * f0}
+           for b, fm in plan.lines.multipliers.items()}
+    gt["fault_frequencies_hz"] = per["de"]                       # the field of one bearing type: the DE's
+    gt["bearing_fault_frequencies_hz"] = per
     return Chunk(samples=out.T, first_sample_index=int(n0), t0_s=n0 / fs, sample_rate_hz=fs,
                  channel_names=plan.channels.names, units=plan.channels.units, shaft_speed_hz=float(f0),
-                 shaft_speed_end_hz=float(f_end), cage_angle_rad=float(cage), shaft_angle_rad=float(shaft),
-                 features=feats, ground_truth=gt)
+                 shaft_speed_end_hz=float(f_end), cage_angle_rad=float(cages["de"]), shaft_angle_rad=float(shaft),
+                 features=feats, ground_truth=gt, cage_angles_rad={b: float(v) for b, v in cages.items()})

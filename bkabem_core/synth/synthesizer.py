@@ -7,8 +7,9 @@ updates arriving between chunks). The method, its error bounds and the realism o
 
 * **Angle domain.** Speed is integrated exactly (it is piecewise linear in time, so every line's phase is a
   quadratic per segment) and a line of coefficients ``c`` contributes ``Re(Y exp(i c . Phi))`` where ``Phi`` are
-  the shaft, cage, ball-spin and supply phases since t = 0 (cage angle 0 at t = 0, the convention of
-  :mod:`bkabem_core.solve.harmonic`); BPFO order ``k`` is ``Re(Y_k exp(i k u 2 pi))`` with ``u`` the ball passes.
+  the shaft phase, each bearing's cage and ball-spin phases and the supply phase since t = 0 (cage angles 0 at
+  t = 0, the convention of :mod:`bkabem_core.solve.harmonic`); BPFO order ``k`` is ``Re(Y_k exp(i k u 2 pi))``
+  with ``u`` the ball passes. Each bearing slips by a walk of its own (docs/synthesis.md).
   Signals are continuous in value and slope across chunks and speed changes.
 * **Knots.** The complex amplitudes ``Y`` (per channel) are evaluated at *knots*: every chunk border in streaming,
   every ``knot_s`` of run time and every profile breakpoint when rendering a profile, plus subdivisions so that the
@@ -48,7 +49,7 @@ from bkabem_core.synth.features import Chunk, waveform_features  # noqa: F401  (
 from bkabem_core.synth.measurement import DEFAULT_SAMPLE_RATE_HZ, FROM_CASE, Measurement  # noqa: F401
 from bkabem_core.synth.plan import Plan, choose_method
 from bkabem_core.synth.profile import SpeedProfile, SynthError, _finite, parse_profile  # noqa: F401  (re-exported)
-from bkabem_core.synth.randomness import SlipWalk
+from bkabem_core.synth.randomness import SlipWalks
 from bkabem_core.synth.sensors import Accelerometer, AntiAliasFilter
 from bkabem_core.synth.settings import Settings
 from bkabem_core.synth.stream import Stream
@@ -230,10 +231,11 @@ class Synthesizer:
     channel_names = property(lambda self: self._plan.channels.names)
     units = property(lambda self: self._plan.channels.units)
     orders = property(lambda self: self._plan.lines.orders, doc="BPFO order of each kept line (0: not an order).")
-    coefficients = property(lambda self: self._plan.lines.coefficients, doc="(L, 4) coefficients of the kept lines.")
-    bpfo_per_hz = property(lambda self: self._plan.lines.bpfo_per_hz)
-    n_balls = property(lambda self: self._plan.lines.n_balls)
-    fault_multipliers = property(lambda self: self._plan.model.fault_multipliers)
+    coefficients = property(lambda self: self._plan.lines.coefficients, doc="(L, 6) on the machine's phases.")
+    bpfo_per_hz = property(lambda self: self._plan.lines.bpfo_per_hz, doc="The DE bearing's BPFO per shaft Hz.")
+    n_balls = property(lambda self: self._plan.lines.n_balls, doc="The DE bearing's ball count.")
+    fault_multipliers = property(lambda self: self._plan.lines.multipliers["de"], doc="The DE bearing's.")
+    bearing_multipliers = property(lambda self: dict(self._plan.lines.multipliers), doc="Each bearing's.")
     highest_order = property(lambda self: self._plan.lines.highest_order)
     table_size = property(lambda self: self._plan.lines.families.table_size)
     floor_density = property(lambda self: self._plan.floor_density)
@@ -255,14 +257,16 @@ class Synthesizer:
         return self._plan.lines.frequency_hz(speed_hz)
 
     def line_orders(self) -> np.ndarray:
-        """Each synthesised line's frequency in BPFO orders [-] (the integer orders of BPFO orders, as floats)."""
+        """Each synthesised line's frequency in the DE bearing's BPFO orders [-] (the integer orders of BPFO orders,
+        as floats)."""
         return self._plan.lines.nu / self._plan.lines.bpfo_per_hz
 
     def line_phases_rad(self, chunk: Chunk) -> np.ndarray:
         """Phase of every line at the first sample of ``chunk`` [rad], before slip: ``c . Phi`` (BPFO order k:
-        ``k z theta_cage``), so that ``line_spectrum`` amplitudes times ``exp(i phase)`` are the lines at t0."""
-        return self._plan.line_phases_rad(float(chunk.shaft_angle_rad), float(chunk.cage_angle_rad),
-                                          float(chunk.t0_s))
+        ``k z theta_cage``, each line on its own bearing's cage and spin), so that ``line_spectrum`` amplitudes
+        times ``exp(i phase)`` are the lines at t0."""
+        cages = chunk.cage_angles_rad or {"de": chunk.cage_angle_rad, "nde": chunk.cage_angle_rad}
+        return self._plan.line_phases_rad(float(chunk.shaft_angle_rad), cages, float(chunk.t0_s))
 
     def line_spectrum(self, speed_hz: float) -> dict:
         """The lines the waveform holds at ``speed_hz`` [Hz] (what an FFT of a steady run shows).
@@ -358,7 +362,7 @@ class Synthesizer:
     def reset(self) -> None:
         """Start a new stream at sample 0, cage angle 0."""
         s = self.settings
-        self._stream = Stream(SlipWalk(s.slip, s.seed), TrackGate(s.seed))
+        self._stream = Stream(SlipWalks(s.slip, s.seed), TrackGate(s.seed))
 
     @property
     def next_sample_index(self) -> int:

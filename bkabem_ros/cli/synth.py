@@ -360,7 +360,7 @@ def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_
     acc = next((i for i, n in enumerate(names) if n.endswith("acceleration")), 0)
     disp = next((i for i, n in enumerate(names) if n.endswith("displacement")), None)
     model = synth.model
-    ff = model.fault_multipliers.at_speed(speed_hz)
+    ff = model.bearing_multipliers[synth.channels[acc].bearing].at_speed(speed_hz)      # the channel's bearing
     bpfo = ff.bpfo
     defects = defects_of_case(model.case)
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(11, 8))

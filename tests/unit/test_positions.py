@@ -256,15 +256,6 @@ def test_one_bearing_type_folds_onto_one_cage_and_spin(model):
     assert set(model.phases.line_bearings(model.lines.coefficients)) == {"de+nde"}
 
 
-def test_the_synthesiser_refuses_two_different_bearings_with_one_line(two_model):
-    from bkabem_core.synth.profile import SynthError
-    from bkabem_core.synth.synthesizer import Synthesizer
-
-    with pytest.raises(SynthError) as info:
-        Synthesizer(two_model, sample_rate_hz=25600.0)
-    assert "two bearings of different kinematics" in str(info.value) and "\n" not in str(info.value)
-
-
 # --------------------------------------------------------------------------- ground truth, messages, viewer, labels
 def test_ground_truth_gives_each_defect_its_own_bearings_frequency(two):
     gt = two.ground_truth()
