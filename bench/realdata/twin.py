@@ -35,6 +35,9 @@ LIBRARY = "motor_6010"
 #: The twin's channels standing for CWRU's drive-end and fan-end accelerometers (housing, 12 o'clock = vertical).
 CHANNELS = {"DE": "de_vertical_acceleration", "FE": "nde_vertical_acceleration"}
 #: The acquisition the fault-library twin gets (module docstring).
+#: Random slip of a rig twin's ball passes (std of the interval / its mean): 1-2 % in rolling bearings (Randall &
+#: Antoni 2011, MSSP 25(2), section 2.1), the lower end for a steady rig.
+RIG_SLIP = 0.01
 LIBRARY_ACQUISITION = {"slip": 0.01, "noise_acc": 5.0e-4, "accelerometer": "magnet", "anti_alias": True}
 
 
@@ -123,16 +126,17 @@ def twin_run(cond: Condition, twin: str, speed_hz: float) -> tuple[str, dict, di
         else:
             params["fault"] = "healthy"
         return f"{LIBRARY}_healthy", {}, params
-    # A rig twin (cwru_rig). The pit: diameter along the rolling direction, CWRU's depth; the outer-race angle from
-    # the clock position. The load: CWRU's dynamometer load is a torque; how it changes the bearing's radial load
-    # and the spectrum is the rig case's business (issue 26: a `load_hp` run parameter). The acquisition (mounting,
-    # noise floor, anti-alias, slip) is the rig case's default, so none is set here. Adjust to the rig's keys.
-    params = {"speed_hz": float(speed_hz)}
+    # A rig twin (cwru_rig): CWRU's EDM pit as a round pit of the record's diameter and CWRU's depth, whose entry
+    # and exit follow from the contact (edge "ball"), the outer-race angle from the clock position. The load: CWRU's
+    # dynamometer load is a torque; it enters through the record's speed (the motor's slip), the radial load on the
+    # bearings is the rotor's weight and the coupling's turning force (the rig case's [baseline]). The acquisition
+    # (mounting, noise floor, anti-alias, tones) is the rig case's [measurement].
+    params = {"speed_hz": float(speed_hz), "slip": RIG_SLIP}
     if cond.kind == "healthy":
         params["fault"] = "healthy"
     else:
         params.update(fault=cond.kind, bearing=bearing, length_m=cond.pit_diameter_m, depth_m=PIT_DEPTH_M,
-                      angle_deg=cond.angle_deg)
+                      angle_deg=cond.angle_deg, shape="round_pit", edge="ball")
         if cond.kind == "ball":
             params["ball"] = 1
     overrides = {}

@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
+from bkabem_core.bearing.defects.profiles import EDGE_PROFILES, SHAPES
 from bkabem_core.bearing.defects.registry import KINDS, kind, own_keys
 from bkabem_core.model.case import Case, CaseError, InputFileError, parse_toml, read_input_text
 from bkabem_core.model.vocabulary import BEARINGS
@@ -93,6 +93,9 @@ PARAMETERS: dict[str, Parameter] = {
                                "shaft angle 0"),
     **{k.name: Parameter(k.type, k.unit, k.default, k.lo, None, doc=k.doc) for k in own_keys()},
     "edge": Parameter("str", "", EDGE_PROFILES[0], choices=EDGE_PROFILES, doc="edge profile of the defects"),
+    "shape": Parameter("str", "", SHAPES[0], choices=SHAPES,
+                       doc="defect shape: slot (across the ball track) or round_pit (length_m is its diameter; the "
+                           "contact can bridge it; edge must be 'ball')"),
     "speed_hz": Parameter("float", "Hz", 25.0, 0.0, None, strict_lo=True,
                           doc="constant shaft speed (or give profile)"),
     "profile": Parameter("str", "", None, doc="speed profile over run time: constant:F, ramp:F0:F1:T, "
@@ -126,7 +129,7 @@ PARAMETERS: dict[str, Parameter] = {
 }
 #: Parameters that describe the defects or the load (not with a scenario, which has its own).
 MACHINE_PARAMETERS = ("fault", "bearing", "length_m", "depth_m", "angle_deg", *(k.name for k in own_keys()), "edge",
-                      "load_factor")
+                      "shape", "load_factor")
 SCENARIO_ONLY = ("time_scale", "scenario_start_s")
 
 _TOP = ("dataset", "run", "grid", "random", "output")
@@ -512,7 +515,7 @@ class DatasetSpec:
                     raise DatasetSpecError(key(k), "only with a scenario" + where, src)
                 params[k] = None
             if params["fault"] == "healthy":
-                for k in ("length_m", "depth_m", "angle_deg", *(o.name for o in own_keys()), "edge", "bearing"):
+                for k in ("length_m", "depth_m", "angle_deg", *(o.name for o in own_keys()), "edge", "shape", "bearing"):
                     params[k] = None                    # no defect: sizes would be labels of nothing
             case = self._run_case(params, keys, where)
             machine_hash = case.case_hash
@@ -573,6 +576,8 @@ class DatasetSpec:
             k = kind(name)
             t = {"bearing": b, "race": name, "length_m": params["length_m"], "depth_m": params["depth_m"],
                  "angle_deg": params["angle_deg"], "edge": params["edge"], "edge_fraction": 0.1}
+            if params["shape"] != SHAPES[0]:         # a slot is the case's default shape: its tables name none
+                t["shape"] = params["shape"]
             for o in k.own_keys:                     # the keys only this kind has (a ball defect's ball number)
                 reason = k.check_own_key(o.name, params[o.name], self.base_case.bearing_table(b))
                 if reason:
