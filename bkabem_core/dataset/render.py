@@ -259,7 +259,8 @@ def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tupl
                     pre + "length_m": d["length_m"], pre + "depth_m": d["depth_m"],
                     pre + "angle_deg": math.degrees(d["angle_rad"]),
                     **{pre + k.name: d.get(k.name) for k in own_keys()},      # a ball defect's ball number
-                    pre + "edge": d["edge"], pre + "fault_frequency": d["fault_frequency"],
+                    pre + "edge": d["edge"], pre + "shape": d.get("shape", "slot"),
+                    pre + "fault_frequency": d["fault_frequency"],
                     pre + "fault_multiplier": d["fault_multiplier"],
                     pre + "fault_frequency_hz": d["fault_frequency_hz"],
                     pre + "strike_frequency_hz": d["strike_frequency_hz"]})
