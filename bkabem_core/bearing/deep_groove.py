@@ -32,7 +32,7 @@ against each other, and a trailing axis of length ``n_balls`` is added internall
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
