@@ -51,3 +51,16 @@ def fault_library():
     from bkabem_core.solve.harmonic import BkaBem
 
     return {k: BkaBem(Case.load(f"motor_6010_{k}")) for k in ("outer", "inner", "ball", "healthy")}
+
+
+@pytest.fixture(scope="session")
+def classic_ball(fault_library):
+    """The fault library's ball defect with its pit kept on the contact track and no spin slip
+    (``wander_revolutions = 0``, ``spin_slip = 0``): the quasi-static model's clean 2 x BSF comb, for the tests of
+    what a ball defect's lines are (their intermittency: tests/unit/test_balltrack.py)."""
+    from bkabem_core.model.case import Case
+    from bkabem_core.solve.harmonic import BkaBem
+
+    case = Case.load("motor_6010_ball").with_overrides({"defects.0.wander_revolutions": 0.0,
+                                                         "defects.0.spin_slip": 0.0})
+    return BkaBem(case, like=fault_library["ball"])

@@ -18,6 +18,10 @@ Defects (package ``defects``: module ``base``; the kinds, one module each, in it
     DefectSet            -- the defects of one bearing: the drop every ball feels
     DefectProfile        -- one defect with its bearing's geometry
 
+Elastic half-space contact (module ``halfspace``)
+=================================================
+    HalfSpaceGrid        -- frictionless contact of two elastic bodies on a grid (a round pit's bridging)
+
 Contact forces of the time-domain models (module ``contacts``)
 =============================================================
     HertzPair            -- nonlinear ball forces of both bearings, tabulated over a ball pass
@@ -26,7 +30,7 @@ Contact forces of the time-domain models (module ``contacts``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Bearing", "BearingGeometry", "FaultFrequencies", "HertzContact", "BearingState", "BearingLinearisation", "Dent", "DefectSet", "DefectProfile", "HertzPair", "LinearPair"]
+__all__ = ["Bearing", "BearingGeometry", "FaultFrequencies", "HertzContact", "BearingState", "BearingLinearisation", "Dent", "DefectSet", "DefectProfile", "HalfSpaceGrid", "HertzPair", "LinearPair"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Bearing": "deep_groove",
@@ -38,6 +42,7 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "Dent": "defects.base",
     "DefectSet": "defects.base",
     "DefectProfile": "defects.base",
+    "HalfSpaceGrid": "halfspace",
     "HertzPair": "contacts",
     "LinearPair": "contacts",
 })

@@ -31,6 +31,7 @@ against each other, and a trailing axis of length ``n_balls`` is added internall
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import asdict, dataclass
 
@@ -39,7 +40,7 @@ import numpy as np
 from bkabem_core.bearing.defects.base import DefectProfile, DefectSet, Dent
 from bkabem_core.bearing.defects.profiles import ContactGeometry, wrap_to_pi  # noqa: F401  (wrap_to_pi: for users)
 from bkabem_core.bearing.defects.registry import kind
-from bkabem_core.bearing.statics import BearingStatics
+from bkabem_core.bearing.statics import BearingState, BearingStatics
 
 TWO_PI = 2.0 * math.pi
 
@@ -202,8 +203,10 @@ class Bearing(BearingStatics):
         self._k = self.contact.k_total_n_m15
         self._ball_offsets = TWO_PI * np.arange(g.n_balls) / g.n_balls + g.first_ball_angle_rad
         self._rb = 0.5 * d
+        c = self.contact
         self.contact_geometry = ContactGeometry(self.outer_race_radius_m, self.inner_race_radius_m, self._rb,
-                                                self.contact.rx_outer_m, self.contact.rx_inner_m, g.n_balls)
+                                                c.rx_outer_m, c.rx_inner_m, g.n_balls, c.ry_outer_m, c.ry_inner_m,
+                                                c.effective_modulus_pa)
         self.defect_set = DefectSet(self.defects, self.contact_geometry)
         self._profile = DefectProfile(self.dent, self.contact_geometry) if self.dent is not None else None
         if self._profile is not None:
@@ -348,6 +351,24 @@ class Bearing(BearingStatics):
         if self.defect_set.per_ball:
             return self.defect_set.drop_m(beta, shaft_angle_rad, spin_angle_rad)
         return self.defect_set.drop_m(beta[..., None], shaft_angle_rad, spin_angle_rad)[..., 0]
+
+    def peak_ball_load_n(self, state: BearingState, n_angles: int = 64) -> float:
+        """Largest ball load [N] at the displacement of a static ``state`` over one ball pitch of cage angle (defects
+        ignored)."""
+        e = state.displacement_m
+        theta = np.arange(n_angles) * (TWO_PI / self.geometry.n_balls / n_angles)
+        return float(np.max(self.ball_loads_n(e[0], e[1], theta, with_dent=False, e_z_m=e[2])))
+
+    def with_bridging_load(self, load_n: float) -> "Bearing":
+        """This bearing with its round pits bridged at the ball load ``load_n`` [N] (``Dent.bridging_load_n``: the
+        contact ellipse at that load decides how far a ball sinks into a pit narrower than it,
+        :mod:`bkabem_core.bearing.defects.round_pit`); other defects as they are. The models of a machine evaluate
+        every round pit at its bearing's largest static ball load (:meth:`peak_ball_load_n`)."""
+        if not any(d.shape == "round_pit" for d in self.defects):
+            return self
+        load = float(load_n)
+        return Bearing(self.geometry, defects=[dataclasses.replace(d, bridging_load_n=load)
+                                               if d.shape == "round_pit" else d for d in self.defects])
 
     def dent_drop_m(self, rel_angle_rad):
         """Radial drop [m] at an absolute angular distance ``rel_angle_rad`` [rad] from the (first) dent centre."""

@@ -102,10 +102,13 @@ def commit(tmp: Path, final: Path) -> None:
 def _synth_options(p: dict) -> dict:
     dens = {q: p[k] for k, q in (("noise_acc", "acceleration"), ("noise_disp", "displacement"),
                                  ("noise_vel", "velocity")) if p[k] and q in p["quantities"]}
-    acc = None if p["accelerometer"] == "none" else Accelerometer.mounted(p["accelerometer"])
+    mount = p["accelerometer"]
+    acc = None if mount == "none" else ("case" if mount == "case" else Accelerometer.mounted(mount))
+    # anti_alias None: the case's filter (the spec gave none and the case has one: spec._measurement_defaults)
+    aa = "case" if p["anti_alias"] is None else (AntiAliasFilter.for_rate(p["sample_rate_hz"]) if p["anti_alias"]
+                                                 else None)
     return dict(quantities=list(p["quantities"]), noise_density=dens or None, slip=p["slip"], seed=p["seed"],
-                band_limit="taper", features=False, accelerometer=acc,
-                anti_alias=AntiAliasFilter.for_rate(p["sample_rate_hz"]) if p["anti_alias"] else None)
+                band_limit="taper", features=False, accelerometer=acc, anti_alias=aa)
 
 
 _SYNTHS: "OrderedDict[str, Synthesizer]" = OrderedDict()
@@ -215,11 +218,11 @@ def _fault_label(defects: list[dict]) -> tuple[str, str, str]:
 
 
 def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tuple, mult: dict,
-              channels, file: str) -> dict:
+              channels, file: str, *, anti_alias: bool) -> dict:
     """One row of the labels table: the segment of ``run`` from sample ``first`` (``n`` samples) in the machine
     state of ground truth ``gt`` (docs/datasets.md, "Labels"); ``speeds`` = the segment's shaft speed (mean, min,
     max) [Hz]; ``mult`` = each bearing's fault multipliers (``{"de": FaultFrequencies, "nde": ...}``);
-    ``channels`` = the names of the run's channels."""
+    ``channels`` = the names of the run's channels; ``anti_alias`` = whether its acquisition has a low-pass."""
     p = run.params
     fs = p["sample_rate_hz"]
     mean, lo, hi = speeds
@@ -236,7 +239,7 @@ def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tupl
            "seed": p["seed"], "slip": p["slip"], "noise_acc": p["noise_acc"], "noise_disp": p["noise_disp"],
            "noise_vel": p["noise_vel"], "sample_rate_hz": fs, "quantities": ",".join(p["quantities"]),
            "channels": ",".join(channels), "accelerometer": p["accelerometer"],
-           "anti_alias": bool(p["anti_alias"])}
+           "anti_alias": anti_alias}
     for name in ("bpfo", "bpfi", "bsf", "ftf"):           # the DE bearing's (the columns of one bearing type)
         m = float(getattr(mult["de"], name))
         row[f"{name}_per_hz"] = m
@@ -516,7 +519,7 @@ def render_run(run: Run, out_dir: str, compression: str = "none", sinks: tuple =
                 alone = Scenario.of_case(_run_case(run))
                 truth = alone.ground_truth(alone.states[0], seg.first / fs)
             rows.append(label_row(run, dict(truth), k, seg.first, end - seg.first, seg.speeds(), mult,
-                                  synth.channel_names, rel))
+                                  synth.channel_names, rel, anti_alias=synth.anti_alias is not None))
         meta = {"run_id": run.run_id, "run_hash": run.run_hash, "run_index": run.index, "params": run.params,
                 "machine_hash": run.case_hash, "sample_rate_hz": fs, "n_samples": n_total,
                 "channel_names": names, "units": list(synth.units),

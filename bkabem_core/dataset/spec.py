@@ -57,7 +57,7 @@ MAX_RUNS = 1_000_000
 SAMPLINGS = ("grid", "random")
 QUANTITY_NAMES = ("acceleration", "displacement", "velocity")
 COMPRESSIONS = ("none", "snappy", "zstd", "lz4")
-ACCELEROMETERS = ("none", "stud", "adhesive", "magnet", "probe")
+ACCELEROMETERS = ("none", "stud", "adhesive", "magnet", "probe", "case")
 MAX_DURATION_S = 3600.0
 #: Bounds of the noise densities (as `bkabem synth`: beyond them float32 samples overflow).
 MAX_NOISE = {"noise_acc": 1e3, "noise_disp": 1e-2, "noise_vel": 1e5}
@@ -98,8 +98,8 @@ PARAMETERS: dict[str, Parameter] = {
     "profile": Parameter("str", "", None, doc="speed profile over run time: constant:F, ramp:F0:F1:T, "
                          "steps:F1,F2,...:T (Hz, s); instead of speed_hz"),
     "load_factor": Parameter("float", "", 1.0, 0.1, 10.0, doc="radial load / the case's own (gravity scaled)"),
-    "noise_acc": Parameter("float", "m/s^2/sqrt(Hz)", 0.0, 0.0, MAX_NOISE["noise_acc"],
-                           doc="accelerometer noise density"),
+    "noise_acc": Parameter("float", "m/s^2/sqrt(Hz)", None, 0.0, MAX_NOISE["noise_acc"],
+                           doc="accelerometer noise density (default: the case's measurement section, else 0)"),
     "noise_disp": Parameter("float", "m/sqrt(Hz)", 0.0, 0.0, MAX_NOISE["noise_disp"],
                             doc="proximity-probe noise density"),
     "noise_vel": Parameter("float", "mm/s/sqrt(Hz)", 0.0, 0.0, MAX_NOISE["noise_vel"], doc="velocity noise density"),
@@ -107,13 +107,16 @@ PARAMETERS: dict[str, Parameter] = {
     "seed": Parameter("int", "", None, 0, float(2 ** 63 - 1),
                       doc="seed of slip and noise (default: derived from dataset.seed and the run index)"),
     "duration_s": Parameter("float", "s", 1.0, 0.0, MAX_DURATION_S, strict_lo=True, doc="signal length"),
-    "sample_rate_hz": Parameter("float", "Hz", 25600.0, 0.0, 1.0e6, strict_lo=True, doc="sample rate"),
+    "sample_rate_hz": Parameter("float", "Hz", None, 0.0, 1.0e6, strict_lo=True,
+                                doc="sample rate (default: the case's measurement section, else 25600)"),
     "quantities": Parameter("quantities", "", ("acceleration",),
                             doc="channels: acceleration (housing, m/s^2), displacement (shaft to housing, m), "
                                 "velocity (housing, mm/s); each gives DE/NDE x vertical/horizontal"),
-    "accelerometer": Parameter("str", "", "none", choices=ACCELEROMETERS,
-                               doc="mounting resonance of the accelerometer (bkabem_core.synth.sensors)"),
-    "anti_alias": Parameter("bool", "", False, doc="the acquisition's anti-alias low-pass (fs / 2.56, 6th order)"),
+    "accelerometer": Parameter("str", "", None, choices=ACCELEROMETERS,
+                               doc="mounting resonance of the accelerometer (bkabem_core.synth.sensors; default and "
+                                   "'case': the case's measurement section, else none)"),
+    "anti_alias": Parameter("bool", "", None, doc="the acquisition's anti-alias low-pass (fs / 2.56, 6th order; "
+                                                  "default: the case's measurement section, else none)"),
     "chunk_s": Parameter("float", "s", 1.0, 0.0, 10.0, strict_lo=True,
                          doc="synthesis block and Parquet row group; a scenario's states change at its borders"),
     "scenario": Parameter("str", "", None, doc="a scenario of the fault library (embedded name or TOML path) "
@@ -129,6 +132,23 @@ SCENARIO_ONLY = ("time_scale", "scenario_start_s")
 _TOP = ("dataset", "run", "grid", "random", "output")
 _DATASET_KEYS = ("name", "description", "schema_version", "case", "sampling", "seed", "runs", "replicates")
 _OUTPUT_KEYS = ("compression", "mcap")
+
+
+def _measurement_defaults(params: dict, case) -> None:
+    """The run parameters of the acquisition that the spec leaves out (None), from the case's ``[measurement]``
+    section (bkabem_core.synth.measurement): its rate and noise density as numbers, its mounting and anti-alias
+    filter as ``"case"`` / None (the synthesiser takes them from the case); without the section, the values of a
+    spec that gives none (25.6 kHz, no noise, no sensor, no filter)."""
+    m = case.raw.get("measurement") or {}
+    if params["sample_rate_hz"] is None:
+        params["sample_rate_hz"] = float(m.get("sample_rate_hz", 25600.0))
+    if params["noise_acc"] is None:
+        params["noise_acc"] = float(m.get("noise_density_m_s2_per_sqrt_hz", 0.0))
+    if params["accelerometer"] is None or (params["accelerometer"] == "case" and not
+                                           ("mounting" in m or "mounting_resonance_hz" in m)):
+        params["accelerometer"] = "case" if ("mounting" in m or "mounting_resonance_hz" in m) else "none"
+    if params["anti_alias"] is None and "anti_alias_hz" not in m:
+        params["anti_alias"] = False
 
 
 # --------------------------------------------------------------------------- reading helpers
@@ -496,6 +516,7 @@ class DatasetSpec:
                     params[k] = None                    # no defect: sizes would be labels of nothing
             case = self._run_case(params, keys, where)
             machine_hash = case.case_hash
+        _measurement_defaults(params, case)
         if params["profile"] is not None:
             params["speed_hz"] = None
             top = _check_profile(key("profile"), params["profile"], src).max_speed_hz(params["duration_s"])

@@ -17,14 +17,23 @@ Quasi-static excitation (module ``quasi_static``)
     compute_excitation    -- the 4-DOF excitation (integrated, then BPFO orders)
     rates_per_hz          -- rates of the base phases per shaft Hz
 
+The quasi-static path (module ``path``)
+=======================================
+    quasi_static_path_m   -- a bearing's static equilibrium at many ball-set (and shaft) angles at once
+
+A load that turns with the shaft (module ``turning``)
+=====================================================
+    turning_lines         -- a bearing's lines under a load that turns with the shaft (sidebands at f_r)
+
 Machine baseline (module ``baseline``)
 ======================================
-    baseline_forces       -- unbalance, misalignment, electrical lines as force lines on the FE rotor
+    baseline_forces       -- unbalance, misalignment, coupling, looseness, electrical lines as force lines on the FE
+                             rotor
 """
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["LineSet", "MachinePhases", "union", "line_label", "lines_from_grid", "Excitation", "quasi_static_excitation", "torus_path", "FourDofModel", "compute_excitation", "rates_per_hz", "baseline_forces"]
+__all__ = ["LineSet", "MachinePhases", "union", "line_label", "lines_from_grid", "Excitation", "quasi_static_excitation", "torus_path", "FourDofModel", "compute_excitation", "rates_per_hz", "quasi_static_path_m", "turning_lines", "baseline_forces"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "LineSet": "lines",
@@ -38,5 +47,7 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "FourDofModel": "quasi_static",
     "compute_excitation": "quasi_static",
     "rates_per_hz": "quasi_static",
+    "quasi_static_path_m": "path",
+    "turning_lines": "turning",
     "baseline_forces": "baseline",
 })

@@ -41,6 +41,8 @@ from bkabem_core.bearing.defects.registry import kind as defect_kind
 from bkabem_core.bearing.defects.registry import periodic_kinds
 from bkabem_core.bearing.statics import BearingState
 from bkabem_core.excitation.lines import LineSet, lines_from_grid, union
+from bkabem_core.excitation.path import quasi_static_path_m
+from bkabem_core.excitation.turning import turning_lines
 from bkabem_core.model.vocabulary import DIRECTIONS
 
 METHODS = ("quasi_static", "four_dof")
@@ -286,52 +288,10 @@ def _orders_from_record(rel: np.ndarray, periods: int, threshold: float, max_ord
 
 
 # --------------------------------------------------------------------------- quasi-static
-def quasi_static_path_m(bearing: Bearing, radial_load_n, axial_load_n: float, cage_angles_rad,
-                        film_m: float = 0.0, tol_m: float = 1e-15, max_iter: int = 100, shaft_angles_rad=0.0,
-                        spin_angles_rad=0.0):
-    """Static equilibrium ``e(theta)`` [m] (N, 2: e_x, e_y) of the bearing with its defects at each cage angle.
-
-    Solves ``F(e, theta; e_z0) + W = 0`` for all angles at once (batched damped Newton with the analytic 2 x 2
-    tangent), the axial displacement held at ``e_z0``, its static value under the axial load. ``shaft_angles_rad``
-    and ``spin_angles_rad`` (broadcast with the cage angles) place inner-race and ball defects.
-
-    Returns
-    -------
-    path : ndarray (N, 2)
-    state : BearingState
-        The healthy static equilibrium (start of the iteration).
-    iterations : int
-    """
-    w = np.asarray(radial_load_n, dtype=float)
-    state = bearing.state(w[0], w[1], axial_load_n, film_m)
-    e0 = state.displacement_m
-    theta = np.asarray(cage_angles_rad, dtype=float)
-    shape = np.broadcast_shapes(theta.shape, np.shape(shaft_angles_rad), np.shape(spin_angles_rad))
-    theta = np.broadcast_to(theta, shape)
-    ex = np.full(shape, e0[0])
-    ey = np.full(shape, e0[1])
-    for it in range(1, max_iter + 1):
-        fx, fy, (kxx, kxy, kyy) = bearing.forces_n(ex, ey, theta, film_m, with_stiffness=True, e_z_m=e0[2],
-                                                   shaft_angle_rad=shaft_angles_rad, spin_angle_rad=spin_angles_rad)
-        rx, ry = fx + w[0], fy + w[1]
-        det = kxx * kyy - kxy * kxy
-        sx = (kyy * rx - kxy * ry) / det                 # K s = r  (F(e + s) ~ F(e) - K s = -W)
-        sy = (kxx * ry - kxy * rx) / det
-        n = np.hypot(sx, sy)
-        scale = np.minimum(1.0, 2e-6 / np.maximum(n, 1e-300))   # never more than 2 um at once (contacts change)
-        ex += sx * scale
-        ey += sy * scale
-        if np.max(n) <= tol_m:
-            break
-    else:
-        raise RuntimeError(f"quasi-static bearing equilibrium did not converge (last step {np.max(n):.2e} m)")
-    return np.stack([ex, ey], axis=-1), state, it
-
-
 def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n: float = 0.0,
                             samples_per_ball_pass: int = 2048, relative_amplitude_threshold: float = 1e-3,
                             max_order: int = 0, reference_speed_hz: float = 1.0, location: str = "",
-                            film_m: float = 0.0, n_slow: int = 0) -> Excitation:
+                            film_m: float = 0.0, n_slow: int = 0, rotating_load_n: complex = 0j) -> Excitation:
     """Excitation of one bearing from its quasi-static equilibrium over one ball pitch (no inertia).
 
     Parameters
@@ -354,6 +314,14 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
         Inner-race and ball defects: samples of the slow angle of their 2-torus (shaft angle, cage angle); 0 =
         the next power of 2 >= 4 z (64 for 14 balls: sidebands up to twice the ball passage). The fast angle has
         ``samples_per_ball_pass`` samples.
+    rotating_load_n : complex
+        The load on the shaft that turns with it (:meth:`bkabem_core.fe.machine.Machine._turning_loads`):
+        ``(Re, Im)(R exp(i theta_shaft))`` [N] on top of the static load. With it the bearing's state depends on
+        the shaft angle too: the races and their defects are solved on the inner race's torus (the ball-set
+        position relative to the shaft, and the shaft angle), giving sidebands at the shaft frequency around every
+        line and the ball passage relative to the turning load at BPFI. Its pure shaft orders are left out: the FE
+        carries the force itself (the baseline's coupling line). Ball defects add their lines under the static
+        load.
 
     Returns
     -------
@@ -380,7 +348,21 @@ def quasi_static_excitation(bearing: Bearing, radial_load_n: float, axial_load_n
     rates = rates_per_hz(fm)
     lines = None
     tori = {}
-    if moving:
+    if rotating_load_n != 0:
+        base = turning_lines(bearing, load, complex(rotating_load_n), axial_load_n, n, n_slow, film_m, rates)
+        parts = [base]
+        race = Bearing(g, defects=[d for d in bearing.defects if defect_kind(d.race).periodic or d.race == "inner"])
+        for kind in moving:
+            if kind.name != "inner":
+                slow = n_slow if n_slow > 0 else max(32, 1 << math.ceil(math.log2(4 * z)))
+                parts.append(_difference_lines(bearing, race, kind.name, load, axial_load_n, n, slow, film_m,
+                                               rates, keep=tori))
+        lines = union(parts).select(relative_amplitude_threshold, max_order * fm.bpfo if max_order > 0 else 0.0)
+        order_like = (lines.coefficients[:, [0, 2, 3]] == 0).all(axis=1) & (lines.coefficients[:, 1] % z == 0)
+        keep = np.zeros(all_orders.size, bool)
+        keep[np.isin(all_orders, lines.coefficients[order_like, 1] // z)] = True
+        dc = lines.dc
+    elif moving:
         # moving kinds (inner race, ball): the difference they make, on a 2-torus of their phases
         base = LineSet.from_orders(all_orders, amp.T * np.exp(1j * pha.T), z, rates, DIRECTIONS, dc=dc)
         parts = [base]

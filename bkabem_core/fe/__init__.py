@@ -19,6 +19,10 @@ The machine (module ``machine``)
     Machine           -- rotor, bearings and housings of a case, each bearing at its own operating point
     BearingSite       -- one bearing of the machine at its operating point
 
+What a machine is (module ``summary``)
+======================================
+    machine_summary   -- static loads, FE bearings, fault frequencies, modes in the band, notes (``case check``)
+
 Reduced model and solvers (modules ``modal``, ``linemodes``, ``solvers``)
 ========================================================================
     ModalBasis        -- Ritz reduction for the band the model serves
@@ -31,7 +35,7 @@ Reduced model and solvers (modules ``modal``, ``linemodes``, ``solvers``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Material", "ShaftElement", "Disk", "PointMass", "LinearBearing", "Rotor", "rotor_from_case", "Mesh", "mesh_for", "check_mesh", "check_line_modes", "Machine", "BearingSite", "ModalBasis", "OrderModalForm", "SpeedCells", "LineModes", "ShaftSolver", "solve_direct"]
+__all__ = ["Material", "ShaftElement", "Disk", "PointMass", "LinearBearing", "Rotor", "rotor_from_case", "Mesh", "mesh_for", "check_mesh", "check_line_modes", "Machine", "BearingSite", "machine_summary", "ModalBasis", "OrderModalForm", "SpeedCells", "LineModes", "ShaftSolver", "solve_direct"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Material": "elements",
@@ -47,6 +51,7 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "check_line_modes": "budget",
     "Machine": "machine",
     "BearingSite": "machine",
+    "machine_summary": "summary",
     "ModalBasis": "modal",
     "OrderModalForm": "modal",
     "SpeedCells": "modal",

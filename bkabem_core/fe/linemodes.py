@@ -210,7 +210,8 @@ class LineModes:
         iw = 1j * np.asarray(omega_rad_s, dtype=float)
         lam = self.poles[line]
         g = iw[:, None] / ((iw[:, None] - lam[None]) * lam[None])                      # (W, 2m)
-        return self.static[None] + np.einsum("wr,ru,rp->wup", g, self.shapes[line], self.participation[line])
+        modal = self.shapes[line][:, :, None] * self.participation[line][:, None, :]    # (2m, U, P)
+        return self.static[None] + (g @ modal.reshape(lam.size, -1)).reshape(iw.size, *modal.shape[1:])
 
 
 def _groups(sigma: np.ndarray, width: float, width_abs: float) -> list:

@@ -68,6 +68,8 @@ class BearingSite:
         1's with ``linearisation = "table"``.
     source : str
         ``"model"`` or ``"table"``.
+    rotating_load_n : complex
+        The load on the shaft that turns with it, ``(Re, Im)(R exp(i theta_shaft))`` [N] (0: none).
     """
 
     name: str
@@ -81,6 +83,7 @@ class BearingSite:
     stiffness_n_m: np.ndarray
     damping_n_s_m: np.ndarray
     source: str
+    rotating_load_n: complex = 0j
 
     @property
     def has_defect(self) -> bool:
@@ -133,7 +136,9 @@ class Machine:
         with warnings.catch_warnings():                     # an ill-conditioned K: the case's stiffnesses
             warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
             try:
-                loads = rotor_from_case(raw, damping={}).static_bearing_loads_n(g)      # statically determinate
+                statics = rotor_from_case(raw, damping={})
+                loads = statics.static_bearing_loads_n(g)                           # statically determinate
+                turning = self._turning_loads(statics)
             except (scipy.linalg.LinAlgWarning, np.linalg.LinAlgError) as exc:
                 raise singular_stiffness(case, str(exc).rstrip(".")) from None
         self.sites: dict[str, BearingSite] = {}
@@ -141,12 +146,13 @@ class Machine:
             b = raw["bearings"][name]
             geometry = case.bearing_geometry(name)                 # each position's own bearing
             damper = case.bearing_damping_n_s_m(name)
-            bearing = Bearing(geometry, defects=[d for d in case.defects(name) if d.depth_m > 0.0])
             fx, fy = loads[name]
             w = np.array([-fx, -fy], dtype=float)                 # the load on the shaft the bearing carries
             axial = float(b["axial_load_n"])
             lin = Bearing(geometry).linearise(w[0], w[1], axial_load_n=axial, damping_n_s_m=damper,
                                               average_over_pitch=True)
+            bearing = Bearing(geometry, defects=[d for d in case.defects(name) if d.depth_m > 0.0])
+            bearing = bearing.with_bridging_load(bearing.peak_ball_load_n(lin.state))   # round pits: at its load
             if b["linearisation"] == "model":
                 k = np.array([lin.stiffness_horizontal_n_m, lin.stiffness_vertical_n_m])
                 c = np.array([lin.damping_horizontal_n_s_m, lin.damping_vertical_n_s_m])
@@ -156,11 +162,26 @@ class Machine:
             self.sites[name] = BearingSite(name=name, bearing=bearing, rotor_node=int(b["rotor_node"]),
                                            housing_node=int(b["housing_node"]), radial_load_n=w, axial_load_n=axial,
                                            state=lin.state, linearisation=lin, stiffness_n_m=k, damping_n_s_m=c,
-                                           source=b["linearisation"])
+                                           source=b["linearisation"], rotating_load_n=turning[name])
         elements = {n: (s.stiffness_n_m[0], s.stiffness_n_m[1], s.damping_n_s_m[0], s.damping_n_s_m[1])
                     for n, s in self.sites.items()}
         self.rotor: Rotor = rotor if rotor is not None else rotor_from_case(raw, bearings=elements, mesh=self.mesh)
         self.build_time_s = time.perf_counter() - t0
+
+    def _turning_loads(self, statics: Rotor) -> dict[str, complex]:
+        """Each bearing's share of the load that turns with the shaft (the coupling force of ``[baseline]``), as
+        the complex amplitude ``R`` of the load on the shaft it carries, ``(Re, Im)(R exp(i theta_shaft))`` [N].
+        Two bearings make the rotor statically determinate, so the shares follow from statics alone (an overhung
+        coupling loads the near bearing more than the force and the far one against it)."""
+        b = self.case.raw["baseline"]
+        force = float(b.get("coupling_force_n", 0.0))
+        if force <= 0.0:
+            return {name: 0j for name in BEARINGS}
+        unit = np.zeros(statics.ndof)
+        unit[statics.dof_index(int(b["misalignment_node"]), "x")] = 1.0
+        reactions = statics.bearing_reactions_n(unit)
+        a = force * np.exp(1j * np.radians(float(b.get("coupling_phase_deg", 0.0))))
+        return {name: complex(-reactions[name][0] * a) for name in BEARINGS}
 
     @staticmethod
     def fe_key(case: Case) -> str:
@@ -225,7 +246,8 @@ class Machine:
         if method == "quasi_static":
             return quasi_static_excitation(site.bearing, w, site.axial_load_n, int(ex["samples_per_ball_pass"]),
                                            float(ex["relative_amplitude_threshold"]), int(ex["max_order"]),
-                                           float(ex["reference_speed_hz"]), location=name)
+                                           float(ex["reference_speed_hz"]), location=name,
+                                           rotating_load_n=site.rotating_load_n)
         params = dataclasses.replace(FourDofParameters.from_case(self.case, name), rotor_mass_kg=w / self.case.gravity_m_s2)
         return compute_excitation(site.bearing, params, site.axial_load_n, location=name)
 

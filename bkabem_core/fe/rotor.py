@@ -343,7 +343,18 @@ class Rotor:
             gravity ``Fy > 0`` (the bearing holds the rotor up); the load the rolling elements
             carry is ``-Fy`` downward, i.e. ``|Fy|``.
         """
-        q = self.static_displacement(self.gravity_force(g_m_s2))
+        return self.bearing_reactions_n(self.gravity_force(g_m_s2))
+
+    def bearing_reactions_n(self, force_n: np.ndarray) -> dict[str, tuple[float, float]]:
+        """Static forces of the bearing elements under a static force pattern ``force_n`` (ndof,) [N].
+
+        Returns
+        -------
+        dict
+            ``name -> (Fx, Fy)`` in N: the force each bearing element exerts on its ``node`` (as
+            :meth:`static_bearing_loads_n`); the load its rolling elements carry is the negative.
+        """
+        q = self.static_displacement(force_n)
         loads: dict[str, tuple[float, float]] = {}
         for b in self.bearings:
             rel = q[self._xy_dofs([b.node])]

@@ -12,7 +12,7 @@
 #include "synth_lines.h"
 
 #define KNOT_PLAN_ARRAYS 15
-#define SEG_PLAN_ARRAYS 8
+#define SEG_PLAN_ARRAYS 9
 
 typedef struct {
     Buf b[KNOT_PLAN_ARRAYS];
@@ -91,15 +91,16 @@ fail:
     return NULL;
 }
 
-PyDoc_STRVAR(lines_segment_plan_doc, "lines_segment_plan(lg, carrier, offset, wp, wq, consts, kappas, csrc): see "
+PyDoc_STRVAR(lines_segment_plan_doc, "lines_segment_plan(lg, carrier, offset, wp, wq, consts, kappas, csrc, walks): see "
                                      "render.FusedLines.segment_plan");
 
 static PyObject *py_lines_segment_plan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     (void)self;
     if (!nargs_ok("lines_segment_plan", nargs, SEG_PLAN_ARRAYS)) return NULL;
-    static const char *names[SEG_PLAN_ARRAYS] = {"lg", "carrier", "offset", "wp", "wq", "consts", "kappas", "csrc"};
-    static const char kinds[SEG_PLAN_ARRAYS] = {'q', 'q', 'q', 'q', 'q', 'd', 'd', 'q'};
+    static const char *names[SEG_PLAN_ARRAYS] = {"lg", "carrier", "offset", "wp", "wq", "consts", "kappas", "csrc",
+                                                 "walks"};
+    static const char kinds[SEG_PLAN_ARRAYS] = {'q', 'q', 'q', 'q', 'q', 'd', 'd', 'q', 'q'};
     SegmentCapsule *c = calloc(1, sizeof(SegmentCapsule));
     if (c == NULL) return PyErr_NoMemory();
     for (int i = 0; i < SEG_PLAN_ARRAYS; ++i) {
@@ -108,12 +109,14 @@ static PyObject *py_lines_segment_plan(PyObject *self, PyObject *const *args, Py
     }
     LinesPlan *p = &c->p;
     p->lg = QP(c, 0), p->carrier = QP(c, 1), p->offset = QP(c, 2), p->wp = QP(c, 3), p->wq = QP(c, 4);
-    p->consts = DP(c, 5), p->kappas = DP(c, 6), p->csrc = QP(c, 7);
-    p->F = LEN(c, 0), p->K = LEN(c, 6);
+    p->consts = DP(c, 5), p->kappas = DP(c, 6), p->csrc = QP(c, 7), p->walks = QP(c, 8);
+    p->F = LEN(c, 0), p->K = LEN(c, 6), p->n_walks = 1;
+    for (int64_t k = 0; k < LEN(c, 8) && k < p->K; ++k)
+        if (p->walks[k] + 1 > p->n_walks) p->n_walks = p->walks[k] + 1;
     const char *why = NULL;
     if (LEN(c, 1) != p->F || LEN(c, 2) != p->F || LEN(c, 3) != p->F || LEN(c, 4) != p->F || LEN(c, 5) != 8 * p->F
-        || LEN(c, 7) != 2 * p->F)
-        why = "lengths: F families, 8 F constants, 2 F carrier sources";
+        || LEN(c, 7) != 2 * p->F || LEN(c, 8) != p->K)
+        why = "lengths: F families, 8 F constants, 2 F carrier sources, one walk per slip factor";
     else
         why = lines_plan_check(p);
     if (why != NULL) {

@@ -263,6 +263,8 @@ const char *lines_plan_check(const LinesPlan *p)
         if (p->lg[f] < 6 || p->lg[f] > 16 || p->offset[f] < 0 || p->wp[f] < -1 || p->wp[f] >= p->K
             || p->wq[f] < -1 || p->wq[f] >= p->K)
             return "log2 table sizes in 6 .. 16, slip rows in -1 .. K-1";
+    for (int64_t k = 0; k < p->K; ++k)
+        if (p->walks[k] < 0 || p->walks[k] >= p->n_walks) return "slip walks in 0 .. n_walks - 1";
     for (int64_t f = 0; f < p->F; ++f) {
         const int64_t a = p->csrc[2 * f], b = p->csrc[2 * f + 1];
         if ((a < 0) != (b < 0) || a < -1 || b < -1 || a >= p->F || b >= p->F || a == f || b == f
@@ -317,16 +319,19 @@ int lines_render(const LinesPlan *p, int64_t m, int64_t C, int64_t j, double fa,
             o[1] = (uint64_t)d0 + (uint64_t)j * (uint64_t)dd;
             o[2] = (uint64_t)dd;
         }
-    if (slip) {                                             /* the slip rows read, in runs of at most 8 */
+    if (slip) {                          /* the slip rows read, in runs of at most 8 of one walk */
         char need[128];
+        if (nw % p->n_walks) return -1;
+        const int64_t nwk = nw / p->n_walks;
         lines_rows_needed(p->F, C, ph, p->lg, p->carrier, p->csrc, p->wp, p->wq, p->K, need);
         for (int64_t i = 0, e; i < p->K; i = e) {
             if (!need[i]) {
                 e = i + 1;
                 continue;
             }
-            for (e = i + 1; e < p->K && e < i + 8 && need[e]; ++e) {}
-            if (synth_slip_warp(m, (double)j, c1u, c2u, u_frac, w, nw, jw0, p->kappas + i, e - i, warp + i * m))
+            for (e = i + 1; e < p->K && e < i + 8 && need[e] && p->walks[e] == p->walks[i]; ++e) {}
+            if (synth_slip_warp(m, (double)j, c1u, c2u, u_frac, w + p->walks[i] * nwk, nwk, jw0, p->kappas + i, e - i,
+                                warp + i * m))
                 return -3;
         }
     }

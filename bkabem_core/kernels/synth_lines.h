@@ -14,13 +14,14 @@
 
 /* The constant arrays of a line set's segments. Per family f < F: log2 of its table size lg[f], carrier[f], the
  * offset of its table(s) in a knot's buffer offset[f] (floats; one (N + 3) x C table, two for a carrier family),
- * its slip rows wp[f] (phase) and wq[f] (carrier) among the K distinct slip factors kappas (-1: none), the constants
+ * its slip rows wp[f] (phase) and wq[f] (carrier) among the K distinct slip rows (-1: none), the constants
  * of its phase and carrier consts[8 f ..] = (rate / BPFO, fixed, rate, rate / 2) x 2 (rate: turns per shaft turn,
  * fixed: turns per second), and csrc[2 f ..]: the two families of its group whose carriers add up to its own, or
- * -1, -1 (its carrier from its own phase). */
+ * -1, -1 (its carrier from its own phase). Slip row k is kappas[k] times the walk walks[k] (0: the cage's random
+ * slip; 1: the cage's and the balls' spin slip together) of the n_walks = max(walks) + 1 walks. */
 typedef struct {
-    int64_t F, K;
-    const int64_t *lg, *carrier, *offset, *wp, *wq, *csrc;
+    int64_t F, K, n_walks;
+    const int64_t *lg, *carrier, *offset, *wp, *wq, *csrc, *walks;
     const double *consts, *kappas;
 } LinesPlan;
 
@@ -40,7 +41,8 @@ const char *lines_plan_check(const LinesPlan *p);
  * length samples on) into out (m x C float32): the knots' tables ta and tb (NULL: no blend), the slip walk's
  * values w (nw of them, from pass jw0; NULL: no slip) at the ball passes (c2u xi + c1u) xi + u_frac since the knot,
  * warp a K x m work buffer, dc the static part (C), acc / off the features (optional), the noise of stream key from
- * absolute sample n0 with sigma (C, or NULL), extra (m x C, or NULL) or the floor fl (or NULL) added. Returns 0, -1 for
+ * absolute sample n0 with sigma (C, or NULL), extra (m x C, or NULL) or the floor fl (or NULL) added. With several
+ * walks w holds each walk's nw / n_walks values in turn, from the same pass jw0. Returns 0, -1 for
  * unusable arguments, -2 for a phase increment beyond 2^63 units, -3 if the walk's values do not cover the
  * segment. */
 int lines_render(const LinesPlan *p, int64_t m, int64_t C, int64_t j, double fa, double fb, int64_t xa,

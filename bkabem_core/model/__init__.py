@@ -10,9 +10,18 @@ Case files
     DEFAULT_CASE     -- the embedded default case, ``electric_motor_6010``
     SCHEMA_VERSION   -- the case schema this version writes
 
+The compact machine form (modules ``compact``, ``starting``)
+============================================================
+    machine_case     -- a case written as [machine] (shaft steps, disks, bearing positions, housings) loaded
+    starting_case    -- the documented starting case of ``bkabem case new`` (two designations, a rotor mass)
+
 The bearing at each position (module ``positions``)
 ===================================================
     ResolvedBearing  -- a position's bearing: every value found (catalogue, overrides, clearance) and its provenance
+
+The machine baseline's keys (module ``baseline_keys``)
+=====================================================
+    baseline_problem -- the first rule a ``[baseline]`` section breaks (e.g. odd electrical harmonics), or None
 
 Plausibility (module ``plausibility``)
 ======================================
@@ -30,6 +39,7 @@ Bearing catalogue (module ``catalogue``)
 Input files (module ``files``)
 ==============================
     not_a_file       -- why a path cannot be read as an input file (missing, a directory, a FIFO), or None
+    InputFileError   -- an invalid input file: the key at fault and why (each kind of file has its subclass)
 
 Vocabulary (module ``vocabulary``)
 ==================================
@@ -40,16 +50,19 @@ Vocabulary (module ``vocabulary``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "ResolvedBearing", "problem", "BOUNDS",
+__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "machine_case", "starting_case", "ResolvedBearing", "baseline_problem", "problem", "BOUNDS",
            "CatalogueBearing", "CatalogueError", "lookup", "designations", "radial_clearance_m", "not_a_file", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Case": "case",
     "CaseError": "case",
-    "InputFileError": "case",
+    "InputFileError": "files",
     "embedded_cases": "case",
+    "baseline_problem": "baseline_keys",
     "DEFAULT_CASE": "case",
     "SCHEMA_VERSION": "case",
+    "machine_case": "compact",
+    "starting_case": "starting",
     "ResolvedBearing": "positions",
     "problem": "plausibility",
     "BOUNDS": "plausibility",

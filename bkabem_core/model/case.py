@@ -21,10 +21,12 @@ from importlib import resources
 from pathlib import Path
 
 from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent, FaultFrequencies
-from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
+from bkabem_core.bearing.defects.profiles import EDGE_PROFILES, SHAPES
 from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, moving_kinds, own_keys, periodic_kinds
 from bkabem_core.model import plausibility
-from bkabem_core.model.files import not_a_file
+from bkabem_core.model.baseline_keys import BASELINE_KEYS, BASELINE_OFF, BASELINE_OPTIONAL, baseline_problem
+from bkabem_core.model.compact import machine_case
+from bkabem_core.model.files import InputFileError, embedded_names, parse_toml, read_input_text
 from bkabem_core.model.positions import (
     BEARING_KEYS,
     OPTIONAL,
@@ -41,69 +43,8 @@ DEFAULT_CASE = "electric_motor_6010"
 SCHEMA_VERSION = 4
 
 
-class InputFileError(ValueError):
-    """An input file (case, scenario, data-set spec) is invalid: ``key`` is the dotted key at fault (or the file),
-    ``reason`` says why, ``source`` names the file. Each kind of file raises its own subclass."""
-
-    def __init__(self, key: str, reason: str, source: str = ""):
-        self.key = key
-        self.reason = reason
-        self.source = source
-        where = f"{source}: " if source else ""
-        super().__init__(f"{where}{key}: {reason}")
-
-
-def embedded_names(folder: str) -> list[str]:
-    """Names of the TOML files shipped in the package folder ``folder`` (``cases``, ``scenarios``, ``datasets``)."""
-    try:
-        files = resources.files("bkabem_core.embedded").joinpath(folder).iterdir()
-    except FileNotFoundError:
-        return []
-    return sorted(p.name[:-5] for p in files if p.name.endswith(".toml"))
-
-
-def read_input_text(name_or_path: str | Path, folder: str, what: str, key: str,
-                    error: type[InputFileError]) -> tuple[str, str, Path | None]:
-    """(text, source, base directory) of an input file: the embedded ``<folder>/<name>.toml`` when
-    ``name_or_path`` is a bare name (no ``.toml`` suffix, no ``/``, no such file here), else the file at that
-    path (UTF-8). ``source`` is ``"embedded:<name>"`` or the path; the base directory (for paths inside the
-    file) is None for an embedded file. Errors are ``error`` for ``key`` ("no embedded <what> named ...",
-    "file not found", "cannot read") or for ``toml`` (not UTF-8); an empty name is refused."""
-    s = str(name_or_path)
-    if not s.strip():
-        raise error(key, "empty name")
-    if not s.endswith(".toml") and "/" not in s and not Path(s).exists():
-        try:
-            text = resources.files("bkabem_core.embedded").joinpath(folder, f"{s}.toml").read_text()
-        except FileNotFoundError:
-            raise error(key, f"no embedded {what} named {s!r} (available: "
-                             f"{', '.join(embedded_names(folder))})") from None
-        return text, f"embedded:{s}", None
-    p = Path(s)
-    why = not_a_file(p)
-    if why:
-        raise error(key, why)
-    try:
-        text = p.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise error("toml", f"not a UTF-8 text file (byte {exc.start}: {exc.reason})", str(p)) from None
-    except OSError as exc:
-        raise error(key, f"cannot read {p}: {exc.strerror}") from None
-    return text, str(p), p.parent
-
-
 class CaseError(InputFileError):
     """A case file is invalid. ``key`` is the dotted key at fault (or the file)."""
-
-
-def parse_toml(text: str, source: str, error: type[InputFileError]) -> dict:
-    """The tables of a TOML text; a syntax error or a too deep nesting raises ``error`` for the key ``toml``."""
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise error("toml", f"not valid TOML: {exc}", source) from None
-    except RecursionError:
-        raise error("toml", "nested too deeply (arrays or tables inside each other)", source) from None
 
 
 # --------------------------------------------------------------------------- schema
@@ -127,16 +68,9 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "edge": ("str", ("in", set(EDGE_PROFILES))),
         "edge_fraction": ("float", ("range", 0.0, 1.0)),
         **{k.name: k.schema for k in own_keys()},           # the keys only some kinds have (a ball defect's ball)
+        "shape": ("str", ("in", set(SHAPES))), "clock": ("int", ("range", 1, 12)),  # optional (docs/faults.md 3a)
     },
-    "baseline": {
-        "unbalance_grade_mm_s": ("float", _NONNEG),
-        "unbalance_phase_deg": ("float", ("range", -360.0, 360.0)),
-        "misalignment_force_n": ("float", _NONNEG),
-        "misalignment_node": ("int", ("ge", 1)),
-        "electrical_force_n": ("float", _NONNEG),
-        "line_frequency_hz": ("float", _POS),
-        "broadband_force_n_per_sqrt_hz": ("float", _NONNEG),
-    },
+    "baseline": BASELINE_KEYS,
     "excitation": {
         "method": ("str", ("in", {"quasi_static", "four_dof"})),
         "load": ("str", ("in", {"fe_share", "rotor_weight"})),
@@ -203,18 +137,33 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "max_speed_hz": ("float", _POS),
         "max_sample_rate_hz": ("float", _POS),
     },
+    # the rig's acquisition as the synthesiser's defaults (bkabem_core.synth.measurement); every key optional
+    "measurement": {
+        "sample_rate_hz": ("float", ("range", 100.0, 1.0e6)),
+        "mounting": ("str", ("in", {"stud", "adhesive", "magnet", "probe", "custom"})),
+        "mounting_resonance_hz": ("float", _POS),
+        "mounting_damping_ratio": ("float", ("range_open", 0.0, 1.0)),
+        "anti_alias_hz": ("float", _POS),
+        "anti_alias_order": ("int", ("range", 1, 128)),
+        "anti_alias_phase": ("str", ("in", {"analog", "linear"})),
+        "high_pass_hz": ("float", _POS),
+        "high_pass_order": ("int", ("range", 1, 8)),
+        "tone_frequencies_hz": ("float[]", _POS),
+        "tone_amplitudes_m_s2": ("float[]", _NONNEG),
+        "quantisation_step_m_s2": ("float", _POS),
+        "noise_density_m_s2_per_sqrt_hz": ("float", _NONNEG),
+    },
 }
 #: The one ``[bearing]`` of a schema-3 case, used at both positions (:func:`migrate_v3`): every key but the class.
 SCHEMA_V3_BEARING = {k: v for k, v in BEARING_KEYS.items() if k != "clearance_class"}
-TOP_LEVEL = ("case", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating")
-#: keys a section may leave out (their default: 0 = off; a position's bearing keys: the catalogue's or the model's),
-#: so that cases written before them stay valid
-_OPTIONAL = {"baseline": ("broadband_force_n_per_sqrt_hz",), "bearings.*": OPTIONAL}
-#: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it
+TOP_LEVEL = ("case", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating", "measurement")
+#: keys a section may leave out (their default: 0 = off; a position's bearing keys: the catalogue's or the model's;
+#: the acquisition's: the synthesiser's), so that cases written before them stay valid
+_OPTIONAL = {"baseline": BASELINE_OPTIONAL, "bearings.*": OPTIONAL,
+             "measurement": tuple(SCHEMA["measurement"])}
+#: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it; keys any table may leave out
 _KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
-#: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)
-BASELINE_OFF = {"unbalance_grade_mm_s": 0.0, "unbalance_phase_deg": 0.0, "misalignment_force_n": 0.0,
-                "misalignment_node": 1, "electrical_force_n": 0.0, "line_frequency_hz": 50.0}
+_DEFECT_OPTIONAL = ("shape", "clock")        # a slot, as before; angle_deg instead of the clock
 BEARING_NAMES = BEARINGS
 
 
@@ -367,12 +316,17 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
         raise CaseError("defects", "must be an array of tables ([[defects]])", source)
     for i, d in enumerate(raw["defects"]):
         race = d.get("race") if isinstance(d, dict) else None
-        optional = tuple(k for k, names in _KIND_KEYS.items() if race not in names)
-        _check_table(f"defects[{i}]", d, SCHEMA["defects[]"], source, optional=optional)
-        for k in optional:
+        others = tuple(k for k, names in _KIND_KEYS.items() if race not in names)
+        may_omit = tuple(o.name for o in (kind(race).own_keys if race in KINDS else ()) if not o.required)
+        may_omit += _DEFECT_OPTIONAL + (("angle_deg",) if isinstance(d, dict) and "clock" in d else ())   # or clock
+        _check_table(f"defects[{i}]", d, SCHEMA["defects[]"], source, optional=others + may_omit)
+        for k in others:
             if k in d:
                 raise CaseError(f"defects[{i}].{k}", f"only for race = {' or '.join(map(repr, _KIND_KEYS[k]))} "
                                 f"(this one is {race!r})", source)
+    if "measurement" in raw:
+        _check_table("measurement", raw["measurement"], SCHEMA["measurement"], source, _OPTIONAL["measurement"])
+        _check_measurement(raw["measurement"], source)
     # bearings.de / bearings.nde
     if "bearings" not in raw:
         raise CaseError("bearings", "missing section", source)
@@ -434,6 +388,41 @@ def _check_bearing(prefix: str, b: dict, source: str) -> None:
                         f"pitch circle of {b['pitch_diameter_m']} m", source)
 
 
+def _check_measurement(m: dict, source: str) -> None:
+    """What the keys of ``[measurement]`` must agree on (each alone is checked by the schema)."""
+    freqs, amps = m.get("tone_frequencies_hz"), m.get("tone_amplitudes_m_s2")
+    if (freqs is None) != (amps is None):
+        missing = "tone_amplitudes_m_s2" if amps is None else "tone_frequencies_hz"
+        raise CaseError(f"measurement.{missing}", "missing (tones need both frequencies and amplitudes)", source)
+    if freqs is not None and len(freqs) != len(amps):
+        raise CaseError("measurement.tone_amplitudes_m_s2", f"needs one amplitude per tone frequency: {len(freqs)} "
+                        f"(got {len(amps)})", source)
+    for key in ("mounting_damping_ratio",):
+        if key in m and "mounting" not in m and "mounting_resonance_hz" not in m:
+            raise CaseError(f"measurement.{key}", "needs a mounting (mounting or mounting_resonance_hz)", source)
+    if m.get("mounting") == "custom" and "mounting_resonance_hz" not in m:
+        raise CaseError("measurement.mounting_resonance_hz", "missing (a custom mounting needs its resonance)",
+                        source)
+    for key in ("anti_alias_order", "anti_alias_phase"):
+        if key in m and "anti_alias_hz" not in m:
+            raise CaseError(f"measurement.{key}", "needs measurement.anti_alias_hz", source)
+    if m.get("anti_alias_phase", "analog") == "analog" and m.get("anti_alias_order", 6) > 16:
+        raise CaseError("measurement.anti_alias_order", f"must be <= 16 for an analog filter (got "
+                        f"{m['anti_alias_order']}; a steeper digital filter: anti_alias_phase = \"linear\")", source)
+    if "high_pass_order" in m and "high_pass_hz" not in m:
+        raise CaseError("measurement.high_pass_order", "needs measurement.high_pass_hz", source)
+    if "high_pass_hz" in m and "anti_alias_hz" in m and m["high_pass_hz"] >= m["anti_alias_hz"]:
+        raise CaseError("measurement.high_pass_hz", f"must be below measurement.anti_alias_hz ({m['high_pass_hz']:g} "
+                        f">= {m['anti_alias_hz']:g} Hz)", source)
+    rate = m.get("sample_rate_hz")
+    if rate is not None:
+        for key, values in (("tone_frequencies_hz", freqs or []), ("anti_alias_hz", [m.get("anti_alias_hz", 0.0)])):
+            top = max(values, default=0.0)
+            if top >= rate / 2:
+                raise CaseError(f"measurement.{key}", f"{top:g} Hz is at or above the Nyquist frequency of "
+                                f"measurement.sample_rate_hz ({rate / 2:g} Hz)", source)
+
+
 def _check_cross(raw: dict, source: str) -> None:
     """Relations between keys of a schema-valid case whose position tables are resolved (:func:`resolved_raw`)."""
     if not raw["case"]["name"].strip():
@@ -487,6 +476,9 @@ def _check_cross(raw: dict, source: str) -> None:
         moving = " and ".join(k.adjective for k in moving_kinds())
         raise CaseError("excitation.method", f"'four_dof' models {periodic} dents only; {moving} defects need "
                         f"'quasi_static'", source)
+    problem = baseline_problem(raw)
+    if problem is not None:
+        raise CaseError(*problem, source)
     if raw["baseline"]["misalignment_node"] not in shaft_nodes:
         raise CaseError("baseline.misalignment_node", f"must be a shaft node 1..{n_nodes} "
                         f"(got {raw['baseline']['misalignment_node']})", source)
@@ -499,11 +491,11 @@ def _check_overlaps(defects: list, bearings: dict, source: str) -> None:
     for i, d in enumerate(defects):
         k = kind(d["race"])
         bearing = bearings[d["bearing"]]
-        where = (d["bearing"], d["race"], *(d.get(o.name) for o in k.own_keys))
+        where = (d["bearing"], d["race"], k.part_name(d))
         radius = k.table_race_radius_m(bearing) if hasattr(k, "table_race_radius_m") else \
             bearing["ball_diameter_m"] / 2.0
         half = d["length_m"] / (2.0 * radius)                       # half the angle it spans [rad]
-        centre = math.radians(d["angle_deg"])
+        centre = math.radians(k.table_angle_deg(d))
         for j, (c, h) in seen.get(where, []):
             gap = abs(math.remainder(centre - c, 2.0 * math.pi))
             if gap < half + h:
@@ -556,6 +548,8 @@ class Case:
 
     @classmethod
     def from_dict(cls, raw: dict, source: str = "") -> "Case":
+        if "machine" in raw:                # the compact form (model/compact.py): loaded as the full form it gives
+            return machine_case(raw, source, cls.from_dict, CaseError)
         raw = copy.deepcopy(raw)
         version = raw["case"].get("schema_version") if isinstance(raw.get("case"), dict) else None
         if version == 1:
@@ -638,9 +632,10 @@ class Case:
         for d in self.raw["defects"]:
             if location is not None and d["bearing"] != location:
                 continue
-            out.append(Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]),
-                            angle_rad=math.radians(d["angle_deg"]), edge_fraction=float(d["edge_fraction"]),
-                            bearing=d["bearing"], race=d["race"], edge=d["edge"], **kind(d["race"]).dent_fields(d)))
+            k = kind(d["race"])
+            out.append(Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]), shape=d.get("shape", SHAPES[0]),
+                            angle_rad=math.radians(k.table_angle_deg(d)), edge_fraction=float(d["edge_fraction"]),
+                            bearing=d["bearing"], race=d["race"], edge=d["edge"], **k.dent_fields(d)))
         return out
 
     def dent(self) -> Dent:
@@ -725,6 +720,8 @@ class Case:
             if dotted.startswith("dent.") and raw["defects"]:       # schema 2's single [dent]: the first defect
                 dotted = "defects.0." + dotted[5:]
             *path, last = dotted.split(".")
+            if path == ["measurement"]:                             # an optional section: made by its first key
+                raw.setdefault("measurement", {})
             node = raw
             for p in path:
                 if isinstance(node, list) and p.isdigit() and int(p) < len(node):
@@ -735,6 +732,9 @@ class Case:
                 node = node[p]
             optional = (len(path) == 1 and last in _OPTIONAL.get(path[0], ())) or \
                 (len(path) == 2 and path[0] == "bearings" and last in _OPTIONAL["bearings.*"])
+            if path[:1] == ["defects"] and isinstance(node, dict) and node.get("race") in KINDS:
+                optional = optional or last in _DEFECT_OPTIONAL or any(o.name == last and not o.required
+                                                                       for o in kind(node["race"]).own_keys)
             if not isinstance(node, dict) or (last not in node and not optional):
                 raise CaseError(dotted, "unknown key", self.source)
             node[last] = value
@@ -766,7 +766,7 @@ class Case:
             k = kind(d.race)
             fm = FaultFrequencies(**per[d.bearing]["fault_multipliers"])
             entry = {"kind": d.race, "bearing": d.bearing, "race": d.race, "length_m": d.length_m,
-                     "depth_m": d.depth_m, "angle_rad": d.angle_rad, "edge": d.edge,
+                     "depth_m": d.depth_m, "angle_rad": d.angle_rad, "edge": d.edge, "shape": d.shape,
                      "bearing_designation": per[d.bearing]["designation"],
                      "fault_frequency": k.fault_frequency, "fault_multiplier": k.fault_multiplier(fm),
                      "strike_multiplier": k.strike_multiplier(fm)}

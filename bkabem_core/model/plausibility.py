@@ -26,6 +26,17 @@ The FE model's limits are checked where it is made, before anything is allocated
 (each a few ms of eigen-decomposition at the limit, every one a step shorter than a second), and
 ``model.line_modes``, lines x (reduced-model size)^3, the cost of the eigen-decompositions along every line.
 
+Speed limits (:func:`speed_problem`): ``operating.max_speed_hz`` is at most each position's bearing's limiting speed
+(``bearings.*.limiting_speed_ratio``, max_speed_hz / the limiting speed, at most 1), the mechanical limit a maker
+prints for a bearing (:func:`bearing_limiting_speed`): the catalogue row's (:mod:`bkabem_core.model.catalogue`);
+for a sealed or shielded variant, whose own speeds the catalogue leaves unknown, the open bearing's (an upper bound:
+seals and shields lower it); for a bearing without a catalogue speed (one the catalogue does not have, a rig row
+without published speeds) an estimate, the catalogue's highest ``n dm`` (speed x pitch diameter) over its open 60,
+62 and 63 series rows (SKF 2017: 7.6e5 mm r/min, the 6001) divided by the bearing's pitch diameter: no bearing of
+that size in the catalogue is allowed less, and a speed in rpm written as Hz (60 times too fast) is still caught.
+Every speed a run asks for (``bkabem synth``, scenarios, data sets) is at most ``operating.max_speed_hz``, so at
+most the lower of the two bearings' limits; the node checks each speed message against :func:`max_speed_bound`.
+
 **Override.** A case that really is outside a bound says so explicitly, in a ``[plausibility]`` table of the case
 file, with new bounds for that key::
 
@@ -38,7 +49,10 @@ An override key that is not in :data:`BOUNDS` is an error (a typo must not switc
 
 from __future__ import annotations
 
+import functools
 import math
+
+from bkabem_core.model.catalogue import SEAL_SUFFIXES, CatalogueError, designations, lookup
 
 SECTION = "plausibility"
 
@@ -80,6 +94,9 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "baseline.unbalance_grade_mm_s": (0.0, 4000.0, "ISO 21940-11 balance grades are G 0.4 .. G 4000 mm/s (0 = off; "
                                                    "electric motors G 2.5-6.3)"),
     "baseline.misalignment_force_n": (0.0, 1e6, "misalignment forces are 0 .. 1 MN"),
+    "baseline.coupling_force_n": (0.0, 1e6, "coupling forces are 0 .. 1 MN"),
+    "baseline.electrical_harmonic_forces_n": (0.0, 1e6, "magnetic forces are 0 .. 1 MN"),
+    "baseline.looseness_force_n": (0.0, 1e5, "the knock of a loose fit is 0 .. 100 kN per harmonic"),
     "baseline.electrical_force_n": (0.0, 1e6, "magnetic pull forces are 0 .. 1 MN"),
     "baseline.broadband_force_n_per_sqrt_hz": (0.0, 100.0, "broadband bearing forces are 0 .. 100 N/sqrt(Hz) "
                                                           "(roughness of a new bearing: ~0.01-0.05; docs/faults.md)"),
@@ -116,6 +133,9 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     # derived: axial load / the position's static_load_rating_n (deep-groove ball bearings carry ~0.5 C0 axially)
     "bearings.*.axial_load_ratio": (0.0, 1.0, "the axial load is at most the bearing's static load rating "
                                               "static_load_rating_n"),
+    # derived: operating.max_speed_hz / the position's bearing's limiting speed (speed_problem)
+    "bearings.*.limiting_speed_ratio": (0.0, 1.0, "a bearing runs at most at its limiting speed (the maker's "
+                                                  "mechanical limit; seals and shields lower it)"),
     "bearings.*.table_stiffness_vertical_n_m": _BEARING_STIFFNESS,
     "bearings.*.table_stiffness_horizontal_n_m": _BEARING_STIFFNESS,
     "bearings.*.table_damping_vertical_n_s_m": _BEARING_DAMPING,
@@ -217,7 +237,7 @@ def problem(raw: dict) -> tuple[str, str] | None:
                     return key, (f"{v!r} is outside [{_fmt(lo)}, {_fmt(hi)}]: {why}"
                                  + (_UNIT_SLIP if "overridden" not in why and dotted not in _COMPUTING else "")
                                  + f'; if it is right, widen it in the case: [{SECTION}] "{dotted}" = [low, high]')
-    return relation_problem(raw, bounds) or cost_problem(raw, bounds)
+    return relation_problem(raw, bounds) or speed_problem(raw, bounds) or cost_problem(raw, bounds)
 
 
 def relation_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] | None:
@@ -237,6 +257,87 @@ def relation_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] |
                 f"{fa!r} N is {fa / c0:.3g} x bearings.{name}.static_load_rating_n ({c0:g} N), outside "
                 f"[{_fmt(lo)}, {_fmt(hi)}]: {why}{_UNIT_SLIP}; if it is right, widen it in the case: "
                 f'[{SECTION}] "bearings.*.axial_load_ratio" = [low, high]')
+    return None
+
+
+@functools.cache
+def _n_dm_envelope() -> tuple[float, str]:
+    """The highest ``n dm`` [m r/min] (limiting speed x pitch diameter) of the catalogue's open series rows, and the
+    row that has it."""
+    rows = [lookup(k) for k in designations()]
+    best = max((r for r in rows if r.description.endswith(" series") and math.isfinite(r.limiting_speed_rpm)),
+               key=lambda r: r.limiting_speed_rpm * r.pitch_diameter_m)
+    return best.limiting_speed_rpm * best.pitch_diameter_m, best.catalogue_key
+
+
+def bearing_limiting_speed(table: dict) -> tuple[float, str] | None:
+    """The limiting speed [Hz] of a position's bearing (a resolved table: ``designation``, ``pitch_diameter_m``)
+    and where it comes from, for people; None when neither the catalogue nor the pitch diameter gives one.
+
+    The catalogue row's limiting speed; the open bearing's for a sealed or shielded variant (an upper bound);
+    otherwise the estimate of the module docstring (the catalogue's highest ``n dm`` / the pitch diameter).
+    """
+    designation = table.get("designation")
+    try:
+        row = lookup(designation)
+    except CatalogueError:
+        row = None
+    if row is not None and math.isfinite(row.limiting_speed_rpm):
+        return row.limiting_speed_rpm / 60.0, f"{row.catalogue_key}: {row.limiting_speed_rpm:g} r/min, the catalogue's"
+    if row is not None and any(s in SEAL_SUFFIXES for s in row.suffixes):
+        open_row = lookup(row.catalogue_key)
+        if math.isfinite(open_row.limiting_speed_rpm):
+            return open_row.limiting_speed_rpm / 60.0, (
+                f"{row.designation}: {open_row.limiting_speed_rpm:g} r/min, the open {open_row.catalogue_key}'s (seals "
+                f"and shields lower it)")
+    pd = table.get("pitch_diameter_m")
+    if isinstance(pd, bool) or not isinstance(pd, (int, float)) or not (math.isfinite(pd) and pd > 0):
+        return None
+    n_dm, key = _n_dm_envelope()
+    rpm = n_dm / pd
+    return rpm / 60.0, (f"{designation}: {rpm:.0f} r/min, estimated as the catalogue's highest n dm "
+                        f"({n_dm * 1e3:.3g} mm r/min, {key}) / its pitch diameter {pd * 1e3:g} mm")
+
+
+def _speed_limits(raw: dict, bounds: dict):
+    """(ratio low, ratio high, why) and each position's (name, limiting speed [Hz], source)."""
+    lo, hi, why = bounds["bearings.*.limiting_speed_ratio"]
+    brg = raw.get("bearings")
+    out = []
+    for name, table in (brg.items() if isinstance(brg, dict) else ()):
+        lim = bearing_limiting_speed(table) if isinstance(table, dict) else None
+        if lim is not None:
+            out.append((name, *lim))
+    return (lo, hi, why), out
+
+
+def max_speed_bound(raw: dict) -> tuple[float, str] | None:
+    """The highest shaft speed [Hz] the case's bearings allow (the lowest limiting speed x the upper bound of
+    ``bearings.*.limiting_speed_ratio``, as the case's ``[plausibility]`` table sets it) and which bearing sets it,
+    for people; None when no bearing has a limiting speed. ``raw``: a case's resolved table (``Case.resolved``)."""
+    (_lo, hi, _why), limits = _speed_limits(raw, _bounds_with_overrides(raw)[0])
+    if not limits:
+        return None
+    name, hz, src = min(limits, key=lambda x: x[1])
+    return hi * hz, f"bearings.{name} ({src}) x {_fmt(hi)}, the upper bound of bearings.*.limiting_speed_ratio"
+
+
+def speed_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] | None:
+    """``operating.max_speed_hz`` against each position's bearing's limiting speed (``bearings.*.limiting_speed_ratio``,
+    module docstring), the lower limit first; None when fine or a key does not exist."""
+    bounds = BOUNDS if bounds is None else bounds
+    op = raw.get("operating")
+    f = op.get("max_speed_hz") if isinstance(op, dict) else None
+    if isinstance(f, bool) or not isinstance(f, (int, float)):
+        return None
+    (lo, hi, why), limits = _speed_limits(raw, bounds)
+    for name, hz, src in sorted(limits, key=lambda x: x[1]):
+        if not lo <= f / hz <= hi:
+            slip = " (a unit slip? a speed in r/min written as Hz?)" if "overridden" not in why else ""
+            return "operating.max_speed_hz", (
+                f"{f!r} Hz ({f * 60.0:g} r/min) is {f / hz:.3g} x the limiting speed of bearings.{name}, {hz:.4g} Hz "
+                f"({src}), outside [{_fmt(lo)}, {_fmt(hi)}]: {why}{slip}; if it is right, "
+                + override_hint("bearings.*.limiting_speed_ratio"))
     return None
 
 

@@ -6,7 +6,9 @@ The linear part (FE rotor, housings, supports, dampers, ``Omega G``) gives, for 
     z_{n+1} = T z_n + W f_{n+1} + W_p f_n,
 
 with ``f`` the 4 bearing-force deviations (DE x, y; NDE x, y); the bearing relative displacements ``u = B_z z``
-then satisfy ``u = u_pred + H f(u)`` with the 4 x 4 flexibility ``H = B_z W``. :class:`Integrator` makes these
+then satisfy ``u = u_pred + H f(u)`` with the 4 x 4 flexibility ``H = B_z W``. A coupling force turning with the
+shaft (:class:`bkabem_core.reference.coupling.RotatingForce`) is one more input of the same step, discretised as the
+bearing forces are: it adds ``Re(q_n) V_0 + Im(q_n) V_1`` to ``z_{n+1}``. :class:`Integrator` makes these
 matrices once per model (``"exponential"``: modal coordinates, ``T`` diagonal; ``"newmark"``: HHT-alpha on
 ``[x, v, a]``) and advances a state through any number of steps.
 
@@ -69,11 +71,14 @@ class Integrator:
         Newton update that ends the iteration [m].
     max_newton : int
         Iteration limit per step.
+    coupling : RotatingForce, optional
+        The coupling's running-speed force on the rotor (None: none).
     """
 
     def __init__(self, rotor, B, out_dofs, h, speed_hz, forces, u_static, f_static, kb, steps_per_bpfo,
-                 scheme="exponential", hht_alpha=0.0, newton_tol_m=1.0e-9, max_newton=30):
+                 scheme="exponential", hht_alpha=0.0, newton_tol_m=1.0e-9, max_newton=30, coupling=None):
         self.rotor, self.ndof, self.B, self.out_dofs = rotor, rotor.ndof, B, out_dofs
+        self.coupling = coupling
         self.h, self.speed_hz, self.steps_per_bpfo = h, speed_hz, steps_per_bpfo
         self.forces, self._u_static, self._f_static, self._kb = forces, u_static, f_static, kb
         self.scheme, self.hht_alpha = scheme, hht_alpha
@@ -91,8 +96,11 @@ class Integrator:
 
     def start(self, initial_state=None) -> IntegratorState:
         """The state at t = 0: ``initial_state`` (deviation from the static equilibrium, ``[x, v]`` or
-        ``[x, v, a]``; default at rest) with the bearing forces it carries."""
-        if initial_state is None:
+        ``[x, v, a]``; default at rest, exponential with a coupling force: the linear rotor's steady response to it)
+        with the bearing forces it carries."""
+        if initial_state is None and self.coupling is not None and self.diagonal:
+            z0 = self.to_modal(np.concatenate(self.coupling.steady_state(self.rotor)))   # the linear 1x response
+        elif initial_state is None:
             z0 = np.zeros(self.state_size, dtype=complex if self.diagonal else float)
         else:
             z0 = self.to_modal(initial_state) if self.diagonal else np.array(initial_state, dtype=float)
@@ -120,14 +128,13 @@ class Integrator:
         ra = c3 * m - (1.0 + al) * h * (1.0 - gamma - gamma * c3) * cw
         lu = scipy.linalg.lu_factor(s)
         tq = scipy.linalg.lu_solve(lu, np.hstack([rq, rv, ra]))
-        wq = scipy.linalg.lu_solve(lu, self.B)
+        wq = scipy.linalg.lu_solve(lu, self._inputs())
         eye, zero = np.eye(n), np.zeros((n, n))
         ta = c0 * (tq - np.hstack([eye, zero, zero])) - np.hstack([zero, c2 * eye, c3 * eye])
         tv = np.hstack([zero, eye, h * (1.0 - gamma) * eye]) + h * gamma * ta
         self.T = np.ascontiguousarray(np.vstack([tq, tv, ta]))
         w_unit = np.vstack([wq, h * gamma * c0 * wq, c0 * wq])                       # per unit of force
-        self.W = np.ascontiguousarray((1.0 + al) * w_unit)
-        self.Wp = np.ascontiguousarray(-al * w_unit)
+        self._split_inputs((1.0 + al) * w_unit, -al * w_unit)
         bz = np.zeros((4, 3 * n))
         bz[:, :n] = self.B.T
         self.Bz = bz
@@ -153,11 +160,11 @@ class Integrator:
         a[:n, n:] = np.eye(n)
         a[n:, :n] = -minv @ rot.K
         a[n:, n:] = -minv @ cw
-        bf = np.zeros((2 * n, 4))
-        bf[n:] = minv @ self.B
+        bf = np.zeros((2 * n, self._inputs().shape[1]))
+        bf[n:] = minv @ self._inputs()
         lam, vec = scipy.linalg.eig(a)
         lu = scipy.linalg.lu_factor(vec)
-        gam = scipy.linalg.lu_solve(lu, bf.astype(complex))                             # V^-1 B_f (2n, 4)
+        gam = scipy.linalg.lu_solve(lu, bf.astype(complex))                             # V^-1 B_f (2n, 4+)
         z = lam * h
         small = np.abs(z) < 1e-4
         em1 = np.expm1(z)
@@ -165,8 +172,7 @@ class Integrator:
             p0 = np.where(small, h * (1 + z / 2 + z * z / 6), em1 / lam)
             p1 = np.where(small, h * (0.5 + z / 6 + z * z / 24), (em1 - z) / (lam * lam * h))
         self.T = np.exp(z)                                                              # diagonal (2n,)
-        self.W = np.ascontiguousarray(p1[:, None] * gam)
-        self.Wp = np.ascontiguousarray((p0 - p1)[:, None] * gam)
+        self._split_inputs(p1[:, None] * gam, (p0 - p1)[:, None] * gam)
         self.Bz = np.ascontiguousarray(self.B.T @ vec[:n])                             # (4, 2n): u = Re(Bz w)
         self.H = (self.Bz @ self.W).real
         self.O = np.ascontiguousarray(vec[self.out_dofs.reshape(-1)])                  # (8, 2n)
@@ -174,6 +180,15 @@ class Integrator:
         self.eigenvalues = lam
         self._vec, self._vec_lu = vec, lu
         self.to_physical = lambda w: (w @ vec.T).real                                  # (N, 2n) -> [x, v]
+
+    def _inputs(self) -> np.ndarray:
+        """The inputs of a step: the 4 bearing force pairs, then the coupling force's x and y (if any)."""
+        return self.B if self.coupling is None else np.hstack([self.B, self.coupling.pattern])
+
+    def _split_inputs(self, w: np.ndarray, w_p: np.ndarray) -> None:
+        """``W``, ``W_p`` of the bearing forces and the coupling force's step vectors from those of every input."""
+        self.W, self.Wp = np.ascontiguousarray(w[:, :4]), np.ascontiguousarray(w_p[:, :4])
+        self._drive = None if self.coupling is None else self.coupling.step_vectors(w[:, 4:], w_p[:, 4:], self.h)
 
     def to_modal(self, y):
         """A physical state ``[x, v]`` (2 ndof,) as the exponential scheme's modal state."""
@@ -195,6 +210,7 @@ class Integrator:
         eye4 = np.eye(4)
         solve = np.linalg.solve
         nbp = self.steps_per_bpfo
+        drive, coupling, h = self._drive, self.coupling, self.h
         z, f_dev, f_old = st.z, st.f_dev, st.f_old
         newton_total, newton_max = st.newton_total, st.newton_max
         n0 = st.steps
@@ -220,6 +236,9 @@ class Integrator:
                     zp = advance(T, z)
                     if use_wp:
                         zp += Wp.dot(f_dev)
+                    if drive is not None:               # the coupling force over the step (first-order hold)
+                        q = coupling.at_step(n_, h)
+                        zp += q.real * drive[0] + q.imag * drive[1]
                     up = Bz.dot(zp).real
                     up += u_s                           # relative displacement without the force f_{n+1}
                     u = up + H.dot(f_dev + f_dev - f_old)   # start: force extrapolated from the last two steps

@@ -9,7 +9,9 @@ This is the reference BKA-BEM is validated against (paper section 5). It is the 
   own bearing and clearance, the axial displacement held at its static value under the axial load; the defects of
   each bearing) in parallel with the position's viscous bearing damper ``[bearings.*] damping_n_s_m`` (the same
   damper as in the FE and the 4-DOF model);
-* gravity on every mass; constant shaft speed Omega (in ``Omega G``) and each bearing's cage angle
+* gravity on every mass and the coupling's running-speed force, turning with the shaft at its node (``[baseline]
+  coupling_force_n``, :mod:`bkabem_core.reference.coupling`; the other baseline keys stay out);
+* constant shaft speed Omega (in ``Omega G``) and each bearing's cage angle
   ``theta = 2 pi FTF f t`` with its own FTF (t = 0 at cage angle 0, the BKA-BEM phase reference);
 * integrated from the static equilibrium of this nonlinear model (solved, with the dent ignored at t = 0).
 
@@ -71,6 +73,7 @@ from bkabem_core.fe.machine import Machine
 from bkabem_core.fe.rotor import Rotor, rotor_from_case
 from bkabem_core.model.case import Case
 from bkabem_core.model.vocabulary import BEARINGS, DIRECTIONS, LOCATIONS
+from bkabem_core.reference.coupling import RotatingForce
 from bkabem_core.reference.integrator import Integrator
 
 __all__ = ["Tdsm", "TdsmResult", "StaticEquilibrium", "HertzPair", "LinearPair", "LOCATIONS", "DIRECTIONS",
@@ -340,6 +343,7 @@ class Tdsm:
                 bmat[idx(sites[b].rotor_node, d), 2 * i + j] = 1.0
                 bmat[idx(sites[b].housing_node, d), 2 * i + j] = -1.0
         self.B = bmat
+        self.coupling = RotatingForce.of_case(case, rot, speed_hz)     # None: no coupling force
         nodes = {"de_rotor": sites["de"].rotor_node, "de_housing": sites["de"].housing_node,
                  "nde_rotor": sites["nde"].rotor_node, "nde_housing": sites["nde"].housing_node}
         self.out_dofs = np.array([[idx(nodes[loc], _DIR_DOF[d]) for d in DIRECTIONS] for loc in LOCATIONS])
@@ -402,7 +406,8 @@ class Tdsm:
             self.integrator = Integrator(self.rotor, self.B, self.out_dofs, self.h, self.speed_hz, self.forces,
                                          self._u_static, self._f_static, self._kb, self.steps_per_bpfo,
                                          scheme=self.scheme, hht_alpha=self.hht_alpha,
-                                         newton_tol_m=self.newton_tol_m, max_newton=self.max_newton)
+                                         newton_tol_m=self.newton_tol_m, max_newton=self.max_newton,
+                                         coupling=self.coupling)
             self.setup_time_s += time.perf_counter() - t0
         return self.integrator
 
@@ -485,7 +490,8 @@ class Tdsm:
             Show a tqdm progress bar.
         initial_state : ndarray (state_size,), optional
             Deviation from the static equilibrium at t = 0: ``[x, v]`` (exponential) or ``[x, v, a]`` (newmark;
-            ``a`` must be consistent with x, v). Default zeros: at rest in the static equilibrium.
+            ``a`` must be consistent with x, v). Default zeros: at rest in the static equilibrium (exponential, with
+            a coupling force: plus the linear rotor's steady response to it, :meth:`RotatingForce.steady_state`).
         record_state : bool
             Also keep the full state of every recorded sample in ``result.state`` (tests).
 

@@ -442,10 +442,13 @@ class ScenarioRun:
     """
 
     def __init__(self, scenario: Scenario, time_scale: float = 1.0, start_s: float = 0.0,
-                 sample_rate_hz: float = 25600.0, chunk_s: float = 0.1, speed=None, pool: ModelPool | None = None,
-                 **synth_options):
+                 sample_rate_hz: float | None = None, chunk_s: float = 0.1, speed=None,
+                 pool: ModelPool | None = None, **synth_options):
+        from bkabem_core.synth.measurement import sample_rate_of
         from bkabem_core.synth.synthesizer import SynthError, Synthesizer
 
+        if sample_rate_hz is None:                  # the acquisition of the scenario's machine (25.6 kHz without one)
+            sample_rate_hz = sample_rate_of(scenario.case)
         self.scenario = scenario
         self.clock = ScenarioClock(sample_rate_hz, time_scale, start_s)
         if not scenario.has_speed and speed is None:

@@ -432,6 +432,8 @@ class Scenario:
                                         source)
                 continue
             if o.name not in d:
+                if not o.required:
+                    continue
                 raise ScenarioError(f"{key}.{o.name}", f"missing ({o.doc})", source)
             reason = k.check_own_key(o.name, d[o.name], bearing)
             if reason:

@@ -41,6 +41,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -455,9 +456,10 @@ class BkaBem:
         highest sample rate), up to which the FE mesh is converged and the modal basis complete."""
         return float(self.case.max_frequency_hz)
 
-    @property
+    @cached_property
     def line_labels(self) -> tuple:
-        """What each line is (``"BPFO"``, ``"BPFI - 1 f_r"``, ``"2 BSF + FTF"``, ``"1x"``), (K,)."""
+        """What each line is (``"BPFO"``, ``"BPFI - 1 f_r"``, ``"2 BSF + FTF"``, ``"1x"``), (K,): named once per
+        model (the lines are the model's), not at every spectrum."""
         c = self.lines.coefficients
         out = []
         for j, b in enumerate(self.phases.line_bearings(c)):

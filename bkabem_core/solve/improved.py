@@ -58,7 +58,8 @@ import scipy.sparse
 
 from bkabem_core.bearing.contacts import HertzPair
 from bkabem_core.bearing.deep_groove import Bearing
-from bkabem_core.excitation.quasi_static import quasi_static_path_m, torus_path
+from bkabem_core.excitation.path import quasi_static_path_m
+from bkabem_core.excitation.quasi_static import torus_path
 from bkabem_core.fe.modal import LineModes
 from bkabem_core.model.vocabulary import BEARINGS
 from bkabem_core.solve.harmonic import BkaBem, Spectrum
@@ -290,6 +291,7 @@ class _LatticeHill:
         self._u_s = np.concatenate([s.state.displacement_m[:2] for s in sites])
         self._f_s = np.concatenate([-s.radial_load_n for s in sites])
         self._kb = np.concatenate([s.stiffness_n_m for s in sites])
+        self._turning = _turning_terms(sites, n_fast)
         dc = lines.dc[:4][_PATTERN_OF]
         u0 = np.zeros((self._n_s, 4), complex)
         u0[:n_k] = 0.5 * amp[rows]
@@ -330,8 +332,15 @@ class _LatticeHill:
         n = grid.n
         spec = np.zeros((n, 4), complex)
         np.add.at(spec, grid.bins, u)
-        f = grid.pair.forces_only((np.fft.ifft(spec, axis=0) * n).real + self._u_s)
-        return (np.fft.fft(f - self._f_s, axis=0) / n)[grid.bins] + u * self._kb
+        u_t = (np.fft.ifft(spec, axis=0) * n).real + self._u_s
+        f_ref = self._f_s
+        if self._turning is not None:                    # the load turning with the shaft (_turning_terms)
+            shift, load = self._turning
+            turns = np.exp(1j * np.outer(grid.shaft, np.arange(1, shift.shape[0] + 1)))          # (n, K)
+            u_t = u_t + 2.0 * (turns @ shift).real
+            f_ref = f_ref - (np.exp(1j * grid.shaft)[:, None] * load).real
+        f = grid.pair.forces_only(u_t)
+        return (np.fft.fft(f - f_ref, axis=0) / n)[grid.bins] + u * self._kb
 
     def spectrum(self, f: float) -> Spectrum:
         """The improved spectrum at shaft speed ``f`` [Hz]: the bearing lines from Hill's step, every other line
@@ -379,6 +388,7 @@ class _Rank1Grid:
         self.n, self.w = int(n), np.asarray(w, dtype=np.int64)
         self.bins = (y @ self.w) % self.n
         theta = lattice_phases(basis, TWO_PI * (np.outer(np.arange(self.n), self.w) % self.n) / self.n)  # [rad]
+        self.shaft = theta[:, 0]
         (c0, s0), (c1, s1) = phases.columns("de"), phases.columns("nde")
         if (c0, s0) == (c1, s1):
             self.pair = HertzPair(bearings, theta[:, c0], axial_m=axial).bake_phases(theta[:, 0], theta[:, s0])
@@ -514,6 +524,36 @@ def _stiffness_tori(site, load_n: float, n_fast: int, n_slow: int, excitation=No
         dk[t] = _tangent(tp.bearing, tp.path[t], tp.cage[t], e_z, tp.shaft[t], tp.spin[t]) - kt[tp.base_index[t]]
         tori.append((kind, tp.phase_map, np.fft.fft2(dk, axes=(0, 1)) / (n_fast * n_slow)))
     return tori
+
+
+def _turning_terms(sites, n_fast: int, n_shaft: int = 32):
+    """The load that turns with the shaft (:meth:`bkabem_core.fe.machine.Machine._turning_loads`) in the ball
+    forces, or None if no bearing has one: ``(shift, load)`` in HertzPair order. ``shift`` (K, 4) [m]: shaft
+    harmonics 1..K of each bearing's quasi-static path averaged over the ball-set position (its races' defects
+    included), the pure shaft orders the excitation leaves to the FE's coupling line; they are part of every
+    ball's displacement, ``u = U + 2 Re sum_k shift_k exp(i k theta_shaft)``. ``load`` (4,) complex [N]: the ball
+    forces balance ``-(W + (Re, Im)(R exp(i theta_shaft)))``, so the reference force turns too. With both, the
+    quasi-static path gives ``Phi_0 = K_b U_0`` as without a turning load. The stiffness modulation ``dK`` keeps
+    the static load's (a first-order approximation of the Newton step)."""
+    if all(s.rotating_load_n == 0 for s in sites):
+        return None
+    shift = np.zeros((n_shaft // 2 - 1, 4), complex)
+    load = np.zeros(4, complex)
+    for bi, s in enumerate(sites):
+        r = complex(s.rotating_load_n)
+        if r == 0:
+            continue
+        b = s.bearing
+        z = b.geometry.n_balls
+        races = Bearing(b.geometry, defects=[d for d in b.defects if d.race != "ball"])
+        cage, shaft = np.meshgrid(TWO_PI / z * np.arange(n_fast) / n_fast, TWO_PI * np.arange(n_shaft) / n_shaft,
+                                  indexing="ij")
+        path, _, _ = quasi_static_path_m(races, s.radial_load_n, s.axial_load_n, cage, shaft_angles_rad=shaft,
+                                         turning_load_n=r)
+        harmonics = np.fft.fft(path.mean(axis=0), axis=0) / n_shaft                     # (n_shaft, 2: x, y)
+        shift[:, 2 * bi:2 * bi + 2] = harmonics[1:n_shaft // 2]
+        load[2 * bi:2 * bi + 2] = (r, -1j * r)
+    return shift, load
 
 
 def _tangent(bearing, path, cage, e_z, shaft=0.0, spin=0.0) -> np.ndarray:

@@ -11,13 +11,19 @@
     SynthError       -- bad synthesis input: the argument and why
     Accelerometer    -- a mounted accelerometer's resonance (module ``sensors``)
     AntiAliasFilter  -- the acquisition's low-pass
+    HighPassFilter   -- the acquisition's AC coupling
+    InterferenceTones -- fixed-frequency interference of the acquisition's environment (its output stage)
+    Quantiser        -- the converter's step (its output stage)
     SensorChain      -- the sensors between the machine and the samples
+    Measurement      -- a case's [measurement] section: the rig's acquisition as defaults (module ``measurement``)
+    BallTrack        -- a ball defect's wandering pit and spin slip (module ``balltrack``)
 """
 
 from bkabem_core._face import lazy_face
 
 __all__ = ["Synthesizer", "Settings", "Plan", "WarmModel", "Chunk", "waveform_features", "SpeedProfile",
-           "parse_profile", "SynthError", "Accelerometer", "AntiAliasFilter", "SensorChain"]
+           "parse_profile", "SynthError", "Accelerometer", "AntiAliasFilter", "HighPassFilter", "InterferenceTones",
+           "Quantiser", "SensorChain", "Measurement", "BallTrack"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Synthesizer": "synthesizer",
@@ -31,5 +37,10 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "SynthError": "profile",
     "Accelerometer": "sensors",
     "AntiAliasFilter": "sensors",
+    "HighPassFilter": "sensors",
+    "InterferenceTones": "sensors",
+    "Quantiser": "sensors",
     "SensorChain": "sensors",
+    "Measurement": "measurement",
+    "BallTrack": "balltrack",
 })

@@ -33,8 +33,8 @@ class Chunk:
     shaft_speed_hz : float
         Shaft speed at the first sample [Hz]; ``shaft_speed_end_hz`` at the first sample of the next chunk.
     cage_angle_rad, shaft_angle_rad : float
-        Cage and shaft angle at the first sample [rad], in [0, 2 pi) (0 at t = 0). Order k of the BKA-BEM spectrum
-        has phase ``k z cage_angle`` there (z balls), before slip.
+        The DE bearing's cage angle and the shaft angle at the first sample [rad], in [0, 2 pi) (0 at t = 0), before
+        slip. Order k of the BKA-BEM spectrum has phase ``k z cage_angle`` there (z balls of the DE).
     features : dict
         Per channel (arrays aligned with ``channel_names``): ``mean``, ``rms`` (about the mean), ``peak``
         (largest |x - mean|), ``peak_to_peak``, ``crest_factor`` (peak/rms), ``kurtosis`` (non-excess, 3 for a
@@ -42,6 +42,9 @@ class Chunk:
         Constant signals have crest factor and kurtosis 0 (never NaN).
     ground_truth : dict
         Case identity, bearing, defect, fault frequencies at ``shaft_speed_hz``, seed and realism settings.
+    cage_angles_rad : dict
+        Each bearing's cage angle at the first sample [rad], ``{"de": .., "nde": ..}`` (the same where both bearings
+        share their kinematics), before slip; ``cage_angle_rad`` is the DE's.
     """
 
     samples: np.ndarray
@@ -56,6 +59,7 @@ class Chunk:
     shaft_angle_rad: float
     features: dict = field(default_factory=dict)
     ground_truth: dict = field(default_factory=dict)
+    cage_angles_rad: dict = field(default_factory=dict)
 
     @property
     def n_samples(self) -> int:
@@ -89,7 +93,8 @@ class Chunk:
                 "n_samples": self.n_samples, "sample_rate_hz": self.sample_rate_hz,
                 "channel_names": list(self.channel_names), "units": list(self.units),
                 "shaft_speed_hz": self.shaft_speed_hz, "shaft_speed_end_hz": self.shaft_speed_end_hz,
-                "cage_angle_rad": self.cage_angle_rad, "shaft_angle_rad": self.shaft_angle_rad,
+                "cage_angle_rad": self.cage_angle_rad, "cage_angles_rad": dict(self.cage_angles_rad),
+                "shaft_angle_rad": self.shaft_angle_rad,
                 "features": feats, "ground_truth": self.ground_truth}
 
 

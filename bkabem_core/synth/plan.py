@@ -42,6 +42,7 @@ import numpy as np
 
 from bkabem_core.fe.modal import SpeedCells
 from bkabem_core.synth import kernel as synth_kernel
+from bkabem_core.synth.balltrack import BallTrack
 from bkabem_core.synth.channels import ChannelMap
 from bkabem_core.synth.floor import BroadbandFloor
 from bkabem_core.synth.lines import LineSelection
@@ -73,6 +74,9 @@ class Plan:
         self.settings = settings
         self.channels = ChannelMap(settings.channels)
         self.lines = LineSelection(model, settings.max_order, settings.table_size)
+        #: a ball defect's track wander and spin slip (None: no ball defect, or neither)
+        self.track = BallTrack.of_model(model, self.lines.coefficients)
+        self._gate_families = self._gate_slices = None
         self.spectrum = LineSpectrum(model, self.channels.combination, method)
         self.dc = self.channels.static_part(model)
         #: the static part as float64: the chunk features' moments are taken about it
@@ -86,7 +90,7 @@ class Plan:
                                     ch.housing_columns, settings.sample_rate_hz, settings.seed,
                                     settings.sensors) if self.floor_density > 0 else None
         #: shaft speeds [Hz] between which some line is near the Nyquist taper (knot placement)
-        self.taper_speeds_hz = self.lines.taper_speeds_hz(settings.sample_rate_hz)
+        self.taper_speeds_hz = self.lines.taper_speeds_hz(settings.sample_rate_hz, settings.taper_band)
         self.n_channels = len(ch.channels)
         self._seeded(settings)
         self._memo: OrderedDict = OrderedDict()
@@ -95,13 +99,16 @@ class Plan:
         """(line kernels, feature accumulation) for the settings (:class:`~bkabem_core.synth.settings.Settings`
         ``kernel``)."""
         c, fams = len(self.channels.channels), len(self.lines.families.families)
+        spin, column = (self.track.spin_slip, self.track.spin_column) if self.track is not None else (0.0, 2)
         if (settings.kernel == "auto" and synth_kernel.LINES_AVAILABLE and settings.dtype == np.float32
                 and c <= FUSED_MAX_CHANNELS and fams <= FUSED_MAX_FAMILIES):
-            lines = FusedLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.slip > 0)
+            lines = FusedLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.slip > 0, spin,
+                               column)
             return lines, synth_kernel.accumulate
         compiled = synth_kernel.AVAILABLE and settings.kernel != "reference"
         segment = synth_kernel.segment if compiled else synth_kernel.segment_reference
-        lines = LoopLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.dtype, segment)
+        lines = LoopLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.dtype, segment, spin,
+                          column)
         return lines, synth_kernel.accumulate if compiled else synth_kernel.accumulate_reference
 
     def _seeded(self, settings) -> None:
@@ -110,9 +117,11 @@ class Plan:
                                  settings.seed, settings.dtype)
         if self.floor is not None and self.floor.seed != settings.seed:
             self.floor = self.floor.reseeded(settings.seed)
+        #: the acquisition's output stage bound to the channels and the seed (empty: none)
+        self.output = settings.output.bind(settings.channels, settings.sample_rate_hz, settings.seed)
         gt = self.case.ground_truth()
         gt.update({
-            "fault_multipliers": self.model.fault_multipliers.to_dict(),
+            "fault_multipliers": self.lines.multipliers["de"].to_dict(),          # the DE bearing's
             "seed": settings.seed,
             "slip_std_fraction": settings.slip,
             "noise_density": settings.noise,
@@ -120,8 +129,11 @@ class Plan:
             "sample_rate_hz": settings.sample_rate_hz,
             "orders": [int(k) for k in self.lines.orders],
             **settings.sensors.metadata(),
+            **settings.output.metadata(),
             "broadband_force_n_per_sqrt_hz": self.floor_density,
+            **({"ball_track": self.track.to_dict()} if self.track is not None else {}),
             "line_coefficients": self.lines.coefficients.tolist(),
+            "line_bearings": self.model.phases.line_bearings(self.lines.coefficients),
             "line_multipliers": self.lines.nu.tolist(),
         })
         #: the run's ground truth (JSON-ready; a chunk adds its speed and fault frequencies)
@@ -160,7 +172,7 @@ class Plan:
         fade = s * s * (3.0 - 2.0 * s)
         taper = None
         if self.settings.band_limit == "taper" and fade > 0:
-            taper = self.lines.band_taper(f, self.settings.sample_rate_hz)
+            taper = self.lines.band_taper(f, self.settings.sample_rate_hz, self.settings.taper_band)
         return fade, taper
 
     def _through_sensors(self, x: np.ndarray, f: float) -> np.ndarray:
@@ -197,6 +209,69 @@ class Plan:
             self._memo.popitem(last=False)
         return hit
 
+    def _gated_families(self):
+        """The families whose lines the track gates, each whole (their tables scale with the gain), or None if a
+        family mixes gated and other lines (the knot is then made from the gated combinations)."""
+        gated = self.track.gated
+        out = []
+        for i, fam in enumerate(self.lines.families.families):
+            g = gated[fam.lines]
+            if g.all():
+                out.append(i)
+            elif g.any():
+                return None
+        return out
+
+    def gated_amplitudes(self, base: Amplitudes, gain: float) -> Amplitudes:
+        """The knot amplitudes ``base`` with the ball defect's lines (``track.gated``) times ``gain`` [-] (the track
+        wander at a knot, :mod:`bkabem_core.synth.balltrack`); gain 1: ``base`` itself. Where the gated lines are
+        whole families, their tables are scaled (the same numbers to float32 rounding); else the knot is made
+        again from the gated combinations."""
+        if gain == 1.0:
+            return base
+        gated = self.track.gated
+        if self._gate_families is None:
+            self._gate_families = self._gated_families() or []
+            kernel = self.lines_kernel
+            if isinstance(kernel, FusedLines) and self._gate_families:
+                # the table buffer as runs of (slice, gated): consecutive families of one kind joined
+                slices, runs = kernel.family_tables(), []
+                for i, sl in enumerate(slices):
+                    g = i in self._gate_families
+                    if runs and runs[-1][1] == g and runs[-1][0].stop == sl.start:
+                        runs[-1] = (slice(runs[-1][0].start, sl.stop), g)
+                    else:
+                        runs.append((sl, g))
+                self._gate_slices = runs
+        kernel = self.lines_kernel
+        fams = self._gate_families
+        if not fams:                                    # mixed families: the whole knot again
+            x = self.amplitudes(base.f).x.copy() if base.x is None else base.x.copy()
+            x[gated] *= gain
+            if isinstance(kernel, FusedLines):
+                y, v_iso, tables = kernel.knot(x, base.f, base.fade, base.taper, None)
+            else:
+                y, v_iso, tables = kernel.knot(x, base.f, base.fade, base.taper)
+        else:
+            g = np.where(gated, gain, 1.0)[:, None]
+            y, v_iso = base.y * g, base.v_iso * g
+            if isinstance(kernel, FusedLines):
+                tables = np.empty_like(base.tables)
+                g32 = np.float32(gain)
+                for sl, on in self._gate_slices:
+                    if on:
+                        np.multiply(base.tables[sl], g32, out=tables[sl])
+                    else:
+                        tables[sl] = base.tables[sl]
+                end = self._gate_slices[-1][0].stop
+                tables[end:] = base.tables[end:]
+            else:
+                tables = list(base.tables)
+                for i in fams:
+                    tables[i] = tuple(t * t.dtype.type(gain) for t in tables[i])
+        return Amplitudes(f=base.f, x=None, fade=base.fade, taper=base.taper, y=y, v_iso=v_iso, tables=tables,
+                          lines=kernel)
+
     # ------------------------------------------------------------------ band
     def check_band(self, f: float, argument: str) -> None:
         """SynthError naming ``argument`` if a line is at or above Nyquist at speed f [Hz] (``band_limit="error"``)."""
@@ -208,7 +283,7 @@ class Plan:
         fs = self.settings.sample_rate_hz
         top = self.lines.top_hz(f)
         k = self.lines.highest_order
-        per_order = self.lines.bpfo_per_hz * f
+        per_order = self.lines.top_bpfo_per_hz * f
         fit = min(int(fs / 2 / per_order) if f > 0 else k, k - 1)
         return (f"sample rate {fs:g} Hz is below twice the highest kept line: {top:.1f} Hz at {f:g} Hz shaft speed "
                 f"(order {k}; needs a rate > {2 * top:.1f} Hz, or max_order <= {fit}, or band_limit='taper')")
@@ -227,10 +302,10 @@ class Plan:
         if f_hi_hz >= f_lo_hz:
             self.spectrum.build(f_lo_hz, f_hi_hz)
 
-    def line_phases_rad(self, shaft_rad: float, cage_rad: float, t_s: float) -> np.ndarray:
-        """(L,) phase of every kept line [rad] at shaft and cage angles [rad] and time [s]."""
-        fm = self.model.fault_multipliers
-        return self.lines.phases_rad(shaft_rad, cage_rad, t_s, fm.bsf / fm.ftf)
+    def line_phases_rad(self, shaft_rad: float, cage_rad: dict, t_s: float) -> np.ndarray:
+        """(L,) phase of every kept line [rad] at the shaft angle, each bearing's cage angle (``{"de": ..,
+        "nde": ..}``) [rad] and time [s]."""
+        return self.lines.phases_rad(shaft_rad, cage_rad, t_s)
 
 
 # =========================================================================== the spectrum at a knot

@@ -1,6 +1,7 @@
 """The synthesiser's randomness, indexed by absolute position so that chunking never changes it.
 
-:class:`SlipWalk` is the random walk of the ball-pass phase (random slip, Antoni & Randall), :class:`SensorNoise`
+:class:`SlipWalk` is the random walk of a bearing's ball-pass phase (random slip, Antoni & Randall), :class:`SlipWalks`
+those of a machine's bearings (each its own, seeded by the run's seed and the bearing's name), :class:`SensorNoise`
 the sensor noise of a set of channels (made in the C sample loops from :func:`noise_key`; :class:`NoiseBlocks`,
 numpy's generator in seeded blocks, where the kernels are not built). Units: ball passes, standard normal
 numbers, noise in the channels' units.
@@ -17,19 +18,13 @@ from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth.features import _FOLD
 
 
-class SlipWalk:
-    """Random walk W_j of the ball-pass phase [passes] at integer nominal passes j (W_j = 0 for j <= 0).
+class _Walk:
+    """A Gaussian random walk at integer passes j, ``X_0 = 0``, ``X_{j+1} - X_j ~ N(0, sigma^2)``, made in blocks of
+    :data:`SlipWalk.BLOCK` increments, each block from ``SeedSequence([*key, block])`` (``key``: the seed, a tag and
+    any further words; values depend on (key, j) alone; a block goes on from the last one's end)."""
 
-    ``W_{j+1} - W_j ~ N(0, sigma^2)`` i.i.d.: the j-th inter-arrival lasts ``1 - (W_{j+1} - W_j)`` nominal passes,
-    i.e. a relative jitter of standard deviation ``sigma`` (Antoni & Randall's random slip). Increments come in
-    blocks of 2^14 passes, each from its own seeded generator, so values depend only on (seed, j).
-    """
-
-    BLOCK = 1 << 14
-
-    def __init__(self, sigma: float, seed: int):
-        self.sigma = float(sigma)
-        self.seed = int(seed)
+    def __init__(self, sigma: float, key: tuple, block: int):
+        self.sigma, self.key, self.size = float(sigma), tuple(int(v) for v in key), int(block)
         self.reset()
 
     def reset(self):
@@ -37,15 +32,15 @@ class SlipWalk:
         self._next_block = 0
         self._next_start = 0.0
 
-    def _block(self, b: int) -> np.ndarray:
+    def block(self, b: int) -> np.ndarray:
         if b in self._blocks:
             return self._blocks[b]
         if b < self._next_block:                         # went back beyond the kept blocks: replay
             self.reset()
         while self._next_block <= b:
-            rng = np.random.default_rng(np.random.SeedSequence([self.seed, 0x51117, self._next_block]))
-            eps = self.sigma * rng.standard_normal(self.BLOCK)
-            w = np.empty(self.BLOCK)
+            rng = np.random.default_rng(np.random.SeedSequence([*self.key, self._next_block]))
+            eps = self.sigma * rng.standard_normal(self.size)
+            w = np.empty(self.size)
             w[0] = 0.0
             np.cumsum(eps[:-1], out=w[1:])
             w += self._next_start
@@ -57,18 +52,63 @@ class SlipWalk:
         return self._blocks[b]
 
     def values(self, j0: int, j1: int) -> np.ndarray:
-        """W_j for j in [j0, j1] (inclusive)."""
+        """X_j for j in [j0, j1] (inclusive; 0 for j <= 0)."""
         out = np.zeros(j1 - j0 + 1)
+        if self.sigma == 0.0:
+            return out
         lo = max(j0, 0)
         j = lo
         while j <= j1:
-            b = j // self.BLOCK
-            blk = self._block(b)
-            s = j - b * self.BLOCK
-            e = min(self.BLOCK, j1 - b * self.BLOCK + 1)
+            b = j // self.size
+            blk = self.block(b)
+            s = j - b * self.size
+            e = min(self.size, j1 - b * self.size + 1)
             out[j - j0:j - j0 + e - s] = blk[s:e]
             j += e - s
         return out
+
+
+def bearing_word(bearing: str) -> int:
+    """The word of a bearing's name in its walks' seeds (the name's ASCII bytes as one integer: ``"nde"`` is
+    0x6E6465)."""
+    return int.from_bytes(str(bearing).encode("ascii"), "big")
+
+
+class SlipWalk:
+    """Random walk W_j of a bearing's ball-pass phase [passes] at integer nominal passes j (W_j = 0 for j <= 0).
+
+    ``W_{j+1} - W_j ~ N(0, sigma^2)`` i.i.d.: the j-th inter-arrival lasts ``1 - (W_{j+1} - W_j)`` nominal passes,
+    i.e. a relative jitter of standard deviation ``sigma`` (Antoni & Randall's random slip). Increments come in
+    blocks of 2^14 passes, each from its own seeded generator, so values depend only on (seed, bearing, j): the DE's
+    blocks from ``SeedSequence([seed, tag, block])`` (the walk of a machine with one bearing type), another
+    bearing's from ``SeedSequence([seed, tag, bearing_word(bearing), block])``.
+
+    The balls' spin slip (:mod:`bkabem_core.synth.balltrack`) is a second, independent walk ``s V_j`` of the same
+    form, ``V`` of unit steps and ``s`` the spin slip [fraction of the spin's advance per pass]: the spin phase of
+    the defective ball reads ``W + s V`` (``spin=s`` in :meth:`values`, :meth:`window`, :meth:`warp_fixed`).
+    """
+
+    BLOCK = 1 << 14
+    _TAG, _SPIN_TAG = 0x51117, 0x5B1A
+
+    def __init__(self, sigma: float, seed: int, bearing: str = "de"):
+        self.sigma = float(sigma)
+        self.seed = int(seed)
+        self.bearing = str(bearing)
+        own = () if self.bearing == "de" else (bearing_word(self.bearing),)
+        self._cage = _Walk(self.sigma, (self.seed, self._TAG, *own), self.BLOCK)
+        self._spin = _Walk(1.0, (self.seed, self._SPIN_TAG, *own), self.BLOCK)
+
+    def reset(self):
+        self._cage.reset()
+        self._spin.reset()
+
+    def values(self, j0: int, j1: int, spin: float | None = None) -> np.ndarray:
+        """W_j for j in [j0, j1] (inclusive); with ``spin`` s, ``W_j + s V_j``."""
+        w = self._cage.values(j0, j1)
+        if spin is not None:
+            w = w + float(spin) * self._spin.values(j0, j1)
+        return w
 
     def warp(self, u_int: int, u: np.ndarray) -> np.ndarray:
         """W at absolute passes ``u_int + u`` (C1 cubic Hermite, Catmull-Rom slopes)."""
@@ -87,28 +127,88 @@ class SlipWalk:
         m0, m1 = m[idx], m[idx + 1]
         return (2 * t3 - 3 * t2 + 1) * w0 + (t3 - 2 * t2 + t) * m0 + (3 * t2 - 2 * t3) * w1 + (t3 - t2) * m1
 
-
     def warp_fixed(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float,
-                   kappas=(1.0,)) -> list:
+                   kappas=(1.0,), spin: float | None = None) -> list:
         """Per ``kappa`` the (m,) int64 phase offsets of a segment's samples j0..j0+m-1 (ball passes since the knot
         ``u = (c2 xi + c1) xi + u_frac``, speed >= 0 so u is monotonic), ``rint(frac(kappa W(u)) 2^52) 2^10``: the
         Hermite warp of :meth:`warp` (Horner form per pass interval) and the fixed-point conversion in one C pass
-        for all factors (:func:`~bkabem_core.synth.kernel.slip_warp`)."""
-        w, jw0 = self.window(u_int, j0, m, c1, c2, u_frac)
+        for all factors (:func:`~bkabem_core.synth.kernel.slip_warp`); of ``W + spin V`` with ``spin``."""
+        w, jw0 = self._window(u_int, j0, m, c1, c2, u_frac, spin)
         kap = list(kappas)
         rows = []
         for i in range(0, len(kap), 8):                  # the C kernel takes up to 8 factors per pass
             rows.extend(synth_kernel.slip_warp(m, j0, c1, c2, u_frac, w, jw0, kap[i:i + 8]))
         return rows
 
-    def window(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float):
-        """(W values, pass of the first) that :meth:`warp_fixed`'s samples need (the walk from one pass before
-        the first sample's to two after the last's)."""
+    def _window(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float, spin: float | None):
         u_lo = u_frac + (c2 * j0 + c1) * j0
         xe = float(j0 + m - 1)
         u_hi = (c2 * xe + c1) * xe + u_frac
         j_lo, j_hi = int(math.floor(min(u_lo, u_hi))), int(math.floor(max(u_lo, u_hi)))
-        return self.values(u_int + j_lo - 1, u_int + j_hi + 2), j_lo - 1
+        return self.values(u_int + j_lo - 1, u_int + j_hi + 2, spin), j_lo - 1
+
+    def window(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float, spin: float | None = None):
+        """(W values, pass of the first) that :meth:`warp_fixed`'s samples need (the walk from one pass before
+        the first sample's to two after the last's); with ``spin`` s, the values of W and then those of
+        ``W + s V`` in one array (the line-set kernel's two walks)."""
+        w, jw0 = self._window(u_int, j0, m, c1, c2, u_frac, None)
+        if spin is not None:
+            w = np.concatenate([w, w + float(spin) * self._spin.values(u_int + jw0, u_int + jw0 + w.size - 1)])
+        return w, jw0
+
+
+class SlipWalks:
+    """The slip walks of a machine's bearings for one run: each bearing's cage slips on its own (a :class:`SlipWalk`
+    per bearing, made when first read), all of relative standard deviation ``sigma`` per ball pass and all read at
+    the DE's ball passes (the stream's clock; :mod:`bkabem_core.synth.lines` scales the NDE's step to its own
+    passes). A machine whose two bearings share their kinematics has its lines on the DE's phases and reads the DE's
+    walk alone: the run's one walk.
+
+    Parameters
+    ----------
+    sigma : float
+        Relative standard deviation of a ball pass's inter-arrival [-].
+    seed : int
+    """
+
+    def __init__(self, sigma: float, seed: int):
+        self.sigma = float(sigma)
+        self.seed = int(seed)
+        self._walks: dict[str, SlipWalk] = {}
+
+    def bearing(self, bearing: str) -> SlipWalk:
+        """The walk of ``bearing`` (``"de"``, ``"nde"``)."""
+        walk = self._walks.get(bearing)
+        if walk is None:
+            walk = self._walks[bearing] = SlipWalk(self.sigma, self.seed, bearing)
+        return walk
+
+    def reset(self) -> None:
+        for walk in self._walks.values():
+            walk.reset()
+
+    def warp_fixed(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float, kappas=(1.0,),
+                   spin: float | None = None, bearing: str = "de") -> list:
+        """:meth:`SlipWalk.warp_fixed` of the walk of ``bearing``."""
+        return self.bearing(bearing).warp_fixed(u_int, j0, m, c1, c2, u_frac, kappas, spin)
+
+    def window(self, u_int: int, j0: int, m: int, c1: float, c2: float, u_frac: float, sources) -> tuple:
+        """(values, pass of the first) of the walks ``sources`` (each (bearing, spin slip or None): a bearing's
+        cage walk W, or ``W + s V`` with its spin walk) that a segment's samples need (:meth:`SlipWalk.window`),
+        one walk's values after the other in one array (the line-set kernel's walks)."""
+        if len(sources) == 1 and sources[0][1] is None:
+            return self.bearing(sources[0][0]).window(u_int, j0, m, c1, c2, u_frac)
+        cage: dict = {}
+        parts, jw0 = [], 0
+        for bearing, spin in sources:
+            walk = self.bearing(bearing)
+            if bearing not in cage:
+                cage[bearing] = walk.window(u_int, j0, m, c1, c2, u_frac)
+            w, jw0 = cage[bearing]
+            if spin is not None:
+                w = w + float(spin) * walk._spin.values(u_int + jw0, u_int + jw0 + w.size - 1)
+            parts.append(w)
+        return np.concatenate(parts), jw0
 
 
 def noise_key(seed: int) -> int:

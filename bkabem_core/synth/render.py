@@ -38,7 +38,8 @@ _MASK64 = (1 << 64) - 1
 class Amplitudes:
     """What a knot needs at its speed (shared by the knots of one speed)."""
     f: float                    # shaft speed [Hz]
-    x: np.ndarray               # (L, U) complex displacement combinations [m], sensors applied
+    x: np.ndarray | None        # (L, U) complex displacement combinations [m], sensors applied (None: a knot
+                                #  derived from others, a wandering ball defect's: balltrack)
     fade: float                 # low-speed fade of every line
     taper: np.ndarray | None    # (L,) Nyquist taper (None: 1)
     y: np.ndarray               # (L, C) complex channel amplitudes (weights applied)
@@ -50,7 +51,7 @@ class Amplitudes:
     @property
     def weights(self) -> np.ndarray:
         """(L,) line weights (fade x taper)."""
-        return self.fade * (np.ones(self.x.shape[0]) if self.taper is None else self.taper)
+        return self.fade * (np.ones(self.y.shape[0]) if self.taper is None else self.taper)
 
     @property
     def rms(self) -> np.ndarray:
@@ -58,6 +59,35 @@ class Amplitudes:
         if self._rms is None:
             self._rms = np.sqrt(0.5 * np.sum(np.abs(self.y) ** 2, axis=0))
         return self._rms
+
+
+def blend(a: Amplitudes, b: Amplitudes, s: float, f: float) -> Amplitudes:
+    """The amplitudes a fraction ``s`` in [0, 1] of the time from a knot of amplitudes ``a`` to one of ``b`` (the
+    same line kernel), at speed ``f`` [Hz]: linear in time, as the samples between the two knots are (tables,
+    channel amplitudes, ISO velocities, the weights); the knot of a wandering ball defect between two spectra
+    (:mod:`bkabem_core.synth.balltrack`)."""
+    if a is b:
+        return a
+
+    def lerp(u, v):
+        out = np.subtract(v, u)
+        out *= s
+        out += u
+        return out
+
+    if isinstance(a.tables, np.ndarray):
+        tables = np.subtract(b.tables, a.tables)
+        tables *= np.float32(s)
+        tables += a.tables
+    else:
+        tables = [tuple(ta + ta.dtype.type(s) * (tb - ta) for ta, tb in zip(fa, fb))
+                  for fa, fb in zip(a.tables, b.tables)]
+    taper = None
+    if a.taper is not None or b.taper is not None:
+        ones = np.ones(a.y.shape[0])
+        taper = lerp(ones if a.taper is None else a.taper, ones if b.taper is None else b.taper)
+    return Amplitudes(f=float(f), x=None, fade=a.fade + s * (b.fade - a.fade), taper=taper, y=lerp(a.y, b.y),
+                      v_iso=lerp(a.v_iso, b.v_iso), tables=tables, lines=a.lines)
 
 
 def _i64(a) -> np.ndarray:
@@ -94,11 +124,17 @@ class FusedLines:
     sample_rate_hz : float
     slip : bool
         Whether the stream has random slip (the families' slip offsets are computed in the segment call).
+    spin_slip : float
+        The balls' spin slip (:mod:`bkabem_core.synth.balltrack`): the families of the spin phase of the bearing
+        whose spin is in column ``spin_column`` read the walk of that bearing's cage and spin slip together (0: none).
+    spin_column : int
+        The column of the defective ball's spin phase in the machine's phases (2: the DE's, 4: the NDE's).
     """
 
     renders_floor = True
 
-    def __init__(self, selection, channels, dc, sample_rate_hz: float, slip: bool):
+    def __init__(self, selection, channels, dc, sample_rate_hz: float, slip: bool, spin_slip: float = 0.0,
+                 spin_column: int = 2):
         fams = selection.families
         c = len(channels)
         layout = fams.layout(c)
@@ -116,15 +152,21 @@ class FusedLines:
         self._work = np.empty(2 * layout["max_n"] * c)
         # per phase (each family's, then its carrier's) the constants of phase_args (rate / BPFO, fixed, rate,
         # rate / 2), the slip-offset row of each family's phase and carrier (-1: none) over the distinct slip
-        # factors, the carrier sums
-        kappas: list = []
+        # factors and walks, the carrier sums. A walk is a bearing's cage slip, or its cage's and its balls' spin
+        # slip together (the families of the defective ball's spin phase): ``walk_sources`` (bearing, spin slip or
+        # None) in the order of their index, only those some row reads
+        rows: list = []
+        self.spin_slip = float(spin_slip)
 
-        def row(kappa: float) -> int:
-            if not slip or kappa == 0.0:
+        def row(kappa: float, source) -> int:
+            if kappa == 0.0 or (source[1] is None and not slip):
                 return -1
-            if kappa not in kappas:
-                kappas.append(kappa)
-            return kappas.index(kappa)
+            if (kappa, source) not in rows:
+                rows.append((kappa, source))
+            return rows.index((kappa, source))
+
+        def source_of(v, bearing: str) -> tuple:
+            return bearing, (self.spin_slip if self.spin_slip > 0 and v[spin_column] != 0 else None)
 
         ff = fams.families
         bpfo = self.bpfo_per_hz
@@ -133,22 +175,34 @@ class FusedLines:
             consts[2 * i] = (f.rate_p / bpfo, f.fixed_p, f.rate_p, 0.5 * f.rate_p)
             if f.carrier:
                 consts[2 * i + 1] = (f.rate_q / bpfo, f.fixed_q, f.rate_q, 0.5 * f.rate_q)
-        self.wp = np.array([row(f.kappa_p) for f in ff], dtype=np.int64)
-        self.wq = np.array([row(f.kappa_q) if f.carrier else -1 for f in ff], dtype=np.int64)
-        self.kappas = tuple(kappas)
+        self.wp = np.array([row(f.kappa_p, source_of(f.p, f.bearing_p)) for f in ff], dtype=np.int64)
+        self.wq = np.array([row(f.kappa_q, source_of(f.q, f.bearing_q)) if f.carrier else -1 for f in ff],
+                           dtype=np.int64)
+        self.kappas = tuple(r[0] for r in rows)
+        #: the walks the segments read, (bearing, spin slip or None) each, DE first and the cage's alone first
+        self.walk_sources = tuple(sorted({r[1] for r in rows}, key=lambda w: (w[0] != "de", w[1] is not None)))
+        self.walks = tuple(self.walk_sources.index(r[1]) for r in rows)
         self.csrc = carrier_sums(ff)
         self._layout, self._consts = layout, consts
-        self._segment_plan = self.segment_plan(layout, consts, self.kappas, self.wp, self.wq, self.csrc)
+        self._segment_plan = self.segment_plan(layout, consts, self.kappas, self.wp, self.wq, self.csrc, self.walks)
         self._warp: dict = {}
 
     @staticmethod
-    def segment_plan(layout: dict, consts: np.ndarray, kappas, wp, wq, csrc):
+    def segment_plan(layout: dict, consts: np.ndarray, kappas, wp, wq, csrc, walks=None):
         """The segment kernel's plan (checked in C): the families' ``layout``, per phase (each family's, then its
-        carrier's) ``consts`` (rate / BPFO, fixed, rate, rate / 2), the distinct slip factors ``kappas``, each
-        family's slip rows ``wp``, ``wq`` (-1: none) and carrier sums ``csrc`` (F, 2)."""
+        carrier's) ``consts`` (rate / BPFO, fixed, rate, rate / 2), the distinct slip rows' factors ``kappas`` and
+        walks ``walks`` (indices into :attr:`walk_sources`; None: the first walk for every one), each family's slip rows ``wp``, ``wq`` (-1: none)
+        and carrier sums ``csrc`` (F, 2)."""
+        walks = np.zeros(len(kappas), dtype=np.int64) if walks is None else walks
         return synth_kernel.lines_segment_plan(
             _i64(layout["lg"]), _i64(layout["carrier"]), _i64(layout["offset"]), _i64(wp), _i64(wq),
-            _f64(consts).reshape(-1), _f64(np.asarray(kappas, dtype=float)), _i64(csrc).reshape(-1))
+            _f64(consts).reshape(-1), _f64(np.asarray(kappas, dtype=float)), _i64(csrc).reshape(-1), _i64(walks))
+
+    def family_tables(self) -> list:
+        """Per family the slice of its table(s) in a knot's buffer (floats)."""
+        lay = self._layout
+        rows = (lay["N"] + 3) * (1 + lay["carrier"])
+        return [slice(int(o), int(o + r * self.n_channels)) for o, r in zip(lay["offset"], rows)]
 
     def knot(self, x: np.ndarray, f: float, fade: float, taper, spow) -> tuple:
         """(y, v_iso, tables) at shaft speed ``f`` [Hz]: ``x`` (L, U) complex128 combinations [m] (multiplied in
@@ -176,7 +230,7 @@ class FusedLines:
             bpfo, fs = self.bpfo_per_hz, self.sample_rate_hz
             c1u = bpfo / fs * a.f
             c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
-            w, jw0 = walk.window(a.u_int, j, m, c1u, c2u, a.u_frac)
+            w, jw0 = walk.window(a.u_int, j, m, c1u, c2u, a.u_frac, self.walk_sources)
             warp = self._warp.get(m)
             if warp is None:
                 warp = self._warp[m] = np.empty(len(self.kappas) * m, dtype=np.int64)
@@ -202,12 +256,17 @@ class LoopLines:
     dtype : numpy dtype of the samples
     segment_fn : callable
         :func:`~bkabem_core.synth.kernel.segment` or its numpy reference.
+    spin_slip, spin_column : float, int
+        As :class:`FusedLines`.
     """
 
     renders_floor = False
 
-    def __init__(self, selection, channels, dc, sample_rate_hz: float, dtype, segment_fn):
+    def __init__(self, selection, channels, dc, sample_rate_hz: float, dtype, segment_fn, spin_slip: float = 0.0,
+                 spin_column: int = 2):
         self.families = selection.families
+        self.spin_slip = float(spin_slip)
+        self.spin_column = int(spin_column)
         self.nu, self.mu = selection.nu, selection.mu
         self.bpfo_per_hz = selection.bpfo_per_hz
         self.sample_rate_hz = float(sample_rate_hz)
@@ -252,13 +311,17 @@ class LoopLines:
         c1u = bpfo / fs * a.f
         c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
 
-        def warp_of(kappa: float):
-            """Fixed-point slip offsets of a phase that moves kappa turns per ball pass of slip (None: no slip)."""
-            if walk is None or kappa == 0.0:
+        def warp_of(kappa: float, p, bearing: str):
+            """Fixed-point slip offsets of a phase ``p`` of ``bearing`` that moves kappa turns per step of its
+            bearing's walk (None: no slip): that bearing's cage walk, with its spin walk for a phase of the
+            defective ball's spin."""
+            spin = self.spin_slip if self.spin_slip > 0 and p[self.spin_column] != 0 else None
+            if walk is None or kappa == 0.0 or (spin is None and walk.sigma == 0.0):
                 return None
-            if kappa not in warps:
-                warps[kappa] = walk.warp_fixed(a.u_int, j, m, c1u, c2u, a.u_frac, (kappa,))[0]
-            return warps[kappa]
+            if (kappa, spin, bearing) not in warps:
+                warps[kappa, spin, bearing] = walk.warp_fixed(a.u_int, j, m, c1u, c2u, a.u_frac, (kappa,), spin,
+                                                              bearing)[0]
+            return warps[kappa, spin, bearing]
 
         out[...] = self.dc
         scratch = self._scratch.get(m)
@@ -272,7 +335,7 @@ class LoopLines:
         blend = 65536.0 / length
         for fi, fam in enumerate(self.families.families):
             phase0, dphase0, dd = phase_args(fam.rate_p, fam.fixed_p, a, b, j, fs, bpfo)
-            warp = warp_of(fam.kappa_p)
+            warp = warp_of(fam.kappa_p, fam.p, fam.bearing_p)
             ta, tb = a.amp.tables[fi], (None if same else b.amp.tables[fi])
             for ti in range(len(ta)):
                 self._segment_fn(phase0, dphase0, dd, warp, ta[ti], None if tb is None else tb[ti], float(j), blend,
@@ -281,7 +344,7 @@ class LoopLines:
                 out += scratch[0]
                 continue
             q0, dq0, ddq = phase_args(fam.rate_q, fam.fixed_q, a, b, j, fs, bpfo)
-            self._segment_fn(q0, dq0, ddq, warp_of(fam.kappa_q), self._carrier_table, None, float(j), blend,
+            self._segment_fn(q0, dq0, ddq, warp_of(fam.kappa_q, fam.q, fam.bearing_q), self._carrier_table, None, float(j), blend,
                              scratch[2], None, None)
             synth_kernel.carrier_mix(scratch[2], scratch[0], scratch[1], out)
         return False

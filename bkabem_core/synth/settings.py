@@ -12,11 +12,26 @@ import numpy as np
 
 from bkabem_core.synth.channels import DEFAULT_QUANTITIES, QUANTITIES, make_channels
 from bkabem_core.synth.profile import SynthError, _finite
-from bkabem_core.synth.sensors import Accelerometer, AntiAliasFilter, SensorChain
+from bkabem_core.synth.sensors import (
+    Accelerometer,
+    AntiAliasFilter,
+    HighPassFilter,
+    InterferenceTones,
+    OutputStage,
+    Quantiser,
+    SensorChain,
+)
 
 MAX_SAMPLE_RATE_HZ = 1.0e6
 MAX_SLIP = 0.1
 KERNELS = ("auto", "loop", "reference")
+#: The Nyquist taper (``band_limit="taper"``) as fractions of Nyquist: (where knots start to be subdivided, where the
+#: taper starts, where it ends, its width): a raised cosine from 0.85 to 0.95 stands in for the acquisition's
+#: anti-alias filter ...
+TAPER_BAND = (0.8, 0.85, 0.95, 0.1)
+#: ... and moves out of the way of a steep anti-alias filter of the chain (down by >= 20 dB at 0.95 Nyquist, the
+#: acquisition band-limits itself), a guard that keeps every line below Nyquist (0.975 x 1.02 < 1)
+GUARD_TAPER_BAND = (0.9, 0.95, 0.975, 0.025)
 
 
 @dataclass(frozen=True)
@@ -36,6 +51,10 @@ class Settings:
     dtype : numpy scalar type (np.float32 or np.float64)
     max_order, table_size : int or None
     sensors : SensorChain
+    output : OutputStage
+        The acquisition's output stage (interference tones, quantisation) on the summed samples.
+    taper_band : tuple
+        :data:`TAPER_BAND`, or :data:`GUARD_TAPER_BAND` behind a steep anti-alias filter.
     broadband_floor : bool
     noise_density : tuple of (quantity, density) or None
     snr_db : float or None
@@ -58,6 +77,8 @@ class Settings:
     max_order: int | None
     table_size: int | None
     sensors: SensorChain
+    output: OutputStage
+    taper_band: tuple
     broadband_floor: bool
     noise_density: tuple | None
     snr_db: float | None
@@ -70,7 +91,8 @@ class Settings:
              max_speed_step_hz: float = 0.5, min_speed_hz: float = 0.05, dtype=np.float32,
              table_size: int | None = None, accelerometer: Accelerometer | None = None,
              anti_alias: AntiAliasFilter | None = None, sensors=(), broadband_floor: bool = True,
-             kernel: str = "auto") -> "Settings":
+             kernel: str = "auto", high_pass: HighPassFilter | None = None,
+             tones: InterferenceTones | None = None, quantisation: Quantiser | None = None) -> "Settings":
         """Checked settings from the synthesiser's keyword arguments (``seed=None``: a random seed)."""
         fs = _finite("sample_rate_hz", sample_rate_hz, 0.0, strict=True)
         if fs > MAX_SAMPLE_RATE_HZ:
@@ -99,11 +121,23 @@ class Settings:
             raise SynthError("table_size", f"must be a power of 2 in 64..65536 (got {table_size!r})")
         chain = []
         for name, v, kind in (("anti_alias", anti_alias, AntiAliasFilter), ("accelerometer", accelerometer,
-                                                                            Accelerometer)):
+                                                                            Accelerometer),
+                              ("high_pass", high_pass, HighPassFilter)):
             if v is not None and not isinstance(v, kind):
                 raise SynthError(name, f"must be a {kind.__name__} or None (got {type(v).__name__})")
             if v is not None:
                 chain.append(v)
+        stages = []
+        for name, v, kind in (("tones", tones, InterferenceTones), ("quantisation", quantisation, Quantiser)):
+            if v is not None and not isinstance(v, kind):
+                raise SynthError(name, f"must be a {kind.__name__} or None (got {type(v).__name__})")
+            if v is not None:
+                stages.append(v)
+        if tones is not None and tones.check_rate(fs):
+            raise SynthError("tones", tones.check_rate(fs))
+        taper_band = TAPER_BAND
+        if anti_alias is not None and abs(complex(anti_alias.gain(0.95 * fs / 2))) <= 0.1:
+            taper_band = GUARD_TAPER_BAND
         for s in sensors:
             if not all(hasattr(s, a) for a in ("name", "measures", "gain", "to_dict")):
                 raise SynthError("sensors", f"{s!r} is not a sensor (name, measures, gain, to_dict)")
@@ -116,7 +150,8 @@ class Settings:
         base = cls(sample_rate_hz=fs, chunk_samples=n_chunk, channels=channels, band_limit=band_limit,
                    spectrum=spectrum, max_speed_step_hz=step, min_speed_hz=min_speed, slip=slip, seed=0,
                    dtype=np.dtype(dtype).type, max_order=max_order, table_size=table_size, sensors=chain,
-                   broadband_floor=bool(broadband_floor), noise_density=None, snr_db=None, kernel=kernel)
+                   output=OutputStage(tuple(stages)), taper_band=taper_band, broadband_floor=bool(broadband_floor),
+                   noise_density=None, snr_db=None, kernel=kernel)
         return base.with_seed(seed).with_noise(noise_density, snr_db)
 
     def with_seed(self, seed: int | None) -> "Settings":

@@ -1,11 +1,11 @@
-"""The mutable state of a synthesiser's run (its knots, the next sample, the position of the slip walk), and the
+"""The mutable state of a synthesiser's run (its knots, the next sample, the position of the slip walks), and the
 samples and metadata of a chunk over its knots.
 
 Speed is piecewise linear in time between *knots* (every chunk border in streaming; every ``knot_s`` of run time and
 every profile breakpoint when rendering a profile; subdivided so that the speed moves by at most
-``max_speed_step_hz`` between knots). A knot holds its sample position, its speed, the ball passes since t = 0
-(integer part and fraction: the ball-pass phase is integrated exactly, a quadratic in time per segment) and the
-line amplitudes at its speed. Everything else a run needs is the plan's (:mod:`bkabem_core.synth.plan`), fixed.
+``max_speed_step_hz`` between knots). A knot holds its sample position, its speed, the DE bearing's ball passes since t = 0
+(integer part and fraction: the ball-pass phase is integrated exactly, a quadratic in time per segment; every other
+phase, the NDE's cage and spin among them, is a multiple of it) and the line amplitudes at its speed. Everything else a run needs is the plan's (:mod:`bkabem_core.synth.plan`), fixed.
 
 A chunk (:meth:`Stream.chunk`) is rendered segment by segment by the plan's line kernels
 (:mod:`bkabem_core.synth.render`). With the C kernels the sensor noise and the broadband floor are added inside the
@@ -25,8 +25,9 @@ import numpy as np
 
 from bkabem_core.solve.harmonic import TWO_PI
 from bkabem_core.synth import kernel as synth_kernel
+from bkabem_core.synth.balltrack import GAIN_TOLERANCE, keep_knots
 from bkabem_core.synth.features import Chunk
-from bkabem_core.synth.render import Amplitudes
+from bkabem_core.synth.render import Amplitudes, blend
 
 #: ISO 10816 evaluation band for velocity RMS [Hz]
 ISO_BAND_HZ = (10.0, 1000.0)
@@ -39,6 +40,8 @@ class Knot:
     u_int: int          # ball passes since t = 0: integer part ...
     u_frac: float       # ... and fraction in [0, 1)
     amp: Amplitudes     # line amplitudes and tables at f
+    base: Amplitudes | None = None  # ... before a wandering ball defect's gain (None: amp)
+    gain: float = 1.0   # that gain
 
 
 class Stream:
@@ -46,14 +49,18 @@ class Stream:
 
     Parameters
     ----------
-    walk : SlipWalk or None
-        The random walk of the ball-pass phase of the run's seed (its blocks are made as the run advances).
+    walk : SlipWalks or None
+        The random walks of the bearings' ball-pass phases of the run's seed (their blocks are made as the run
+        advances).
+    gate : TrackGate or None
+        The track wander of a ball defect for the run's seed (:mod:`bkabem_core.synth.balltrack`).
     """
 
-    def __init__(self, walk=None):
+    def __init__(self, walk=None, gate=None):
         self.knots: list[Knot] = []
         self.next_index = 0
         self.walk = walk
+        self.gate = gate
 
     @property
     def speed_hz(self) -> float | None:
@@ -82,30 +89,89 @@ class Stream:
     def append(self, x: int, f: float, plan, max_knots: int) -> None:
         """Add knot(s) up to sample x with speed f [Hz] (speed linear in time from the last knot), at most
         ``max_knots`` (:meth:`knots_between`); subdivision knots sit on samples too, with the speed of the straight
-        line at that sample."""
+        line at that sample. Where a ball defect wanders (:mod:`bkabem_core.synth.balltrack`), knots are added
+        between these where the walk's gain needs them (:meth:`_gate_knots`): they take the amplitudes of their
+        segment blended in time (as the samples between its knots are) and the gain of the walk at their ball
+        pass, with no spectrum of their own."""
         x = int(x)
         ks = self.knots
         if not ks:
-            ks.append(Knot(x=x, f=float(f), u_int=0, u_frac=0.0, amp=plan.amplitudes(f)))
+            base = plan.amplitudes(f)
+            amp, gain = self._gated(plan, base, 0.0)
+            ks.append(Knot(x=x, f=float(f), u_int=0, u_frac=0.0, amp=amp, base=base, gain=gain))
             return
         last = ks[-1]
         span = x - last.x
         n = min(self.knots_between(plan, last.f, f, max_knots), span)
-        if n == 1:                                      # one step (streaming: nearly always)
-            self._add(x, f, plan)
+        track = plan.track
+        if n == 1 and (track is None or not track.wanders):   # one step (streaming: nearly always)
+            self._add(x, f, plan, plan.amplitudes(f))
             return
         for i in range(1, n + 1):
             xi = last.x + (span * i) // n
             fi = last.f + (f - last.f) * (xi - last.x) / span if i < n else f
-            self._add(xi, fi, plan)
+            base = plan.amplitudes(fi)
+            if track is not None and track.wanders:
+                self._gate_knots(xi, base, plan, last, span, f, max_knots)
+            self._add(xi, fi, plan, base)
 
-    def _add(self, x: int, f: float, plan) -> None:
+    def _gate_knots(self, x: int, base, plan, first, span: int, f_end: float, max_knots: int) -> None:
+        """The knots between the last one and the speed knot at sample x (amplitudes ``base``) that the walk's gain
+        needs: the gain is linear between the walk's steps, so the candidates are the samples nearest to each step
+        (every ``passes_per_step`` ball passes), at most ``max_knots``; of them those are kept where the gain,
+        linear between the kept ones, would be off by more than
+        :data:`~bkabem_core.synth.balltrack.GAIN_TOLERANCE` (:func:`~bkabem_core.synth.balltrack.keep_knots`: a pit
+        off the track needs none). Their speed on the straight line from knot ``first`` over ``span`` samples to
+        ``f_end`` [Hz]."""
+        prev = self.knots[-1]
+        length = x - prev.x
+        k = plan.lines.bpfo_per_hz / plan.settings.sample_rate_hz
+        step = plan.track.passes_per_step
+        u0 = prev.u_int + prev.u_frac
+        c1, c2 = k * prev.f, 0.5 * k * (base.f - prev.f) / length        # passes since prev: (c2 xi + c1) xi
+        u1 = u0 + (c2 * length + c1) * length
+        k0, k1 = math.floor(u0 / step) + 1, math.floor(u1 / step)
+        if k1 < k0:
+            return
+        ks = range(k0, k1 + 1) if k1 - k0 < max_knots else np.linspace(k0, k1, max_knots).round().astype(int)
+        xs = [prev.x]
+        for j in ks:                                  # the sample where the ball passes reach step j
+            d = j * step - u0
+            xi = 2.0 * d / (c1 + math.sqrt(c1 * c1 + 4.0 * c2 * d)) if c1 > 0.0 or c2 > 0.0 else length
+            xj = prev.x + int(round(xi))
+            if xs[-1] < xj < x:
+                xs.append(xj)
+        xs.append(x)
+        if len(xs) <= 2:
+            return
+        fs = [first.f + (f_end - first.f) * (xj - first.x) / span for xj in xs]
+        gains = np.array([self.gate.gain(plan.track, u0 + (c2 * (xj - prev.x) + c1) * (xj - prev.x)) for xj in xs])
+        a = prev.base if prev.base is not None and prev.base.lines is base.lines else None
+        for j in keep_knots(np.array(xs, dtype=float), gains, GAIN_TOLERANCE):
+            mid = plan.amplitudes(fs[j]) if a is None else blend(a, base, (xs[j] - prev.x) / length, fs[j])
+            self._add(xs[j], fs[j], plan, mid)
+
+    def _add(self, x: int, f: float, plan, base) -> None:
         prev = self.knots[-1]
         du = plan.lines.bpfo_per_hz / plan.settings.sample_rate_hz * 0.5 * (prev.f + f) * (x - prev.x)
         tot = prev.u_frac + du
         fl = math.floor(tot)
-        self.knots.append(Knot(x=int(x), f=float(f), u_int=prev.u_int + int(fl), u_frac=tot - fl,
-                               amp=plan.amplitudes(f)))
+        u_int = prev.u_int + int(fl)
+        amp, gain = self._gated(plan, base, u_int + (tot - fl))
+        self.knots.append(Knot(x=int(x), f=float(f), u_int=u_int, u_frac=tot - fl, amp=amp, base=base, gain=gain))
+
+    def _gated(self, plan, base, passes: float) -> tuple:
+        """(amplitudes, gain) of a knot of amplitudes ``base`` at ``passes`` ball passes since t = 0: a wandering
+        ball defect's lines times the gain of the walk there (:mod:`bkabem_core.synth.balltrack`); the last knot's
+        own amplitudes where they are the same (a segment of one table: no blend in time)."""
+        track = plan.track
+        if track is None or not track.wanders or self.gate is None:
+            return base, 1.0
+        gain = self.gate.gain(track, passes)
+        last = self.knots[-1] if self.knots else None
+        if last is not None and last.base is base and last.gain == gain:
+            return last.amp, gain
+        return plan.gated_amplitudes(base, gain), gain
 
     def chunk(self, plan, n0: int, n: int, features: bool) -> Chunk:
         """The chunk of samples [n0, n0 + n) of ``plan`` over the knots (they cover the range; earlier knots are
@@ -115,7 +181,14 @@ class Stream:
         if features:
             acc = np.zeros((plan.n_channels, 6))
             acc[:, 4], acc[:, 5] = -np.inf, np.inf
-        out = _render_samples(plan, self, n0, n, acc)
+        if plan.output:                     # the acquisition's output stage: the features of what it records
+            out = _render_samples(plan, self, n0, n, None)
+            for stage in plan.output:
+                stage.apply(out, n0)
+            if acc is not None:
+                plan.accumulate(out, plan.dc_off, acc)
+        else:
+            out = _render_samples(plan, self, n0, n, acc)
         return _make_chunk(plan, self, n0, n, out, acc)
 
     def _segment_at(self, start: int, pos: float) -> int:
@@ -253,11 +326,11 @@ def _iso_velocity(plan, f: float, a, b, s: float) -> dict:
 def _make_chunk(plan, stream, n0: int, n: int, out: np.ndarray, acc) -> Chunk:
     """The :class:`Chunk` of samples ``out`` of [n0, n0 + n): speed, angles, features, ground truth."""
     fs = plan.settings.sample_rate_hz
-    bpfo, nb = plan.lines.bpfo_per_hz, plan.lines.n_balls
+    bpfo = plan.lines.bpfo_per_hz
     f0, ui, uf, *_ = stream.state_at(n0, bpfo, fs)
     f_end, *_ = stream.state_at(n0 + n, bpfo, fs)
     passes = ui + uf
-    cage = (TWO_PI * (passes / nb)) % TWO_PI
+    cages = plan.lines.cage_angles_rad(passes)
     shaft = (TWO_PI * (passes / bpfo)) % TWO_PI
     feats = {}
     if acc is not None:
@@ -268,9 +341,11 @@ def _make_chunk(plan, stream, n0: int, n: int, out: np.ndarray, acc) -> Chunk:
         feats["iso10816_velocity_rms_mm_s"] = _iso_velocity(plan, f, a, b, s)
     gt = dict(plan.ground_truth)
     gt["shaft_speed_hz"] = f0
-    fm = plan.model.fault_multipliers
-    gt["fault_frequencies_hz"] = {"ftf": fm.ftf * f0, "bpfo": fm.bpfo * f0, "bpfi": fm.bpfi * f0, "bsf": fm.bsf * f0}
+    per = {b: {"ftf": fm.ftf * f0, "bpfo": fm.bpfo * f0, "bpfi": fm.bpfi * f0, "bsf": fm.bsf * f0}
+           for b, fm in plan.lines.multipliers.items()}
+    gt["fault_frequencies_hz"] = per["de"]                       # the field of one bearing type: the DE's
+    gt["bearing_fault_frequencies_hz"] = per
     return Chunk(samples=out.T, first_sample_index=int(n0), t0_s=n0 / fs, sample_rate_hz=fs,
                  channel_names=plan.channels.names, units=plan.channels.units, shaft_speed_hz=float(f0),
-                 shaft_speed_end_hz=float(f_end), cage_angle_rad=float(cage), shaft_angle_rad=float(shaft),
-                 features=feats, ground_truth=gt)
+                 shaft_speed_end_hz=float(f_end), cage_angle_rad=float(cages["de"]), shaft_angle_rad=float(shaft),
+                 features=feats, ground_truth=gt, cage_angles_rad={b: float(v) for b, v in cages.items()})

@@ -7,8 +7,9 @@ updates arriving between chunks). The method, its error bounds and the realism o
 
 * **Angle domain.** Speed is integrated exactly (it is piecewise linear in time, so every line's phase is a
   quadratic per segment) and a line of coefficients ``c`` contributes ``Re(Y exp(i c . Phi))`` where ``Phi`` are
-  the shaft, cage, ball-spin and supply phases since t = 0 (cage angle 0 at t = 0, the convention of
-  :mod:`bkabem_core.solve.harmonic`); BPFO order ``k`` is ``Re(Y_k exp(i k u 2 pi))`` with ``u`` the ball passes.
+  the shaft phase, each bearing's cage and ball-spin phases and the supply phase since t = 0 (cage angles 0 at
+  t = 0, the convention of :mod:`bkabem_core.solve.harmonic`); BPFO order ``k`` is ``Re(Y_k exp(i k u 2 pi))``
+  with ``u`` the ball passes. Each bearing slips by a walk of its own (docs/synthesis.md).
   Signals are continuous in value and slope across chunks and speed changes.
 * **Knots.** The complex amplitudes ``Y`` (per channel) are evaluated at *knots*: every chunk border in streaming,
   every ``knot_s`` of run time and every profile breakpoint when rendering a profile, plus subdivisions so that the
@@ -42,11 +43,13 @@ from typing import Iterator
 import numpy as np
 
 from bkabem_core.solve.harmonic import BkaBem
+from bkabem_core.synth.balltrack import TrackGate
 from bkabem_core.synth.channels import DEFAULT_QUANTITIES
 from bkabem_core.synth.features import Chunk, waveform_features  # noqa: F401  (re-exported)
+from bkabem_core.synth.measurement import DEFAULT_SAMPLE_RATE_HZ, FROM_CASE, Measurement  # noqa: F401
 from bkabem_core.synth.plan import Plan, choose_method
 from bkabem_core.synth.profile import SpeedProfile, SynthError, _finite, parse_profile  # noqa: F401  (re-exported)
-from bkabem_core.synth.randomness import SlipWalk
+from bkabem_core.synth.randomness import SlipWalks
 from bkabem_core.synth.sensors import Accelerometer, AntiAliasFilter
 from bkabem_core.synth.settings import Settings
 from bkabem_core.synth.stream import Stream
@@ -60,16 +63,17 @@ class Synthesizer:
     ----------
     model : BkaBem
         The prepared model of the case (its spectrum is evaluated at every knot).
-    sample_rate_hz : float
-        Samples per second (default 25 600; up to 1 MHz).
+    sample_rate_hz : float or None
+        Samples per second (up to 1 MHz; None, the default: the case's ``measurement.sample_rate_hz``, else 25 600).
     chunk_s : float
         Chunk length [s] (default 0.1); ``round(chunk_s * sample_rate_hz)`` samples.
     quantities : sequence of str
         Any of ``"acceleration"`` (housing, m/s^2), ``"displacement"`` (shaft relative to housing, m),
         ``"velocity"`` (housing, mm/s). Default acceleration and displacement (8 channels).
-    noise_density : dict or None
+    noise_density : dict, None or "case"
         White sensor noise, one-sided density per quantity: ``{"acceleration": m/s^2/sqrt(Hz), "displacement":
-        m/sqrt(Hz), "velocity": mm/s/sqrt(Hz)}``; noise RMS = density * sqrt(sample_rate / 2).
+        m/sqrt(Hz), "velocity": mm/s/sqrt(Hz)}``; noise RMS = density * sqrt(sample_rate / 2). ``"case"`` (the
+        default): the case's ``measurement.noise_density_m_s2_per_sqrt_hz`` (none without it, or with ``snr_db``).
     snr_db : float or None
         Alternative to ``noise_density``: noise RMS = dynamic signal RMS of the channel (from the line amplitudes
         at the segment's knots) / 10^(snr_db / 20).
@@ -104,10 +108,19 @@ class Synthesizer:
     table_size : int or None
         Spline coefficients per turn of every family's phase (power of 2; default each family its own,
         max(64, 8 x its highest harmonic): 512 for 50 BPFO orders).
-    accelerometer : Accelerometer or None
+    accelerometer : Accelerometer, None or "case"
         The mounted sensor's resonance on the housing channels (:mod:`bkabem_core.synth.sensors`; None: ideal).
-    anti_alias : AntiAliasFilter or None
+    anti_alias : AntiAliasFilter, None or "case"
         The acquisition's low-pass on every channel (None: none; ``AntiAliasFilter.for_rate(fs)`` the usual one).
+    high_pass : HighPassFilter, None or "case"
+        The acquisition's AC coupling on the housing channels (None: none).
+    tones : InterferenceTones, None or "case"
+        Fixed-frequency interference added to the acceleration channels as recorded (None: none).
+    quantisation : Quantiser, None or "case"
+        The converter's step on the acceleration channels (None: none).
+    measurement : bool
+        Take what the arguments above leave at ``"case"`` (their default) from the case's ``[measurement]``
+        section (:mod:`bkabem_core.synth.measurement`; default True); False: none of it, an ideal acquisition.
     sensors : sequence
         Further sensors of the chain (:mod:`bkabem_core.synth.sensors`), after the anti-alias filter and the
         accelerometer.
@@ -120,16 +133,32 @@ class Synthesizer:
         Which sample kernels (:class:`~bkabem_core.synth.settings.Settings`); the samples agree to float32 rounding.
     """
 
-    def __init__(self, model: BkaBem, sample_rate_hz: float = 25600.0, chunk_s: float = 0.1, *,
-                 quantities=DEFAULT_QUANTITIES, noise_density: dict | None = None, snr_db: float | None = None,
+    def __init__(self, model: BkaBem, sample_rate_hz: float | None = None, chunk_s: float = 0.1, *,
+                 quantities=DEFAULT_QUANTITIES, noise_density: dict | None | str = FROM_CASE,
+                 snr_db: float | None = None,
                  slip: float = 0.0, seed: int | None = 0, max_order: int | None = None, band_limit: str = "auto",
                  spectrum: str = "auto", knot_s: float = 0.1, max_speed_step_hz: float = 0.5,
                  min_speed_hz: float = 0.05, initial_speed_hz: float | None = None, dtype=np.float32,
-                 features: bool = True, table_size: int | None = None, accelerometer: Accelerometer | None = None,
-                 anti_alias: AntiAliasFilter | None = None, sensors=(), broadband_floor: bool = True,
-                 kernel: str = "auto"):
+                 features: bool = True, table_size: int | None = None, accelerometer=FROM_CASE,
+                 anti_alias=FROM_CASE, sensors=(), broadband_floor: bool = True, kernel: str = "auto",
+                 high_pass=FROM_CASE, tones=FROM_CASE, quantisation=FROM_CASE, measurement: bool = True):
         if not isinstance(model, BkaBem):
             raise SynthError("model", f"must be a BkaBem (got {type(model).__name__})")
+        #: the case's measurement chain (empty with ``measurement=False``)
+        self.measurement = Measurement.of_case(model.case) if measurement else Measurement()
+        m = self.measurement
+
+        def case_default(value, name):
+            return getattr(m, name) if isinstance(value, str) and value == FROM_CASE else value
+
+        if sample_rate_hz is None:
+            sample_rate_hz = m.sample_rate_hz if m.sample_rate_hz is not None else DEFAULT_SAMPLE_RATE_HZ
+        if isinstance(noise_density, str) and noise_density == FROM_CASE:
+            noise_density = None if snr_db is not None else m.noise_density
+        accelerometer, anti_alias, high_pass, tones, quantisation = (
+            case_default(v, k) for v, k in ((accelerometer, "accelerometer"), (anti_alias, "anti_alias"),
+                                            (high_pass, "high_pass"), (tones, "tones"),
+                                            (quantisation, "quantisation")))
         if band_limit == "auto":            # lines carried to the band: taper; a case that caps its lines: error
             band_limit = "taper" if int(model.case.raw["excitation"].get("max_order", 0)) == 0 else "error"
         self.settings = Settings.make(
@@ -137,7 +166,7 @@ class Synthesizer:
             seed=seed, max_order=max_order, band_limit=band_limit, spectrum=spectrum,
             max_speed_step_hz=max_speed_step_hz, min_speed_hz=min_speed_hz, dtype=dtype, table_size=table_size,
             accelerometer=accelerometer, anti_alias=anti_alias, sensors=sensors, broadband_floor=broadband_floor,
-            kernel=kernel)
+            kernel=kernel, high_pass=high_pass, tones=tones, quantisation=quantisation)
         self.knot_s = _finite("knot_s", knot_s, 0.0, strict=True)
         #: Most knots one speed step (one streamed chunk) may add; a real-time caller (the ROS node) lowers it so a
         #: jump of any size costs a bounded time (coarser amplitude interpolation through the jump, exact phase).
@@ -202,10 +231,11 @@ class Synthesizer:
     channel_names = property(lambda self: self._plan.channels.names)
     units = property(lambda self: self._plan.channels.units)
     orders = property(lambda self: self._plan.lines.orders, doc="BPFO order of each kept line (0: not an order).")
-    coefficients = property(lambda self: self._plan.lines.coefficients, doc="(L, 4) coefficients of the kept lines.")
-    bpfo_per_hz = property(lambda self: self._plan.lines.bpfo_per_hz)
-    n_balls = property(lambda self: self._plan.lines.n_balls)
-    fault_multipliers = property(lambda self: self._plan.model.fault_multipliers)
+    coefficients = property(lambda self: self._plan.lines.coefficients, doc="(L, 6) on the machine's phases.")
+    bpfo_per_hz = property(lambda self: self._plan.lines.bpfo_per_hz, doc="The DE bearing's BPFO per shaft Hz.")
+    n_balls = property(lambda self: self._plan.lines.n_balls, doc="The DE bearing's ball count.")
+    fault_multipliers = property(lambda self: self._plan.lines.multipliers["de"], doc="The DE bearing's.")
+    bearing_multipliers = property(lambda self: dict(self._plan.lines.multipliers), doc="Each bearing's.")
     highest_order = property(lambda self: self._plan.lines.highest_order)
     table_size = property(lambda self: self._plan.lines.families.table_size)
     floor_density = property(lambda self: self._plan.floor_density)
@@ -227,14 +257,16 @@ class Synthesizer:
         return self._plan.lines.frequency_hz(speed_hz)
 
     def line_orders(self) -> np.ndarray:
-        """Each synthesised line's frequency in BPFO orders [-] (the integer orders of BPFO orders, as floats)."""
+        """Each synthesised line's frequency in the DE bearing's BPFO orders [-] (the integer orders of BPFO orders,
+        as floats)."""
         return self._plan.lines.nu / self._plan.lines.bpfo_per_hz
 
     def line_phases_rad(self, chunk: Chunk) -> np.ndarray:
         """Phase of every line at the first sample of ``chunk`` [rad], before slip: ``c . Phi`` (BPFO order k:
-        ``k z theta_cage``), so that ``line_spectrum`` amplitudes times ``exp(i phase)`` are the lines at t0."""
-        return self._plan.line_phases_rad(float(chunk.shaft_angle_rad), float(chunk.cage_angle_rad),
-                                          float(chunk.t0_s))
+        ``k z theta_cage``, each line on its own bearing's cage and spin), so that ``line_spectrum`` amplitudes
+        times ``exp(i phase)`` are the lines at t0."""
+        cages = chunk.cage_angles_rad or {"de": chunk.cage_angle_rad, "nde": chunk.cage_angle_rad}
+        return self._plan.line_phases_rad(float(chunk.shaft_angle_rad), cages, float(chunk.t0_s))
 
     def line_spectrum(self, speed_hz: float) -> dict:
         """The lines the waveform holds at ``speed_hz`` [Hz] (what an FFT of a steady run shows).
@@ -330,7 +362,7 @@ class Synthesizer:
     def reset(self) -> None:
         """Start a new stream at sample 0, cage angle 0."""
         s = self.settings
-        self._stream = Stream(SlipWalk(s.slip, s.seed) if s.slip > 0 else None)
+        self._stream = Stream(SlipWalks(s.slip, s.seed), TrackGate(s.seed))
 
     @property
     def next_sample_index(self) -> int:

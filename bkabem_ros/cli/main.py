@@ -11,6 +11,8 @@ module                                      commands
 :mod:`bkabem_ros.cli.core`                  ``excitation``, ``spectrum``, ``sweep``, ``validate``, ``demo``
 :mod:`bkabem_ros.cli.synth`                 ``synth``
 :mod:`bkabem_ros.cli.dataset`               ``dataset``
+:mod:`bkabem_ros.cli.bearing`               ``bearing``
+:mod:`bkabem_ros.cli.case`                  ``case new``, ``case check``
 :mod:`bkabem_ros.cli.ros` (+ ``speed``,         ``node``, ``speed``, ``echo``, ``fleet``, ``record``, ``replay``
 ``echo``, ``fleet``, ``record_cli``,
 ``replay_cli``)
@@ -27,6 +29,7 @@ import argparse
 import sys
 
 from bkabem_ros.cli import bearing as bearing_cli
+from bkabem_ros.cli import case as case_cli
 from bkabem_ros.cli import core as core_cli
 from bkabem_ros.cli import dataset as dataset_cli
 from bkabem_ros.cli import listing as listing_cli
@@ -66,6 +69,7 @@ def build_parser() -> Parser:
     synth_cli.add_parser(sub)
     dataset_cli.add_parser(sub)
     bearing_cli.add_parser(sub)
+    case_cli.add_parser(sub)
     add_ros_commands(sub, core_cli.add_case)
     for sp in sub.choices.values():
         add_debug(sp)

@@ -85,7 +85,8 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
     p.add_argument("--scenario-start", default=None, help="scenario time of the first sample [s] (default 0)")
     p.add_argument("--seconds", default=None,
                    help="duration [s] (default: the profile's last breakpoint; required for constant profiles)")
-    p.add_argument("--rate", default="25600", help="sample rate [Hz] (default 25600)")
+    p.add_argument("--rate", default=None, help="sample rate [Hz] (default: the case's measurement.sample_rate_hz, "
+                                                  "else 25600)")
     p.add_argument("--chunk", default="0.1", help="chunk length [s] (default 0.1)")
     p.add_argument("--out", required=True, type=output_path("--out", (".npz", ".csv"), make_parents=True),
                    help="output file, .npz or .csv")
@@ -94,7 +95,8 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
                         "lines named")
     p.add_argument("--seed", default="0", help="seed of slip and noise (default 0)")
     p.add_argument("--slip", default="0", help="random slip: std of the ball-pass interval / its mean (e.g. 0.01)")
-    p.add_argument("--noise-acc", default=None, help="accelerometer noise density [m/s^2/sqrt(Hz)] (e.g. 1e-3)")
+    p.add_argument("--noise-acc", default=None, help="accelerometer noise density [m/s^2/sqrt(Hz)] (e.g. 1e-3; "
+                                                      "default: the case's measurement section, else none)")
     p.add_argument("--noise-disp", default=None, help="proximity-probe noise density [m/sqrt(Hz)] (e.g. 1e-9)")
     p.add_argument("--noise-vel", default=None, help="velocity noise density [mm/s/sqrt(Hz)]")
     p.add_argument("--snr-db", default=None, help="noise by signal-to-noise ratio [dB] instead of densities")
@@ -109,6 +111,9 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
     p.add_argument("--spectrum", default="auto", choices=("auto", "exact", "modal"),
                    help="spectrum at each knot: exact solve, modal form, or auto (the cheaper for the profile)")
     p.add_argument("--float64", action="store_true", help="float64 samples (default float32)")
+    p.add_argument("--no-measurement", action="store_true",
+                   help="leave out the case's [measurement] section (its sensor mount, filters, interference, "
+                        "converter step, noise and rate): an ideal acquisition")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
@@ -178,14 +183,32 @@ def _settings(args) -> dict:
         "time_scale": _num("--time-scale", getattr(args, "time_scale", None), float, TIME_SCALE_RANGE[0],
                            allow_none=True, maximum=TIME_SCALE_RANGE[1]),
         "scenario_start": _num("--scenario-start", getattr(args, "scenario_start", None), float, 0.0, allow_none=True),
-        "rate": _num("--rate", args.rate, float, 0.0, strict=True),
+        "rate": _num("--rate", args.rate, float, 0.0, strict=True, allow_none=True),
         "chunk": _num("--chunk", args.chunk, float, 0.0, strict=True, maximum=MAX_CHUNK_S),
         "seed": _num("--seed", args.seed, int, 0),
         "slip": _num("--slip", args.slip, float, 0.0),
-        "noise_density": dens or None, "snr_db": snr,
+        "noise_density": dens or None, "snr_db": snr, "noise_given": bool(dens) or snr is not None,
         "max_order": _num("--max-order", args.max_order, int, 1, allow_none=True),
         "quantities": [q.strip() for q in str(args.quantities).split(",") if q.strip()],
     }
+
+
+def _rate(st: dict, case, args) -> float:
+    """The sample rate [Hz]: ``--rate``, else the case's acquisition rate (``measurement.sample_rate_hz``, 25.6 kHz
+    without one or with ``--no-measurement``)."""
+    from bkabem_core.synth.measurement import DEFAULT_SAMPLE_RATE_HZ, sample_rate_of
+
+    if st["rate"] is not None:
+        return st["rate"]
+    return DEFAULT_SAMPLE_RATE_HZ if getattr(args, "no_measurement", False) else sample_rate_of(case)
+
+
+def _measurement_options(st: dict, args) -> dict:
+    """The synthesiser's noise and measurement arguments: the options given, the case's section for the rest."""
+    out = {"measurement": not getattr(args, "no_measurement", False), "snr_db": st["snr_db"]}
+    if st["noise_given"]:
+        out["noise_density"] = st["noise_density"]
+    return out
 
 
 def _check_free_space(out: Path, n_bytes: int) -> None:
@@ -215,7 +238,7 @@ def _rename(err: SynthError) -> SynthError:
 
     names = {"sample_rate_hz": "--rate", "chunk_s": "--chunk", "seconds": "--seconds", "slip": "--slip",
              "seed": "--seed", "max_order": "--max-order", "quantities": "--quantities", "snr_db": "--snr-db",
-             "band_limit": "--band-limit"}
+             "band_limit": "--band-limit", "tones": "--rate"}
     arg = err.argument
     if arg in ("speed_hz", "initial_speed_hz") and "below twice" in err.reason:
         # a chunk's speed (from --profile or the scenario's [speed]) puts a kept line above the Nyquist frequency of
@@ -337,7 +360,7 @@ def _plot(path: Path, excerpt: np.ndarray, fs: float, synth: Synthesizer, speed_
     acc = next((i for i, n in enumerate(names) if n.endswith("acceleration")), 0)
     disp = next((i for i, n in enumerate(names) if n.endswith("displacement")), None)
     model = synth.model
-    ff = model.fault_multipliers.at_speed(speed_hz)
+    ff = model.bearing_multipliers[synth.channels[acc].bearing].at_speed(speed_hz)      # the channel's bearing
     bpfo = ff.bpfo
     defects = defects_of_case(model.case)
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(11, 8))
@@ -411,9 +434,9 @@ def _scenario_run(st, args):
         raise UsageError(f"--scenario-start: {start:g} s is at or after the scenario's end ({scenario.duration_s:g} s); "
                          f"give --seconds to render its last state")
     try:
-        run = ScenarioRun(scenario, time_scale=scale, start_s=start, sample_rate_hz=st["rate"], chunk_s=st["chunk"],
-                          speed=st["profile"], quantities=st["quantities"], noise_density=st["noise_density"],
-                          snr_db=st["snr_db"], slip=st["slip"], seed=st["seed"], max_order=st["max_order"],
+        run = ScenarioRun(scenario, time_scale=scale, start_s=start, sample_rate_hz=_rate(st, scenario.case, args),
+                          chunk_s=st["chunk"], speed=st["profile"], **_measurement_options(st, args),
+                          quantities=st["quantities"], slip=st["slip"], seed=st["seed"], max_order=st["max_order"],
                           band_limit=args.band_limit, spectrum=args.spectrum,
                           dtype=np.float64 if args.float64 else np.float32)
         seconds = st["seconds"] if st["seconds"] is not None else run.seconds_to_end()
@@ -457,8 +480,8 @@ def synth_main(args) -> int:
         model = BkaBem(case)
         t_model = time.perf_counter() - t_start
         try:
-            synth = Synthesizer(model, sample_rate_hz=st["rate"], chunk_s=st["chunk"], quantities=st["quantities"],
-                                noise_density=st["noise_density"], snr_db=st["snr_db"], slip=st["slip"],
+            synth = Synthesizer(model, sample_rate_hz=_rate(st, case, args), chunk_s=st["chunk"],
+                                quantities=st["quantities"], **_measurement_options(st, args), slip=st["slip"],
                                 seed=st["seed"], max_order=st["max_order"], band_limit=args.band_limit,
                                 spectrum=args.spectrum, dtype=np.float64 if args.float64 else np.float32)
             chunks = ((ch, None) for ch in synth.render(st["profile"], st["seconds"]))

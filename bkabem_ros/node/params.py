@@ -53,7 +53,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               range=(0, 2**31 - 1)),
     ParamSpec("noise_acc", 0.0, "m/s^2/sqrt(Hz)",
               "accelerometer noise density: white Gaussian, one-sided, RMS = density x sqrt(sample_rate / 2) (the "
-              "unit of bkabem synth --noise-acc and of a data set's noise_acc)", live=True, range=(0.0, 1.0e3)),
+              "unit of bkabem synth --noise-acc and of a data set's noise_acc; 0: the case's measurement section's, "
+              "else none)", live=True, range=(0.0, 1.0e3)),
     ParamSpec("noise_disp", 0.0, "m/sqrt(Hz)",
               "proximity-probe noise density on the displacement channels (bkabem synth --noise-disp)", live=True,
               range=(0.0, 1.0e-2)),

@@ -168,11 +168,13 @@ class MachineSource:
 
     def set_noise(self, acceleration_density: float, displacement_density: float, snr_db: float) -> None:
         """Sensor noise from the next chunk on: one-sided densities per quantity [m/s^2/sqrt(Hz), m/sqrt(Hz)], or by
-        SNR [dB] (> 0)."""
+        SNR [dB] (> 0); a density of 0 is the case's (its ``[measurement]`` section's, else none)."""
         if snr_db > 0.0:
             self.synth.set_noise(snr_db=float(snr_db))
             return
-        dens = {"acceleration": float(acceleration_density), "displacement": float(displacement_density)}
+        case = self.synth.measurement.noise_density or {}
+        dens = {"acceleration": float(acceleration_density) or case.get("acceleration", 0.0),
+                "displacement": float(displacement_density) or case.get("displacement", 0.0)}
         self.synth.set_noise(noise_density={q: v for q, v in dens.items() if v > 0.0} or None)
 
     # ------------------------------------------------------------------ the machine changes

@@ -60,15 +60,39 @@ def from_rad_s(value_rad_s: float, unit: str) -> float:
     return float(value_rad_s) / SPEED_UNITS[normalize_unit(unit)]
 
 
-def check_speed(value_rad_s: float, max_rad_s: float) -> str | None:
-    """Why a speed (rad/s) is unusable, or None when it is fine (finite, >= 0, <= max)."""
+def check_speed(value_rad_s: float, max_rad_s: float, limit: tuple[float, str] | None = None) -> str | None:
+    """Why a speed (rad/s) is unusable, or None when it is fine (finite, >= 0, <= the bearings' ``limit``, <= max).
+
+    ``limit``: the fastest shaft the case's bearings allow [rad/s] and which bearing sets it
+    (:func:`bkabem_core.model.plausibility.max_speed_bound`), or None.
+    """
     if not math.isfinite(value_rad_s):
         return f"not finite ({value_rad_s!r})"
     if value_rad_s < 0.0:
         return f"negative ({value_rad_s:g} rad/s; reverse rotation is not modelled)"
+    if limit is not None and value_rad_s > limit[0]:
+        return f"above the bearings' limiting speed ({value_rad_s:g} > {limit[0]:g} rad/s: {limit[1]})"
     if value_rad_s > max_rad_s:
         return f"above max_speed ({value_rad_s:g} > {max_rad_s:g} rad/s)"
     return None
+
+
+def bearing_limit_rad_s(case) -> tuple[float, str] | None:
+    """The fastest shaft the bearings of ``case`` allow [rad/s] and which bearing sets it, or None
+    (:func:`bkabem_core.model.plausibility.max_speed_bound`: the case's ``[plausibility]`` overrides included)."""
+    from bkabem_core.model.plausibility import max_speed_bound  # the case bound; imported when a node runs
+
+    bound = max_speed_bound(case.resolved)
+    return None if bound is None else (bound[0] * TWO_PI, bound[1])
+
+
+def max_speed_refusal(max_rad_s: float, limit: tuple[float, str] | None) -> str | None:
+    """Why the node's ``max_speed`` parameter [rad/s] is refused (above the bearings' limiting speed), or None."""
+    if limit is None or max_rad_s <= limit[0]:
+        return None
+    return (f"max_speed: {max_rad_s:g} rad/s is above the bearings' limiting speed {limit[0]:g} rad/s ({limit[1]}); "
+            f'if the machine really runs faster, widen it in the case: [plausibility] '
+            f'"bearings.*.limiting_speed_ratio" = [low, high]')
 
 
 # --------------------------------------------------------------------------- profiles

@@ -78,7 +78,15 @@ from bkabem_ros.node.source import (
     parse_labels,
     prepare_model,
 )
-from bkabem_ros.node.speed import SPEED_TYPE, SPEED_UNITS, SpeedTypeWatch, check_speed, normalize_unit
+from bkabem_ros.node.speed import (
+    SPEED_TYPE,
+    SPEED_UNITS,
+    SpeedTypeWatch,
+    bearing_limit_rad_s,
+    check_speed,
+    max_speed_refusal,
+    normalize_unit,
+)
 from bkabem_ros.node.stream import ChunkStream, stream_qos
 
 Sink = Callable[[str, str, Any, int], None]
@@ -150,6 +158,10 @@ class VibrationNode(_node_base()):
         self._live = {k: p[k] for k in LIVE_PARAMETERS}
         self._speed_factor = SPEED_UNITS[normalize_unit(p["speed_unit"])]
         self._max_speed = float(p["max_speed"])
+        self._limit_case, self._limit = case, bearing_limit_rad_s(case)    # the bearings' limiting speed
+        why = max_speed_refusal(self._max_speed, self._limit)
+        if why is not None:
+            raise ValueError(f"parameter {why}")
 
         # -- model and synthesiser (BkaBem preparation ~2 s happens here, before any timer)
         self._source = MachineSource(
@@ -249,6 +261,8 @@ class VibrationNode(_node_base()):
                 return SetParametersResult(
                     successful=False, reason=f"max_speed: {prm.value:g} rad/s is below the current speed "
                                              f"{self._speed_rad_s:g} rad/s")
+            if prm.name == "max_speed" and (why := max_speed_refusal(float(prm.value), self._bearing_limit())):
+                return SetParametersResult(successful=False, reason=why)
             if prm.name == "scenario":
                 why = self._check_scenario(str(prm.value))
                 if why is not None:
@@ -354,7 +368,7 @@ class VibrationNode(_node_base()):
         value = msg.data
         self._speed_count += 1
         rad_s = value * self._speed_factor
-        why = check_speed(rad_s, self._max_speed)
+        why = check_speed(rad_s, self._max_speed, self._bearing_limit())
         if why is None:
             self._speed_rad_s = rad_s
             self._have_speed = True
@@ -367,6 +381,13 @@ class VibrationNode(_node_base()):
             self._emit(self._speed_topic, SPEED_TYPE, msg, self.get_clock().now().nanoseconds)
         if not self._started and why is None and self._wait_for_speed:
             self._try_start()
+
+    def _bearing_limit(self) -> tuple[float, str] | None:
+        """The fastest shaft the bearings of the machine in the signal allow [rad/s], and which bearing sets it."""
+        case = self._source.case
+        if case is not self._limit_case:                   # another scenario's machine
+            self._limit_case, self._limit = case, bearing_limit_rad_s(case)
+        return self._limit
 
     def _speed_unit_name(self) -> str:
         for name, factor in SPEED_UNITS.items():

@@ -40,6 +40,8 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ros_helpers import random_domain
+
 REPO = Path(__file__).resolve().parents[2]
 CASE_TEXT = (REPO / "bkabem_core" / "embedded" / "cases" / "electric_motor_6010.toml").read_text()
 MEMORY_LIMIT_BYTES = 6 << 30
@@ -507,7 +509,7 @@ def run_one(inp: Input, cli: list[str], env: dict, timeout: float, base_dir: Pat
 
 def fuzz_env() -> dict:
     env = dict(os.environ)
-    env.update({"ROS_DOMAIN_ID": str(random.SystemRandom().randint(120, 230)),
+    env.update({"ROS_DOMAIN_ID": str(random_domain()),
                 "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "OPENBLAS_NUM_THREADS": "1",
                 "ROS_LOG_DIR": tempfile.mkdtemp(prefix="fz_roslog_"), "PYTHONUNBUFFERED": "1"})
     return env

@@ -27,7 +27,19 @@ from collections import defaultdict
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
-_DOMAIN = random.SystemRandom().randint(1, 200)
+
+
+def random_domain() -> int:
+    """A random ``ROS_DOMAIN_ID`` in 1-200; under pytest-xdist each worker draws from its own share of the range
+    (gw0 1-100, gw1 101-200 with two workers), so processes of two workers of one run never share a domain."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    count = max(1, int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")))
+    index = int(worker[2:]) % count if worker.startswith("gw") and worker[2:].isdigit() else 0
+    width = 200 // count
+    return 1 + index * width + random.SystemRandom().randrange(width)
+
+
+_DOMAIN = random_domain()
 _LOG_DIR = tempfile.mkdtemp(prefix="bkabem_ros_log_")
 
 

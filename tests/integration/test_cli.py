@@ -124,9 +124,11 @@ def test_two_bearings_in_the_tables_and_json(tmp_path):
     assert f"DE bearing 6205: FTF {mult['de']['ftf'] * 30:.3f} Hz, BPFO {mult['de']['bpfo'] * 30:.3f} Hz" in out
     assert f"NDE bearing 6203: FTF {mult['nde']['ftf'] * 30:.3f} Hz, BPFO {mult['nde']['bpfo'] * 30:.3f} Hz" in out
     rows = [ln.split() for ln in out.splitlines() if ln.strip() and ln.split()[0].isdigit()]
-    assert {r[2] for r in rows} == {"de", "nde"}
+    # each row: "k BPFO (DE|NDE) f ...": the line's name says whose BPFO it is an order of
+    assert {r[2] for r in rows} == {"(DE)", "(NDE)"} and {r[1] for r in rows} == {"BPFO"}
     for r in rows:                                       # order k of its own bearing's BPFO
-        assert float(r[1]) == pytest.approx(int(r[0]) * mult[r[2]]["bpfo"] * 30, abs=0.006)
+        b = r[2].strip("()").lower()
+        assert float(r[3]) == pytest.approx(int(r[0]) * mult[b]["bpfo"] * 30, abs=0.006)
     d = json.loads(run("spectrum", "--case", str(f), "--speed-hz", "30", "--json").stdout)
     for b in ("de", "nde"):
         assert d["bearing_fault_frequencies_hz"][b]["bpfi"] == pytest.approx(mult[b]["bpfi"] * 30, rel=1e-9)

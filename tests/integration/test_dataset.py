@@ -54,6 +54,8 @@ slip = 0.01
 noise_acc = 2.0e-4
 length_m = 2.0e-3
 depth_m = 50.0e-6
+wander_revolutions = 0.0   # the ball's pit stays on the track: a clean 2 x BSF comb that the textbook rule names
+spin_slip = 0.0            # (the wandering pit is checked in tests/unit/test_balltrack.py)
 
 [grid]
 fault = ["healthy", "outer", "inner", "ball"]
@@ -130,7 +132,8 @@ def test_labels_match_the_spec_and_the_ground_truth(kinds):
         raw = copy.deepcopy(base.raw)
         raw["defects"] = [] if fault == "healthy" else [dict(
             {"bearing": "de", "race": fault, "length_m": 2e-3, "depth_m": 50e-6, "angle_deg": -90.0, "edge": "ball",
-             "edge_fraction": 0.1}, **({"ball": 1} if fault == "ball" else {}))]
+             "edge_fraction": 0.1}, **({"ball": 1, "wander_revolutions": 0.0, "spin_slip": 0.0}
+                                       if fault == "ball" else {}))]
         assert row["case_hash"] == Case.from_dict(raw).case_hash
         for name, m in mult.items():
             assert row[f"{name}_hz"] == pytest.approx(m * speed, rel=1e-9), name

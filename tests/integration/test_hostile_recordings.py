@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from ros_helpers import random_domain
 
 from bkabem_ros.messages import convert as msgs
 from bkabem_ros.recording import mcap_check, mcap_io
@@ -136,7 +137,7 @@ def files(tmp_path_factory):
 
 
 def _env():
-    return dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(random.randint(150, 230)),
+    return dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(random_domain()),
                 ROS_LOG_DIR=tempfile.mkdtemp(prefix="bkabem_hostile_log_"), PYTHONUNBUFFERED="1")
 
 

@@ -240,6 +240,27 @@ def test_bad_speed_values_are_ignored(stack):
                       lambda it: math.isclose(it[-1][1].shaft_speed, new), timeout=5)
 
 
+def test_speed_above_the_bearings_limiting_speed_is_ignored_with_a_warning(stack):
+    # max_speed could be raised live; the 6010s' limiting speed (11 000 r/min = 183.3 Hz) still holds, not clamped
+    lis, ns, Float64 = stack["lis"], stack["ns"], stack["Float64"]
+    pub = lis.publisher(f"{ns}/speed", Float64)
+    lis.wait_subscribers(pub)
+    node = stack["procs"]["node"]
+    good = 2 * math.pi * 21.0
+    lis.publish_until(pub, Float64(data=good), f"{ns}/vibration/de/acceleration",
+                      lambda it: math.isclose(it[-1][1].shaft_speed, good), timeout=10)
+    time.sleep(2.1)                     # past the throttle of the warnings of earlier tests
+    n0 = len(node.lines)
+    for _ in range(3):
+        pub.publish(Float64(data=2 * math.pi * 1797.0))    # 1797 r/min published as Hz, in rad/s
+        time.sleep(0.01)
+    node.wait_for(r"ignored: above the bearings' limiting speed .*6010", start=n0, timeout=5)
+    mark = len(_waves(stack))
+    time.sleep(4 * CHUNK)
+    after = _waves(stack)[mark:]
+    assert after and all(m.shaft_speed == pytest.approx(good) for m in after)
+
+
 def test_speed_flood_does_not_delay_the_stream(stack):
     lis, ns = stack["lis"], stack["ns"]
     # this process must not drown in the flood itself (it would drop best-effort waveform messages)

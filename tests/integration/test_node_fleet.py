@@ -61,6 +61,55 @@ def test_fleet_three_machines_two_processes():
         lis.close()
 
 
+def test_fleet_of_mixed_machines():
+    """Two machines of two cases with different bearings and rotors (the fault library's motor on 6010s, the small
+    motor on 6205s, a compact case): each publishes its own bearings, fault frequencies and ground truth."""
+    from bkabem_msgs.msg import BearingFaultFrequencies, VibrationWaveform
+    from std_msgs.msg import Float64
+
+    from bkabem_core.model.case import Case
+
+    cases = ["motor_6010_outer", "small_motor_6205_outer"]
+    prefix = f"mixed{random.SystemRandom().randrange(1 << 24):x}_"
+    names = [f"{prefix}{i:02d}" for i in range(2)]
+    lis = Listener("mixed_fleet_listener")
+    fleet = None
+    try:
+        for n in names:
+            lis.subscribe(f"/{n}/vibration/de/acceleration", VibrationWaveform)
+            lis.subscribe(f"/{n}/vibration/fault_frequencies", BearingFaultFrequencies)
+        fleet = Proc(bkabem_cmd("fleet", "--machines", "2", "--processes", "2", "--prefix", prefix,
+                                *[a for c in cases for a in ("--case", c)], "--chunk-duration", "0.05",
+                                "--sample-rate", "12800"), name="mixed fleet")
+        for n, case_name in zip(names, cases):
+            case = Case.load(case_name)
+            g = case.bearing_geometry("de")
+            bpfo = g.n_balls / 2.0 * (1.0 - g.ball_diameter_m / g.pitch_diameter_m)        # textbook, angle 0
+            lis.wait_for(f"/{n}/vibration/de/acceleration", lambda it: len(it) >= 3, timeout=90)
+            pub = lis.publisher(f"/{n}/speed", Float64)
+            lis.wait_subscribers(pub)
+            lis.publish_until(pub, Float64(data=2 * math.pi * 20.0), f"/{n}/vibration/fault_frequencies",
+                              lambda it: it and math.isclose(it[-1][1].shaft_speed, 2 * math.pi * 20.0), timeout=30)
+            ff = lis.get(f"/{n}/vibration/fault_frequencies")[-1][1]
+            assert ff.machine_id == n and ff.bearing_designation == g.designation
+            assert math.isclose(ff.bpfo, 20.0 * bpfo, rel_tol=1e-9), (ff.bpfo, 20.0 * bpfo)
+            assert {b.bearing: b.designation for b in ff.bearings} == {"de": g.designation, "nde": g.designation}
+            gt = lis.get(f"/{n}/vibration/de/acceleration")[-1][1].ground_truth
+            assert (gt.case_name, gt.case_hash) == (case.name, case.case_hash)
+            d = gt.defects[0]
+            assert (d.kind, d.bearing_designation) == ("outer", g.designation)
+            assert math.isclose(d.depth, case.defects("de")[0].depth_m) and math.isclose(d.fault_multiplier, bpfo)
+        assert fleet.stop(signal.SIGINT) == 0, fleet.text[-3000:]
+        assert "Traceback" not in fleet.text, fleet.text[-3000:]
+    finally:
+        if fleet is not None:
+            try:
+                fleet.stop(signal.SIGINT)      # forwarded to the workers (a SIGKILL of the parent orphans them)
+            finally:
+                fleet.kill()
+        lis.close()
+
+
 def test_fleet_seconds_prints_statistics():
     prefix = f"fleetstats{random.SystemRandom().randrange(1 << 24):x}_"
     p = Proc(bkabem_cmd("fleet", "--machines", "2", "--processes", "1", "--prefix", prefix, "--seconds", "3",

@@ -104,7 +104,8 @@ def test_unsafe_and_invalid_changes_are_rejected_with_a_reason(stack):
                                 ("qos", "sensor_data", "fixed while the node runs"),
                                 ("spectrum_rate", 1000.0, "out of range"),
                                 ("speed_unit", "furlongs", "not one of"),
-                                ("max_speed", 10.0, "below the current speed")):
+                                ("max_speed", 10.0, "below the current speed"),
+                                ("max_speed", 5000.0, "above the bearings' limiting speed")):
         (res,) = lis.set_parameters(stack["a"], {name: value})
         assert not res.successful, name
         assert needle in res.reason, (name, res.reason)

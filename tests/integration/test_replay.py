@@ -13,8 +13,9 @@ import random
 import tempfile
 
 import pytest
+from ros_helpers import random_domain
 
-os.environ["ROS_DOMAIN_ID"] = str(random.Random(os.getpid() ^ int.from_bytes(os.urandom(4), "little")).randint(1, 101))
+os.environ["ROS_DOMAIN_ID"] = str(random_domain())
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="bkabem_ros_log_"))
 

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from ros_helpers import random_domain
 
 from bkabem_ros.messages import convert as msgs
 from bkabem_ros.recording import mcap_check, mcap_io, replay
@@ -64,7 +65,7 @@ def _corrupt(src: Path, dst: Path, chunk: int = 2, n_bytes: int = 16) -> mcap_ch
 
 
 def _run(*args, timeout=120):
-    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(random.randint(150, 230)),
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(random_domain()),
                ROS_LOG_DIR=tempfile.mkdtemp(prefix="bkabem_dmg_log_"))
     return subprocess.run([sys.executable, "-m", "bkabem_ros", "replay", *map(str, args)], capture_output=True,
                           text=True, cwd=ROOT, env=env, timeout=timeout)

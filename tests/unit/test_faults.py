@@ -260,10 +260,11 @@ def _diagnose(ratios: dict, stands_out: float = 4.0):
 
 
 @pytest.mark.parametrize("kind", ["outer", "inner", "ball", "healthy"])
-def test_envelope_analysis_names_the_fault(models, kind):
+def test_envelope_analysis_names_the_fault(models, classic_ball, kind):
     """At three speeds the envelope spectrum (1 % slip, sensor noise) names the right fault, and none for the
-    healthy machine: no candidate stands 4x above its floor."""
-    m = models[kind]
+    healthy machine: no candidate stands 4x above its floor. The ball's pit is kept on the track (a wandering pit
+    strikes only now and then: tests/unit/test_balltrack.py)."""
+    m = classic_ball if kind == "ball" else models[kind]
     fm = m.fault_multipliers
     for speed in (15.0, 25.0, 35.0):
         cand = {"bpfo": fm.bpfo * speed, "bpfi": fm.bpfi * speed, "2bsf": 2 * fm.bsf * speed,

@@ -11,8 +11,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bkabem_core.model.case import Case
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth.render import FusedLines, LoopLines
 from bkabem_core.synth.stream import ISO_BAND_HZ
@@ -25,8 +23,9 @@ EPS = np.finfo(np.float32).eps
 
 
 @pytest.fixture(scope="module")
-def models():
-    return {k: BkaBem(Case.load(f"motor_6010_{k}")) for k in ("inner", "ball")}
+def models(fault_library):
+    """The fault library's inner-race and ball models (the session's)."""
+    return {k: fault_library[k] for k in ("inner", "ball")}
 
 
 @pytest.fixture(params=[2, 1, 0], ids=["avx512", "avx2", "baseline"])

@@ -34,8 +34,8 @@ def _chunks(s, cap=None, speeds=SPEEDS):
 
 
 @pytest.mark.parametrize("kind", ["inner", "ball"])
-def test_fast_generic_and_numpy_line_set_paths_agree(kind):
-    model = BkaBem(Case.load(f"motor_6010_{kind}"))
+def test_fast_generic_and_numpy_line_set_paths_agree(kind, fault_library):
+    model = fault_library[kind]
     kw = dict(sample_rate_hz=51200.0, chunk_s=0.05, slip=0.01, seed=3, features=False,
               noise_density={"acceleration": 1e-3, "displacement": 1e-10})
     fast, generic = (Synthesizer(model, **kw) for _ in range(2))
@@ -52,12 +52,12 @@ def test_fast_generic_and_numpy_line_set_paths_agree(kind):
 
 
 @pytest.mark.parametrize("kind", ["healthy", "inner", "ball"])
-def test_four_channel_fast_path_matches_eight_channels_and_generic(kind):
+def test_four_channel_fast_path_matches_eight_channels_and_generic(kind, fault_library):
     """4 channels (the data set's acc4) take the grouped rows, the floor render and the knot stages in 128-bit /
     4-lane vectors: their samples (broadband floor on) equal the same channels of the 8-channel synthesiser
     (channels 0, 1, 4, 5: the accelerations) to float32 rounding, and, with noise, the generic C path's (cap 0)
     for the same 4 channels."""
-    model = BkaBem(Case.load(f"motor_6010_{kind}"))
+    model = fault_library[kind]
     kw = dict(sample_rate_hz=25600.0, chunk_s=0.05, slip=0.01, seed=3, features=False)
     s8, s4 = Synthesizer(model, **kw), Synthesizer(model, quantities=("acceleration",), **kw)
     assert isinstance(s4._plan.lines_kernel, FusedLines) and len(s4.channels) == 4
@@ -75,14 +75,14 @@ def test_four_channel_fast_path_matches_eight_channels_and_generic(kind):
 
 @pytest.mark.parametrize("kind", ["inner", "ball"])
 @pytest.mark.parametrize("quantities", [("acceleration",), ("acceleration", "displacement")])
-def test_vector_and_generic_paths_agree_with_noise_floor_and_odd_blocks(kind, quantities):
+def test_vector_and_generic_paths_agree_with_noise_floor_and_odd_blocks(kind, quantities, fault_library):
     """The AVX2 rows (two families a pass; at 4 channels two samples a 256-bit register), the one-pass noise and
     the floor render against the generic C path (cap 0) at 4 and 8 channels, through speed changes (the knots'
     blend), with slip, sensor noise and the broadband floor, and chunks that end in odd blocks: float32
     rounding, and the features to their block sums' round-off."""
     if not sk.fast_path():
         pytest.skip("no AVX2 + FMA on this CPU")
-    model = BkaBem(Case.load(f"motor_6010_{kind}"))
+    model = fault_library[kind]
     kw = dict(sample_rate_hz=25600.0, chunk_s=0.0371, slip=0.01, seed=7, features=True, quantities=quantities,
               noise_density={"acceleration": 5e-4, "displacement": 1e-10})
     fast, generic = Synthesizer(model, **kw), Synthesizer(model, **kw)
@@ -118,10 +118,10 @@ def test_carrier_sums_follow_the_families_groups_and_orders():
         assert ff[four[0]].q[axis] == ff[four[1]].q[axis] == 2       # depth 2, not 3 + 1 (depth 3)
 
 
-def test_segment_plan_rejects_bad_carrier_sums():
+def test_segment_plan_rejects_bad_carrier_sums(fault_library):
     """The segment plan takes carrier sources only as two other carrier families and without a cycle: one line
     naming what is wrong, never a kernel that reads a slip row it did not compute."""
-    s = Synthesizer(BkaBem(Case.load("motor_6010_inner")), sample_rate_hz=25600.0, chunk_s=0.05, slip=0.01,
+    s = Synthesizer(fault_library["inner"], sample_rate_hz=25600.0, chunk_s=0.05, slip=0.01,
                     features=False)
     s.next_chunk(24.0)
     fl = s._plan.lines_kernel

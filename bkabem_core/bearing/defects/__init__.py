@@ -31,12 +31,18 @@ Shared geometry (module ``profiles``)
 =====================================
     ContactGeometry  -- what a kind knows of its bearing: race and ball radii, contact radii, balls
     EDGE_PROFILES    -- ``"ball"`` (ball over the sharp edges) or ``"cubic"`` (STEP edges)
+    SHAPES           -- ``"slot"`` (across the ball track) or ``"round_pit"`` (bridged by the contact)
     outer_race_drop_m, inner_race_drop_m, bridged_drop_m, step_cubic, wrap_to_pi
+
+A round pit, in any kind (module ``round_pit``)
+===============================================
+    PitContact       -- a round pit at one contact: its bridged drop profile, Hertz share, rigid drop
+    PitProfile       -- the drop a ball feels over the arc from the pit's centre
 """
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Dent", "DefectSet", "DefectProfile", "DefectKind", "RaceDefect", "DefectKey", "TorusGrid", "KINDS", "kind", "kinds", "find", "ContactGeometry", "EDGE_PROFILES", "outer_race_drop_m", "inner_race_drop_m", "bridged_drop_m", "step_cubic", "wrap_to_pi"]
+__all__ = ["Dent", "DefectSet", "DefectProfile", "DefectKind", "RaceDefect", "DefectKey", "TorusGrid", "KINDS", "kind", "kinds", "find", "ContactGeometry", "EDGE_PROFILES", "SHAPES", "PitContact", "PitProfile", "outer_race_drop_m", "inner_race_drop_m", "bridged_drop_m", "step_cubic", "wrap_to_pi"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Dent": "base",
@@ -52,6 +58,9 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "find": "registry",
     "ContactGeometry": "profiles",
     "EDGE_PROFILES": "profiles",
+    "SHAPES": "profiles",
+    "PitContact": "round_pit",
+    "PitProfile": "round_pit",
     "outer_race_drop_m": "profiles",
     "inner_race_drop_m": "profiles",
     "bridged_drop_m": "profiles",

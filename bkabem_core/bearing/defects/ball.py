@@ -8,6 +8,12 @@ the ball, to leading order ``s^2 / (2 R_x)`` at an arc distance s inside the nea
 direction effective radius of that contact (:func:`~bkabem_core.bearing.defects.profiles.bridged_drop_m`). It depends
 on the spin angle and on the cage angle (where its ball is in the load zone): its torus is ``a = theta_spin``,
 ``b = theta_cage``. The case key ``ball`` (1..z) says which ball.
+
+Two more keys describe how the ball moves, not the pit, and are read by the synthesiser
+(:mod:`bkabem_core.synth.balltrack`), not by this model (which places the pit on the track): ``wander_revolutions``,
+the correlation of the ball's spin axis in ball revolutions (0: the pit stays on the track), and ``spin_slip``, the
+relative standard deviation of the ball's spin advance per ball pass. Both optional, with the defaults documented
+there.
 """
 
 from __future__ import annotations
@@ -19,6 +25,11 @@ import numpy as np
 
 from bkabem_core.bearing.defects.profiles import ContactGeometry, bridged_drop_m, wrap_to_pi
 from bkabem_core.bearing.defects.protocol import DefectKey, DefectKind, TorusGrid, torus_axes
+
+#: Defaults of ``wander_revolutions`` [ball revolutions] and ``spin_slip`` [-]: their argument is in
+#: :mod:`bkabem_core.synth.balltrack`.
+DEFAULT_WANDER_REVOLUTIONS = 900.0
+DEFAULT_SPIN_SLIP = 0.02
 
 
 class Ball(DefectKind):
@@ -33,7 +44,14 @@ class Ball(DefectKind):
     phases = ("spin",)
     contacts = ("outer", "inner")
     per_ball = True
-    own_keys = (DefectKey("ball", "int", 1, 1, "ball number 1..n_balls of a ball defect"),)
+    own_keys = (DefectKey("ball", "int", 1, 1, "ball number 1..n_balls of a ball defect"),
+                DefectKey("wander_revolutions", "float", 0.0, DEFAULT_WANDER_REVOLUTIONS,
+                          "correlation of the ball's spin axis, in ball revolutions: how long the pit stays in or out "
+                          "of the contact track (0: it stays on it); bkabem_core.synth.balltrack", "revolutions",
+                          required=False),
+                DefectKey("spin_slip", "float", 0.0, DEFAULT_SPIN_SLIP,
+                          "random slip of the ball's spin: std of its advance per ball pass / the nominal "
+                          "(0: none); bkabem_core.synth.balltrack", required=False))
 
     def surface_rate_per_hz(self, fault_multipliers) -> float:
         return fault_multipliers.bsf
@@ -66,6 +84,18 @@ class Ball(DefectKind):
             raise ValueError(f"ball_index: must be in 0..{geometry.n_balls - 1} (got {dent.ball_index})")
 
     def check_own_key(self, key: str, value, bearing: dict) -> str | None:
+        if key == "wander_revolutions":
+            d, pd = bearing["ball_diameter_m"], bearing["pitch_diameter_m"]
+            per_cage = pd / d * (1.0 + d / pd * math.cos(math.radians(bearing["contact_angle_deg"])))   # BSF / FTF
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
+                    value == 0.0 or per_cage <= value <= 1.0e9 * per_cage):
+                return (f"must be 0 (the pit stays on the track) or from one cage revolution ({per_cage:.3g} ball "
+                        f"revolutions) to 1e9 of them (got {value!r})")
+            return None
+        if key == "spin_slip":
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= 0.1:
+                return f"must be in [0, 0.1] (a fraction of the spin's advance per ball pass; got {value!r})"
+            return None
         z = bearing["n_balls"]
         if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= z:
             return f"must be a ball number 1..{z} (got {value!r})"
@@ -80,10 +110,13 @@ class Ball(DefectKind):
         return None
 
     def dent_fields(self, table: dict) -> dict:
-        return {"ball_index": int(table["ball"]) - 1}
+        """The ball number, and the ball's motion (``own``: carried to the ground truth, not used here)."""
+        return {"ball_index": int(table["ball"]) - 1,
+                "own": (("wander_revolutions", float(table.get("wander_revolutions", DEFAULT_WANDER_REVOLUTIONS))),
+                        ("spin_slip", float(table.get("spin_slip", DEFAULT_SPIN_SLIP))))}
 
     def table_fields(self, dent) -> dict:
-        return {"ball": dent.ball_index + 1}
+        return {"ball": dent.ball_index + 1, **dict(dent.own)}
 
     def part_name(self, fields: Mapping) -> str:
         ball = int(fields.get("ball") or 0)

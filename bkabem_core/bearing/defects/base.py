@@ -9,7 +9,9 @@ module each); this module holds what they share.
 
 Every kind has the alternative ``edge = "cubic"`` profile (flat bottom, ADAMS cubic STEP edges over ``edge_fraction``
 of the half-angle; depth at most what the ``"ball"`` profile reaches, for the outer race the ball's sagitta over the
-pit). Several defects in one bearing combine inside the bearing model: drops of the same contact take the deeper one
+pit). Every kind has both shapes (``Dent.shape``): a ``"slot"`` across the ball track (the profiles above) and a
+``"round_pit"`` of diameter ``length_m``, which the contact ellipse bridges (:mod:`bkabem_core.bearing.defects.
+round_pit`: its drop at each contact from the elastic half-space, at the ball load ``bridging_load_n``). Several defects in one bearing combine inside the bearing model: drops of the same contact take the deeper one
 (a ball is in one pit of a race at a time), the outer and inner contacts are in series, so their drops add.
 
 Angles in rad, lengths in m. Nothing here imports the bearing model: :class:`DefectSet` gets the geometry it needs
@@ -22,7 +24,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from bkabem_core.bearing.defects.profiles import EDGE_PROFILES, ContactGeometry, step_cubic
+from bkabem_core.bearing.defects import round_pit
+from bkabem_core.bearing.defects.profiles import EDGE_PROFILES, SHAPES, ContactGeometry, step_cubic
 from bkabem_core.bearing.defects.registry import KINDS, find, kind
 
 
@@ -33,7 +36,8 @@ class Dent:
     Attributes
     ----------
     length_m : float
-        Length along the rolling direction [m] (the arc on the race, or on the ball's rolling circle).
+        Length along the rolling direction [m] (the arc on the race, or on the ball's rolling circle); a round pit's
+        diameter.
     depth_m : float
         Depth (the paper's "height") [m]; 0: no defect.
     angle_rad : float
@@ -52,6 +56,12 @@ class Dent:
         Kinds on a ball: which ball (0-based, ball 1 at ``first_ball_angle`` when the cage angle is 0).
     own : tuple of (str, object)
         Any other keys only its kind has (``DefectKind.own_keys``), as ``((key, value), ...)``.
+    shape : str
+        ``"slot"`` (across the ball track) or ``"round_pit"`` (:data:`~bkabem_core.bearing.defects.profiles.SHAPES`).
+    bridging_load_n : float
+        ``"round_pit"`` only: the ball load at which the contact's bridging of the pit is evaluated [N] (the
+        bearing's largest static ball load: :meth:`~bkabem_core.bearing.deep_groove.Bearing.with_bridging_load`);
+        0: a rigid ball, the pit's geometric drop.
     """
 
     length_m: float
@@ -63,12 +73,20 @@ class Dent:
     edge: str = "ball"
     ball_index: int = 0
     own: tuple = ()
+    shape: str = SHAPES[0]
+    bridging_load_n: float = 0.0
 
     def __post_init__(self):
         if self.edge not in EDGE_PROFILES:
             raise ValueError(f"edge: must be one of {', '.join(EDGE_PROFILES)} (got {self.edge!r})")
         if find(self.race) is None:
             raise ValueError(f"race: must be one of {', '.join(KINDS)} (got {self.race!r})")
+        if self.shape not in SHAPES:
+            raise ValueError(f"shape: must be one of {', '.join(SHAPES)} (got {self.shape!r})")
+        if self.shape == "round_pit" and self.edge != "ball":
+            raise ValueError(f"edge: must be 'ball' for a round pit (got {self.edge!r})")
+        if not self.bridging_load_n >= 0.0:
+            raise ValueError(f"bridging_load_n: must be >= 0 (got {self.bridging_load_n!r})")
 
     @property
     def kind(self) -> str:
@@ -91,7 +109,8 @@ class DefectProfile:
     kind : DefectKind
         Its kind (:func:`~bkabem_core.bearing.defects.registry.kind`).
     half_angle_rad : float
-        Half the angle the pit subtends on its surface (race, or ball for a pit in a ball) [rad].
+        Half the angle the pit subtends on its surface (race, or ball for a pit in a ball) [rad]; a round pit: half the
+        angle over which a ball feels it (its radius and the contact's half-length beyond it).
     depth_eff_m : float
         Largest drop (at the centre) [m]; the larger of its contacts' for a kind that meets two.
     edge_rad : float
@@ -102,7 +121,14 @@ class DefectProfile:
         self.dent = dent
         self.kind = kind(dent.race)
         self.geometry = geometry
-        self.half_angle_rad = dent.length_m / (2.0 * self.kind.surface_radius_m(geometry))
+        self._radius = self.kind.surface_radius_m(geometry)
+        if dent.shape == "round_pit":
+            self._pits = {c: round_pit.pit_contact(dent, geometry, c).profile() for c in self.kind.contacts}
+            self.half_angle_rad = max(p.support_m for p in self._pits.values()) / self._radius
+            self.edge_rad = 0.0
+            self.depth_eff_m = max(p.max_drop_m for p in self._pits.values())
+            return
+        self.half_angle_rad = dent.length_m / (2.0 * self._radius)
         a = self.half_angle_rad
         self.edge_rad = dent.edge_fraction * a if dent.edge == "cubic" else 0.0
         edge_depth = {c: float(self.kind.edge_drop_m(np.array(a), dent, geometry, c))
@@ -125,6 +151,8 @@ class DefectProfile:
         if not self.active:
             return np.zeros(rel.shape)
         contact = self.kind.contacts[0] if contact is None else contact
+        if self.dent.shape == "round_pit":
+            return self._pits[contact].drop_m(rel * self._radius)
         a = self.half_angle_rad
         if self.dent.edge == "cubic":
             return self._cubic_depth[contact] * (1.0 - step_cubic(rel, a - self.edge_rad, a))
@@ -136,6 +164,10 @@ class DefectProfile:
         if self.dent.edge == "cubic":
             return self.edge_rad
         psi = np.linspace(0.0, self.half_angle_rad, 2049)
+        if self.dent.shape == "round_pit":                     # the profile from the far end of its support inwards
+            prof = self.drop_m(self.half_angle_rad - psi)
+            full = np.nonzero(prof >= prof.max() * (1.0 - 1e-9))[0]
+            return float(psi[full[0]]) if full.size and prof.max() > 0.0 else float(self.half_angle_rad)
         prof = self.kind.edge_drop_m(psi, self.dent, self.geometry, self.kind.contacts[0])
         full = np.nonzero(prof >= prof[-1] * (1.0 - 1e-9))[0]
         return float(psi[full[0]]) if full.size else float(self.half_angle_rad)

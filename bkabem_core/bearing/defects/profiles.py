@@ -6,7 +6,9 @@ edges, so what it feels depends on the curvatures of the two bodies, not only on
 The exact paths over a sharp edge of a concave race (:func:`outer_race_drop_m`) and of a convex one
 (:func:`inner_race_drop_m`), and their leading order for any bridging body (:func:`bridged_drop_m`), are here; each
 kind (:mod:`bkabem_core.bearing.defects.protocol`) picks the one of its surface. The alternative ``"cubic"`` edge
-(:data:`EDGE_PROFILES`) is a flat bottom with ADAMS cubic STEP edges (:func:`step_cubic`).
+(:data:`EDGE_PROFILES`) is a flat bottom with ADAMS cubic STEP edges (:func:`step_cubic`). These profiles are those of
+a ``"slot"`` (:data:`SHAPES`): a defect across the whole ball track; a ``"round_pit"``, which the contact can bridge
+sideways, is :mod:`bkabem_core.bearing.defects.round_pit`.
 
 Angles in rad, lengths in m. Nothing here knows the kinds or the bearing model.
 """
@@ -21,6 +23,9 @@ import numpy as np
 TWO_PI = 2.0 * math.pi
 #: Edge profiles of a defect: ``"ball"`` (the ball-over-edge path) or ``"cubic"`` (flat bottom, STEP edges).
 EDGE_PROFILES = ("ball", "cubic")
+#: Shapes of a defect's footprint: ``"slot"`` (across the whole ball track, of a length along the rolling direction)
+#: or ``"round_pit"`` (a round hole of that diameter, which the contact ellipse bridges when it is narrower).
+SHAPES = ("slot", "round_pit")
 
 
 @dataclass(frozen=True)
@@ -37,6 +42,11 @@ class ContactGeometry:
         Rolling-direction effective radii of the outer and inner Hertz contact [m].
     n_balls : int
         Number of balls.
+    ry_outer_m, ry_inner_m : float
+        Transverse effective radii of the outer and inner Hertz contact [m] (``1/R_y = 1/r_b - 1/(f d)``, the ball
+        in its groove of radius ``f d``).
+    effective_modulus_pa : float
+        ``E' = E / (1 - nu^2)`` of balls and races [Pa].
     """
 
     outer_race_radius_m: float
@@ -45,10 +55,17 @@ class ContactGeometry:
     rx_outer_m: float
     rx_inner_m: float
     n_balls: int
+    ry_outer_m: float = math.inf
+    ry_inner_m: float = math.inf
+    effective_modulus_pa: float = math.nan
 
     def rx_m(self, contact: str) -> float:
         """Rolling-direction effective radius of the ``"outer"`` or ``"inner"`` contact [m]."""
         return self.rx_outer_m if contact == "outer" else self.rx_inner_m
+
+    def ry_m(self, contact: str) -> float:
+        """Transverse effective radius of the ``"outer"`` or ``"inner"`` contact [m]."""
+        return self.ry_outer_m if contact == "outer" else self.ry_inner_m
 
 
 def step_cubic(x, x0: float, x1: float):

@@ -20,7 +20,8 @@ between kinds lives on it:
   checks against the bearing, and how they fill a :class:`~bkabem_core.bearing.defects.base.Dent`.
 
 A kind module may import the bearing geometry (:mod:`bkabem_core.bearing.defects.profiles`) and this protocol, never
-the FE, the excitation or the synthesis. Units: SI (m, rad, Hz per shaft Hz).
+the FE, the excitation or the synthesis. The shape of a defect (a slot across the track, a round pit) is not the
+kind's: every kind has both (:mod:`bkabem_core.bearing.defects.round_pit`). Units: SI (m, rad, Hz per shaft Hz).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bkabem_core.bearing.defects import round_pit
 from bkabem_core.bearing.defects.profiles import TWO_PI, ContactGeometry, wrap_to_pi
 
 __all__ = ["DefectKey", "DefectKind", "RaceDefect", "TorusGrid", "torus_axes"]
@@ -56,6 +58,8 @@ class DefectKey:
         What it is, for people (with its unit and range).
     unit : str
         Its unit ("" for a number without one).
+    required : bool
+        Whether a ``[[defects]]`` table of the kind must give it (else it may leave it out: ``default``).
     """
 
     name: str
@@ -64,6 +68,7 @@ class DefectKey:
     default: object
     doc: str
     unit: str = ""
+    required: bool = True
 
     @property
     def schema(self) -> tuple:
@@ -219,12 +224,35 @@ class DefectKind(ABC):
 
     def check_table(self, table: dict, bearing: dict) -> tuple[str, str] | None:
         """``(key, reason)`` of the first problem of a type-checked ``[[defects]]`` table of this kind against the
-        case's ``[bearing]``: its own keys, then its size (None: none)."""
+        case's ``[bearing]``: its place (``angle_deg`` or ``clock``), its own keys (those it gives), its size, then its
+        shape (a round pit's width; None: none)."""
+        if "clock" in table:
+            if "angle_deg" in table:
+                return "clock", "give angle_deg or clock, not both"
+            if self.clock_angle_deg(table["clock"]) is None:
+                return "clock", (f"only for a pit fixed in the bearing plane (an outer-race defect); a {self.adjective} "
+                                 f"defect's place is angle_deg")
         for k in self.own_keys:
+            if k.name not in table and not k.required:
+                continue
             reason = self.check_own_key(k.name, table[k.name], bearing)
             if reason:
                 return k.name, reason
-        return self.check_size(table, bearing)
+        problem = self.check_size(table, bearing)
+        if problem is None and table.get("shape") == "round_pit":
+            problem = round_pit.check_table(table, bearing)
+        return problem
+
+    def clock_angle_deg(self, hours: int) -> float | None:
+        """Its ``angle_deg`` at a clock position (``clock = 1..12``, 12 at the top), or None if its place is not fixed
+        in the bearing plane (a pit turning with the shaft or a ball has no clock position)."""
+        return None
+
+    def table_angle_deg(self, table: dict) -> float:
+        """``angle_deg`` of a valid ``[[defects]]`` table of this kind: its own, or the one of its ``clock`` [deg]."""
+        if "clock" in table:
+            return float(self.clock_angle_deg(table["clock"]))
+        return float(table["angle_deg"])
 
     def dent_fields(self, table: dict) -> dict:
         """Fields of a :class:`~bkabem_core.bearing.defects.base.Dent` its own keys fill (by default ``own``, the
