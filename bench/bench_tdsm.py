@@ -41,11 +41,12 @@ def per_step(case, speed, scheme, steps, repeats, max_step_s=1e-5, machine=None)
 
 def breakdown(m, n=20000):
     """Cost of the pieces of one step [us] (timeit medians)."""
-    z = np.random.default_rng(0).standard_normal(m.T.shape[0]) * 1e-9 + 0j
+    s = m.the_integrator()
+    z = np.random.default_rng(0).standard_normal(s.T.shape[0]) * 1e-9 + 0j
     u = m._u_static.copy()
     f = np.zeros(4)
     _, kt = m.forces.evaluate(u, 5)
-    g = {"T": m.T, "W": m.W, "Bz": m.Bz, "H": m.H, "z": z, "u": u, "f": f, "kt": kt, "ev": m.forces.evaluate}
+    g = {"T": s.T, "W": s.W, "Bz": s.Bz, "H": s.H, "z": z, "u": u, "f": f, "kt": kt, "ev": m.forces.evaluate}
     items = {
         "state propagation T z (diagonal) and W_p f": "T * z; W.dot(f)",
         "predictor u_pred = Re(B_z z_pred) (+ H f)": "Bz.dot(z).real; H.dot(f)",

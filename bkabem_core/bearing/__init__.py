@@ -6,6 +6,9 @@ Bearing model (module ``deep_groove``)
     BearingGeometry      -- geometry and material (SI)
     FaultFrequencies     -- FTF, BPFO, BPFI, BSF [Hz or per shaft Hz]
     HertzContact         -- Hertz point-contact constants (Brewe-Hamrock)
+
+Statics (module ``statics``: a base class of ``Bearing``)
+=========================================================
     BearingState         -- the bearing at its static equilibrium
     BearingLinearisation -- lateral stiffness and damping at an equilibrium
 
@@ -34,8 +37,8 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "BearingGeometry": "deep_groove",
     "FaultFrequencies": "deep_groove",
     "HertzContact": "deep_groove",
-    "BearingState": "deep_groove",
-    "BearingLinearisation": "deep_groove",
+    "BearingState": "statics",
+    "BearingLinearisation": "statics",
     "Dent": "defects.base",
     "DefectSet": "defects.base",
     "DefectProfile": "defects.base",

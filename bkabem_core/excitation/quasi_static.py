@@ -36,9 +36,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import odeint
 
-from bkabem_core.bearing.deep_groove import TWO_PI, Bearing, BearingState
+from bkabem_core.bearing.deep_groove import TWO_PI, Bearing
 from bkabem_core.bearing.defects.registry import kind as defect_kind
 from bkabem_core.bearing.defects.registry import periodic_kinds
+from bkabem_core.bearing.statics import BearingState
 from bkabem_core.excitation.lines import LineSet, lines_from_grid, union
 from bkabem_core.excitation.path import quasi_static_path_m
 from bkabem_core.excitation.turning import turning_lines

@@ -29,7 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from bkabem_core.bearing.deep_groove import Bearing, BearingLinearisation, BearingState
+from bkabem_core.bearing.deep_groove import Bearing
+from bkabem_core.bearing.statics import BearingLinearisation, BearingState
 from bkabem_core.excitation.quasi_static import (
     Excitation,
     FourDofParameters,

@@ -2,6 +2,7 @@
 
     Tdsm              -- the nonlinear rotor-bearing model integrated in time (module ``tdsm``)
     TdsmResult        -- a TDSM run after its start transient
+    Integrator        -- the TDSM's step matrices and its Newton iteration on the bearing forces (``integrator``)
     RotatingForce     -- the coupling's running-speed force in the TDSM, turning at its node (module ``coupling``)
     harmonic_balance  -- the periodic steady state of the nonlinear model in the frequency domain (``periodic``)
     validate          -- TDSM against BKA-BEM at one speed, order by order (module ``validation``)
@@ -11,11 +12,12 @@
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Tdsm", "TdsmResult", "RotatingForce", "harmonic_balance", "validate", "validate_lines", "ValidationResult", "LineValidation", "plot_validation"]
+__all__ = ["Tdsm", "TdsmResult", "Integrator", "RotatingForce", "harmonic_balance", "validate", "validate_lines", "ValidationResult", "LineValidation", "plot_validation"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Tdsm": "tdsm",
     "TdsmResult": "tdsm",
+    "Integrator": "integrator",
     "RotatingForce": "coupling",
     "harmonic_balance": "periodic",
     "validate": "validation",

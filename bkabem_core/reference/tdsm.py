@@ -44,6 +44,7 @@ In both, the bearing relative displacements ``u = B^T x`` satisfy ``u = u_pred +
 per iteration), and the full state is updated once per step. ``|H (K_t - K_b)|`` is small at these steps, so
 the Newton update uses ``(I + H (K_t - K_b))^-1 ~ I - H (K_t - K_b)`` (checked at set-up; the exact 4 x 4 solve
 otherwise).
+The step matrices and the Newton iteration are :class:`bkabem_core.reference.integrator.Integrator`.
 
 The step is chosen as ``h = T_bpfo / N`` (N integer, ``h <= max_step_s``), so every BPFO period holds exactly N
 steps: the steady-state response is BPFO-periodic and its FFT over whole periods has no leakage. The ball
@@ -73,6 +74,7 @@ from bkabem_core.fe.rotor import Rotor, rotor_from_case
 from bkabem_core.model.case import Case
 from bkabem_core.model.vocabulary import BEARINGS, DIRECTIONS, LOCATIONS
 from bkabem_core.reference.coupling import RotatingForce
+from bkabem_core.reference.integrator import Integrator
 
 __all__ = ["Tdsm", "TdsmResult", "StaticEquilibrium", "HertzPair", "LinearPair", "LOCATIONS", "DIRECTIONS",
            "BEARINGS"]
@@ -257,23 +259,6 @@ class TdsmResult:
         return np.array(out)
 
 
-
-class _State:
-    """Integrator state carried between :meth:`Tdsm._integrate` calls."""
-
-    def __init__(self, z):
-        self.z = z
-        self.f_dev = np.zeros(4)
-        self.f_old = np.zeros(4)
-        self.steps = 0
-        self.newton_total = 0
-        self.newton_max = 0
-        self.interrupted = False
-        self.recorded = 0
-
-
-
-
 # --------------------------------------------------------------------------- the model
 class Tdsm:
     """The nonlinear rotor-bearing model of a case at one constant shaft speed, ready to integrate.
@@ -410,27 +395,21 @@ class Tdsm:
         self.static = self.static_equilibrium()
         self._u_static = np.concatenate([self.static.relative_m[b] for b in BEARINGS])
         self._f_static = np.concatenate([self.static.force_n[b] for b in BEARINGS])
-        self._integrator = False                # the step matrices are made on the first run (the_integrator())
+        self.integrator: Integrator | None = None       # made on the first run (the_integrator())
         self.setup_time_s = time.perf_counter() - t_setup
 
-    def the_integrator(self):
-        """Make the step matrices (``T``, ``W``, ``W_p``, ``B_z``, ``H``) if not made yet; return self."""
-        if self._integrator:
-            return self
-        t0 = time.perf_counter()
-        if self.scheme == "newmark":
-            self._build_integrator()
-        else:
-            self._build_exponential()
-        self.state_size = self.T.shape[0]
-        # the approximate Newton inverse I - H (K_t - K_b) needs |H (K_t - K_b)| << 1
-        _, k_st = self.forces.evaluate(self._u_static, 0)
-        self.newton_contraction = float(np.linalg.norm(self.H, 2) * max(np.linalg.norm(k_st - self._kb, 2),
-                                                                        0.1 * np.linalg.norm(self._kb, 2)))
-        self.newton_exact = 10.0 * self.newton_contraction > 0.1
-        self._integrator = True
-        self.setup_time_s += time.perf_counter() - t0
-        return self
+    def the_integrator(self) -> Integrator:
+        """The step matrices (``T``, ``W``, ``W_p``, ``B_z``, ``H``) and the Newton iteration of this model, made on
+        first use (:class:`bkabem_core.reference.integrator.Integrator`)."""
+        if self.integrator is None:
+            t0 = time.perf_counter()
+            self.integrator = Integrator(self.rotor, self.B, self.out_dofs, self.h, self.speed_hz, self.forces,
+                                         self._u_static, self._f_static, self._kb, self.steps_per_bpfo,
+                                         scheme=self.scheme, hht_alpha=self.hht_alpha,
+                                         newton_tol_m=self.newton_tol_m, max_newton=self.max_newton,
+                                         coupling=self.coupling)
+            self.setup_time_s += time.perf_counter() - t0
+        return self.integrator
 
     # ------------------------------------------------------------------ statics
     def static_equilibrium(self, tol_m: float = 1e-15, max_iter: int = 100) -> StaticEquilibrium:
@@ -474,87 +453,6 @@ class Tdsm:
         return StaticEquilibrium(q_m=q, relative_m={b: u[2 * i:2 * i + 2].copy() for i, b in enumerate(BEARINGS)},
                                  force_n={b: f[2 * i:2 * i + 2].copy() for i, b in enumerate(BEARINGS)},
                                  iterations=it)
-
-    # ------------------------------------------------------------------ integrator
-    def _build_integrator(self):
-        rot, n, h, al = self.rotor, self.ndof, self.h, self.hht_alpha
-        beta = (1.0 - al) ** 2 / 4.0
-        gamma = 0.5 - al
-        self.newmark_beta, self.newmark_gamma = beta, gamma
-        c0, c2, c3 = 1.0 / (beta * h * h), 1.0 / (beta * h), 1.0 / (2.0 * beta) - 1.0
-        m, k = rot.M, rot.K
-        cw = rot.C + TWO_PI * self.speed_hz * rot.G
-        s = c0 * m + (1.0 + al) * gamma * h * c0 * cw + (1.0 + al) * k
-        rq = al * k + c0 * m + (1.0 + al) * gamma * h * c0 * cw
-        rv = al * cw + c2 * m - (1.0 + al) * (1.0 - gamma * h * c2) * cw
-        ra = c3 * m - (1.0 + al) * h * (1.0 - gamma - gamma * c3) * cw
-        lu = scipy.linalg.lu_factor(s)
-        tq = scipy.linalg.lu_solve(lu, np.hstack([rq, rv, ra]))
-        wq = scipy.linalg.lu_solve(lu, self._inputs())
-        eye, zero = np.eye(n), np.zeros((n, n))
-        ta = c0 * (tq - np.hstack([eye, zero, zero])) - np.hstack([zero, c2 * eye, c3 * eye])
-        tv = np.hstack([zero, eye, h * (1.0 - gamma) * eye]) + h * gamma * ta
-        self.T = np.ascontiguousarray(np.vstack([tq, tv, ta]))
-        w_unit = np.vstack([wq, h * gamma * c0 * wq, c0 * wq])                       # per unit of force
-        self._split_inputs((1.0 + al) * w_unit, -al * w_unit)
-        bz = np.zeros((4, 3 * n))
-        bz[:, :n] = self.B.T
-        self.Bz = bz
-        self.H = bz @ self.W                                                          # (4, 4)
-        self.O = np.zeros((8, 3 * n))
-        self.O[np.arange(8), self.out_dofs.reshape(-1)] = 1.0
-        self.diagonal = False
-        self.to_physical = None
-
-    def _build_exponential(self):
-        """Exact discretisation of the linear part with a first-order-hold bearing force, in modal coordinates.
-
-        ``y = [x, v]``, ``y' = A y + B_f f(t)``, ``A = V diag(lambda) V^-1``; with ``f`` linear in time over a step,
-        mode r advances as ``w_{n+1} = e^{lambda h} w_n + (p_0 - p_1) g_n + p_1 g_{n+1}`` (``g = V^-1 B_f f``,
-        ``p_0 = (e^{lambda h} - 1) / lambda``, ``p_1 = (e^{lambda h} - 1 - lambda h) / (lambda^2 h)``): every mode
-        keeps its exact frequency and damping at any step; the only discretisation error is the linear
-        interpolation of the 4 bearing forces over a step (second order in h).
-        """
-        rot, n, h = self.rotor, self.ndof, self.h
-        cw = rot.C + TWO_PI * self.speed_hz * rot.G
-        minv = np.linalg.inv(rot.M)
-        a = np.zeros((2 * n, 2 * n))
-        a[:n, n:] = np.eye(n)
-        a[n:, :n] = -minv @ rot.K
-        a[n:, n:] = -minv @ cw
-        bf = np.zeros((2 * n, self._inputs().shape[1]))
-        bf[n:] = minv @ self._inputs()
-        lam, vec = scipy.linalg.eig(a)
-        lu = scipy.linalg.lu_factor(vec)
-        gam = scipy.linalg.lu_solve(lu, bf.astype(complex))                             # V^-1 B_f (2n, 4+)
-        z = lam * h
-        small = np.abs(z) < 1e-4
-        em1 = np.expm1(z)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            p0 = np.where(small, h * (1 + z / 2 + z * z / 6), em1 / lam)
-            p1 = np.where(small, h * (0.5 + z / 6 + z * z / 24), (em1 - z) / (lam * lam * h))
-        self.T = np.exp(z)                                                              # diagonal (2n,)
-        self._split_inputs(p1[:, None] * gam, (p0 - p1)[:, None] * gam)
-        self.Bz = np.ascontiguousarray(self.B.T @ vec[:n])                             # (4, 2n): u = Re(Bz w)
-        self.H = (self.Bz @ self.W).real
-        self.O = np.ascontiguousarray(vec[self.out_dofs.reshape(-1)])                  # (8, 2n)
-        self.diagonal = True
-        self.eigenvalues = lam
-        self._vec, self._vec_lu = vec, lu
-        self.to_physical = lambda w: (w @ vec.T).real                                  # (N, 2n) -> [x, v]
-
-    def _inputs(self) -> np.ndarray:
-        """The inputs of a step: the 4 bearing force pairs, then the coupling force's x and y (if any)."""
-        return self.B if self.coupling is None else np.hstack([self.B, self.coupling.pattern])
-
-    def _split_inputs(self, w: np.ndarray, w_p: np.ndarray) -> None:
-        """``W``, ``W_p`` of the bearing forces and the coupling force's step vectors from those of every input."""
-        self.W, self.Wp = np.ascontiguousarray(w[:, :4]), np.ascontiguousarray(w_p[:, :4])
-        self._drive = None if self.coupling is None else self.coupling.step_vectors(w[:, 4:], w_p[:, 4:], self.h)
-
-    def to_modal(self, y):
-        """A physical state ``[x, v]`` (2 ndof,) as the exponential scheme's modal state."""
-        return scipy.linalg.lu_solve(self._vec_lu, np.asarray(y, dtype=complex))
 
     def settings(self) -> dict:
         return {"case": self.case.name, "case_hash": self.case.case_hash, "speed_hz": self.speed_hz,
@@ -601,7 +499,7 @@ class Tdsm:
         """
         if not duration_s > 0:
             raise ValueError(f"duration_s: must be > 0 (got {duration_s})")
-        self.the_integrator()
+        integ = self.the_integrator()
         if settle_s is not None and settle_s < 0:
             raise ValueError(f"settle_s: must be >= 0 (got {settle_s})")
         record_every = int(record_every)
@@ -612,20 +510,7 @@ class Tdsm:
         periods = lambda t: math.ceil(t / self.bpfo_period_s - 1e-9)
         n_rec = max(1, periods(duration_s)) * nbp
         n_samples = n_rec // record_every
-        if initial_state is None and self.coupling is not None and self.diagonal:
-            z0 = self.to_modal(np.concatenate(self.coupling.steady_state(self.rotor)))   # the linear 1x response
-        elif initial_state is None:
-            z0 = np.zeros(self.state_size, dtype=complex if self.diagonal else float)
-        else:
-            z0 = self.to_modal(initial_state) if self.diagonal else np.array(initial_state, dtype=float)
-        st = _State(z0)
-        du0 = self.Bz.dot(st.z).real
-        if self.forces.periodic:
-            f0, _ = self.forces.evaluate(self._u_static + du0, 0)
-        else:
-            f0, _ = self.forces.evaluate(self._u_static + du0, 0, self.forces.rows(0, 1)[0])
-        st.f_dev = f0 - self._f_static + self._kb.dot(du0)
-        st.f_old = st.f_dev.copy()
+        st = integ.start(initial_state)
         bar = None
         if progress:
             from tqdm import tqdm
@@ -637,12 +522,12 @@ class Tdsm:
         settled = True
         n_settle = 0
         rec_x = np.empty((n_samples, 12))
-        states = np.empty((n_samples, self.state_size), dtype=complex if self.diagonal else float) \
+        states = np.empty((n_samples, integ.state_size), dtype=complex if integ.diagonal else float) \
             if record_state else None
         try:
             # ---- settle
             if settle_s is not None:
-                self._integrate(st, periods(settle_s) * nbp, bar=bar)
+                integ.advance(st, periods(settle_s) * nbp, bar=bar)
             else:
                 win = max(2, periods(settle_window_s))
                 lag = max(1, math.ceil(settle_lag_s / (win * self.bpfo_period_s) - 1e-9))
@@ -650,7 +535,7 @@ class Tdsm:
                 history = []
                 settled = False
                 while True:
-                    self._integrate(st, win * nbp, rec=buf, bar=bar)
+                    integ.advance(st, win * nbp, rec=buf, bar=bar)
                     if st.interrupted:
                         break
                     amp = np.abs(np.fft.rfft(buf[:, :8], axis=0)[win::win][:50])          # (orders, 8)
@@ -672,7 +557,7 @@ class Tdsm:
             n_settle = st.steps
             # ---- record
             if not st.interrupted:
-                self._integrate(st, n_rec, rec=rec_x, rec_every=record_every, states=states, bar=bar)
+                integ.advance(st, n_rec, rec=rec_x, rec_every=record_every, states=states, bar=bar)
         finally:
             wall = time.perf_counter() - t0
             if bar is not None:
@@ -706,91 +591,5 @@ class Tdsm:
         res.settled = settled
         res.settle_log = settle_log
         if states is not None:
-            res.state = self.to_physical(states[:n_done]) if self.diagonal else states[:n_done]
+            res.state = integ.to_physical(states[:n_done]) if integ.diagonal else states[:n_done]
         return res
-
-    def _integrate(self, st, n_steps, rec=None, rec_every=1, states=None, bar=None, chunk=4096):
-        """Advance ``st`` by ``n_steps`` steps; sample ``k`` of ``rec`` (and ``states``) is the state before the
-        ``k rec_every``-th step of this call (so sample 0 is the state at the start of the call).
-
-        Sets ``st.interrupted`` on Ctrl-C (the steps done so far are kept) and ``st.recorded``.
-        """
-        T, W, Wp, Bz, H, O = self.T, self.W, self.Wp, self.Bz, self.H, self.O
-        use_wp = self.scheme == "exponential" or self.hht_alpha != 0.0
-        advance = np.multiply if self.diagonal else np.dot      # T is diagonal in modal coordinates
-        u_s, f_s, kb = self._u_static, self._f_static, self._kb
-        evaluate = self.forces.evaluate
-        tol2, max_newton = self.newton_tol_m ** 2, self.max_newton
-        exact = self.newton_exact
-        eye4 = np.eye(4)
-        solve = np.linalg.solve
-        nbp = self.steps_per_bpfo
-        drive, coupling, h = self._drive, self.coupling, self.h
-        z, f_dev, f_old = st.z, st.f_dev, st.f_old
-        newton_total, newton_max = st.newton_total, st.newton_max
-        n0 = st.steps
-        n_ = n0
-        recorded = 0
-        st.recorded = 0
-        periodic = self.forces.periodic
-        try:
-            k0 = 0
-            while k0 < n_steps:
-                k1 = min(n_steps, k0 + chunk)
-                rows = None if periodic else self.forces.rows(n0 + k0 + 1, n0 + k1 + 1)
-                for k in range(k0, k1):
-                    if rec is not None and k % rec_every == 0:
-                        i = k // rec_every
-                        rec[i, :8] = O.dot(z).real
-                        rec[i, 8:] = f_dev - kb.dot(Bz.dot(z).real)     # ball-force deviation (K_b u removed)
-                        if states is not None:
-                            states[i] = z
-                        recorded = i + 1
-                    n_ = n0 + k
-                    j = (n_ + 1) % nbp                 # table step of t_{n+1}
-                    zp = advance(T, z)
-                    if use_wp:
-                        zp += Wp.dot(f_dev)
-                    if drive is not None:               # the coupling force over the step (first-order hold)
-                        q = coupling.at_step(n_, h)
-                        zp += q.real * drive[0] + q.imag * drive[1]
-                    up = Bz.dot(zp).real
-                    up += u_s                           # relative displacement without the force f_{n+1}
-                    u = up + H.dot(f_dev + f_dev - f_old)   # start: force extrapolated from the last two steps
-                    # Newton on u = up + H f(u) with f = ball force + K_b u (deviations): J = I + H (K_t - K_b),
-                    # small at these steps, so J^-1 ~ I - H (K_t - K_b) unless `exact`; the converged u is the same.
-                    ar_now = None if rows is None else rows[k - k0]
-                    for it in range(1, max_newton + 1):
-                        f, kt = evaluate(u, j) if ar_now is None else evaluate(u, j, ar_now)
-                        f -= f_s
-                        du_s = u - u_s
-                        f += kb.dot(du_s)
-                        kt = kt - kb
-                        r = u - up - H.dot(f)
-                        if exact or it > 3:
-                            du = solve(eye4 + H.dot(kt), r)
-                        else:
-                            du = r - H.dot(kt.dot(r))
-                        u -= du
-                        f += kt.dot(du)                 # linearised force at the corrected u (O(du^2))
-                        if du.dot(du) <= tol2:
-                            break
-                    else:
-                        raise RuntimeError(f"TDSM Newton did not converge at step {n_ + 1} "
-                                           f"(t = {(n_ + 1) * self.h:.6g} s)")
-                    newton_total += it
-                    if it > newton_max:
-                        newton_max = it
-                    z = zp + W.dot(f)
-                    f_old = f_dev
-                    f_dev = f
-                    n_ += 1
-                if bar is not None:
-                    bar.update(k1 - k0)
-                k0 = k1
-        except KeyboardInterrupt:
-            st.interrupted = True
-        st.z, st.f_dev, st.f_old = z, f_dev, f_old
-        st.newton_total, st.newton_max = newton_total, newton_max
-        st.steps = n_
-        st.recorded = recorded

@@ -92,7 +92,7 @@ class NodeDiagnostics:
     def _stream(self) -> tuple[str, str, dict]:
         node = self.node
         st = node.stats()
-        late = list(node._lateness_ns)
+        late = list(node._stream.lateness_ns)
         new = late[self._late_seen:] if len(late) >= self._late_seen else late
         self._late_seen = len(late)
         period_ns = node.chunk_ns

@@ -1,4 +1,5 @@
-"""Shaft-speed input: units, validation, speed profiles, and the ``bkabem speed`` publisher.
+"""Shaft-speed input: units, validation, speed profiles, the ``bkabem speed`` publisher, and the node's watch
+for publishers of the wrong type on its speed topic.
 
 The speed topic carries ``std_msgs/msg/Float64``. REP 103 says rad/s, and that is the default of both
 the node (parameter ``speed_unit``) and this publisher (``--publish-unit``). ``hz`` (revolutions per
@@ -30,6 +31,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 TWO_PI = 2.0 * math.pi
+#: The type of the speed topic.
+SPEED_TYPE = "std_msgs/msg/Float64"
 
 #: The fastest shaft a case may have [Hz] (the upper plausibility bound of operating.max_speed_hz, 120 000 rpm): a
 #: profile above it is a unit slip, not a speed any node will take.
@@ -335,3 +338,47 @@ def main(args) -> int:
         if rclpy.ok():
             rclpy.shutdown()
     return 0
+
+
+# --------------------------------------------------------------------------- the node's speed topic
+class SpeedTypeWatch:
+    """Warns once per publisher that offers the node's speed topic with a type other than :data:`SPEED_TYPE`: DDS
+    never matches it, so its messages are lost without a word. Looks at the ROS graph every 2 s (steady clock).
+
+    Parameters
+    ----------
+    node : rclpy.node.Node
+    topic : str
+        The speed topic's resolved name.
+    unit_name : callable () -> str
+        The speed unit the node reads now (for the warning).
+
+    Attributes
+    ----------
+    seen : set of (str, str)
+        ``(publisher node, its type)`` warned about.
+    """
+
+    def __init__(self, node, topic: str, unit_name):
+        from rclpy.clock import Clock, ClockType
+
+        self.node, self.topic, self.unit_name = node, topic, unit_name
+        self.seen: set[tuple[str, str]] = set()
+        self.timer = node.create_timer(2.0, self.check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def check(self) -> None:
+        """Warn once per publisher that offers the speed topic with a type other than std_msgs/msg/Float64."""
+        try:
+            infos = self.node.get_publishers_info_by_topic(self.topic)
+        except Exception:  # noqa: BLE001 - graph queries fail during shutdown
+            return
+        for info in infos:
+            if info.topic_type == SPEED_TYPE:
+                continue
+            who = f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+            key = (who, info.topic_type)
+            if key not in self.seen:
+                self.seen.add(key)
+                self.node.get_logger().warning(
+                    f"{self.topic}: publisher {who} offers type {info.topic_type}, not {SPEED_TYPE}; "
+                    f"its messages never reach this node (publish std_msgs/msg/Float64 in {self.unit_name()})")

@@ -50,14 +50,18 @@ after construction so a command can attach sinks before the stream starts.
 from __future__ import annotations
 
 import math
-from collections import deque
-from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
 
-from bkabem_core.model.vocabulary import BEARINGS
 from bkabem_ros.node.band import BandWatch, carries_to_band, start_note, start_refusal
+from bkabem_ros.node.declare import (
+    coerce_numeric_overrides,
+    declare,
+    declare_all,
+    refuse_unknown_overrides,
+    warn_undeclared,
+)
 from bkabem_ros.node.diagnostics import NodeDiagnostics
 from bkabem_ros.node.params import (  # noqa: F401  (re-exported)
     DEPRECATED_NOISE,
@@ -67,20 +71,23 @@ from bkabem_ros.node.params import (  # noqa: F401  (re-exported)
     ParamSpec,
 )
 from bkabem_ros.node.source import (
-    CHANNELS,
     FAULT_TYPE,
-    QUANTITIES,
     SPECTRUM_TYPE,
     TWO_PI,
-    WAVEFORM_TYPE,
     MachineSource,
     parse_labels,
     prepare_model,
 )
-from bkabem_ros.node.speed import SPEED_UNITS, bearing_limit_rad_s, check_speed, max_speed_refusal, normalize_unit
-
-SPEED_TYPE = "std_msgs/msg/Float64"
-N_WAVEFORMS = len(BEARINGS) * len(QUANTITIES)   # waveform messages per chunk (first in a chunk's items)
+from bkabem_ros.node.speed import (
+    SPEED_TYPE,
+    SPEED_UNITS,
+    SpeedTypeWatch,
+    bearing_limit_rad_s,
+    check_speed,
+    max_speed_refusal,
+    normalize_unit,
+)
+from bkabem_ros.node.stream import ChunkStream, stream_qos
 
 Sink = Callable[[str, str, Any, int], None]
 
@@ -90,26 +97,6 @@ def _percentile(values, q) -> float:
     if not values:
         return float("nan")
     return float(np.percentile(np.asarray(values, dtype=float), q))
-
-
-@dataclass
-class _Prepared:
-    """A chunk synthesised ahead of its publication time, with its messages built."""
-
-    index: int
-    stamp_ns: int
-    due_ns: int
-    speed_rad_s: float
-    items: list  # (publisher, type_name, msg or None (waveforms: see _message), serialized CDR bytes); waveforms first
-
-
-def _message(pub, msg, raw: bytes):
-    """The message object of a prepared item: ``msg``, or the CDR bytes deserialised (waveforms have no object)."""
-    if msg is not None:
-        return msg
-    from rclpy.serialization import deserialize_message
-
-    return deserialize_message(raw, pub.msg_type)
 
 
 # --------------------------------------------------------------------------- the node
@@ -142,16 +129,16 @@ class VibrationNode(_node_base()):
 
         self._sinks: list[Sink] = []
         self._sink_errors = 0
-        self._refuse_unknown_overrides()
-        self._coerce_numeric_overrides()
+        refuse_unknown_overrides(self)
+        coerce_numeric_overrides(self)
         # -- parameters, declared up front (the machine first: two defaults come from it)
-        self._declare("case")
-        self._declare("scenario")
+        declare(self, "case")
+        declare(self, "scenario")
         case_name = self.get_parameter("case").value
         scenario_ref = self.get_parameter("scenario").value
         scenario = Scenario.load(scenario_ref) if scenario_ref else None
         base_case = scenario.case if scenario is not None else Case.load(case_name or None)
-        self._declare_all(base_case)
+        declare_all(self, base_case)
         p = {s.name: self.get_parameter(s.name).value for s in PARAMETERS}
         case = base_case
         if p["defect_depth"] != base_case.defect_depth_m:
@@ -192,43 +179,12 @@ class VibrationNode(_node_base()):
         self._scenario_loaded: dict[str, Scenario] = {}     # parameter callback -> post callback
 
         # -- publishers and the speed subscription
-        from bkabem_msgs.msg import BearingFaultFrequencies, VibrationSpectrum, VibrationWaveform
-        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+        from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
         from std_msgs.msg import Float64
 
         depth = int(p["qos_depth"])
-        if p["qos"] == "reliable":
-            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.VOLATILE)
-        else:
-            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
-                             reliability=qos_profile_sensor_data.reliability,
-                             durability=qos_profile_sensor_data.durability)
-        self.qos = qos
-        # rclpy gives every publisher two QoS event handlers (incompatible QoS / type warnings) that each executor
-        # cycle adds to its wait set; with many nodes in one executor that is most of the CPU. Only the first
-        # waveform publisher keeps them (subscribers report incompatibilities on their side as well).
-        from rclpy.event_handler import PublisherEventCallbacks
-
-        quiet = PublisherEventCallbacks(use_default_callbacks=False)
-
-        def pub(msg_type, name):
-            return self.create_publisher(msg_type, name, qos, event_callbacks=None if not self._wave_pub else quiet)
-
-        self._wave_pub = {}
-        for b in BEARINGS:
-            for q in QUANTITIES:
-                self._wave_pub[(b, q)] = pub(VibrationWaveform, f"vibration/{b}/{q}")
-        from bkabem_ros.messages.cdr import WaveformEncoder
-        from bkabem_ros.messages.convert import SI_UNITS
-
-        self._wave_cdr = {(b, q): WaveformEncoder(machine_id=self.machine_id, location=b, quantity=q,
-                                                  unit=SI_UNITS[q], channel_names=CHANNELS,
-                                                  sample_rate=self.sample_rate,
-                                                  samples_per_channel=self.samples_per_chunk, frame_id=self._frame[b])
-                          for b in BEARINGS for q in QUANTITIES}
-        self._spec_pub = {b: pub(VibrationSpectrum, f"vibration/{b}/spectrum") for b in BEARINGS}
-        self._ff_pub = pub(BearingFaultFrequencies, "vibration/fault_frequencies")
+        self.qos = qos = stream_qos(p["qos"], depth)
+        self._stream = ChunkStream(self, qos)          # the publishers and the chunk waiting for its time
         self._diagnostics = NodeDiagnostics(self)        # the node's health on /diagnostics (REP 107), once a second
         # best effort + keep last: matches reliable and best-effort publishers; a flood only overwrites
         speed_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
@@ -240,11 +196,7 @@ class VibrationNode(_node_base()):
             event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
         self._speed_topic = self._speed_sub.topic_name
         # a publisher of another type on `speed` never matches (DDS drops it silently): look at the graph
-        from rclpy.clock import Clock, ClockType
-
-        self._wrong_speed_publishers: set[tuple[str, str]] = set()
-        self._graph_timer = self.create_timer(2.0, self._check_speed_publishers,
-                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._speed_types = SpeedTypeWatch(self, self._speed_topic, self._speed_unit_name)
 
         # -- state
         self._speed_rad_s = 0.0            # last good speed (rad/s)
@@ -252,21 +204,10 @@ class VibrationNode(_node_base()):
         self._speed_count = 0
         self._speed_rejected = 0
         self._started = False
-        self._t0_ns: int | None = None
-        self._pending: _Prepared | None = None
-        self._primed: _Prepared | None = None   # chunk 0 made ahead by prime(), stamped from t0 = 0
         self._timer = None
         self._poll_timer = None
-        self._last_spectrum_speed: float | None = None
-        self._next_spectrum_ns = 0
-        self._spectra = 0
-        self._lateness_ns: deque[int] = deque(maxlen=100_000)        # waveforms handed to DDS - due
-        self._start_lateness_ns: deque[int] = deque(maxlen=100_000)  # publication started - due
-        self._published_chunks = 0
-        self._reanchors = 0
-        self._last_now_ns = 0
 
-        self.add_pre_set_parameters_callback(self._warn_undeclared)
+        self.add_pre_set_parameters_callback(lambda params: warn_undeclared(self, params))
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._after_set_parameters)
         what = f"scenario {scenario.name} (x{float(p['scenario_time_scale']):g})" if scenario is not None else \
@@ -294,90 +235,6 @@ class VibrationNode(_node_base()):
         return f"case {self._source.case.name}{label}"
 
     # ------------------------------------------------------------------ parameters
-    #: Parameters rclpy declares on every node (besides the table of bkabem_ros.node.params).
-    _RCLPY_PARAMETERS = ("use_sim_time", "start_type_description_service")
-
-    def _known(self, name: str) -> bool:
-        return name in PARAMETER_SPECS or name in self._RCLPY_PARAMETERS or name.startswith("qos_overrides.")
-
-    def _refuse_unknown_overrides(self) -> None:
-        """A parameter given for this node (``-p``, ``--params-file``) that it does not have is a typo that would be
-        ignored: refused, with the nearest name."""
-        import difflib
-
-        unknown = sorted(n for n in self._parameter_overrides if not self._known(n))
-        if unknown:
-            near = difflib.get_close_matches(unknown[0], list(PARAMETER_SPECS), n=1)
-            raise ValueError(f"parameter {unknown[0]}: the node has no such parameter"
-                             + (f" (did you mean {near[0]}?)" if near else "")
-                             + (f"; also unknown: {', '.join(unknown[1:])}" if len(unknown) > 1 else "")
-                             + " (docs/ros_node.md lists them)")
-
-    def _warn_undeclared(self, params):
-        """A live set of a parameter the node does not have: rclpy refuses it to the caller; the node says so too."""
-        for prm in params:
-            if not self.has_parameter(prm.name):
-                self.get_logger().warning(f"parameter {prm.name}: the node has no such parameter; the set is refused "
-                                          f"(docs/ros_node.md lists them)")
-        return params
-
-    def _coerce_numeric_overrides(self) -> None:
-        """YAML ``sample_rate: 51200`` is an integer: accept it for a double parameter (and 2.0 for ints)."""
-        from rclpy.parameter import Parameter
-
-        ov = self._parameter_overrides
-        for spec in PARAMETERS:
-            prm = ov.get(spec.name)
-            if prm is None:
-                continue
-            want_float = isinstance(spec.default, float) or (spec.default is None)
-            if want_float and prm.type_ == Parameter.Type.INTEGER:
-                ov[spec.name] = Parameter(spec.name, Parameter.Type.DOUBLE, float(prm.value))
-            elif isinstance(spec.default, int) and not isinstance(spec.default, bool) and \
-                    prm.type_ == Parameter.Type.DOUBLE and float(prm.value).is_integer():
-                ov[spec.name] = Parameter(spec.name, Parameter.Type.INTEGER, int(prm.value))
-
-    def _descriptor(self, spec: ParamSpec, value):
-        from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-
-        text = spec.description
-        if spec.unit:
-            text += f" [{spec.unit}]"
-        if spec.choices:
-            text += f" (one of: {', '.join(spec.choices)})"
-        text += "; changeable at run time" if spec.live else "; fixed while the node runs"
-        d = ParameterDescriptor(description=text, read_only=False)
-        if spec.range is not None:
-            lo, hi = spec.range
-            if isinstance(value, float):
-                d.floating_point_range = [FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)]
-            else:
-                d.integer_range = [IntegerRange(from_value=int(lo), to_value=int(hi), step=1)]
-        if spec.choices:
-            d.additional_constraints = f"one of: {', '.join(spec.choices)}"
-        return d
-
-    def _declare(self, name: str, default=None) -> None:
-        spec = PARAMETER_SPECS[name]
-        value = spec.default if default is None else default
-        self.declare_parameter(name, value, self._descriptor(spec, value))
-        if spec.choices:
-            v = self.get_parameter(name).value
-            if name == "speed_unit":
-                try:
-                    v = normalize_unit(v)
-                except ValueError:
-                    pass
-            if v not in spec.choices:
-                raise ValueError(f"parameter {name}: {v!r} is not one of {', '.join(spec.choices)}")
-
-    def _declare_all(self, case) -> None:
-        derived = {"defect_depth": float(case.defect_depth_m),
-                   "max_speed": float(case.max_speed_hz) * TWO_PI}
-        for spec in PARAMETERS:
-            if spec.name not in ("case", "scenario"):
-                self._declare(spec.name, derived.get(spec.name))
-
     def _on_set_parameters(self, params):
         """Accept live changes (see LIVE_PARAMETERS); reject the rest with the reason."""
         from rcl_interfaces.msg import SetParametersResult
@@ -451,7 +308,7 @@ class VibrationNode(_node_base()):
             elif prm.name == "scenario_time_scale":
                 self._source.set_time_scale(float(prm.value), self._next_index())
             elif prm.name == "spectrum_rate":
-                self._next_spectrum_ns = 0 if self._pending is None else self._pending.stamp_ns
+                self._stream.next_spectrum_ns = 0 if self._stream.pending is None else self._stream.pending.stamp_ns
             self.get_logger().info(f"parameter {prm.name} = {prm.value!r} (live)")
 
     # ------------------------------------------------------------------ the machine (bkabem_ros.node.source)
@@ -486,7 +343,7 @@ class VibrationNode(_node_base()):
 
     def _next_index(self) -> int:
         """First sample of the next chunk still to be synthesised (where a change of the machine can begin)."""
-        return 0 if self._pending is None else self._pending.index + self.samples_per_chunk
+        return self._stream.next_index()
 
     # ------------------------------------------------------------------ sinks
     def add_sink(self, sink: Sink) -> None:
@@ -532,23 +389,6 @@ class VibrationNode(_node_base()):
             self._limit_case, self._limit = case, bearing_limit_rad_s(case)
         return self._limit
 
-    def _check_speed_publishers(self) -> None:
-        """Warn once per publisher that offers the speed topic with a type other than std_msgs/msg/Float64."""
-        try:
-            infos = self.get_publishers_info_by_topic(self._speed_topic)
-        except Exception:  # noqa: BLE001 - graph queries fail during shutdown
-            return
-        for info in infos:
-            if info.topic_type == SPEED_TYPE:
-                continue
-            who = f"{info.node_namespace.rstrip('/')}/{info.node_name}"
-            key = (who, info.topic_type)
-            if key not in self._wrong_speed_publishers:
-                self._wrong_speed_publishers.add(key)
-                self.get_logger().warning(
-                    f"{self._speed_topic}: publisher {who} offers type {info.topic_type}, not {SPEED_TYPE}; "
-                    f"its messages never reach this node (publish std_msgs/msg/Float64 in {self._speed_unit_name()})")
-
     def _speed_unit_name(self) -> str:
         for name, factor in SPEED_UNITS.items():
             if factor == self._speed_factor:
@@ -578,9 +418,9 @@ class VibrationNode(_node_base()):
         against ~0.1-0.3 ms); a fleet process primes all its machines before it starts their streams one after
         the other within one chunk period. No effect once started, or with ``wait_for_speed`` (chunk 0 must
         wait for the speed)."""
-        if self._started or self._primed is not None or self._wait_for_speed:
+        if self._started or self._stream.primed is not None or self._wait_for_speed:
             return
-        self._primed = self._prepare(0, 0)
+        self._stream.primed = self._stream.prepare(0, 0)
 
     def _try_start(self) -> bool:
         if self._started:
@@ -596,123 +436,11 @@ class VibrationNode(_node_base()):
             self._poll_timer = None
         self._started = True
         # the timer's phase is its creation time: create it first, then take t0, then synthesise chunk 0
-        self._timer = self.create_timer(self.samples_per_chunk / self.sample_rate, self._on_tick)
+        self._timer = self.create_timer(self.samples_per_chunk / self.sample_rate, self._stream.on_tick)
         now = self.get_clock().now().nanoseconds
-        self._last_now_ns = now
-        primed, self._primed = self._primed, None
-        if primed is None:
-            self._pending = self._prepare(0, now)
-        else:                                   # chunk 0 made by prime() with t0 = 0: move it to t0 = now
-            self._t0_ns = now
-            self._restamp(primed)
-            self._next_spectrum_ns += now
-            self._pending = primed
+        self._stream.begin(now)
         self.get_logger().info(f"streaming from t0 = {now / 1e9:.6f} s at {self._speed_rad_s:g} rad/s")
         return True
-
-    # ------------------------------------------------------------------ production
-    def _prepare(self, index: int, t0_ns: int | None = None) -> _Prepared:
-        """Synthesise the chunk that starts at sample ``index`` and build its messages.
-
-        Called when the chunk's first sample is due (one chunk ahead of its publication). The last good speed
-        becomes the speed at the *end* of this chunk; the synthesiser ramps linearly to it from the previous
-        chunk's end speed (angle and speed continuous), so ``shaft_speed`` (first sample) is that previous speed.
-        A scenario with a speed profile gives that speed instead. A change of the machine (a scenario state, a new
-        scenario, defect_depth) takes effect here, at this chunk's first sample, when its model is ready.
-        """
-        if t0_ns is not None:
-            self._t0_ns = t0_ns
-        n = self.samples_per_chunk
-        stamp = self._t0_ns + int(round(index * 1e9 / self.sample_rate))
-        due = self._t0_ns + int(round((index + n) * 1e9 / self.sample_rate))
-        src = self._source
-        chunk, truth = src.next_chunk(index, self._speed_rad_s / TWO_PI)
-        if int(chunk.first_sample_index) != index:
-            raise RuntimeError(f"synth produced index {chunk.first_sample_index}, expected {index}")
-        self._band.check(src.synth, src.model, max(float(chunk.shaft_speed_hz), float(chunk.shaft_speed_end_hz)),
-                         self._machine_label)
-        self._diagnostics.add_chunk(chunk)
-        speed = float(chunk.shaft_speed_hz) * TWO_PI          # at the first sample
-        # the waveforms straight to CDR (waveform_cdr: the constant part of each stream encoded once); message
-        # objects only for sinks (recorders, viewers), made from the same bytes when one asks for them
-        items = []
-        for b in BEARINGS:
-            for q in QUANTITIES:
-                raw = self._wave_cdr[(b, q)].encode(chunk.samples[chunk.rows(b, q)], first_sample_index=index,
-                                                    shaft_speed=speed, stamp_ns=stamp,
-                                                    ground_truth=truth)
-                items.append((self._wave_pub[(b, q)], WAVEFORM_TYPE, None, raw))
-        rate = float(self._live["spectrum_rate"])
-        if (src.changed or self._last_spectrum_speed is None or speed != self._last_spectrum_speed
-                or (rate > 0 and stamp >= self._next_spectrum_ns)):
-            # spectra and fault frequencies (at most spectrum_rate + speed changes per second): message objects,
-            # serialised now, off the publication path
-            from rclpy.serialization import serialize_message
-
-            for bearing, type_name, msg in src.spectrum_messages(chunk, stamp, truth):
-                pub = self._ff_pub if bearing is None else self._spec_pub[bearing]
-                items.append((pub, type_name, msg, serialize_message(msg)))
-            self._spectra += 1
-            self._last_spectrum_speed = speed
-            if rate > 0:
-                self._next_spectrum_ns = stamp + int(1e9 / rate)
-        return _Prepared(index=index, stamp_ns=stamp, due_ns=due, speed_rad_s=speed, items=items)
-
-    # ------------------------------------------------------------------ publication
-    def _on_tick(self) -> None:
-        now = self.get_clock().now().nanoseconds
-        pend = self._pending
-        period = self.chunk_ns
-        if now < self._last_now_ns - period:      # ROS time jumped back (sim time loop): re-anchor
-            self._reanchor(now)
-            pend = self._pending
-        self._last_now_ns = now
-        behind = (now - pend.due_ns) / period
-        if behind > 50:                            # paused or a big jump forward: do not synthesise a backlog
-            self._reanchor(now)
-            pend = self._pending
-        half = period / 2
-        while pend.due_ns <= now + half:
-            self._start_lateness_ns.append(self.get_clock().now().nanoseconds - pend.due_ns)
-            items = pend.items
-            for pub, _type_name, _msg, raw in items[:N_WAVEFORMS]:
-                pub.publish(raw)
-            self._lateness_ns.append(self.get_clock().now().nanoseconds - pend.due_ns)
-            for pub, _type_name, _msg, raw in items[N_WAVEFORMS:]:      # spectra, fault frequencies
-                pub.publish(raw)
-            self._published_chunks += 1
-            if self._sinks:
-                for pub, type_name, msg, raw in items:
-                    self._emit(pub.topic_name, type_name, _message(pub, msg, raw), pend.stamp_ns)
-            pend = self._pending = self._prepare(pend.index + self.samples_per_chunk)
-            now = self.get_clock().now().nanoseconds
-
-    def _reanchor(self, now: int) -> None:
-        """Keep the index, move t0 so that the pending chunk starts now (after a clock jump or stall)."""
-        pend = self._pending
-        old = pend.stamp_ns
-        self._t0_ns = now - int(round(pend.index * 1e9 / self.sample_rate))
-        self._restamp(pend)
-        self._next_spectrum_ns = now
-        self._reanchors += 1
-        self.get_logger().warning(f"clock jumped from {old / 1e9:.6f} s to {now / 1e9:.6f} s: stamps re-anchored "
-                                  f"at sample {pend.index} (indices stay continuous)")
-
-    def _restamp(self, pend: _Prepared) -> None:
-        """Stamp and due time of a prepared chunk (and its messages) from the current ``_t0_ns``: the stamp is
-        written into the CDR bytes in place of the old one (every message starts with its header), and into the
-        message object where there is one."""
-        from bkabem_ros.messages.cdr import with_stamp
-        from bkabem_ros.messages.convert import time_msg
-
-        pend.stamp_ns = self._t0_ns + int(round(pend.index * 1e9 / self.sample_rate))
-        pend.due_ns = self._t0_ns + int(round((pend.index + self.samples_per_chunk) * 1e9 / self.sample_rate))
-        items = []
-        for pub, type_name, msg, raw in pend.items:
-            if msg is not None:
-                msg.header.stamp = time_msg(pend.stamp_ns)
-            items.append((pub, type_name, msg, with_stamp(raw, pend.stamp_ns)))
-        pend.items = items
 
     # ------------------------------------------------------------------ live defect depth
     def _request_depth(self, depth_m: float) -> None:
@@ -728,18 +456,19 @@ class VibrationNode(_node_base()):
         publication began minus that due time (the timer's wake-up delay); ``late_chunks`` = chunks handed to DDS a
         whole chunk period or more after they were due, ``lateness_max_chunk`` = the number of the latest one in the
         stream (0 = first)."""
-        late = list(self._lateness_ns)
-        start = list(self._start_lateness_ns)
+        stream = self._stream
+        late = list(stream.lateness_ns)
+        start = list(stream.start_lateness_ns)
         return {
             "machine_id": self.machine_id,
-            "chunks": self._published_chunks,
-            "next_index": None if self._pending is None else self._pending.index,
-            "spectra": self._spectra,
+            "chunks": stream.published_chunks,
+            "next_index": None if stream.pending is None else stream.pending.index,
+            "spectra": stream.spectra,
             "speed_messages": self._speed_count,
             "speed_rejected": self._speed_rejected,
-            "reanchors": self._reanchors,
+            "reanchors": stream.reanchors,
             "sink_errors": self._sink_errors,
-            "speed_publishers_wrong_type": len(self._wrong_speed_publishers),
+            "speed_publishers_wrong_type": len(self._speed_types.seen),
             "lateness_ms_p50": _percentile(late, 50) / 1e6,
             "lateness_ms_p99": _percentile(late, 99) / 1e6,
             "lateness_ms_max": (max(late) / 1e6) if late else float("nan"),

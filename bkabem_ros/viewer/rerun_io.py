@@ -38,6 +38,9 @@ for ``condition_window_s`` and logs its results at the window's end. Markers com
 defects and fault-frequency lines of the recording (:mod:`bkabem_core.analysis.fault_lines`): each
 bearing's panels mark its own bearing's lines (a bearing of its own at each position, bkabem_msgs 0.3.0).
 
+The recording's time line and batched rows are :class:`bkabem_ros.viewer.rerun_rows.RecordingRows` (the base of
+:class:`RerunLogger`); the condition window and its panels :class:`bkabem_ros.viewer.rerun_condition.ConditionPanels`.
+
 Nothing here listens on a port: :class:`RerunLogger` either writes a file or connects to a
 viewer (default ``rerun+http://127.0.0.1:9876/proxy``, i.e. ``rerun`` started on this machine,
 which binds 127.0.0.1 when started as ``rerun --bind 127.0.0.1``).
@@ -51,9 +54,11 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from bkabem_core.analysis import condition, fault_lines, health
+from bkabem_core.analysis import condition, fault_lines
 from bkabem_ros.messages import convert as msgs
 from bkabem_ros.viewer.blueprint import DEFAULT_CONNECT_URL, DISPLAY_UNITS, TIMELINE, blueprint
+from bkabem_ros.viewer.rerun_condition import ZONE_COLORS, ConditionPanels
+from bkabem_ros.viewer.rerun_rows import SAMPLES_COMPONENT, RecordingRows  # noqa: F401  (SAMPLES_COMPONENT: for readers)
 from bkabem_ros.viewer.rrd import optimize_rrd, rerun_binary
 
 __all__ = ["DEFAULT_CONNECT_URL", "TIMELINE", "RerunLogger", "RerunSink", "blueprint", "rerun_binary"]
@@ -61,23 +66,11 @@ __all__ = ["DEFAULT_CONNECT_URL", "TIMELINE", "RerunLogger", "RerunSink", "bluep
 _CHANNEL_COLORS = {"vertical": (31, 119, 180), "horizontal": (255, 127, 14)}
 _LIGHT_COLORS = {"vertical": (150, 200, 240), "horizontal": (255, 200, 140)}
 _FALLBACK_COLORS = [(44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75)]
-_ZONE_COLORS = [(120, 200, 80), (240, 200, 40), (230, 60, 50)]
 _SPEED_COLOR = (255, 190, 90)          # light amber: visible on the dark theme
 _SPEED_WAVEFORM_COLOR = (120, 180, 255)
-NO_DEFECT_COLOR = _ZONE_COLORS[0]       # the ground-truth trend of a bearing without a defect: zone A's green
+NO_DEFECT_COLOR = ZONE_COLORS[0]        # the ground-truth trend of a bearing without a defect: zone A's green
 #: Order-spectrum lines below this fraction of the largest, past the last one above, are not drawn.
 LINE_DISPLAY_FLOOR = 0.01
-#: Scalar rows (trends, speed) are sent in column chunks of this much sample time [s].
-SCALAR_BATCH_S = 1.0
-#: Component holding the waveform samples (float32, one per channel and row).
-SAMPLES_COMPONENT = "VibrationWaveform:samples"
-#: Waveform samples are sent in column chunks of this much sample time [s] (the live viewer
-#: shows them up to that much later; fewer, larger chunks cost less per sample: 0.1 s chunks
-#: cost ~25 % more).
-WAVEFORM_BATCH_S = 0.5
-#: Bars per channel of an envelope spectrum (peak hold over groups of bins beyond that): a bar
-#: narrower than a pixel is not drawn.
-ENVELOPE_BARS = 200
 #: Markers are bars below the zero line (so they never hide a line), this fraction of the
 #: spectrum's top deep and this fraction of the shown range wide.
 MARKER_DEPTH = 0.12
@@ -85,18 +78,6 @@ MARKER_WIDTH = 0.008
 #: Marker bars are re-logged when a frequency moves by more than this fraction or the height
 #: (the spectrum's top) by more than 15 %: in a steady state they cost nothing.
 _MARKER_TOLERANCE = 0.003
-
-
-def _peak_hold(f: np.ndarray, amp: np.ndarray, bars: int) -> tuple[np.ndarray, np.ndarray, int]:
-    """At most ``bars`` bars: groups of adjacent bins, each bar the largest amplitude of its group
-    (so no line loses height) at the group's centre. Returns (freq, amp, bins per group)."""
-    g = max(1, math.ceil(f.size / bars))
-    if g == 1:
-        return f, amp, 1
-    m = f.size // g * g
-    fg = f[:m].reshape(-1, g).mean(axis=1)
-    ag = amp[:, :m].reshape(amp.shape[0], -1, g).max(axis=2)
-    return fg, ag, g
 
 
 def _slug(text: str) -> str:
@@ -111,21 +92,6 @@ def _display(quantity: str, unit: str) -> tuple[str, float]:
     return unit, 1.0
 
 
-class _Window:
-    """Acceleration of one bearing collected for the condition window."""
-
-    def __init__(self):
-        self.blocks: list[np.ndarray] = []
-        self.n = 0
-        self.fs = 0.0
-        self.next_index: int | None = None
-        self.names: list[str] = []
-        self.speeds: list[float] = []
-
-    def reset(self) -> None:
-        self.blocks, self.n, self.speeds = [], 0, []
-
-
 def _bar_width(f: np.ndarray, bpfo: float) -> float:
     """Width [Hz] of a line's bar: 0.35 x BPFO for BPFO orders, less where lines are closer (the sidebands of an
     inner race at f_r, of a ball at FTF): 0.7 x the spacing that a tenth of the neighbours are closer than, so that
@@ -138,7 +104,7 @@ def _bar_width(f: np.ndarray, bpfo: float) -> float:
     return float(min(0.35 * bpfo if bpfo > 0 else np.inf, 0.7 * spacing))
 
 
-class RerunLogger:
+class RerunLogger(RecordingRows):
     """Log bkabem messages into one Rerun recording (a file, a viewer, or both).
 
     Parameters
@@ -184,8 +150,7 @@ class RerunLogger:
             raise ValueError(f"iso_zones: {iso_zones!r} is not one of {', '.join(condition.ISO_ZONE_SETS)}")
         if not condition_window_s > 0:
             raise ValueError(f"condition_window_s: {condition_window_s} must be > 0")
-        self._rr = rr
-        self.rec = rr.RecordingStream(app_id, recording_id=recording_id)
+        super().__init__(rr.RecordingStream(app_id, recording_id=recording_id), rr)
         # one timeline only: the data's own time (log_time would be the conversion's wall clock)
         self.rec.set_log_time_enabled(False)
         self.rec.set_log_tick_enabled(False)
@@ -208,7 +173,6 @@ class RerunLogger:
             self.memory = self.rec.memory_recording()
             if bp is not None:
                 self.rec.send_blueprint(bp)
-        self.t0_ns: int | None = None
         self.max_spectrum_rate_hz = float(max_spectrum_rate_hz)
         self.condition_window_s = float(condition_window_s)
         self.envelope_band_hz = envelope_band_hz
@@ -217,12 +181,9 @@ class RerunLogger:
         self.optimize_error: str | None = None
         self.samples_logged = 0
         self.closed = False
-        self._static_done: set[str] = set()
-        self._lock = threading.Lock()
         self._speed_stream: tuple[str, str] | None = None
         self._last_spectrum: dict[tuple[str, str], int] = {}
         self._markers: dict[str, tuple[tuple[float, ...], float]] = {}
-        self._windows: dict[str, _Window] = {}
         # the run's fault-frequency lines at the speed `_lines_speed` [rad/s] (the DE bearing's, and each bearing's),
         # and its defects
         self._lines: dict[str, float] = {}
@@ -234,117 +195,10 @@ class RerunLogger:
         self._truth_keys: dict[tuple, str] = {}                   # (bearing, kind, ball, name) -> its trend path
         self._truth_names: dict[str, str] = {}                    # trend path -> series name
         self._health: dict[str, dict] = {}
-        self._rows: dict[str, tuple[list[int], list[np.ndarray]]] = {}
-        self._waves: dict[str, dict] = {}
         self._offsets: dict[tuple[int, float], np.ndarray] = {}
-        self._bar_keys: dict[str, tuple] = {}
+        self._condition = ConditionPanels(self)      # the condition window and its panels, per bearing
 
-    # ---------------------------------------------------------------- time and style
-    def _rel_ns(self, stamp_ns: int) -> int:
-        if self.t0_ns is None:
-            self.t0_ns = int(stamp_ns)
-        return int(stamp_ns) - self.t0_ns
-
-    def _at(self, stamp_ns: int) -> None:
-        self.rec.set_time(TIMELINE, duration=np.timedelta64(self._rel_ns(stamp_ns), "ns"))
-
-    def _series(self, path: str, names, colors, *, minmax: bool = False, widths=None) -> None:
-        """Static series style of ``path``: one name and colour per scalar of its rows."""
-        if path in self._static_done:
-            return
-        kwargs = {"names": list(names), "colors": list(colors)}
-        if minmax:
-            kwargs["aggregation_policy"] = "minmax"
-        if widths is not None:
-            kwargs["widths"] = list(widths)
-        self.rec.log(path, self._rr.SeriesLines(**kwargs), static=True)
-        self._static_done.add(path)
-
-    def _scalars(self, path: str, values, stamp_ns: int, *, batch: bool = True) -> None:
-        """One row of scalars at ``stamp_ns``. With ``batch`` (streams of 10-50 rows per second:
-        block trends, speed) rows are collected per entity and sent as one column chunk per
-        ``SCALAR_BATCH_S`` of sample time (one ``rr.log`` per row costs ~0.1 ms; the viewer sees
-        those trends that much later); rare rows are logged at once."""
-        if not batch:
-            self._at(stamp_ns)
-            self.rec.log(path, self._rr.Scalars(np.asarray(values, dtype=np.float64)))
-            return
-        rel = self._rel_ns(stamp_ns)
-        buf = self._rows.get(path)
-        if buf is None:
-            buf = self._rows[path] = ([], [])
-        buf[0].append(rel)
-        buf[1].append(np.asarray(values, dtype=np.float64).reshape(-1))
-        if rel - buf[0][0] >= SCALAR_BATCH_S * 1e9:
-            self._send_rows(path)
-
-    def _send_rows(self, path: str) -> None:
-        times, rows = self._rows.pop(path, ([], []))
-        if not times:
-            return
-        rr = self._rr
-        self.rec.send_columns(path, indexes=[rr.TimeColumn(TIMELINE, duration=np.asarray(times, dtype="timedelta64[ns]"))],
-                              columns=rr.Scalars.columns(scalars=np.vstack(rows)))
-
-    def _samples(self, path: str, times_ns: np.ndarray, x: np.ndarray, fs: float) -> None:
-        """Waveform rows (one per sample, one float32 per channel) of ``path``, collected while
-        they follow each other and sent as one column chunk per ``WAVEFORM_BATCH_S``."""
-        buf = self._waves.get(path)
-        if buf is not None and (buf["next"] != times_ns[0] or buf["x"][0].shape[1] != x.shape[1]):
-            self._send_samples(path)                    # a gap or another layout: send what is there
-            buf = None
-        if buf is None:
-            buf = self._waves[path] = {"t": [], "x": [], "n": 0}
-        buf["t"].append(times_ns)
-        buf["x"].append(x)
-        buf["n"] += x.shape[0]
-        buf["next"] = int(times_ns[-1]) + int(round(1e9 / fs))
-        if buf["n"] >= WAVEFORM_BATCH_S * fs:
-            self._send_samples(path)
-
-    def _send_samples(self, path: str) -> None:
-        buf = self._waves.pop(path, None)
-        if not buf or not buf["n"]:
-            return
-        import pyarrow as pa  # noqa: PLC0415  (comes with rerun-sdk)
-
-        rr = self._rr
-        t = np.concatenate(buf["t"]) if len(buf["t"]) > 1 else buf["t"][0]
-        x = np.concatenate(buf["x"]) if len(buf["x"]) > 1 else buf["x"][0]
-        # float32, the message's own precision, in a component of our own (Rerun's Scalars are
-        # float64 by definition; the time-series view plots any numeric component and applies
-        # the entity's SeriesLines): 8 instead of 16 bytes per row for two channels, a third
-        # less CPU in the file encoder
-        col = rr.ComponentColumn(SAMPLES_COMPONENT, rr.AnyBatchValue(SAMPLES_COMPONENT, pa.array(x.reshape(-1))),
-                                 lengths=np.full(x.shape[0], x.shape[1], dtype=np.int32))
-        self.rec.send_columns(path, indexes=[rr.TimeColumn(TIMELINE, duration=t.view("timedelta64[ns]"))],
-                              columns=[col])
-
-    def flush_rows(self) -> None:
-        """Send every collected waveform sample and scalar row now (done by :meth:`close`)."""
-        with self._lock:
-            for path in list(self._waves):
-                self._send_samples(path)
-            for path in list(self._rows):
-                self._send_rows(path)
-
-    def _bars(self, path: str, values, abscissa, widths, color) -> None:
-        """Log a bar chart at the current time: nothing if it is the one logged last, and
-        abscissa, widths and colour only when they changed (latest-at keeps them; converting
-        each costs ~0.3-0.5 ms)."""
-        rr = self._rr
-        abscissa = np.asarray(abscissa, dtype=np.float64)
-        widths = np.asarray(widths, dtype=np.float32)
-        values = np.asarray(values, dtype=np.float64)
-        old = self._bar_keys.get(path)
-        if old is not None and old[2] == color and np.array_equal(old[0], abscissa) and np.array_equal(old[1], widths):
-            if not np.array_equal(old[3], values):    # the same chart again (steady speed): nothing to log
-                self.rec.log(path, rr.BarChart.from_fields(values=values))
-                self._bar_keys[path] = (abscissa, widths, color, values)
-            return
-        self._bar_keys[path] = (abscissa, widths, color, values)
-        self.rec.log(path, rr.BarChart(values, abscissa=abscissa, widths=widths, color=color))
-
+    # ---------------------------------------------------------------- style and the run's lines
     @staticmethod
     def _color(channel: str, c: int, light: bool = False):
         table = _LIGHT_COLORS if light else _CHANNEL_COLORS
@@ -409,92 +263,9 @@ class RerunLogger:
             if self._speed_stream is None:
                 self._speed_stream = (loc, q)
             if q == "acceleration" and msg.unit == msgs.SI_UNITS[q]:
-                self._collect(msg, a, names, stamp)
+                self._condition.collect(msg, a, names, stamp)
         if self._speed_stream == (loc, q):   # one stream is enough for the speed trace
             self.log_speed(stamp, float(msg.shaft_speed), source="waveform")
-
-    def _collect(self, msg, a: np.ndarray, names: list[str], stamp: int) -> None:
-        """Add a block of acceleration to its bearing's window; at a full window, log the
-        condition results at the time of the window's last sample."""
-        w = self._windows.setdefault(msg.location, _Window())
-        fs = float(msg.sample_rate)
-        first = int(msg.first_sample_index)
-        if w.fs != fs or w.next_index != first or w.names != names:
-            w.reset()                                        # new stream, gap or other layout
-            w.fs, w.names = fs, names
-        w.next_index = first + a.shape[1]
-        w.blocks.append(a)                  # float32 view of the message; the window is float64
-        w.n += a.shape[1]
-        w.speeds.append(float(msg.shaft_speed))
-        need = max(int(round(self.condition_window_s * fs)), 16)
-        if w.n < need:
-            return
-        x = np.concatenate(w.blocks, axis=1)                # float32, SI
-        rest = x[:, need:]
-        x = x[:, :need]
-        speed = float(np.mean(w.speeds))
-        w.blocks = [rest] if rest.shape[1] else []
-        w.n = rest.shape[1]
-        w.speeds = [w.speeds[-1]] if rest.shape[1] else []
-        end = stamp + int(round((a.shape[1] - rest.shape[1] - 1) * 1e9 / fs))
-        self._log_condition(msg.location, x, fs, names, end, speed)
-
-    def _log_condition(self, loc: str, x: np.ndarray, fs: float, names: list[str], stamp: int,
-                       speed_rad_s: float) -> None:
-        rr = self._rr
-        L = loc.upper()
-        colors = [self._color(ch, c) for c, ch in enumerate(names)]
-        ws = condition.window_spectrum(x, fs)
-        iso = condition.iso_velocity_rms(x, fs, ws=ws)
-        kurt = condition.kurtosis(x)
-        crest = condition.crest_factor(x)
-        band = self.envelope_band_hz or condition.default_envelope_band(fs)
-        lines = self._lines_at(speed_rad_s, loc)
-        f_top = self._envelope_range(lines, band, loc)
-        f, env = condition.envelope_spectrum(x, fs, band, f_top, ws=ws)
-        limits = condition.ISO_ZONE_SETS[self.iso_zones]
-        self._at(stamp)
-        p = f"/{loc}/iso_velocity"
-        self._series(p, [f"{L} {ch} [mm/s]" for ch in names], colors, widths=[2.0] * len(names))
-        self._scalars(p, iso, stamp, batch=False)
-        self._series(f"{p}/zones", [f"zone {z} limit {v:g} mm/s" for z, v in zip(("A/B", "B/C", "C/D"), limits)],
-                     _ZONE_COLORS, widths=[1.0] * 3)
-        self._scalars(f"{p}/zones", limits, stamp, batch=False)
-        p = f"/{loc}/trend/impulsiveness"
-        self._series(p, [f"kurtosis {ch}" for ch in names] + [f"crest factor {ch}" for ch in names],
-                     colors + [self._color(ch, c, light=True) for c, ch in enumerate(names)])
-        self._scalars(p, np.concatenate([kurt, crest]), stamp, batch=False)
-        fg, eg, group = _peak_hold(f, env, ENVELOPE_BARS)
-        dfg = fg[1] - fg[0] if fg.size > 1 else 1.0
-        nch = max(len(names), 1)
-        for c, ch in enumerate(names):
-            self._bars(f"/{loc}/envelope/{ch}", eg[c], fg + (c - (nch - 1) / 2) * dfg / nch,
-                       np.full(fg.size, 0.9 * dfg / nch, dtype=np.float32), colors[c])
-        top = float(env.max()) if env.size else 0.0
-        self._log_markers(f"/{loc}/envelope/markers", lines, f_top, top, loc)
-        h = self._health.setdefault(loc, {})
-        h.update(iso=iso, zone=[condition.iso_zone(v, limits) for v in iso], kurt=kurt, crest=crest,
-                 rms=np.sqrt(np.mean(x * x, axis=1, dtype=np.float64)), peak=np.max(np.abs(x), axis=1).astype(np.float64),
-                 names=names,
-                 band=band, window_s=x.shape[1] / fs, env_df=(f[1] - f[0]) if f.size > 1 else 0.0, env_group=group,
-                 finding=health.envelope_finding(f, env, lines, names, loc, self._defects,
-                                                 {b: self._lines_at(speed_rad_s, b) for b in self._bearing_lines}),
-                 speed_hz=speed_rad_s / (2 * math.pi), lines=lines)
-        text = health.health_text(loc, self._health.get(loc, {}), self._defects,
-                                  self._bearing_lines.get(loc, self._lines), self.iso_zones, self.condition_window_s,
-                                  self._truth, marked=self._defects_with_lines_of(loc))
-        self.rec.log(f"/{loc}/health", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
-
-    def _envelope_range(self, lines: dict[str, float], band: tuple[float, float], loc: str) -> float:
-        """Envelope spectrum shown up to 3.5x the highest line a defect excites and past every
-        fundamental, at most half the band width [Hz]; 500 Hz while no lines are known."""
-        cap = (band[1] - band[0]) / 2
-        if not lines or not max(lines.values()) > 0:
-            return min(500.0, cap)
-        excited = [lines[d.line] for d in self._defects_with_lines_of(loc) if d.line in lines] or \
-            [lines.get("BPFO", 0.0)]
-        want = max(3.5 * max(excited), 1.15 * max(lines.values()))
-        return float(min(cap, 50.0 * math.ceil(want / 50.0)))
 
     # ---------------------------------------------------------------- spectra and markers
     def log_spectrum(self, msg) -> bool:

@@ -132,9 +132,9 @@ def test_methods_build(case, model):
 
 
 def test_interrupt_returns_partial_comparison(case, model, monkeypatch):
-    from bkabem_core.reference import tdsm as tdsm_mod
+    from bkabem_core.reference.integrator import Integrator
 
-    real = tdsm_mod.Tdsm._integrate
+    real = Integrator.advance
     calls = {"n": 0}
 
     def flaky(self, st, n_steps, **kw):
@@ -145,7 +145,7 @@ def test_interrupt_returns_partial_comparison(case, model, monkeypatch):
             return
         return real(self, st, n_steps, **kw)
 
-    monkeypatch.setattr(tdsm_mod.Tdsm, "_integrate", flaky)
+    monkeypatch.setattr(Integrator, "advance", flaky)
     r = validate(case, speed_hz=SPEED, duration_s=0.2, improvement=None, settle_s=0.02, progress=False, plain=model)
     assert r.tdsm_info["interrupted"]
     assert r.tdsm_info["recorded_bpfo_periods"] >= 1

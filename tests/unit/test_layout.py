@@ -24,9 +24,7 @@ CORE_ORDER = ("bearing", "model", "excitation", "fe", "solve", "reference", "syn
 KNOWN_BACK_ARROWS: set[tuple[str, str]] = set()
 KNOWN_LONG_MODULES: set[str] = set()
 #: classes past one sitting, to be split by concern.
-KNOWN_LONG_CLASSES = {("bkabem_core.reference.tdsm", "Tdsm"),
-                      ("bkabem_core.bearing.deep_groove", "Bearing"), ("bkabem_ros.node.vibration_node", "VibrationNode"),
-                      ("bkabem_ros.viewer.rerun_io", "RerunLogger")}
+KNOWN_LONG_CLASSES: set[tuple[str, str]] = set()
 
 
 def _modules() -> dict[str, Path]:
