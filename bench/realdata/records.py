@@ -106,8 +106,11 @@ class Record:
 
     @property
     def pit_depth_m(self) -> float:
-        """EDM pit depth [m]: CWRU's 0.011 in for every fault (0 for healthy). CWRU states this depth for the
-        0.007-0.021 in pits; the 0.028 in pits were made on another occasion and their depth is not stated here."""
+        """EDM pit depth [m]: 0.011 in for every fault (0 for healthy). CWRU states this depth for the 0.007-0.021
+        in pits; its 0.028 in pits, made in NTN bearings, are printed 0.050 in (inner race) and 0.150 in (ball,
+        half the ball's diameter) deep, beyond a case's plausibility bound for a defect's depth (1 mm). A round
+        pit's drop is set by the contact that bridges it (under 1 um for these pits), so any depth above a few um
+        gives the twin the same signal: 0.011 in stands for all of them."""
         return 0.0 if self.kind == "healthy" else PIT_DEPTH_M
 
     @property
