@@ -42,11 +42,16 @@ install: $(STAMP) ros viewer
 demo: install
 	$(BIN)/bkabem demo
 
+# the unit tier on up to four worker processes (pytest-xdist; no process or DDS of its own), then the integration
+# tier in one process: its tests start ROS 2 processes and measure their timing
+XDIST = -n auto --maxprocesses=4
+
 test: install
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -q $(XDIST) tests/unit
+	$(BIN)/python -m pytest tests/integration
 
 unit: $(STAMP)
-	$(BIN)/python -m pytest -q tests/unit
+	$(BIN)/python -m pytest -q $(XDIST) tests/unit
 
 screenshots: install
 	$(BIN)/python -m bkabem_ros.viewer.screenshots --docs docs/img

@@ -8,8 +8,9 @@ help          ``bkabem --help``: what every command pays before it parses its ar
 import        ``python -c "from bkabem_core import Case, BkaBem, Synthesizer"``: the library's main names loaded
 excitation    ``bkabem excitation --json``: the embedded case's quasi-static excitation, end to end
 spectrum      ``bkabem spectrum --speed-hz 25 --json``: the model prepared and one spectrum, end to end
-unit tier     ``--unit-tier``: ``pytest -q tests/unit`` once (no processes, no DDS), with its pass / fail counts
-suite         ``--suite``: ``pytest -q`` once (both tiers, as ``make test``), with its counts
+unit tier     ``--unit-tier``: ``pytest -q -n auto --maxprocesses=4 tests/unit`` once, as ``make unit`` runs it
+              (no processes, no DDS), with its pass / fail counts
+suite         ``--suite``: ``pytest -q`` once (both tiers in one process), with its counts
 
 The commands run from a temporary folder with ``OPENBLAS_NUM_THREADS=1``; their output is checked (exit code 0,
 JSON that parses) so that a fast failure is not reported as a fast start.
@@ -50,10 +51,15 @@ def timed(cmd: list[str], cwd: str, check_json: bool = False) -> float:
     return wall
 
 
-def pytest_run(cwd: Path, *paths: str) -> dict:
-    """One run of pytest over ``paths`` (all tests if none): wall time and the counts pytest reports."""
+#: The unit tier's workers, as ``make unit`` runs it (pytest-xdist).
+UNIT_XDIST = ("-n", "auto", "--maxprocesses=4")
+
+
+def pytest_run(cwd: Path, *paths: str, options: tuple = ()) -> dict:
+    """One run of pytest over ``paths`` (all tests if none) with ``options``: wall time and the counts pytest
+    reports."""
     t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *paths], cwd=cwd,
+    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *options, *paths], cwd=cwd,
                        env=dict(os.environ, OPENBLAS_NUM_THREADS="1"), capture_output=True, text=True, timeout=7200)
     wall = time.perf_counter() - t0
     tail = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else ""
@@ -85,9 +91,10 @@ def main(argv=None) -> int:
             res[name] = {"median_s": statistics.median(ts), "min_s": min(ts), "runs": len(ts)}
             print(f"{name:11s} median {statistics.median(ts):6.3f} s  (min {min(ts):.3f}, {len(ts)} runs)",
                   flush=True)
-    for key, wanted, paths in (("unit_tier", args.unit_tier, ("tests/unit",)), ("suite", args.suite, ())):
+    for key, wanted, paths, options in (("unit_tier", args.unit_tier, ("tests/unit",), UNIT_XDIST),
+                                        ("suite", args.suite, (), ())):
         if wanted:
-            res[key] = u = pytest_run(ROOT, *paths)
+            res[key] = u = pytest_run(ROOT, *paths, options=options)
             print(f"{key:10s} {u['wall_s']:6.1f} s  exit {u['exit_code']}  {u['summary']}", flush=True)
     res["load"].append(os.getloadavg()[0])
     if args.json:

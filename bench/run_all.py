@@ -397,7 +397,7 @@ def read_startup(d, _args):
                d["spectrum"]["median_s"], "{:.2f}", "s")]
     u = d.get("unit_tier")
     if u:
-        out.append(row("`pytest tests/unit` (the fast tier)", "wall time", u["wall_s"], "{:.0f}", "s",
+        out.append(row("`make unit` (the fast tier, pytest-xdist)", "wall time", u["wall_s"], "{:.0f}", "s",
                        le(60.0, "<= 60 s"), note=u["summary"]))
     return out
 
