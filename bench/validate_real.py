@@ -232,7 +232,7 @@ def record_rows(rows: list[dict], ch: str) -> list[list]:
         sb = side.get(r["kind"])
         out.append([r["label"], f"{r['speed_hz']:.3f}", pair(lambda d: d["native"]["rms"], "{:.3f}"),
                     pair(lambda d: d["native"]["kurtosis"], "{:.1f}"), pair(lambda d: d["native"]["crest"], "{:.1f}"),
-                    kb, pair(lvl(kl)) if kl else "-", pair(lvl(kl, "kurtogram")) if kl else "-",
+                    pair(lambda d: d["band_spread"], "{:.1f}"), kb, pair(lvl(kl)) if kl else "-", pair(lvl(kl, "kurtogram")) if kl else "-",
                     pair(lvl(f"{kl}_h2")) if kl else "-", pair(lvl("1x")), pair(lvl("FTF")),
                     pair(lambda d: max(d["ses"]["fixed"]["levels"][s] for s in sb)) if sb else "-",
                     f"{c['measured_verdict']} / {c['twin_verdict']}",
@@ -273,8 +273,10 @@ def differences(rows: list[dict], twin: str) -> list[str]:
                med(lambda d: d["ses"]["fixed"]["levels"]["1x"], "t"))
         ftf = (med(lambda d: d["ses"]["fixed"]["levels"]["FTF"], "m"),
                med(lambda d: d["ses"]["fixed"]["levels"]["FTF"], "t"))
+        spread = (med(lambda d: d["band_spread"], "m"), med(lambda d: d["band_spread"], "t"))
         text = (f"**{kind}** (medians, measured / twin): RMS {rms[0]:.3f} / {rms[1]:.3f} g, kurtosis {kurt[0]:.1f} / "
-                f"{kurt[1]:.1f}, 1x in the envelope {one[0]:.0f} / {one[1]:.0f} dB, FTF {ftf[0]:.0f} / {ftf[1]:.0f} dB")
+                f"{kurt[1]:.1f}, 2-4 kHz RMS max/min over 0.25 s {spread[0]:.1f} / {spread[1]:.1f}, 1x in the "
+                f"envelope {one[0]:.0f} / {one[1]:.0f} dB, FTF {ftf[0]:.0f} / {ftf[1]:.0f} dB")
         if kind != "healthy":
             kl = KIND_LINE[kind]
             line = (med(lambda d: d["ses"]["fixed"]["levels"][kl], "m"),
@@ -340,7 +342,7 @@ def write_page(out_dir: Path, result: dict, spectra: dict, argv: list[str]) -> P
     s = result["summary"]
     page = out_dir / "validation_real.md"
     sim = report.sim2real_block(page)
-    head = ["record", "1x [Hz]", "RMS [g]", "kurtosis", "crest", "kurtogram band [kHz]", "kind line 2-4 kHz [dB]",
+    head = ["record", "1x [Hz]", "RMS [g]", "kurtosis", "crest", "2-4 kHz max/min", "kurtogram band [kHz]", "kind line 2-4 kHz [dB]",
             "kind line, kurtogram band", "its h2", "1x", "FTF", "sideband (larger)", "verdict", "RMS x2",
             "line 10 dB", "same verdict"]
     head_h = head[:-1] + ["same verdict / no line (healthy)"]
@@ -424,7 +426,8 @@ def write_page(out_dir: Path, result: dict, spectra: dict, argv: list[str]) -> P
         "",
         "Each cell: measured / twin. Levels in dB over the SES floor of the band; the kind line is BPFO (outer), "
         "BPFI (inner) or 2 x BSF (ball); the sideband column the larger of the kind line's +-1x (races) or "
-        "+-FTF (ball) sidebands.",
+        "+-FTF (ball) sidebands. 2-4 kHz max/min: the largest over the smallest RMS of the 2-4 kHz band in 0.25 s "
+        "windows (about 1 for a steady signal; the twin's: the mean over its seeds).",
         "",
         report.table(head_h, record_rows(rows, "DE")),
         "",

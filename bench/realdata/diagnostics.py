@@ -73,6 +73,20 @@ def moments(x: np.ndarray) -> dict:
             "skewness": float(np.mean(x ** 3) / m2 ** 1.5)}
 
 
+def band_spread(x: np.ndarray, fs: float, band: tuple = (2000.0, 4000.0), window_s: float = 0.25) -> float:
+    """How steady a signal's band is: the largest over the smallest RMS of ``band`` [Hz] (4th-order Butterworth,
+    forward and backward) in consecutive windows of ``window_s`` [s]. About 1 for a stationary signal; a fault that
+    comes and goes within the record gives several."""
+    sos = signal.butter(4, band, btype="bandpass", fs=fs, output="sos")
+    y = signal.sosfiltfilt(sos, np.asarray(x, dtype=float) - float(np.mean(x)))
+    w = int(round(window_s * fs))
+    n = len(y) // w
+    if n < 2:
+        return float("nan")
+    r = np.sqrt(np.mean(y[:n * w].reshape(n, w) ** 2, axis=1))
+    return float(r.max() / r.min()) if r.min() > 0 else float("inf")
+
+
 def welch_psd(x: np.ndarray, fs: float, resolution_hz: float = 1.0):
     """One-sided Welch PSD [g^2/Hz]: Hann segments of fs / resolution samples (at most half the signal, so that a
     short excerpt still averages three segments), 50 % overlap, mean removed."""
@@ -267,7 +281,7 @@ def diagnose(x: np.ndarray, fs: float, fr: float, mult: dict, extra_mults=(), ma
     """Every diagnostic of one signal [g] at ``fs`` [Hz] (12 kHz in this bench), shaft speed ``fr`` [Hz].
 
     Returns a dict: ``rms``, ``kurtosis``, ``crest``, ``skewness``; ``bands_db`` (energy of each of
-    :data:`BROAD_BANDS` [dB re g^2]); ``third_octaves_db`` (name -> dB re g^2); ``kurtogram`` (the picked band:
+    :data:`BROAD_BANDS` [dB re g^2]); ``band_spread`` (:func:`band_spread` of the 2-4 kHz band, 0.25 s windows); ``third_octaves_db`` (name -> dB re g^2); ``kurtogram`` (the picked band:
     edges, level, kurtosis); ``ses`` with ``"fixed"`` (2-4 kHz) and ``"kurtogram"`` (the picked band), each as
     :func:`envelope_analysis`; with ``keep_spectra`` also ``psd_f``, ``psd`` and the SES arrays.
     """
@@ -275,6 +289,7 @@ def diagnose(x: np.ndarray, fs: float, fr: float, mult: dict, extra_mults=(), ma
     out = moments(x)
     f, P = welch_psd(x, fs)
     out["bands_db"] = [band_energy_db(f, P, lo, hi) for lo, hi in BROAD_BANDS if hi <= fs / 2.0 + 1e-9]
+    out["band_spread"] = band_spread(x, fs, FIXED_BAND)
     out["third_octaves_db"] = {name: band_energy_db(f, P, lo, hi) for name, lo, hi in third_octave_bands(fs / 2.0)}
     node = pick_band(fast_kurtogram(x, fs, kurtogram_levels), fs)
     out["kurtogram"] = {"f_lo": node.f_lo, "f_hi": node.f_hi, "level": node.level, "kurtosis": node.kurtosis}
