@@ -282,11 +282,19 @@ def _series(lam_a: np.ndarray, q: np.ndarray, h: np.ndarray, order: int):
         inv_gap = 1.0 / (lam_a[:, None] - lam_a[h][None, :])
     inv_gap[h, cols] = 0.0
     inv_gap[~np.isfinite(inv_gap)] = 0.0          # exactly repeated anchor poles: no series for that pair
+    tmp = np.empty((n2, nh), complex)
+    part = np.empty((n2, nh), complex)
     for k in range(1, order + 1):
         lam_k[k] = -sum(lam_k[i] * qx[k - 1 - i, h, cols] for i in range(k))
-        num = sum(lam_k[i][None, :] * x_k[k - i] for i in range(1, k + 1))
-        num = num + sum(lam_k[i][None, :] * qx[k - 1 - i] for i in range(k))
-        x_k[k] = num * inv_gap
+        num = x_k[k]                                # the two sums accumulated in place, each in its own order
+        np.multiply(lam_k[1][None, :], x_k[k - 1], out=num)
+        for i in range(2, k + 1):
+            num += np.multiply(lam_k[i][None, :], x_k[k - i], out=tmp)
+        np.multiply(lam_k[0][None, :], qx[k - 1], out=part)
+        for i in range(1, k):
+            part += np.multiply(lam_k[i][None, :], qx[k - 1 - i], out=tmp)
+        num += part
+        num *= inv_gap
         if k < order:
             qx[k] = q @ x_k[k]
     return lam_k, x_k
@@ -345,8 +353,7 @@ class _RealForm:
             out["Q"] = scipy.linalg.lu_solve(out["lu"], g, check_finite=False)
             out["vec"] = vec
             out["sigma"] = float(sigma)
-            out["half"] = np.flatnonzero(lam.imag >= 0.0)
-            out["lam_k"], out["x_k"] = _series(lam, out["Q"], out["half"], self.series_order)
+            out["half"] = np.flatnonzero(lam.imag >= 0.0)       # its perturbation series: on first refine
         out.pop("lu")
         return out
 
@@ -360,6 +367,8 @@ class _RealForm:
         cols = np.arange(h.size)
         # the start: the anchor's perturbation series at delta, where its last term is small; elsewhere (a pair
         # of poles nearly coincident, where the series' radius is small) the last refined neighbour or e_r
+        if "lam_k" not in a:                             # an anchor made for a group's last line needs none
+            a["lam_k"], a["x_k"] = _series(lam_a, q, h, self.series_order)
         lam_k, x_k = a["lam_k"], a["x_k"]
         lam = lam_k[-1].copy()
         x = x_k[-1].copy()
