@@ -386,6 +386,17 @@ def read_scenario(d, _args):
     return out
 
 
+def read_machine(d, _args):
+    out = []
+    for name, r in d.items():
+        case = f"{name} ({r['lines']} lines, {r['dof']} DOF)"
+        out.append(row(case, "preparation `BkaBem(case)` of a catalogue machine in the compact form (median)",
+                       r["prep_s"], "{:.2f}", "s", le(2.0, "<= 2 s"), note=f"CPU {r['prep_cpu_s']:.2f} s"))
+        out.append(row(case, "a new speed: `response` / `spectrum` (median of 200 speeds)", r["spectrum_ms"],
+                       "{:.2f}", "ms", le(1.0, "<= 1 ms"), note=f"response {r['response_ms']:.2f} ms"))
+    return out
+
+
 def read_startup(d, _args):
     out = [row("`bkabem --help`", "start-up of the command line (fresh process, median)", d["help"]["median_s"],
                "{:.2f}", "s", le(0.3, "<= 0.3 s")),
@@ -502,6 +513,7 @@ STEPS = [
     Step("model_switch", [PY, "bench/bench_model_switch.py", "--repeat", "1", "--json", "{json}"],
          read_model_switch, 25),
     Step("scenario", [PY, "bench/bench_scenario.py", "--repeat", "1", "--json", "{json}"], read_scenario, 30),
+    Step("machine", [PY, "bench/bench_machine.py", "--repeat", "3", "--json", "{json}"], read_machine, 60),
     Step("startup", [PY, "bench/bench_startup.py", "--repeat", "5", "--unit-tier", "--json", "{json}"],
          read_startup, 120),
     Step("suite", [PY, "bench/bench_startup.py", "--repeat", "0", "--suite", "--json", "{json}"], read_suite, 900),
@@ -521,6 +533,7 @@ AREAS = {
     "node": ("Node and fleet", ["node", "fleet", "speed_jumps"]),
     "recording": ("Recording and Rerun", ["record", "rerun"]),
     "switches": ("Model switches and scenarios", ["model_switch", "scenario"]),
+    "machine": ("Any machine: catalogue machines in the compact form", ["machine"]),
     "startup": ("Start-up time and the fast test tier", ["startup"]),
     "realism": ("Realism: the twin against measured CWRU records (only with a data folder)",
                 ["validate_real", "sim2real"]),
