@@ -6,7 +6,7 @@
 1. The twin's data set, made by the product's ``bkabem dataset`` command: every fault kind (healthy, inner race,
    ball, outer race at 3, 6 and 12 o'clock), CWRU's pit sizes (0.007-0.028 in; 0.021 in at most for the outer
    race, as CWRU has them), its four loads (0-3 hp at 1797, 1772, 1750, 1730 rpm), slip 1 % and 2 % (a rig twin:
-   ``RIG_SLIPS``, the rig's measured jitter and three times it), ``--seeds``
+   ``rig_slips``: the rig case's measured jitter and three times it), ``--seeds``
    seeds each (the healthy machine more often, so that each class has about as many runs), 12 kHz, ``--segment-s``
    seconds; each run is the twin of its condition as ``bench/realdata/twin.py`` (``twin_run``) maps it. The runs
    are grouped into grid specs (written beside the data set, ``DIR/specs/``).
@@ -61,7 +61,6 @@ from realdata.records import EFFECTIVE_6205, LOAD_HP_OF_RPM, RecordError, scan  
 from realdata.twin import (  # noqa: E402
     CHANNELS,
     LIBRARY,
-    RIG_SLIPS,
     Condition,
     base_case_ref,
     case_toml,
@@ -69,6 +68,7 @@ from realdata.twin import (  # noqa: E402
     default_twin,
     label_mains_hz,
     label_multipliers,
+    rig_slips,
     twin_run,
 )
 
@@ -103,7 +103,7 @@ def runs_of(conds: list[Condition], twin: str, seeds: int, segment_s: float) -> 
     for c in conds:
         reps = seeds * max(1, round(top / per_kind[c.kind] / 2)) if c.kind == "healthy" else seeds
         base, overrides, params = twin_run(c, twin, RPM_OF_LOAD[c.load_hp] / 60.0)
-        for slip in (SLIPS if twin == LIBRARY else RIG_SLIPS):
+        for slip in (SLIPS if twin == LIBRARY else rig_slips(twin)):
             p = dict(params, slip=slip, duration_s=float(segment_s), sample_rate_hz=FS, quantities=["acceleration"])
             groups[(base, json.dumps(overrides, sort_keys=True))].append((p, reps, c))
     return groups
@@ -366,7 +366,7 @@ def block(res: dict, me: dict, tw: dict, argv: list[str], img_name: str) -> str:
         f"{len(tw['y'])} runs of {res['segment_s']:g} s at 12 kHz: "
         + ", ".join(f"{counts[c]} {c}" for c in CLASSES) + ". Every kind; the outer race at 3, 6 and 12 o'clock; "
         "CWRU's pit sizes (7-28 mil; 21 at most on the outer race); loads 0-3 hp at CWRU's nominal speeds "
-        f"(1797-1730 rpm); slip {' and '.join(f'{100 * x:g} %' for x in (SLIPS if twin == LIBRARY else RIG_SLIPS))}; {res['seeds']} seed(s) per condition and slip (the healthy machine "
+        f"(1797-1730 rpm); slip {' and '.join(f'{100 * x:g} %' for x in (SLIPS if twin == LIBRARY else rig_slips(twin)))}; {res['seeds']} seed(s) per condition and slip (the healthy machine "
         "more, so that each class has about as many runs); each run the twin of its condition as `twin_run` "
         "maps it" + (" (the fault library: its own dents whatever the pit size, so the sizes are repeats with "
                      "other seeds)" if twin == LIBRARY else "") + ".",

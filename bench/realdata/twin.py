@@ -35,14 +35,23 @@ LIBRARY = "motor_6010"
 #: The twin's channels standing for CWRU's drive-end and fan-end accelerometers (housing, 12 o'clock = vertical).
 CHANNELS = {"DE": "de_vertical_acceleration", "FE": "nde_vertical_acceleration"}
 #: The acquisition the fault-library twin gets (module docstring).
-#: Random slip of a rig twin's ball passes (std of the interval / its mean). Textbooks give 1-2 % (Randall & Antoni
-#: 2011, MSSP 25(2), section 2.1), but the CWRU rig's race-fault lines are sharper than that: in the 7-mil outer-
-#: and inner-race records (10 s, 0 and 1 hp) 99-100 % of the power of each of the first four harmonics of the fault
-#: line lies within +-0.3 Hz, which a random walk of the ball passes keeps only for a std of ~0.1 % per pass
-#: (1 % gives 0.93, 0.61, 0.39, 0.44; 0.3 % gives 0.99, 0.97, 0.95, 0.91). Measured once, for the rig.
-RIG_SLIP = 0.001
-#: The slips of a rig twin's training set (bench/sim2real.py): the rig's and three times it.
-RIG_SLIPS = (0.001, 0.003)
+#: A rig twin's random slip of the ball passes (std of the interval / its mean) is its case's ``[measurement] slip``
+#: (cwru_rig: 0.1 %, docs/rigs.md). Textbooks give 1-2 % (Randall & Antoni 2011, MSSP 25(2), section 2.1), but the
+#: CWRU rig's race-fault lines are sharper than that: in the 7-mil outer- and inner-race records (10 s, 0 and 1 hp)
+#: 99-100 % of the power of each of the first four harmonics of the fault line lies within +-0.3 Hz, which a random
+#: walk of the ball passes keeps only for a std of ~0.1 % per pass (1 % gives 0.93, 0.61, 0.39, 0.44; 0.3 % gives
+#: 0.99, 0.97, 0.95, 0.91). Measured once, for the rig. A rig case without one: the textbook's lower end.
+TEXTBOOK_SLIP = 0.01
+
+
+def rig_slips(twin: str) -> tuple[float, float]:
+    """The slips of a rig twin's training set (bench/sim2real.py): the rig case's and three times it."""
+    from bkabem_core.model.case import Case
+    from bkabem_core.synth.measurement import Measurement
+
+    slip = Measurement.of_case(Case.load(twin)).slip
+    slip = TEXTBOOK_SLIP if slip is None else slip
+    return (slip, 3.0 * slip)
 LIBRARY_ACQUISITION = {"slip": 0.01, "noise_acc": 5.0e-4, "accelerometer": "magnet", "anti_alias": True}
 
 
@@ -136,7 +145,7 @@ def twin_run(cond: Condition, twin: str, speed_hz: float) -> tuple[str, dict, di
     # dynamometer load is a torque; it enters through the record's speed (the motor's slip), the radial load on the
     # bearings is the rotor's weight and the coupling's turning force (the rig case's [baseline]). The acquisition
     # (mounting, noise floor, anti-alias, tones) is the rig case's [measurement].
-    params = {"speed_hz": float(speed_hz), "slip": RIG_SLIP}
+    params = {"speed_hz": float(speed_hz)}        # slip: the rig case's [measurement] slip
     if cond.kind == "healthy":
         params["fault"] = "healthy"
     else:

@@ -106,7 +106,8 @@ PARAMETERS: dict[str, Parameter] = {
     "noise_disp": Parameter("float", "m/sqrt(Hz)", 0.0, 0.0, MAX_NOISE["noise_disp"],
                             doc="proximity-probe noise density"),
     "noise_vel": Parameter("float", "mm/s/sqrt(Hz)", 0.0, 0.0, MAX_NOISE["noise_vel"], doc="velocity noise density"),
-    "slip": Parameter("float", "", 0.0, 0.0, 0.1, doc="random slip: std of the ball-pass interval / its mean"),
+    "slip": Parameter("float", "", None, 0.0, 0.1, doc="random slip: std of the ball-pass interval / its mean "
+                      "(default: the case's measurement section, else 0)"),
     "seed": Parameter("int", "", None, 0, float(2 ** 63 - 1),
                       doc="seed of slip and noise (default: derived from dataset.seed and the run index)"),
     "duration_s": Parameter("float", "s", 1.0, 0.0, MAX_DURATION_S, strict_lo=True, doc="signal length"),
@@ -139,10 +140,12 @@ _OUTPUT_KEYS = ("compression", "mcap")
 
 def _measurement_defaults(params: dict, case) -> None:
     """The run parameters of the acquisition that the spec leaves out (None), from the case's ``[measurement]``
-    section (bkabem_core.synth.measurement): its rate and noise density as numbers, its mounting and anti-alias
-    filter as ``"case"`` / None (the synthesiser takes them from the case); without the section, the values of a
-    spec that gives none (25.6 kHz, no noise, no sensor, no filter)."""
+    section (bkabem_core.synth.measurement): its rate, noise density and slip as numbers, its mounting and
+    anti-alias filter as ``"case"`` / None (the synthesiser takes them from the case); without the section, the
+    values of a spec that gives none (25.6 kHz, no noise, no slip, no sensor, no filter)."""
     m = case.raw.get("measurement") or {}
+    if params["slip"] is None:
+        params["slip"] = float(m.get("slip", 0.0))
     if params["sample_rate_hz"] is None:
         params["sample_rate_hz"] = float(m.get("sample_rate_hz", 25600.0))
     if params["noise_acc"] is None:

@@ -152,6 +152,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "tone_amplitudes_m_s2": ("float[]", _NONNEG),
         "quantisation_step_m_s2": ("float", _POS),
         "noise_density_m_s2_per_sqrt_hz": ("float", _NONNEG),
+        "slip": ("float", ("range", 0.0, 0.1)),
     },
 }
 #: The one ``[bearing]`` of a schema-3 case, used at both positions (:func:`migrate_v3`): every key but the class.

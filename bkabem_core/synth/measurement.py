@@ -2,7 +2,7 @@
 
 A monitoring developer who models a rig wants the signal the rig's own acquisition gives: its sensor on its mount,
 its anti-alias filter, its AC coupling, the interference of its environment, its converter's step, its sensor noise
-and its sample rate. A case carries them in an optional ``[measurement]`` section (every key optional, units in the
+and its sample rate, and how evenly the rig's balls pass (the jitter a record's fault lines show). A case carries them in an optional ``[measurement]`` section (every key optional, units in the
 suffixes); the synthesiser, ``bkabem synth``, the ROS node and a data set take them as defaults, and an explicit
 argument or option overrides each one. A case without the section gives what it gave before (no sensor).
 
@@ -23,6 +23,8 @@ key                                meaning
 ``tone_amplitudes_m_s2``           ... and their 0-peak amplitudes as recorded [m/s^2]
 ``quantisation_step_m_s2``         the converter's step [m/s^2]
 ``noise_density_m_s2_per_sqrt_hz`` the accelerometer's white noise, one-sided [m/s^2/sqrt(Hz)]
+``slip``                           the rig's random jitter of the ball passes: standard deviation of the
+                                   ball-pass interval over its mean [-] (the synthesiser's ``slip``)
 =================================  ==========================================================================
 
 The elements are the classes of :mod:`bkabem_core.synth.sensors`; the checks of the values are theirs and the
@@ -68,6 +70,8 @@ class Measurement:
     quantisation : Quantiser or None
     noise_density : dict or None
         ``{"acceleration": m/s^2/sqrt(Hz)}``.
+    slip : float or None
+        Random jitter of the ball passes [-] (std of the interval / its mean).
     """
 
     sample_rate_hz: float | None = None
@@ -77,6 +81,7 @@ class Measurement:
     tones: InterferenceTones | None = None
     quantisation: Quantiser | None = None
     noise_density: dict | None = None
+    slip: float | None = None
 
     @classmethod
     def from_section(cls, m: dict | None) -> "Measurement":
@@ -102,7 +107,8 @@ class Measurement:
         if "noise_density_m_s2_per_sqrt_hz" in m:
             noise = {"acceleration": float(m["noise_density_m_s2_per_sqrt_hz"])}
         rate = float(m["sample_rate_hz"]) if "sample_rate_hz" in m else None
-        return cls(rate, acc, aa, hp, tones, q, noise)
+        slip = float(m["slip"]) if "slip" in m else None
+        return cls(rate, acc, aa, hp, tones, q, noise, slip)
 
     @classmethod
     def of_case(cls, case) -> "Measurement":
@@ -114,7 +120,7 @@ class Measurement:
 
     def to_dict(self) -> dict:
         """Its elements' parameters (None where absent), JSON-ready."""
-        out = {"sample_rate_hz": self.sample_rate_hz, "noise_density": self.noise_density}
+        out = {"sample_rate_hz": self.sample_rate_hz, "noise_density": self.noise_density, "slip": self.slip}
         for k in ("accelerometer", "anti_alias", "high_pass", "tones", "quantisation"):
             v = getattr(self, k)
             out[k] = None if v is None else v.to_dict()

@@ -77,9 +77,9 @@ class Synthesizer:
     snr_db : float or None
         Alternative to ``noise_density``: noise RMS = dynamic signal RMS of the channel (from the line amplitudes
         at the segment's knots) / 10^(snr_db / 20).
-    slip : float
+    slip : float or "case"
         Standard deviation of the ball-pass inter-arrival as a fraction of its nominal value (0 = off; real
-        bearings 0.01-0.02). Must be in [0, 0.1].
+        bearings 0.01-0.02). Must be in [0, 0.1]. Default: the case's ``[measurement] slip``, else 0.
     seed : int or None
         Seed of slip, noise and floor (None: a random seed, reported in the ground truth).
     max_order : int or None
@@ -136,7 +136,7 @@ class Synthesizer:
     def __init__(self, model: BkaBem, sample_rate_hz: float | None = None, chunk_s: float = 0.1, *,
                  quantities=DEFAULT_QUANTITIES, noise_density: dict | None | str = FROM_CASE,
                  snr_db: float | None = None,
-                 slip: float = 0.0, seed: int | None = 0, max_order: int | None = None, band_limit: str = "auto",
+                 slip: float | str = FROM_CASE, seed: int | None = 0, max_order: int | None = None, band_limit: str = "auto",
                  spectrum: str = "auto", knot_s: float = 0.1, max_speed_step_hz: float = 0.5,
                  min_speed_hz: float = 0.05, initial_speed_hz: float | None = None, dtype=np.float32,
                  features: bool = True, table_size: int | None = None, accelerometer=FROM_CASE,
@@ -155,14 +155,15 @@ class Synthesizer:
             sample_rate_hz = m.sample_rate_hz if m.sample_rate_hz is not None else DEFAULT_SAMPLE_RATE_HZ
         if isinstance(noise_density, str) and noise_density == FROM_CASE:
             noise_density = None if snr_db is not None else m.noise_density
-        accelerometer, anti_alias, high_pass, tones, quantisation = (
+        accelerometer, anti_alias, high_pass, tones, quantisation, case_slip = (
             case_default(v, k) for v, k in ((accelerometer, "accelerometer"), (anti_alias, "anti_alias"),
                                             (high_pass, "high_pass"), (tones, "tones"),
-                                            (quantisation, "quantisation")))
+                                            (quantisation, "quantisation"), (slip, "slip")))
         if band_limit == "auto":            # lines carried to the band: taper; a case that caps its lines: error
             band_limit = "taper" if int(model.case.raw["excitation"].get("max_order", 0)) == 0 else "error"
         self.settings = Settings.make(
-            sample_rate_hz, chunk_s, quantities=quantities, noise_density=noise_density, snr_db=snr_db, slip=slip,
+            sample_rate_hz, chunk_s, quantities=quantities, noise_density=noise_density, snr_db=snr_db,
+            slip=0.0 if case_slip is None and slip == FROM_CASE else case_slip,
             seed=seed, max_order=max_order, band_limit=band_limit, spectrum=spectrum,
             max_speed_step_hz=max_speed_step_hz, min_speed_hz=min_speed_hz, dtype=dtype, table_size=table_size,
             accelerometer=accelerometer, anti_alias=anti_alias, sensors=sensors, broadband_floor=broadband_floor,

@@ -94,7 +94,8 @@ def add_synth_arguments(p: argparse.ArgumentParser, with_case: bool = False) -> 
                    help="figure: waveform excerpt and its spectrum, the fault frequencies marked and the largest "
                         "lines named")
     p.add_argument("--seed", default="0", help="seed of slip and noise (default 0)")
-    p.add_argument("--slip", default="0", help="random slip: std of the ball-pass interval / its mean (e.g. 0.01)")
+    p.add_argument("--slip", default=None, help="random slip: std of the ball-pass interval / its mean (e.g. 0.01; "
+                   "default: the case's [measurement] slip, else 0)")
     p.add_argument("--noise-acc", default=None, help="accelerometer noise density [m/s^2/sqrt(Hz)] (e.g. 1e-3; "
                                                       "default: the case's measurement section, else none)")
     p.add_argument("--noise-disp", default=None, help="proximity-probe noise density [m/sqrt(Hz)] (e.g. 1e-9)")
@@ -186,7 +187,7 @@ def _settings(args) -> dict:
         "rate": _num("--rate", args.rate, float, 0.0, strict=True, allow_none=True),
         "chunk": _num("--chunk", args.chunk, float, 0.0, strict=True, maximum=MAX_CHUNK_S),
         "seed": _num("--seed", args.seed, int, 0),
-        "slip": _num("--slip", args.slip, float, 0.0),
+        "slip": _num("--slip", args.slip, float, 0.0, allow_none=True),
         "noise_density": dens or None, "snr_db": snr, "noise_given": bool(dens) or snr is not None,
         "max_order": _num("--max-order", args.max_order, int, 1, allow_none=True),
         "quantities": [q.strip() for q in str(args.quantities).split(",") if q.strip()],
@@ -204,10 +205,13 @@ def _rate(st: dict, case, args) -> float:
 
 
 def _measurement_options(st: dict, args) -> dict:
-    """The synthesiser's noise and measurement arguments: the options given, the case's section for the rest."""
+    """The synthesiser's noise, slip and measurement arguments: the options given, the case's section for the
+    rest."""
     out = {"measurement": not getattr(args, "no_measurement", False), "snr_db": st["snr_db"]}
     if st["noise_given"]:
         out["noise_density"] = st["noise_density"]
+    if st["slip"] is not None:
+        out["slip"] = st["slip"]
     return out
 
 
@@ -436,7 +440,7 @@ def _scenario_run(st, args):
     try:
         run = ScenarioRun(scenario, time_scale=scale, start_s=start, sample_rate_hz=_rate(st, scenario.case, args),
                           chunk_s=st["chunk"], speed=st["profile"], **_measurement_options(st, args),
-                          quantities=st["quantities"], slip=st["slip"], seed=st["seed"], max_order=st["max_order"],
+                          quantities=st["quantities"], seed=st["seed"], max_order=st["max_order"],
                           band_limit=args.band_limit, spectrum=args.spectrum,
                           dtype=np.float64 if args.float64 else np.float32)
         seconds = st["seconds"] if st["seconds"] is not None else run.seconds_to_end()
@@ -481,7 +485,7 @@ def synth_main(args) -> int:
         t_model = time.perf_counter() - t_start
         try:
             synth = Synthesizer(model, sample_rate_hz=_rate(st, case, args), chunk_s=st["chunk"],
-                                quantities=st["quantities"], **_measurement_options(st, args), slip=st["slip"],
+                                quantities=st["quantities"], **_measurement_options(st, args),
                                 seed=st["seed"], max_order=st["max_order"], band_limit=args.band_limit,
                                 spectrum=args.spectrum, dtype=np.float64 if args.float64 else np.float32)
             chunks = ((ch, None) for ch in synth.render(st["profile"], st["seconds"]))

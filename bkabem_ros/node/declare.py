@@ -103,9 +103,13 @@ def declare(node, name: str, default=None) -> None:
 
 
 def declare_all(node, case) -> None:
-    """Declare the rest of the table (``case`` and ``scenario`` come first), two defaults from the machine."""
+    """Declare the rest of the table (``case`` and ``scenario`` come first), three defaults from the machine."""
+    from bkabem_core.synth.measurement import Measurement  # noqa: PLC0415
+
+    slip = Measurement.of_case(case).slip
     derived = {"defect_depth": float(case.defect_depth_m),
-               "max_speed": float(case.max_speed_hz) * TWO_PI}
+               "max_speed": float(case.max_speed_hz) * TWO_PI,
+               "slip": float(slip) if slip is not None else None}
     for spec in PARAMETERS:
         if spec.name not in ("case", "scenario"):
             declare(node, spec.name, derived.get(spec.name))

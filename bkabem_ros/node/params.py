@@ -70,7 +70,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               "sqrt(sample_rate / 2) with a warning; ignored when noise_disp is set", live=True, range=(0.0, 1.0e-2)),
     ParamSpec("slip", 0.0, "",
               "random ball slip: standard deviation of the ball-pass interval as a fraction of it (real bearings "
-              "0.01-0.02; smears the high orders)", range=(0.0, 0.1)),
+              "0.01-0.02; smears the high orders); default the case's measurement section's, else 0",
+              range=(0.0, 0.1)),
     ParamSpec("defect_depth", None, "m",
               "depth of the case's first defect; default the case's. A change makes the model in a helper process "
               "(0.1-2 s; the stream goes on) and switches to it at a chunk boundary; refused while a scenario runs",

@@ -95,6 +95,25 @@ def test_example_config_loads(stack):
     got = lis.get_parameters(stack["b"], ["case", "chunk_duration", "speed_unit", "spectrum_rate", "frame_id.de"])
     assert got == {"case": "electric_motor_6010", "chunk_duration": 0.1, "speed_unit": "rad/s",
                    "spectrum_rate": 0.0, "frame_id.de": "de_bearing"}   # --spectrum-rate beats the file
+    assert lis.get_parameters(stack["b"], ["slip"]) == {"slip": 0.0}      # a case without [measurement] slip
+
+
+def test_a_rig_cases_slip_is_the_nodes_default(stack):
+    """The node takes its slip from the case's [measurement] section (cwru_rig: 0.001) unless it is given."""
+    lis = stack["lis"]
+    ns = {k: unique_namespace(f"slip{k}") for k in ("rig", "given")}
+    procs = {}
+    try:
+        for k, extra in (("rig", []), ("given", ["-p", "slip:=0.02"])):
+            procs[k] = Proc(bkabem_cmd("node", "--namespace", ns[k], "--sample-rate", "12000", "--ros-args",
+                                       "-p", "case:=cwru_rig", *extra), name=f"node {k}")
+        for p in procs.values():
+            p.wait_for(r"streaming from t0", timeout=60)
+        assert lis.get_parameters(f"{ns['rig']}/bkabem", ["slip"]) == {"slip": 0.001}
+        assert lis.get_parameters(f"{ns['given']}/bkabem", ["slip"]) == {"slip": 0.02}
+    finally:
+        for p in procs.values():
+            p.kill()
 
 
 def test_unsafe_and_invalid_changes_are_rejected_with_a_reason(stack):

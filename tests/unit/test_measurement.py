@@ -197,7 +197,8 @@ def test_measurement_section_is_checked():
             ({"mounting": "custom"}, "mounting_resonance_hz", "missing"),
             ({"high_pass_hz": 6000.0, "anti_alias_hz": 5000.0}, "high_pass_hz", "below"),
             ({"quantisation_step_m_s2": -1e-3}, "quantisation_step_m_s2", "> 0"),
-            ({"noise": 1.0}, "noise", "unknown key")):
+            ({"noise": 1.0}, "noise", "unknown key"),
+            ({"slip": 0.5}, "slip", "0.1")):
         with pytest.raises(CaseError, match=match) as exc:
             _case(section)
         assert exc.value.key == f"measurement.{key}", section
@@ -205,6 +206,37 @@ def test_measurement_section_is_checked():
         .resonance_hz == 3000.0
     over = Case.load("motor_6010_outer").with_overrides({"measurement.quantisation_step_m_s2": 1e-3})
     assert Measurement.of_case(over).quantisation == Quantiser(1e-3)
+
+
+def test_the_rigs_slip_is_the_default_of_synthesis_node_and_data_sets(tmp_path, monkeypatch, fault_library):
+    """A rig's ball-pass jitter (``[measurement] slip``) is the synthesiser's, ``bkabem synth``'s, a data set's and
+    the node's default; an explicit value wins, ``--no-measurement`` / ``measurement=False`` leaves it out."""
+    import bkabem_core.solve.harmonic as harmonic
+    from bkabem_core.dataset.spec import DatasetSpec
+    from bkabem_ros.cli.main import main
+
+    jittery = BkaBem(_case(dict(RIG, slip=0.002)), like=fault_library["outer"])
+    assert Synthesizer(jittery).settings.slip == 0.002
+    assert Synthesizer(jittery, slip=0.0).settings.slip == 0.0
+    assert Synthesizer(jittery, measurement=False).settings.slip == 0.0
+    assert Synthesizer(fault_library["outer"]).settings.slip == 0.0               # no section: no slip, as before
+    assert Measurement.of_case(Case.load("cwru_rig")).slip == 0.001               # the rig's (docs/rigs.md)
+
+    real = harmonic.BkaBem
+    monkeypatch.setattr(harmonic, "BkaBem", lambda case, **kw: real(case, like=fault_library["outer"]))
+    path = tmp_path / "jitter.toml"
+    path.write_text(_toml(_case(dict(RIG, slip=0.002)).raw))
+    for extra, want in (([], 0.002), (["--slip", "0.01"], 0.01), (["--no-measurement"], 0.0)):
+        out = tmp_path / f"s{len(extra)}{want}.npz"
+        assert main(["synth", "--case", str(path), "--profile", "constant:25", "--seconds", "0.2", "--out", str(out),
+                     "--no-progress", *extra]) == 0
+        with np.load(out) as z:
+            assert json.loads(str(z["metadata"]))["synthesizer"]["slip_std_fraction"] == want, extra
+
+    text = (f'[dataset]\nname = "jitter"\nschema_version = 1\nseed = 1\ncase = "{path}"\n[run]\n'
+            'duration_s = 0.25\n[grid]\nspeed_hz = [25.0]\n')
+    assert DatasetSpec.from_toml(text).runs[0].params["slip"] == 0.002
+    assert DatasetSpec.from_toml(text.replace("[grid]", "slip = 0.0\n[grid]")).runs[0].params["slip"] == 0.0
 
 
 # --------------------------------------------------------------------------- command line and data sets
