@@ -400,7 +400,7 @@ def block(res: dict, me: dict, tw: dict, argv: list[str], img_name: str) -> str:
         f"![confusion matrices](img/{img_name})",
         "",
         "*Confusion matrices of the logistic regression on the measured records (rows: truth, columns: predicted), "
-        "with every feature and with the issue's set.*",
+        "with every feature and with the envelope set.*",
         "",
         "Largest standardized weights of the logistic regression (all features), per class: " + "; ".join(top) + ".",
         "",
@@ -408,9 +408,9 @@ def block(res: dict, me: dict, tw: dict, argv: list[str], img_name: str) -> str:
             f"Fitted on `{twin}` alone, the classifier labels the measured records at {acc:.2f} overall "
             f"(chance 0.25; balanced {lr['measured']['balanced']:.2f}; {lr['refits']['p10']:.2f}-"
             f"{lr['refits']['p90']:.2f} over refits)"
-            f"{f': {chance}' if chance else ''} (the issue reports about chance), against "
+            f"{f': {chance}' if chance else ''}, against "
             f"{lr['twin_cv']['accuracy']:.2f} on the twin's own held-out conditions: what it learns separates the "
-            f"twin's classes, not the rig's. With the issue's feature set (envelope lines, kurtosis, crest factor: "
+            f"twin's classes, not the rig's. With the envelope feature set (envelope lines, kurtosis, crest factor: "
             f"no level, no spectral shape) it scores {lr2['measured']['accuracy']:.2f} (balanced "
             f"{lr2['measured']['balanced']:.2f}; {lr2['refits']['p10']:.2f}-{lr2['refits']['p90']:.2f} over refits). "
             "The textbook verdict (2-4 kHz) is right on "
@@ -536,7 +536,7 @@ def main(argv=None) -> int:
     print(f"sim2real: twin {args.twin}: {res['runs']} runs; on the {len(me['y'])} measured records logistic "
           f"regression {lr['accuracy']:.2f} (" + ", ".join(f"{c} {report.fmt(v, '{:.2f}')}" for c, v in
                                                          lr["per_class"].items())
-          + f"), with the issue's features "
+          + f"), with the envelope features "
           f"{ev['models'][f'logistic regression, {issue_set}']['measured']['accuracy']:.2f}, nearest centroid "
           f"{ev['models'][f'nearest centroid, {primary}']['measured']['accuracy']:.2f}; textbook verdict "
           f"(balanced) twin {ev['verdict']['fixed']['twin_like_measured']['balanced']:.2f} at the records' "

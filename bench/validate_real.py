@@ -4,8 +4,8 @@
 
 DATA_DIR holds CWRU drive-end records as NumPy files (``1797_IR_7_DE12.npz``: keys ``DE``, ``FE`` in g; CWRU
 Bearing Data Center, https://engineering.case.edu/bearingdatacenter). The project keeps no copy of them: the
-folder is an argument. For each record, the twin (``--twin``: ``cwru_rig`` once the product embeds it, else the
-fault library ``motor_6010``; ``bench/realdata/twin.py``) is rendered at the record's speed (estimated from its
+folder is an argument. For each record, the twin (``--twin``: ``cwru_rig`` by default, or the fault
+library ``motor_6010``; ``bench/realdata/twin.py``) is rendered at the record's speed (estimated from its
 spectrum), load, fault kind, position and size, at the record's sample rate and length, with ``--seeds`` seeds,
 and both go through the same textbook diagnostics (``bench/realdata/diagnostics.py``): RMS, kurtosis, crest
 factor, band energies, the squared-envelope spectrum (fault line, harmonics, 1x, FTF, sidebands over the floor)
@@ -97,7 +97,7 @@ def mean_over(xs):
 
 
 def checks(rec, meas: dict, twins: list[dict]) -> dict:
-    """The issue's targets for one record (DE channel)."""
+    """The targets for one record (DE channel)."""
     m_rms = meas["native"]["rms"]
     t_rms = mean_over([t["native"]["rms"] for t in twins])
     c = {"rms_ratio": t_rms / m_rms, "rms": bool(1 / RMS_FACTOR <= t_rms / m_rms <= RMS_FACTOR)}
@@ -399,7 +399,7 @@ def write_page(out_dir: Path, result: dict, spectra: dict, argv: list[str]) -> P
             ["textbook verdict right (the record's own kind): measured / twin",
              f"{s['verdict_right_measured']} / {s['verdict_right_twin']} of {s['records']}", ""]]),
         "",
-        "The issue's target: each of the first three for >= 80 % of the records.",
+        "The target: each of the first three for >= 80 % of the records.",
         "",
     ]
     if h:
