@@ -305,6 +305,15 @@ def differences(rows: list[dict], twin: str) -> list[str]:
             "shows (1x in the envelope), its ball defect a clean 2 x BSF comb with FTF sidebands where the rig's "
             "ball faults barely show, and its fault level does not depend on the pit size at all, while the "
             "rig's does, and not monotonically. The twin's FE channel is the motor's NDE housing.")
+    else:
+        out.append(
+            f"- Why, for today's twin: `{twin}` is the rig's machine and acquisition, calibrated once on the healthy "
+            "record (docs/rigs.md). What it does not have yet, each measured there: the race faults' line grows "
+            "with the pit's drop in the twin and not on the rig (the 7 mil records agree; the larger pits are "
+            "louder in the twin); the rig's content below 2 kHz is tones of its own sessions, which the twin's "
+            "housings (modes at 2.5-3 kHz) do not make; the rig's ball records carry a steady rise of the 2-4 kHz "
+            "band, where the twin's ball pit strikes only in visits to the contact track; the FTF line of the "
+            "race-fault records (a ball set that is not perfectly even) is not in the twin.")
     return out
 
 
