@@ -2,8 +2,8 @@
 
 Every running machine has a broadband vibration floor under its lines: the rolling contacts' surface roughness,
 friction and flow excite the structure at all frequencies, and what an accelerometer shows is that excitation
-shaped by the transmission path, with the structure's resonances standing out (fault_kinds.md: "never white
-alone"). Model: at each bearing and in each radial direction an independent, stationary, Gaussian force pair
+shaped by the transmission path, with the structure's resonances standing out (a measured floor is never white
+alone). Model: at each bearing and in each radial direction an independent, stationary, Gaussian force pair
 between rotor and housing node (the input patterns of the bearing lines, :class:`~bkabem_core.solve.harmonic.BkaBem`), of
 one-sided force spectral density ``S_F`` [N/sqrt(Hz)], flat over the band (case key
 ``baseline.broadband_force_n_per_sqrt_hz``, 0 = off). Its response at every channel is

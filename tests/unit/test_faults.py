@@ -26,7 +26,7 @@ FS = 51200.0
 
 
 def cwru_6205(**kw) -> BearingGeometry:
-    """CWRU drive-end SKF 6205-2RS: 9 balls, d = 0.3126 in, D = 1.537 in, alpha = 0 (fault_kinds.md)."""
+    """CWRU drive-end SKF 6205-2RS: 9 balls, d = 0.3126 in, D = 1.537 in, alpha = 0 (CWRU's bearing page)."""
     return BearingGeometry("6205", 0.3126 * INCH, 1.537 * INCH, 9, diametral_clearance_m=15e-6, **kw)
 
 
