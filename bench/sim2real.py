@@ -94,16 +94,22 @@ def conditions(loads=(0, 1, 2, 3)) -> list[Condition]:
     return out
 
 
+def slips_of(twin: str) -> tuple:
+    """The slips of ``twin``'s training set: the fault library's :data:`SLIPS`, a rig's ``rig_slips``."""
+    return SLIPS if twin == LIBRARY else rig_slips(twin)
+
+
 def runs_of(conds: list[Condition], twin: str, seeds: int, segment_s: float) -> dict:
     """``{(base, overrides JSON): [(run parameters, replicates, condition)]}``; the healthy condition (one per
     load against 3-9 per fault kind) gets proportionally more replicates."""
     per_kind = Counter(c.kind for c in conds)
     top = max(per_kind.values())
+    slips = slips_of(twin)
     groups = defaultdict(list)
     for c in conds:
         reps = seeds * max(1, round(top / per_kind[c.kind] / 2)) if c.kind == "healthy" else seeds
         base, overrides, params = twin_run(c, twin, RPM_OF_LOAD[c.load_hp] / 60.0)
-        for slip in (SLIPS if twin == LIBRARY else rig_slips(twin)):
+        for slip in slips:
             p = dict(params, slip=slip, duration_s=float(segment_s), sample_rate_hz=FS, quantities=["acceleration"])
             groups[(base, json.dumps(overrides, sort_keys=True))].append((p, reps, c))
     return groups
@@ -366,7 +372,8 @@ def block(res: dict, me: dict, tw: dict, argv: list[str], img_name: str) -> str:
         f"{len(tw['y'])} runs of {res['segment_s']:g} s at 12 kHz: "
         + ", ".join(f"{counts[c]} {c}" for c in CLASSES) + ". Every kind; the outer race at 3, 6 and 12 o'clock; "
         "CWRU's pit sizes (7-28 mil; 21 at most on the outer race); loads 0-3 hp at CWRU's nominal speeds "
-        f"(1797-1730 rpm); slip {' and '.join(f'{100 * x:g} %' for x in (SLIPS if twin == LIBRARY else rig_slips(twin)))}; {res['seeds']} seed(s) per condition and slip (the healthy machine "
+        f"(1797-1730 rpm); slip {' and '.join(f'{100 * x:g} %' for x in slips_of(twin))}; {res['seeds']} seed(s) "
+        "per condition and slip (the healthy machine "
         "more, so that each class has about as many runs); each run the twin of its condition as `twin_run` "
         "maps it" + (" (the fault library: its own dents whatever the pit size, so the sizes are repeats with "
                      "other seeds)" if twin == LIBRARY else "") + ".",

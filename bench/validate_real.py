@@ -232,7 +232,8 @@ def record_rows(rows: list[dict], ch: str) -> list[list]:
         sb = side.get(r["kind"])
         out.append([r["label"], f"{r['speed_hz']:.3f}", pair(lambda d: d["native"]["rms"], "{:.3f}"),
                     pair(lambda d: d["native"]["kurtosis"], "{:.1f}"), pair(lambda d: d["native"]["crest"], "{:.1f}"),
-                    pair(lambda d: d["band_spread"], "{:.1f}"), kb, pair(lvl(kl)) if kl else "-", pair(lvl(kl, "kurtogram")) if kl else "-",
+                    pair(lambda d: d["band_spread"], "{:.1f}"), kb, pair(lvl(kl)) if kl else "-",
+                    pair(lvl(kl, "kurtogram")) if kl else "-",
                     pair(lvl(f"{kl}_h2")) if kl else "-", pair(lvl("1x")), pair(lvl("FTF")),
                     pair(lambda d: max(d["ses"]["fixed"]["levels"][s] for s in sb)) if sb else "-",
                     f"{c['measured_verdict']} / {c['twin_verdict']}",
@@ -351,9 +352,9 @@ def write_page(out_dir: Path, result: dict, spectra: dict, argv: list[str]) -> P
     s = result["summary"]
     page = out_dir / "validation_real.md"
     sim = report.sim2real_block(page)
-    head = ["record", "1x [Hz]", "RMS [g]", "kurtosis", "crest", "2-4 kHz max/min", "kurtogram band [kHz]", "kind line 2-4 kHz [dB]",
-            "kind line, kurtogram band", "its h2", "1x", "FTF", "sideband (larger)", "verdict", "RMS x2",
-            "line 10 dB", "same verdict"]
+    head = ["record", "1x [Hz]", "RMS [g]", "kurtosis", "crest", "2-4 kHz max/min", "kurtogram band [kHz]",
+            "kind line 2-4 kHz [dB]", "kind line, kurtogram band", "its h2", "1x", "FTF", "sideband (larger)",
+            "verdict", "RMS x2", "line 10 dB", "same verdict"]
     head_h = head[:-1] + ["same verdict / no line (healthy)"]
     h = s.get("healthy")
     lines = [

@@ -281,8 +281,9 @@ def diagnose(x: np.ndarray, fs: float, fr: float, mult: dict, extra_mults=(), ma
     """Every diagnostic of one signal [g] at ``fs`` [Hz] (12 kHz in this bench), shaft speed ``fr`` [Hz].
 
     Returns a dict: ``rms``, ``kurtosis``, ``crest``, ``skewness``; ``bands_db`` (energy of each of
-    :data:`BROAD_BANDS` [dB re g^2]); ``band_spread`` (:func:`band_spread` of the 2-4 kHz band, 0.25 s windows); ``third_octaves_db`` (name -> dB re g^2); ``kurtogram`` (the picked band:
-    edges, level, kurtosis); ``ses`` with ``"fixed"`` (2-4 kHz) and ``"kurtogram"`` (the picked band), each as
+    :data:`BROAD_BANDS` [dB re g^2]); ``band_spread`` (:func:`band_spread` of the 2-4 kHz band, 0.25 s windows);
+    ``third_octaves_db`` (name -> dB re g^2); ``kurtogram`` (the picked band: edges, level, kurtosis); ``ses``
+    with ``"fixed"`` (2-4 kHz) and ``"kurtogram"`` (the picked band), each as
     :func:`envelope_analysis`; with ``keep_spectra`` also ``psd_f``, ``psd`` and the SES arrays.
     """
     x = np.asarray(x, dtype=float)

@@ -35,6 +35,7 @@ LIBRARY = "motor_6010"
 #: The twin's channels standing for CWRU's drive-end and fan-end accelerometers (housing, 12 o'clock = vertical).
 CHANNELS = {"DE": "de_vertical_acceleration", "FE": "nde_vertical_acceleration"}
 #: The acquisition the fault-library twin gets (module docstring).
+LIBRARY_ACQUISITION = {"slip": 0.01, "noise_acc": 5.0e-4, "accelerometer": "magnet", "anti_alias": True}
 #: A rig twin's random slip of the ball passes (std of the interval / its mean) is its case's ``[measurement] slip``
 #: (cwru_rig: 0.1 %, docs/rigs.md). Textbooks give 1-2 % (Randall & Antoni 2011, MSSP 25(2), section 2.1), but the
 #: CWRU rig's race-fault lines are sharper than that: in the 7-mil outer- and inner-race records (10 s, 0 and 1 hp)
@@ -52,7 +53,6 @@ def rig_slips(twin: str) -> tuple[float, float]:
     slip = Measurement.of_case(Case.load(twin)).slip
     slip = TEXTBOOK_SLIP if slip is None else slip
     return (slip, 3.0 * slip)
-LIBRARY_ACQUISITION = {"slip": 0.01, "noise_acc": 5.0e-4, "accelerometer": "magnet", "anti_alias": True}
 
 
 @dataclass(frozen=True)

@@ -518,7 +518,8 @@ class DatasetSpec:
                     raise DatasetSpecError(key(k), "only with a scenario" + where, src)
                 params[k] = None
             if params["fault"] == "healthy":
-                for k in ("length_m", "depth_m", "angle_deg", *(o.name for o in own_keys()), "edge", "shape", "bearing"):
+                for k in ("length_m", "depth_m", "angle_deg", *(o.name for o in own_keys()), "edge", "shape",
+                          "bearing"):
                     params[k] = None                    # no defect: sizes would be labels of nothing
             case = self._run_case(params, keys, where)
             machine_hash = case.case_hash

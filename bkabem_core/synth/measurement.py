@@ -2,9 +2,10 @@
 
 A monitoring developer who models a rig wants the signal the rig's own acquisition gives: its sensor on its mount,
 its anti-alias filter, its AC coupling, the interference of its environment, its converter's step, its sensor noise
-and its sample rate, and how evenly the rig's balls pass (the jitter a record's fault lines show). A case carries them in an optional ``[measurement]`` section (every key optional, units in the
-suffixes); the synthesiser, ``bkabem synth``, the ROS node and a data set take them as defaults, and an explicit
-argument or option overrides each one. A case without the section gives what it gave before (no sensor).
+and its sample rate, and how evenly the rig's balls pass (the jitter a record's fault lines show). A case carries
+them in an optional ``[measurement]`` section (every key optional, units in the suffixes); the synthesiser,
+``bkabem synth``, the ROS node and a data set take them as defaults, and an explicit argument or option overrides
+each one. A case without the section gives what it gave before (no sensor).
 
 =================================  ==========================================================================
 key                                meaning

@@ -135,8 +135,8 @@ class Synthesizer:
 
     def __init__(self, model: BkaBem, sample_rate_hz: float | None = None, chunk_s: float = 0.1, *,
                  quantities=DEFAULT_QUANTITIES, noise_density: dict | None | str = FROM_CASE,
-                 snr_db: float | None = None,
-                 slip: float | str = FROM_CASE, seed: int | None = 0, max_order: int | None = None, band_limit: str = "auto",
+                 snr_db: float | None = None, slip: float | str = FROM_CASE,
+                 seed: int | None = 0, max_order: int | None = None, band_limit: str = "auto",
                  spectrum: str = "auto", knot_s: float = 0.1, max_speed_step_hz: float = 0.5,
                  min_speed_hz: float = 0.05, initial_speed_hz: float | None = None, dtype=np.float32,
                  features: bool = True, table_size: int | None = None, accelerometer=FROM_CASE,
