@@ -297,19 +297,33 @@ class HeadlessViewer:
         if seconds is not None:
             self.client.set_time(TIMELINE, duration=float(seconds), play_state=play_state)
 
-    def screenshot(self, view_id=None, settle: int = 2, max_shots: int = 8) -> bytes:
+    def screenshot(self, view_id=None, settle: int = 2, max_shots: int = 8, ready=None,
+                   timeout_s: float = 20.0) -> bytes:
         """PNG of the window (or of one view). After a load or a time change the viewer needs a
         few frames to ingest chunks and fit its axes: shots are repeated until ``settle``
-        consecutive ones agree (at most ``max_shots``), and the last is returned."""
+        consecutive ones agree (at most ``max_shots``), and the last is returned.
+
+        ``ready(png) -> bool``, if given, is what the shot should show once loaded (a plot in
+        colour, say): shots also go on until it holds, for at most ``timeout_s`` seconds (a
+        software-rendered viewer on a loaded machine can agree on two blank frames). The last
+        shot is returned either way, so a view that never shows it still fails its test."""
         last, same, png = None, 0, b""
-        for _ in range(max(max_shots, 1)):
+        t_end = time.monotonic() + timeout_s
+        shots = 0
+        while True:
             png = self.client.take_screenshot(view_id)
+            shots += 1
             pix = _pixels(png)
             same = same + 1 if last is not None and pix.shape == last.shape and np.mean(pix != last) < 1e-3 else 0
-            if same + 1 >= settle:
-                break
             last = pix
-        return png
+            settled = same + 1 >= settle or shots >= max(max_shots, 1)
+            if ready is None:
+                if settled:
+                    return png
+            elif ready(png) and settled or time.monotonic() > t_end:
+                return png
+            elif settled:
+                time.sleep(0.2)
 
     def views(self):
         return self.client.get_state().views
@@ -350,11 +364,13 @@ class HeadlessViewer:
         return max([len(v["ContainerBlueprint"].get("contents", [])) for v in bp.values()
                     if v.get("ContainerBlueprint", {}).get("container_kind") == "Tabs"] or [1])
 
-    def shoot_every_view(self, settle: int = 2):
+    def shoot_every_view(self, settle: int = 2, ready=None):
         """{view name: (View, PNG)} of every view of the blueprint, tab by tab (after a tab
         switch every view is shot until two shots agree: the views of a newly shown tab load one
         by one, and one shot of a later one could still be blank; in the first tabs until ``settle``
-        agree, the first view at least two); the first tabs are active again afterwards."""
+        agree, the first view at least two); the first tabs are active again afterwards.
+        ``ready(view name, png) -> bool``: what each view should show once loaded (see
+        :meth:`screenshot`)."""
         out = {}
         n = self.tab_count()
         for i in range(n):
@@ -366,7 +382,9 @@ class HeadlessViewer:
             for k, view in enumerate(todo):
                 # after a tab switch each newly shown view waits until it has loaded (two shots agree)
                 wait = k == 0 or (n > 1 and i > 0)
-                out[view.name] = (view, self.screenshot(view.view_id, settle=max(settle, 2) if wait else settle))
+                check = None if ready is None else (lambda png, name=view.name: ready(name, png))
+                out[view.name] = (view, self.screenshot(view.view_id, settle=max(settle, 2) if wait else settle,
+                                                        ready=check))
         if n > 1:
             self.show_tab(0)
         return out

@@ -20,10 +20,8 @@ os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="bkabem_ros_log_"))
 
 from pathlib import Path  # noqa: E402
 
-import pytest  # noqa: E402
-
 from bkabem_ros.recording import replay  # noqa: E402
-from bkabem_ros.viewer import rerun_io
+from bkabem_ros.viewer import rerun_io  # noqa: E402
 from bkabem_ros.viewer.blueprint import view_names  # noqa: E402
 from bkabem_ros.viewer.screenshots import (  # noqa: E402
     HeadlessViewer,
@@ -53,6 +51,11 @@ def example_rrd(tmp_path_factory):
     return out
 
 
+def _shows_data(name: str, png: bytes) -> bool:
+    s = view_statistics(png, name)
+    return s.ink > 0.01 if name.endswith("health") else s.colour_ink > 0.002   # text / series, bars, markers
+
+
 def test_every_view_exists_without_error_and_shows_data(example_rrd):
     with HeadlessViewer(window_size=(1024, 640)) as v:       # small: each frame is software-rendered
         assert listening_addresses(v.port) == ["0100007F"]   # 127.0.0.1 only
@@ -60,17 +63,14 @@ def test_every_view_exists_without_error_and_shows_data(example_rrd):
         # opens on the latest data (following), not at t = 0
         rec = st.recordings[0]
         (tl,) = [t for t in rec.timelines if t.name == "sample_time"]
-        shots = v.shoot_every_view(settle=1)
+        # a plot is loaded when it shows colour, a health panel when it shows text (awaited, with a deadline)
+        shots = v.shoot_every_view(settle=1, ready=_shows_data)
         st = v.client.get_state()
         assert st.recordings[0].current_time == tl.end
         assert sorted(shots) == sorted(view_names())
         for name, (view, png) in shots.items():
             assert view.reports == [], (name, view.reports)
-            s = view_statistics(png, name)
-            if name.endswith("health"):
-                assert s.ink > 0.01, s                  # text
-            else:
-                assert s.colour_ink > 0.002, s          # series / bars / markers in colour
+            assert _shows_data(name, png), view_statistics(png, name)
         assert v.errors() == []
         # the first instant: no condition window yet -> the envelope spectra (latest-at) are empty
         v.set_time(tl.start / 1e9)
@@ -174,7 +174,7 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
         de = views["DE ground truth: depth [µm]"]
         nde = views["NDE ground truth: depth [µm]"]
         assert de.reports == [] and nde.reports == []
-        de_png = v.screenshot(de.view_id, settle=2)
+        de_png = v.screenshot(de.view_id, settle=2, ready=lambda png: _shows_data(de.name, png))
         _save_png(de_png, tmp_path / "rtf_de_truth.png")
         img = _pixels(de_png).astype(int)
         legend = np.zeros(img.shape[:2], bool)
@@ -187,12 +187,13 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
         # the healthy stretch's 0 line
         full = zero.max() - rows.min()
         assert rows.max() < zero.min() and (rows.max() - rows.min()) > 0.2 * full, (rows.min(), rows.max(), zero)
-        img = _pixels(v.screenshot(nde.view_id, settle=2)).astype(int)
+        img = _pixels(v.screenshot(nde.view_id, settle=2, ready=lambda png: _shows_data(nde.name, png))).astype(int)
         green = (np.abs(img - np.array([120, 200, 80])).max(axis=2) < 50)
         green[:40, :] = False
         assert green.sum() > 0.2 * img.shape[1]             # a flat line across the plot
         for name in ("DE health", "NDE health"):
-            assert view_statistics(v.screenshot(views[name].view_id, settle=2), name).ink > 0.01
+            png = v.screenshot(views[name].view_id, settle=2, ready=lambda png, name=name: _shows_data(name, png))
+            assert _shows_data(name, png), view_statistics(png, name)
         assert v.errors() == []
         # the check can fail: the review's layout, the trends in one tab row of five, the ground truth last
         bp = v.client.get_blueprint().blueprint
