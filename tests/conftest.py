@@ -46,11 +46,13 @@ def four_dof_excitation(machine):
 
 @pytest.fixture(scope="session")
 def fault_library():
-    """The fault library's models, one per kind (``motor_6010_<kind>``): kind -> BkaBem."""
+    """The fault library's models, one per kind (``motor_6010_<kind>``): kind -> BkaBem. They share one machine,
+    each made like the one before, as a scenario's model pool makes them (bkabem_core.scenario.models)."""
     from bkabem_core.model.case import Case
-    from bkabem_core.solve.harmonic import BkaBem
+    from bkabem_core.scenario.models import ModelPool
 
-    return {k: BkaBem(Case.load(f"motor_6010_{k}")) for k in ("outer", "inner", "ball", "healthy")}
+    pool = ModelPool()
+    return {k: pool.get(Case.load(f"motor_6010_{k}")) for k in ("healthy", "inner", "ball", "outer")}
 
 
 @pytest.fixture(scope="session")
