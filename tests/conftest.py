@@ -1,4 +1,5 @@
-"""Shared fixtures: the embedded case and its BKA-BEM model are built once per test session."""
+"""Shared fixtures: the embedded case, its BKA-BEM model and the fault library are built once per test session;
+``cli`` runs a core command in this process on the library's models, ``figures`` keeps the figures it draws."""
 
 from __future__ import annotations
 
@@ -66,3 +67,40 @@ def classic_ball(fault_library):
     case = Case.load("motor_6010_ball").with_overrides({"defects.0.wander_revolutions": 0.0,
                                                          "defects.0.spin_slip": 0.0})
     return BkaBem(case, like=fault_library["ball"])
+
+
+@pytest.fixture
+def cli(monkeypatch, fault_library, capsys):
+    """``cli(*argv) -> stdout`` of ``bkabem argv`` in this process, on the session's fault-library models."""
+    from bkabem_ros.cli import core as core_cli
+    from bkabem_ros.cli.main import main
+
+    by_name = {f"motor_6010_{k}": m for k, m in fault_library.items()}
+    monkeypatch.setattr(core_cli, "_model", lambda case, solver="modal": by_name[case.name])
+
+    def run(*argv):
+        capsys.readouterr()
+        rc = main(list(argv))
+        out = capsys.readouterr()
+        assert rc == 0, out.err
+        return out.out
+
+    return run
+
+
+@pytest.fixture
+def figures(monkeypatch):
+    """The figures the commands draw (the plotting functions return them): name -> [Figure]."""
+    from bkabem_core.analysis import plots
+
+    seen: dict[str, list] = {}
+    for name in ("plot_spectrum", "plot_sweep", "plot_excitation"):
+        real = getattr(plots, name)
+
+        def wrapped(*a, _real=real, _name=name, **kw):
+            fig = _real(*a, **kw)
+            seen.setdefault(_name, []).append(fig)
+            return fig
+
+        monkeypatch.setattr(plots, name, wrapped)
+    return seen

@@ -111,7 +111,7 @@ def test_wrong_type_publisher_on_speed_is_reported():
         pub.publish(String(data="50"))
         m = node.wait_for(r"publisher (\S+) offers type std_msgs/msg/String, not std_msgs/msg/Float64", timeout=40)
         assert m.group(1).endswith("wrong_type_publisher")
-        assert node.stop(signal.SIGINT) == 0
+        assert node.stop(signal.SIGINT) == 0, node.text[-3000:]
     finally:
         node.kill()
         lis.close()
