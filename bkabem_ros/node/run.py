@@ -74,6 +74,12 @@ def run(ros_args=None, overrides: dict | None = None, *, node_name: str = "bkabe
             executor.spin()
         except (KeyboardInterrupt, ExternalShutdownException):
             pass
+        except Exception:
+            # rclpy's SIGINT handler shuts the context down before the KeyboardInterrupt reaches this frame; a chunk
+            # being published in that moment fails with "publisher's context is invalid". That is the stop asked
+            # for, not a failure; with the context still valid the error is real and goes to the CLI's contract.
+            if rclpy.ok():
+                raise
         exit_log(node)
         return 0
     finally:
