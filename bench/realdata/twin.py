@@ -153,16 +153,8 @@ def twin_run(cond: Condition, twin: str, speed_hz: float) -> tuple[str, dict, di
                       angle_deg=cond.angle_deg, shape="round_pit", edge="ball")
         if cond.kind == "ball":
             params["ball"] = 1
-    overrides = {}
-    if "load_hp" in _run_parameter_names():
-        params["load_hp"] = cond.load_hp
-    return twin, overrides, params
-
-
-def _run_parameter_names() -> tuple:
-    from bkabem_core.dataset.spec import PARAMETERS
-
-    return tuple(PARAMETERS)
+    params["load_hp"] = cond.load_hp              # the record's load, its label; the speed is the record's measured one
+    return twin, {}, params
 
 
 def default_twin() -> str:

@@ -101,6 +101,9 @@ PARAMETERS: dict[str, Parameter] = {
     "profile": Parameter("str", "", None, doc="speed profile over run time: constant:F, ramp:F0:F1:T, "
                          "steps:F1,F2,...:T (Hz, s); instead of speed_hz"),
     "load_factor": Parameter("float", "", 1.0, 0.1, 10.0, doc="radial load / the case's own (gravity scaled)"),
+    "load_hp": Parameter("float", "hp", None, 0.0, None,
+                         doc="a rig's load: the shaft speed follows from the case's load table (cwru_rig: 0-3 hp at "
+                             "1797-1730 r/min; bkabem_core.model.load_table), unless speed_hz or profile gives it"),
     "noise_acc": Parameter("float", "m/s^2/sqrt(Hz)", None, 0.0, MAX_NOISE["noise_acc"],
                            doc="accelerometer noise density (default: the case's measurement section, else 0)"),
     "noise_disp": Parameter("float", "m/sqrt(Hz)", 0.0, 0.0, MAX_NOISE["noise_disp"],
@@ -130,7 +133,7 @@ PARAMETERS: dict[str, Parameter] = {
 }
 #: Parameters that describe the defects or the load (not with a scenario, which has its own).
 MACHINE_PARAMETERS = ("fault", "bearing", "length_m", "depth_m", "angle_deg", *(k.name for k in own_keys()), "edge",
-                      "shape", "load_factor")
+                      "shape", "load_factor", "load_hp")
 SCENARIO_ONLY = ("time_scale", "scenario_start_s")
 
 _TOP = ("dataset", "run", "grid", "random", "output")
@@ -524,6 +527,13 @@ class DatasetSpec:
             case = self._run_case(params, keys, where)
             machine_hash = case.case_hash
         _measurement_defaults(params, case)
+        if params["load_hp"] is not None:                  # the rig's load sets its speed (its load table) ...
+            try:
+                speed = case.speed_at_load_hz(params["load_hp"])
+            except ValueError as exc:
+                raise DatasetSpecError(key("load_hp"), f"{exc}{where}", src) from None
+            if "speed_hz" not in given and "profile" not in given:
+                params["speed_hz"] = speed                 # ... unless the run gives the speed measured at it
         if params["profile"] is not None:
             params["speed_hz"] = None
             top = _check_profile(key("profile"), params["profile"], src).max_speed_hz(params["duration_s"])

@@ -23,6 +23,14 @@ The machine baseline's keys (module ``baseline_keys``)
 =====================================================
     baseline_problem -- the first rule a ``[baseline]`` section breaks (e.g. odd electrical harmonics), or None
 
+The acquisition's keys (module ``measurement_keys``)
+====================================================
+    measurement_problem -- the first rule a ``[measurement]`` section breaks (e.g. a tone above Nyquist), or None
+
+A rig's load table (module ``load_table``)
+==========================================
+    speed_at_load_hz -- the shaft speed [Hz] a load [hp] gives by a case's ``[operating]`` load table
+
 Plausibility (module ``plausibility``)
 ======================================
     problem          -- the first implausible value of a case, or None
@@ -50,8 +58,10 @@ Vocabulary (module ``vocabulary``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "machine_case", "starting_case", "ResolvedBearing", "baseline_problem", "problem", "BOUNDS",
-           "CatalogueBearing", "CatalogueError", "lookup", "designations", "radial_clearance_m", "not_a_file", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
+__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "machine_case",
+           "starting_case", "ResolvedBearing", "baseline_problem", "measurement_problem", "speed_at_load_hz",
+           "problem", "BOUNDS", "CatalogueBearing", "CatalogueError", "lookup", "designations", "radial_clearance_m",
+           "not_a_file", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Case": "case",
@@ -59,6 +69,8 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "InputFileError": "files",
     "embedded_cases": "case",
     "baseline_problem": "baseline_keys",
+    "measurement_problem": "measurement_keys",
+    "speed_at_load_hz": "load_table",
     "DEFAULT_CASE": "case",
     "SCHEMA_VERSION": "case",
     "machine_case": "compact",

@@ -15,9 +15,7 @@ import copy
 import hashlib
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 
 from bkabem_core.bearing.deep_groove import Bearing, BearingGeometry, Dent, FaultFrequencies
@@ -27,6 +25,8 @@ from bkabem_core.model import plausibility
 from bkabem_core.model.baseline_keys import BASELINE_KEYS, BASELINE_OFF, BASELINE_OPTIONAL, baseline_problem
 from bkabem_core.model.compact import machine_case
 from bkabem_core.model.files import InputFileError, embedded_names, parse_toml, read_input_text
+from bkabem_core.model.load_table import LOAD_KEYS, load_table_problem, speed_at_load_hz
+from bkabem_core.model.measurement_keys import MEASUREMENT_KEYS, measurement_problem
 from bkabem_core.model.positions import (
     BEARING_KEYS,
     OPTIONAL,
@@ -136,31 +136,17 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     "operating": {
         "max_speed_hz": ("float", _POS),
         "max_sample_rate_hz": ("float", _POS),
+        "load_hp": ("float[]", _NONNEG),           # a rig's load table (bkabem_core.model.load_table)
+        "load_speed_hz": ("float[]", _POS),
     },
-    # the rig's acquisition as the synthesiser's defaults (bkabem_core.synth.measurement); every key optional
-    "measurement": {
-        "sample_rate_hz": ("float", ("range", 100.0, 1.0e6)),
-        "mounting": ("str", ("in", {"stud", "adhesive", "magnet", "probe", "custom"})),
-        "mounting_resonance_hz": ("float", _POS),
-        "mounting_damping_ratio": ("float", ("range_open", 0.0, 1.0)),
-        "anti_alias_hz": ("float", _POS),
-        "anti_alias_order": ("int", ("range", 1, 128)),
-        "anti_alias_phase": ("str", ("in", {"analog", "linear"})),
-        "high_pass_hz": ("float", _POS),
-        "high_pass_order": ("int", ("range", 1, 8)),
-        "tone_frequencies_hz": ("float[]", _POS),
-        "tone_amplitudes_m_s2": ("float[]", _NONNEG),
-        "quantisation_step_m_s2": ("float", _POS),
-        "noise_density_m_s2_per_sqrt_hz": ("float", _NONNEG),
-        "slip": ("float", ("range", 0.0, 0.1)),
-    },
+    "measurement": MEASUREMENT_KEYS,
 }
 #: The one ``[bearing]`` of a schema-3 case, used at both positions (:func:`migrate_v3`): every key but the class.
 SCHEMA_V3_BEARING = {k: v for k, v in BEARING_KEYS.items() if k != "clearance_class"}
 TOP_LEVEL = ("case", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating", "measurement")
 #: keys a section may leave out (their default: 0 = off; a position's bearing keys: the catalogue's or the model's;
 #: the acquisition's: the synthesiser's), so that cases written before them stay valid
-_OPTIONAL = {"baseline": BASELINE_OPTIONAL, "bearings.*": OPTIONAL,
+_OPTIONAL = {"baseline": BASELINE_OPTIONAL, "bearings.*": OPTIONAL, "operating": LOAD_KEYS,
              "measurement": tuple(SCHEMA["measurement"])}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it; keys any table may leave out
 _KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
@@ -325,9 +311,12 @@ def validate_case_dict(raw: dict, source: str = "") -> None:
             if k in d:
                 raise CaseError(f"defects[{i}].{k}", f"only for race = {' or '.join(map(repr, _KIND_KEYS[k]))} "
                                 f"(this one is {race!r})", source)
+    if (bad := load_table_problem(raw["operating"])) is not None:
+        raise CaseError(f"operating.{bad[0]}", bad[1], source)
     if "measurement" in raw:
         _check_table("measurement", raw["measurement"], SCHEMA["measurement"], source, _OPTIONAL["measurement"])
-        _check_measurement(raw["measurement"], source)
+        if (bad := measurement_problem(raw["measurement"])) is not None:
+            raise CaseError(f"measurement.{bad[0]}", bad[1], source)
     # bearings.de / bearings.nde
     if "bearings" not in raw:
         raise CaseError("bearings", "missing section", source)
@@ -387,41 +376,6 @@ def _check_bearing(prefix: str, b: dict, source: str) -> None:
     if b["n_balls"] * b["ball_diameter_m"] >= math.pi * b["pitch_diameter_m"]:
         raise CaseError(f"{prefix}.n_balls", f"{b['n_balls']} balls of {b['ball_diameter_m']} m do not fit on the "
                         f"pitch circle of {b['pitch_diameter_m']} m", source)
-
-
-def _check_measurement(m: dict, source: str) -> None:
-    """What the keys of ``[measurement]`` must agree on (each alone is checked by the schema)."""
-    freqs, amps = m.get("tone_frequencies_hz"), m.get("tone_amplitudes_m_s2")
-    if (freqs is None) != (amps is None):
-        missing = "tone_amplitudes_m_s2" if amps is None else "tone_frequencies_hz"
-        raise CaseError(f"measurement.{missing}", "missing (tones need both frequencies and amplitudes)", source)
-    if freqs is not None and len(freqs) != len(amps):
-        raise CaseError("measurement.tone_amplitudes_m_s2", f"needs one amplitude per tone frequency: {len(freqs)} "
-                        f"(got {len(amps)})", source)
-    for key in ("mounting_damping_ratio",):
-        if key in m and "mounting" not in m and "mounting_resonance_hz" not in m:
-            raise CaseError(f"measurement.{key}", "needs a mounting (mounting or mounting_resonance_hz)", source)
-    if m.get("mounting") == "custom" and "mounting_resonance_hz" not in m:
-        raise CaseError("measurement.mounting_resonance_hz", "missing (a custom mounting needs its resonance)",
-                        source)
-    for key in ("anti_alias_order", "anti_alias_phase"):
-        if key in m and "anti_alias_hz" not in m:
-            raise CaseError(f"measurement.{key}", "needs measurement.anti_alias_hz", source)
-    if m.get("anti_alias_phase", "analog") == "analog" and m.get("anti_alias_order", 6) > 16:
-        raise CaseError("measurement.anti_alias_order", f"must be <= 16 for an analog filter (got "
-                        f"{m['anti_alias_order']}; a steeper digital filter: anti_alias_phase = \"linear\")", source)
-    if "high_pass_order" in m and "high_pass_hz" not in m:
-        raise CaseError("measurement.high_pass_order", "needs measurement.high_pass_hz", source)
-    if "high_pass_hz" in m and "anti_alias_hz" in m and m["high_pass_hz"] >= m["anti_alias_hz"]:
-        raise CaseError("measurement.high_pass_hz", f"must be below measurement.anti_alias_hz ({m['high_pass_hz']:g} "
-                        f">= {m['anti_alias_hz']:g} Hz)", source)
-    rate = m.get("sample_rate_hz")
-    if rate is not None:
-        for key, values in (("tone_frequencies_hz", freqs or []), ("anti_alias_hz", [m.get("anti_alias_hz", 0.0)])):
-            top = max(values, default=0.0)
-            if top >= rate / 2:
-                raise CaseError(f"measurement.{key}", f"{top:g} Hz is at or above the Nyquist frequency of "
-                                f"measurement.sample_rate_hz ({rate / 2:g} Hz)", source)
 
 
 def _check_cross(raw: dict, source: str) -> None:
@@ -702,6 +656,11 @@ class Case:
     @property
     def max_speed_hz(self) -> float:
         return float(self.raw["operating"]["max_speed_hz"])
+
+    def speed_at_load_hz(self, load_hp: float) -> float:
+        """Shaft speed [Hz] at a load [hp] by the case's load table (bkabem_core.model.load_table; ValueError
+        without a table or outside it)."""
+        return speed_at_load_hz(self.raw["operating"], load_hp)
 
     def with_overrides(self, overrides: dict) -> "Case":
         """A new validated case with ``{"section.key": value}`` overrides (e.g. ``{"defects.0.depth_m": 20e-6}``:

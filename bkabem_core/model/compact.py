@@ -6,6 +6,8 @@ and leaves the FE bookkeeping (node numbers, elements, housing nodes) to :func:`
     [machine]
     speed_range_hz = [5.0, 75.0]           # the operating range: lowest and highest shaft speed [Hz]
     max_sample_rate_hz = 51200.0           # optional (51200): the FE is converged up to half of it
+    # load_hp = [0.0, 1.0, 2.0, 3.0]       # optional: a rig's load table [hp] and the shaft speed at each
+    # load_speed_hz = [29.95, 29.53, 29.17, 28.83]   # [Hz] (bkabem_core.model.load_table)
     shaft_steps_m = [[0.080, 0.045], [0.030, 0.050], [0.300, 0.065], [0.030, 0.050], [0.060, 0.045]]
                                            # [length, outer diameter(, inner diameter)] from the DE end
 
@@ -76,7 +78,8 @@ __all__ = ["SECTION", "ROTOR_DEFAULTS", "EXCITATION_DEFAULTS", "BASELINE_DEFAULT
 SECTION = "machine"
 #: positions are taken to the micrometre (decimal places of a length in m)
 _DIGITS = 6
-_MACHINE_KEYS = ("speed_range_hz", "max_sample_rate_hz", "shaft_steps_m", "disks", "bearings", "housings")
+_MACHINE_KEYS = ("speed_range_hz", "max_sample_rate_hz", "load_hp", "load_speed_hz", "shaft_steps_m", "disks",
+                 "bearings", "housings")
 _DISK_KEYS = ("name", "position_m", "mass_kg", "polar_inertia_kg_m2", "diametral_inertia_kg_m2", "length_m", "slices")
 _DIRECTED = ("support_stiffness", "support_damping")
 _HOUSING_KEYS = ("mass_kg", "support_stiffness_n_m", "support_stiffness_vertical_n_m",
@@ -202,6 +205,10 @@ def expand(raw: dict, source: str, error) -> tuple[dict, dict]:
         chk.fail(f"{SECTION}.speed_range_hz", f"the lowest speed must be below the highest (got {rng!r})")
     fs = chk.number(f"{SECTION}.max_sample_rate_hz", m.get("max_sample_rate_hz", DEFAULT_SAMPLE_RATE_HZ), 0.0, True)
     raw["operating"] = {"max_speed_hz": hi, "max_sample_rate_hz": fs}
+    for k in ("load_hp", "load_speed_hz"):            # a rig's load table (bkabem_core.model.load_table)
+        if k in m:
+            raw["operating"][k] = m[k]
+            where[f"operating.{k}"] = f"{SECTION}.{k}"
     # the shaft, the features on it, the nodes
     steps = _steps(chk, m)
     length = steps[-1][1]

@@ -165,6 +165,9 @@ def summary_text(s: dict, max_modes: int = 24) -> str:
            f"FE model     {r['shaft_nodes']} shaft nodes, {r['fe_elements']} elements converged up to "
            f"{s['band_hz']:g} Hz, {r['dof']} DOF",
            f"speeds       {lo:g} to {hi:g} Hz ({lo * 60:g} to {hi * 60:g} r/min)"]
+    if s.get("load_table"):
+        out.append("loads        " + ", ".join(f"{row['load_hp']:g} hp: {row['speed_hz'] * 60:.6g} r/min"
+                                               for row in s["load_table"]) + " (a data set's load_hp)")
     for b, d in s["bearings"].items():
         fe = d["fe_bearing"]
         out += [f"{b.upper() + ' bearing':<12} {d['designation']}: {d['n_balls']} balls of {d['ball_diameter_m'] * 1e3:.4g} mm "

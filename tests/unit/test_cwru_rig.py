@@ -121,5 +121,6 @@ def test_every_documented_speed_reads_as_its_fault(kind):
         sig = synthesize(Condition(kind, 7, load_hp, 6 if kind == "outer" else None), "cwru_rig", 3, speed,
                          12000.0, 2.0)
         res = envelope_analysis(sig["DE"], 12000.0, (2000.0, 4000.0), speed, sig["mult"])
+        assert sig["label"]["load_hp"] == load_hp and sig["label"]["speed_hz_mean"] == pytest.approx(speed)
         assert res["verdict"] == kind, (rpm, res["verdict"], res["levels"])
         assert res["levels"][line] > 20.0, (rpm, res["levels"])

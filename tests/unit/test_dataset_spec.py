@@ -44,6 +44,12 @@ BAD = [
     ("[dataset]\nname='x'\nschema_version=1\n[grid]\nslip=0.01\n", "grid.slip", "non-empty list"),
     ("[dataset]\nname='x'\nschema_version=1\n[run]\nload_factor=0.01\n", "run.load_factor", ">= 0.1"),
     ("[dataset]\nname='x'\nschema_version=1\ncase='no_such_case'\n", "dataset.case", "no embedded case"),
+    ("[dataset]\nname='x'\nschema_version=1\n[run]\nload_hp=1.0\n", "run.load_hp", "no load table"),
+    ("[dataset]\nname='x'\nschema_version=1\ncase='cwru_rig'\n[grid]\nload_hp=[0.0, 3.5]\n", "grid.load_hp[1]",
+     "outside the case's load table (0 .. 3 hp)"),
+    ("[dataset]\nname='x'\nschema_version=1\ncase='cwru_rig'\n[run]\nload_hp=-1.0\n", "run.load_hp", ">= 0"),
+    ("[dataset]\nname='x'\nschema_version=1\n[run]\nscenario='de_outer_run_to_failure'\nload_hp=1.0\n",
+     "run.load_hp", "not with a scenario"),
     ("[dataset\nname='x'\n", "toml", "not valid TOML"),
 ]
 
@@ -131,3 +137,23 @@ def test_embedded_specs_load_and_list(capsys):
     assert len(rtf.runs) == 3 and len({r.params["seed"] for r in rtf.runs}) == 3 and rtf.runs[0].is_scenario
     rc, out, err = _main(["dataset", "dataset_example", "--list"], capsys)
     assert rc == 0 and out.strip().splitlines()[-1] == f"8 runs, spec hash {ex.spec_hash}"
+
+
+def test_a_rigs_load_sets_the_speed_of_its_table():
+    """cwru_rig's dynamometer: 0-3 hp at the documented 1797, 1772, 1750, 1730 r/min, linear between them; the
+    label carries the load. Without load_hp the runs keep their speed; with both, the speed given is the speed."""
+    text = ("[dataset]\nname='loads'\nschema_version=1\ncase='cwru_rig'\n[run]\nfault='outer'\n"
+            "length_m=0.1778e-3\ndepth_m=0.2794e-3\nshape='round_pit'\nedge='ball'\n"
+            "[grid]\nload_hp=[0.0, 1.0, 2.0, 3.0, 0.5]\n")
+    spec = DatasetSpec.from_toml(text, "loads.toml")
+    rpm = [r.params["speed_hz"] * 60.0 for r in spec.runs]
+    assert [r.params["load_hp"] for r in spec.runs] == [0.0, 1.0, 2.0, 3.0, 0.5]
+    assert rpm == pytest.approx([1797.0, 1772.0, 1750.0, 1730.0, 1784.5], abs=1e-3)
+    assert len({r.run_hash for r in spec.runs}) == 5
+    plain = DatasetSpec.from_toml("[dataset]\nname='s'\nschema_version=1\ncase='cwru_rig'\n[run]\nspeed_hz=29.0\n")
+    assert plain.runs[0].params["load_hp"] is None and plain.runs[0].params["speed_hz"] == 29.0
+    # a record's measured speed at its load: the speed given, the load its label (still within the table)
+    measured = DatasetSpec.from_toml("[dataset]\nname='m'\nschema_version=1\ncase='cwru_rig'\n[run]\n"
+                                     "speed_hz=29.6\nload_hp=1.0\n")
+    assert measured.runs[0].params["speed_hz"] == 29.6 and measured.runs[0].params["load_hp"] == 1.0
+
