@@ -50,13 +50,14 @@ def machine_summary(case: Case, speed_range_hz: tuple[float, float] | None = Non
     machine = Machine(case) if machine is None else machine
     rotor = machine.rotor
     raw = case.raw
+    op = raw["operating"]
     z = raw["rotor"]["node_positions_m"]
     z_b = {b: z[int(raw["bearings"][b]["rotor_node"]) - 1] for b in BEARINGS}
     notes: list[str] = []
     out = {"case": case.name, "source": case.source, "case_hash": case.case_hash,
            "speed_range_hz": [lo, hi], "band_hz": case.max_frequency_hz,
            "load_table": [{"load_hp": float(x), "speed_hz": float(f)} for x, f in
-                          zip(case.raw["operating"].get("load_hp", []), case.raw["operating"].get("load_speed_hz", []))],
+                          zip(op.get("load_hp", []), op.get("load_speed_hz", []))],
            "rotor": {"mass_kg": rotor.rotor_mass_kg, "length_m": z[-1] - z[0],
                      "bearing_positions_m": z_b, "span_m": abs(z_b["nde"] - z_b["de"]), "shaft_nodes": len(z),
                      "fe_elements": machine.mesh.n_elements, "dof": rotor.ndof},
