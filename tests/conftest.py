@@ -4,11 +4,19 @@
 from __future__ import annotations
 
 import os
+import signal
 
 import pytest
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+# A suite started in the background of a non-interactive shell (`make test &`, a CI step's `cmd &`) inherits SIGINT
+# ignored, and every process it starts would inherit that too: the tests that stop a command or a node with SIGINT
+# (as Ctrl-C does) would then wait for a process that never hears it. A command started that way rightly keeps
+# ignoring SIGINT; the tests need it delivered.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(scope="session")
