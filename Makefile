@@ -43,12 +43,14 @@ demo: install
 	$(BIN)/bkabem demo
 
 # the unit tier on up to four worker processes (pytest-xdist; no process or DDS of its own), then the integration
-# tier in one process: its tests start ROS 2 processes and measure their timing
+# tier the same way (each worker's ROS processes on a DDS domain range of their own), but for the tests marked
+# `serial`: they measure time or lateness that a test running beside them would disturb, and run alone at the end
 XDIST = -n auto --maxprocesses=4
 
 test: install
 	$(BIN)/python -m pytest -q $(XDIST) tests/unit
-	$(BIN)/python -m pytest tests/integration
+	$(BIN)/python -m pytest $(XDIST) -m "not serial" tests/integration
+	$(BIN)/python -m pytest -m serial tests/integration
 
 unit: $(STAMP)
 	$(BIN)/python -m pytest -q $(XDIST) tests/unit

@@ -10,7 +10,8 @@ excitation    ``bkabem excitation --json``: the embedded case's quasi-static exc
 spectrum      ``bkabem spectrum --speed-hz 25 --json``: the model prepared and one spectrum, end to end
 unit tier     ``--unit-tier``: ``pytest -q -n auto --maxprocesses=4 tests/unit`` once, as ``make unit`` runs it
               (no processes, no DDS), with its pass / fail counts
-suite         ``--suite``: ``pytest -q`` once (both tiers in one process), with its counts
+suite         ``--suite``: the three pytest runs of ``make test`` once (the unit tier, the integration tier but
+              its ``serial`` tests on the same workers, then those alone), their wall times summed, with their counts
 
 The commands run from a temporary folder with ``OPENBLAS_NUM_THREADS=1``; their output is checked (exit code 0,
 JSON that parses) so that a fast failure is not reported as a fast start.
@@ -67,6 +68,23 @@ def pytest_run(cwd: Path, *paths: str, options: tuple = ()) -> dict:
     return {"wall_s": wall, "exit_code": r.returncode, "summary": tail[-200:], **counts}
 
 
+#: ``make test``: (paths, options) of its pytest runs, in order.
+SUITE_RUNS = ((("tests/unit",), UNIT_XDIST), (("tests/integration",), (*UNIT_XDIST, "-m", "not serial")),
+              (("tests/integration",), ("-m", "serial")))
+
+
+def suite_run(cwd: Path) -> dict:
+    """The runs of :data:`SUITE_RUNS`: wall times and counts summed, the exit code the first non-zero one."""
+    runs = [pytest_run(cwd, *paths, options=options) for paths, options in SUITE_RUNS]
+    out = {"wall_s": sum(r["wall_s"] for r in runs), "exit_code": next((r["exit_code"] for r in runs
+                                                                        if r["exit_code"]), 0),
+           "summary": " | ".join(r["summary"] for r in runs)[-400:], "runs": runs}
+    for key in ("passed", "failed", "error", "errors", "skipped"):
+        if any(key in r for r in runs):
+            out[key] = sum(r.get(key, 0) for r in runs)
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5, help="runs per command; medians are reported (default 5)")
@@ -91,10 +109,9 @@ def main(argv=None) -> int:
             res[name] = {"median_s": statistics.median(ts), "min_s": min(ts), "runs": len(ts)}
             print(f"{name:11s} median {statistics.median(ts):6.3f} s  (min {min(ts):.3f}, {len(ts)} runs)",
                   flush=True)
-    for key, wanted, paths, options in (("unit_tier", args.unit_tier, ("tests/unit",), UNIT_XDIST),
-                                        ("suite", args.suite, (), ())):
+    for key, wanted in (("unit_tier", args.unit_tier), ("suite", args.suite)):
         if wanted:
-            res[key] = u = pytest_run(ROOT, *paths, options=options)
+            res[key] = u = pytest_run(ROOT, "tests/unit", options=UNIT_XDIST) if key == "unit_tier" else suite_run(ROOT)
             print(f"{key:10s} {u['wall_s']:6.1f} s  exit {u['exit_code']}  {u['summary']}", flush=True)
     res["load"].append(os.getloadavg()[0])
     if args.json:

@@ -373,7 +373,8 @@ def read_startup(d, _args):
 
 def read_suite(d, _args):
     s = d["suite"]
-    return [row("`pytest` (tests/unit, then tests/integration)", "wall time of the whole suite", s["wall_s"],
+    return [row("`make test`'s pytest runs (tests/unit, tests/integration, its serial tests)",
+                "wall time of the whole suite", s["wall_s"],
                 "{:.0f}", "s", le(480.0, "<= 8 min"), note=s["summary"])]
 
 

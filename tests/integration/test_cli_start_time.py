@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.serial]   # measures time: run alone
 
 #: ``bkabem --help`` in at most this many bare interpreter starts (about 2-3 measured; 25-35 when the parser
 #: imported scipy through the synthesiser).

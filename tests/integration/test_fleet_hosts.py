@@ -34,7 +34,7 @@ import netns_hosts
 import pytest
 from ros_helpers import Proc, bkabem_cmd, ros_env
 
-pytestmark = pytest.mark.ros
+pytestmark = [pytest.mark.ros, pytest.mark.serial]   # measures time: run alone
 
 MONITOR = Path(__file__).with_name("fleet_monitor.py")
 WINDOW_S = 4.0

@@ -73,6 +73,7 @@ def test_case_values_that_made_non_finite_output_are_rejected(tmp_path, key, val
 
 
 # --------------------------------------------------------------------------- 5. bounded and interruptible
+@pytest.mark.serial                                 # measures time: run alone
 def test_endless_settling_is_rejected_at_once(tmp_path):
     t0 = time.monotonic()
     p = run("excitation", "--case", case_with(tmp_path, "settle_time_s", "1e9"), timeout=60)
@@ -80,6 +81,7 @@ def test_endless_settling_is_rejected_at_once(tmp_path):
     assert time.monotonic() - t0 < 30
 
 
+@pytest.mark.serial                                 # measures time: run alone
 @pytest.mark.parametrize("command", ["excitation", "node"])
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_long_preparation_stops_on_sigint_and_sigterm(tmp_path, command, sig):

@@ -79,6 +79,7 @@ def test_models_too_big_to_prepare_are_one_line_naming_the_key(tmp_path):
                                                    # is tests/unit/test_model_budget.py
 
 
+@pytest.mark.serial                                 # measures time: run alone
 def test_a_long_preparation_stops_within_a_second_of_sigterm(tmp_path):
     inner = resources.files("bkabem_core.embedded").joinpath("cases", "motor_6010_inner.toml").read_text()
     inner = re.sub(r"^max_sample_rate_hz = .*$", "max_sample_rate_hz = 120000.0", inner, flags=re.M)

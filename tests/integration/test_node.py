@@ -20,7 +20,7 @@ import pytest
 import rclpy  # noqa: F401  (fail, do not skip, when ROS is missing)
 from ros_helpers import Listener, Proc, bkabem_cmd, ros_env, unique_namespace
 
-pytestmark = pytest.mark.ros
+pytestmark = [pytest.mark.ros, pytest.mark.serial]   # measures time: run alone
 
 FS = 25600.0
 CHUNK = 0.05

@@ -13,7 +13,7 @@ import pytest
 import rclpy  # noqa: F401  (fail, do not skip, when ROS is missing)
 from ros_helpers import REPO, Listener, Proc, bkabem_cmd
 
-pytestmark = pytest.mark.ros
+pytestmark = [pytest.mark.ros, pytest.mark.serial]   # measures time: run alone
 
 DEPTHS = [0.0, 2e-5, 5e-5]
 

@@ -220,6 +220,7 @@ def test_bad_scenario_change_is_refused_and_the_node_streams_on_then_a_good_one_
     assert _ok(res) == [False] and "scenario" in res[0].reason
 
 
+@pytest.mark.serial                                 # measures time: run alone
 def test_a_slow_model_never_makes_a_chunk_late_and_the_truth_says_what_is_in_the_signal(tmp_path):
     """An inner-race dent appears 1 s into the stream; its model takes seconds (~350 lines) in the helper process.
     Meanwhile every chunk is published in time and says 'healthy'; then the dent is in the messages."""
@@ -324,6 +325,7 @@ def _in_time(sc, gt) -> bool:
     return gt["state_index"] == sc.state_index_at(gt["scenario_time_s"])
 
 
+@pytest.mark.serial                                 # measures time: run alone
 def test_scenario_by_ros_parameters_same_seed_same_stream_recorded_echoed_and_viewed(tmp_path):
     """``bkabem node --ros-args -p scenario:=FILE -p scenario_time_scale:=60``, three node processes at once: two
     with seed 7, one with seed 8 (slip and noise on). While every state came in time (the ground truth says which

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from ros_helpers import Listener, Proc, bkabem_cmd, unique_namespace
 
-pytestmark = pytest.mark.ros
+pytestmark = [pytest.mark.ros, pytest.mark.serial]   # measures time: run alone
 
 FS = 25600.0
 CHUNK = 0.1

@@ -166,6 +166,7 @@ def test_replay_reproduces_messages_spacing_and_clock(recording, ros):
     assert lis.node.get_clock().now().nanoseconds == int(clk[-1])
 
 
+@pytest.mark.serial                                 # measures time: run alone
 def test_start_offset_rate_and_loop_in_process(recording, ros):
     from bkabem_msgs.msg import VibrationWaveform
 
