@@ -45,7 +45,8 @@ demo: install
 # the unit tier on up to four worker processes (pytest-xdist; no process or DDS of its own), then the integration
 # tier the same way (each worker's ROS processes on a DDS domain range of their own), but for the tests marked
 # `serial`: they measure time or lateness that a test running beside them would disturb, and run alone at the end
-XDIST = -n auto --maxprocesses=4
+# (worksteal: an idle worker takes tests queued for a busy one; test durations range from milliseconds to a minute)
+XDIST = -n auto --maxprocesses=4 --dist worksteal
 
 test: install
 	$(BIN)/python -m pytest -q $(XDIST) tests/unit

@@ -8,7 +8,7 @@ help          ``bkabem --help``: what every command pays before it parses its ar
 import        ``python -c "from bkabem_core import Case, BkaBem, Synthesizer"``: the library's main names loaded
 excitation    ``bkabem excitation --json``: the embedded case's quasi-static excitation, end to end
 spectrum      ``bkabem spectrum --speed-hz 25 --json``: the model prepared and one spectrum, end to end
-unit tier     ``--unit-tier``: ``pytest -q -n auto --maxprocesses=4 tests/unit`` once, as ``make unit`` runs it
+unit tier     ``--unit-tier``: ``pytest -q -n auto --maxprocesses=4 --dist worksteal tests/unit`` once, as ``make unit``
               (no processes, no DDS), with its pass / fail counts
 suite         ``--suite``: the three pytest runs of ``make test`` once (the unit tier, the integration tier but
               its ``serial`` tests on the same workers, then those alone), their wall times summed, with their counts
@@ -53,7 +53,7 @@ def timed(cmd: list[str], cwd: str, check_json: bool = False) -> float:
 
 
 #: The unit tier's workers, as ``make unit`` runs it (pytest-xdist).
-UNIT_XDIST = ("-n", "auto", "--maxprocesses=4")
+UNIT_XDIST = ("-n", "auto", "--maxprocesses=4", "--dist", "worksteal")
 
 
 def pytest_run(cwd: Path, *paths: str, options: tuple = ()) -> dict:
