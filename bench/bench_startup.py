@@ -68,14 +68,15 @@ def pytest_run(cwd: Path, *paths: str, options: tuple = ()) -> dict:
     return {"wall_s": wall, "exit_code": r.returncode, "summary": tail[-200:], **counts}
 
 
-#: ``make test``: (paths, options) of its pytest runs, in order.
+#: ``make test``: (paths, options) of its pytest runs, in order; the first is ``make unit``.
 SUITE_RUNS = ((("tests/unit",), UNIT_XDIST), (("tests/integration",), (*UNIT_XDIST, "-m", "not serial")),
               (("tests/integration",), ("-m", "serial")))
 
 
-def suite_run(cwd: Path) -> dict:
-    """The runs of :data:`SUITE_RUNS`: wall times and counts summed, the exit code the first non-zero one."""
-    runs = [pytest_run(cwd, *paths, options=options) for paths, options in SUITE_RUNS]
+def pytest_runs(cwd: Path, plan) -> dict:
+    """The pytest runs of ``plan`` ((paths, options) each) in order: wall times and counts summed, the exit code
+    the first non-zero one."""
+    runs = [pytest_run(cwd, *paths, options=options) for paths, options in plan]
     out = {"wall_s": sum(r["wall_s"] for r in runs), "exit_code": next((r["exit_code"] for r in runs
                                                                         if r["exit_code"]), 0),
            "summary": " | ".join(r["summary"] for r in runs)[-400:], "runs": runs}
@@ -109,9 +110,9 @@ def main(argv=None) -> int:
             res[name] = {"median_s": statistics.median(ts), "min_s": min(ts), "runs": len(ts)}
             print(f"{name:11s} median {statistics.median(ts):6.3f} s  (min {min(ts):.3f}, {len(ts)} runs)",
                   flush=True)
-    for key, wanted in (("unit_tier", args.unit_tier), ("suite", args.suite)):
+    for key, wanted, plan in (("unit_tier", args.unit_tier, SUITE_RUNS[:1]), ("suite", args.suite, SUITE_RUNS)):
         if wanted:
-            res[key] = u = pytest_run(ROOT, "tests/unit", options=UNIT_XDIST) if key == "unit_tier" else suite_run(ROOT)
+            res[key] = u = pytest_runs(ROOT, plan)
             print(f"{key:10s} {u['wall_s']:6.1f} s  exit {u['exit_code']}  {u['summary']}", flush=True)
     res["load"].append(os.getloadavg()[0])
     if args.json:
