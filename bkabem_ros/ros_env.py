@@ -37,6 +37,7 @@ stdlib only: importing this costs nothing.
 
 from __future__ import annotations
 
+import contextlib
 import os
 from collections.abc import MutableMapping
 
@@ -101,6 +102,42 @@ def init(args: list[str], context=None, *, announce_now: bool = True) -> None:
             raise
         text = str(exc).split(", at /")[0].replace("failed to initialize rcl: ", "")
         raise RosArgumentsError(f"--ros-args / --params-file: {text}") from None
+
+
+@contextlib.contextmanager
+def until_stopped(context=None, *, interrupt: bool = False):
+    """Run a spin loop inside this; a stop asked for (Ctrl-C, SIGTERM, an external shutdown) ends it quietly.
+
+    rclpy's SIGINT handler shuts the context down before Python raises KeyboardInterrupt in the main thread; in that
+    moment whatever the executor is doing fails with an error of its own ("publisher's context is invalid", "failed to
+    initialize wait set", pybind11's "Unable to convert call argument"). An error raised while the context is no
+    longer valid is therefore the stop, not a failure; with the context still valid it is real and propagates.
+
+    Parameters
+    ----------
+    context : rclpy.context.Context, optional
+        The context the loop spins in (default: the global one).
+    interrupt : bool
+        False: the stop ends the block and the caller goes on (a node or a recorder that finishes its files).
+        True: the stop surfaces as KeyboardInterrupt, whatever form it took (a command whose interrupted run must
+        not look like a finished one).
+    """
+    import rclpy
+    from rclpy.executors import ExternalShutdownException
+
+    try:
+        yield
+    except KeyboardInterrupt:
+        if interrupt:
+            raise
+    except ExternalShutdownException:
+        if interrupt:
+            raise KeyboardInterrupt from None
+    except Exception:
+        if rclpy.ok(context=context):
+            raise
+        if interrupt:
+            raise KeyboardInterrupt from None
 
 
 def params_file_problem(path: str) -> str | None:

@@ -173,7 +173,9 @@ def summary_text(s: dict, max_modes: int = 24) -> str:
         out += [f"{b.upper() + ' bearing':<12} {d['designation']}: {d['n_balls']} balls of {d['ball_diameter_m'] * 1e3:.4g} mm "
                 f"on {d['pitch_diameter_m'] * 1e3:.4g} mm (geometry {d['geometry_status']}), clearance "
                 f"{d['diametral_clearance_m'] * 1e6:.3g} um ({d['clearance']})",
-                f"  static load   {d['static_radial_load_n']:.4g} N radial, {d['axial_load_n']:.4g} N axial; "
+                f"  static load   {d['static_radial_load_n']:.4g} N radial"
+                + (f" (the weight's share and {d['applied_radial_load_n']:.4g} N applied)"
+                   if d["applied_radial_load_n"] > 0 else "") + f", {d['axial_load_n']:.4g} N axial; "
                 f"s0 = C0 / P0 = {d['static_safety']:.3g} (C0 {d['static_load_rating_n'] / 1e3:.4g} kN)",
                 f"  FE bearing    ({fe['source']}) stiffness {fe['stiffness_n_m']['horizontal']:.4g} / "
                 f"{fe['stiffness_n_m']['vertical']:.4g} N/m, damping {fe['damping_n_s_m']['horizontal']:.4g} / "

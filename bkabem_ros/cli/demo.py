@@ -156,7 +156,7 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
     duration = ramp_s + hold_s
     t_wall0 = time.perf_counter()
     ctx = rclpy.Context()
-    from bkabem_ros.ros_env import init  # noqa: PLC0415
+    from bkabem_ros.ros_env import init, until_stopped  # noqa: PLC0415
 
     init(["bkabem-demo"], context=ctx)   # + the discovery range in force, once
     node = speed_node = attached = None
@@ -195,14 +195,15 @@ def run_demo(out_dir="recordings", *, ramp_s: float = 20.0, hold_s: float = 10.0
         node.start()
         t0 = time.monotonic()
         next_print = t0 + progress_every_s
-        while True:
-            now = time.monotonic()
-            if now - t0 >= duration + 0.25:
-                break
-            executor.spin_once(timeout_sec=0.05)
-            if now >= next_print:
-                say(summary.line(now - t0))
-                next_print += progress_every_s
+        with until_stopped(ctx, interrupt=True):     # Ctrl-C: the CLI's "interrupted", never a finished demo
+            while True:
+                now = time.monotonic()
+                if now - t0 >= duration + 0.25:
+                    break
+                executor.spin_once(timeout_sec=0.05)
+                if now >= next_print:
+                    say(summary.line(now - t0))
+                    next_print += progress_every_s
         result.node_stats = node.stats()
     finally:
         if attached is not None:

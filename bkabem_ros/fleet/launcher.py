@@ -142,13 +142,12 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
     stop instead); it may call ``spin()`` (one executor step) while it waits."""
     import rclpy
     from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
-    from rclpy.executors import ExternalShutdownException
     from rclpy.parameter import Parameter
 
     from bkabem_core.model.case import CaseError
     from bkabem_ros.node.run import exit_log, quiet_gc
     from bkabem_ros.node.vibration_node import VibrationNode
-    from bkabem_ros.ros_env import init  # noqa: PLC0415
+    from bkabem_ros.ros_env import init, until_stopped  # noqa: PLC0415
 
     init(["bkabem-fleet", "--ros-args", *ros_args])   # + the discovery range in force, once
     nodes = []
@@ -176,21 +175,13 @@ def run_in_process(machines: list[dict], common: dict, ros_args: list[str], seco
         if go:
             _start_spread(nodes)
         t_end = None if seconds is None else time.monotonic() + seconds
-        try:
-            # spin_once in a loop, not spin(): Python runs the SIGTERM handler (and sees the end time) between calls;
-            # inside the EventsExecutor's C++ spin() a Python signal handler would never run
+        # spin_once in a loop, not spin(): Python runs the SIGTERM handler (and sees the end time) between calls;
+        # inside the EventsExecutor's C++ spin() a Python signal handler would never run
+        with until_stopped():
             while go and rclpy.ok():
                 if t_end is not None and time.monotonic() >= t_end:
                     break
                 executor.spin_once(timeout_sec=0.1)
-        except (KeyboardInterrupt, ExternalShutdownException):
-            pass
-        except Exception as exc:  # noqa: BLE001
-            # SIGINT makes rclpy shut the context down; a spin_once inside its wait then raises RCLError ("failed
-            # to initialize wait set: the given context is not valid"): a normal stop, not a failure (it used to
-            # end the worker with exit 1 before its statistics were written)
-            if rclpy.ok() or type(exc).__name__ != "RCLError":
-                raise
         for nd in nodes:
             st = nd.stats()
             st["namespace_conflicts"] = sorted(watch.reported) if watch is not None else []
@@ -229,8 +220,8 @@ def _worker_ready(fd: int, spin) -> bool:
         return False
     except (OSError, ValueError):
         return True
-    except Exception as exc:  # noqa: BLE001 - SIGINT shuts the context down inside spin_once (see run_in_process)
-        if rclpy.ok() or type(exc).__name__ != "RCLError":
+    except Exception:  # noqa: BLE001 - SIGINT shuts the context down inside spin_once (see ros_env.until_stopped)
+        if rclpy.ok():
             raise
         return False
 

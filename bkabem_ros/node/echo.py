@@ -162,7 +162,7 @@ def main(args) -> int:
     from bkabem_ros.cli.base import fail
 
     topics = list(args.topics) or list(DEFAULT_TOPICS)
-    from bkabem_ros.ros_env import check_names, init  # noqa: PLC0415
+    from bkabem_ros.ros_env import check_names, init, until_stopped  # noqa: PLC0415
 
     check_names([("--namespace", "namespace", args.namespace)] + [("TOPIC", "topic", t) for t in topics])
 
@@ -194,12 +194,13 @@ def main(args) -> int:
             sub = node.create_subscription(msg_type, topic, functools.partial(on_msg, full, type_name), qos)
             subs.append(sub)
         t_end = None if args.seconds is None else time.monotonic() + args.seconds
-        while rclpy.ok():
-            if args.count is not None and state["n"] >= args.count:
-                break
-            if t_end is not None and time.monotonic() >= t_end:
-                break
-            rclpy.spin_once(node, timeout_sec=0.05)
+        with until_stopped():
+            while rclpy.ok():
+                if args.count is not None and state["n"] >= args.count:
+                    break
+                if t_end is not None and time.monotonic() >= t_end:
+                    break
+                rclpy.spin_once(node, timeout_sec=0.05)
     except (KeyboardInterrupt, ExternalShutdownException, BrokenPipeError):
         pass
     finally:

@@ -44,11 +44,11 @@ def run(ros_args=None, overrides: dict | None = None, *, node_name: str = "bkabe
 
     import rclpy
     from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
 
     from bkabem_core.model.case import CaseError
-    from bkabem_ros.ros_env import announce, init  # noqa: PLC0415
+    from bkabem_ros.ros_env import announce, init, until_stopped  # noqa: PLC0415
 
     # the discovery range is announced once the node took its parameters: a refused parameter, case or label is then
     # the one line of the command (the node has joined the graph for that second, but sends nothing)
@@ -70,16 +70,8 @@ def run(ros_args=None, overrides: dict | None = None, *, node_name: str = "bkabe
         node.start()
         executor = SingleThreadedExecutor()
         executor.add_node(node)
-        try:
+        with until_stopped():
             executor.spin()
-        except (KeyboardInterrupt, ExternalShutdownException):
-            pass
-        except Exception:
-            # rclpy's SIGINT handler shuts the context down before the KeyboardInterrupt reaches this frame; a chunk
-            # being published in that moment fails with "publisher's context is invalid". That is the stop asked
-            # for, not a failure; with the context still valid the error is real and goes to the CLI's contract.
-            if rclpy.ok():
-                raise
         exit_log(node)
         return 0
     finally:

@@ -288,50 +288,48 @@ def main(args) -> int:
         duration = profile.end_s + args.hold
 
     import rclpy
-    from rclpy.executors import ExternalShutdownException
     from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
     from std_msgs.msg import Float64
 
-    from bkabem_ros.ros_env import init  # noqa: PLC0415
+    from bkabem_ros.ros_env import init, until_stopped  # noqa: PLC0415
 
     init(["bkabem-speed", "--ros-args", *(args.ros_args or [])])   # + the discovery range in force, once
     node = None
     try:
-        node = rclpy.create_node("bkabem_speed", namespace=args.namespace or None)
-        qos = qos_profile_sensor_data if args.qos == "sensor_data" else QoSProfile(
-            depth=10, reliability=ReliabilityPolicy.RELIABLE)
-        pub = node.create_publisher(Float64, args.topic, qos)
-        if args.wait_subscribers > 0:
-            t_end = time.monotonic() + args.wait_subscribers
-            while pub.get_subscription_count() < args.subscribers and time.monotonic() < t_end:
-                rclpy.spin_once(node, timeout_sec=0.02)
-        factor = SPEED_UNITS[unit] / SPEED_UNITS[pub_unit]
-        period = 1.0 / args.rate
-        t_start = time.monotonic()
-        i = 0
-        last_print = -1.0
-        if not args.quiet:
-            print(f"publishing {profile.text} [{unit}] on {pub.topic_name} in {pub_unit} at {args.rate:g} Hz",
-                  flush=True)
-        while rclpy.ok():
-            # publish every message that is due (a burst when behind), then sleep until the next one;
-            # sleeping per message would cap high rates (a 10 kHz flood) at the timer slack
-            elapsed = time.monotonic() - t_start
-            if duration is not None and i * period > duration + 1e-9:
-                break
-            while i * period <= elapsed and (duration is None or i * period <= duration + 1e-9):
-                t = i * period
-                value = profile.at(t) * factor
-                pub.publish(Float64(data=value))
-                if not args.quiet and t - last_print >= 1.0:
-                    print(f"t={t:8.2f} s  speed={value:10.4f} {pub_unit}", flush=True)
-                    last_print = t
-                i += 1
-            delay = t_start + i * period - time.monotonic()
-            if delay > 0:
-                time.sleep(max(delay, min(period, 0.001)))   # >= 1 ms: bursts of ~10 at 10 kHz
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        with until_stopped():
+            node = rclpy.create_node("bkabem_speed", namespace=args.namespace or None)
+            qos = qos_profile_sensor_data if args.qos == "sensor_data" else QoSProfile(
+                depth=10, reliability=ReliabilityPolicy.RELIABLE)
+            pub = node.create_publisher(Float64, args.topic, qos)
+            if args.wait_subscribers > 0:
+                t_end = time.monotonic() + args.wait_subscribers
+                while pub.get_subscription_count() < args.subscribers and time.monotonic() < t_end:
+                    rclpy.spin_once(node, timeout_sec=0.02)
+            factor = SPEED_UNITS[unit] / SPEED_UNITS[pub_unit]
+            period = 1.0 / args.rate
+            t_start = time.monotonic()
+            i = 0
+            last_print = -1.0
+            if not args.quiet:
+                print(f"publishing {profile.text} [{unit}] on {pub.topic_name} in {pub_unit} at {args.rate:g} Hz",
+                      flush=True)
+            while rclpy.ok():
+                # publish every message that is due (a burst when behind), then sleep until the next one;
+                # sleeping per message would cap high rates (a 10 kHz flood) at the timer slack
+                elapsed = time.monotonic() - t_start
+                if duration is not None and i * period > duration + 1e-9:
+                    break
+                while i * period <= elapsed and (duration is None or i * period <= duration + 1e-9):
+                    t = i * period
+                    value = profile.at(t) * factor
+                    pub.publish(Float64(data=value))
+                    if not args.quiet and t - last_print >= 1.0:
+                        print(f"t={t:8.2f} s  speed={value:10.4f} {pub_unit}", flush=True)
+                        last_print = t
+                    i += 1
+                delay = t_start + i * period - time.monotonic()
+                if delay > 0:
+                    time.sleep(max(delay, min(period, 0.001)))   # >= 1 ms: bursts of ~10 at 10 kHz
     finally:
         if node is not None:
             node.destroy_node()

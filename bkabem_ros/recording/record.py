@@ -154,7 +154,9 @@ def record(out, *, topics: Iterable[str] | None = None, namespace: str = "",
     write error ends the recording (the stats carry the error) and the file stays recoverable.
     """
     import rclpy  # noqa: PLC0415
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor  # noqa: PLC0415
+    from rclpy.executors import SingleThreadedExecutor  # noqa: PLC0415
+
+    from bkabem_ros.ros_env import init, until_stopped  # noqa: PLC0415
 
     stop = stop or threading.Event()
     recorder = mcap_io.McapRecorder(out, chunk_size_bytes=chunk_size_bytes,
@@ -165,8 +167,6 @@ def record(out, *, topics: Iterable[str] | None = None, namespace: str = "",
                                               "namespace": namespace or "/"})
     own_context = not rclpy.ok()
     if own_context:
-        from bkabem_ros.ros_env import init  # noqa: PLC0415
-
         init(["bkabem-record", "--ros-args", *(ros_args or [])])   # + the discovery range in force, once
     node = rclpy.create_node("bkabem_record")
     tr = TopicRecorder(node, recorder, topics, namespace,
@@ -178,21 +178,20 @@ def record(out, *, topics: Iterable[str] | None = None, namespace: str = "",
     next_discovery = 0.0
     next_progress = time.monotonic() + 1.0
     try:
-        while not stop.is_set() and rclpy.ok() and tr.error is None:
-            now = time.monotonic()
-            if t_end is not None and now >= t_end:
-                break
-            if now >= next_discovery:
-                for topic in tr.discover():
-                    if progress:
-                        progress(f"recording {topic}")
-                next_discovery = now + discovery_period_s
-            if progress and now >= next_progress:
-                progress(f"{sum(tr.counts.values())} messages on {len(tr.subs)} topics")
-                next_progress = now + 1.0
-            executor.spin_once(timeout_sec=0.05)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        with until_stopped():
+            while not stop.is_set() and rclpy.ok() and tr.error is None:
+                now = time.monotonic()
+                if t_end is not None and now >= t_end:
+                    break
+                if now >= next_discovery:
+                    for topic in tr.discover():
+                        if progress:
+                            progress(f"recording {topic}")
+                    next_discovery = now + discovery_period_s
+                if progress and now >= next_progress:
+                    progress(f"{sum(tr.counts.values())} messages on {len(tr.subs)} topics")
+                    next_progress = now + 1.0
+                executor.spin_once(timeout_sec=0.05)
     finally:
         for s in tr.subs.values():
             node.destroy_subscription(s)
