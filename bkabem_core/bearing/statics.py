@@ -162,8 +162,13 @@ class BearingStatics:
                 if np.hypot(*r) <= tol_n * max(wn, 1.0):
                     return e
                 kmat = np.array([[kxx, kxy], [kxy, kyy]], dtype=float)
-                if np.linalg.cond(kmat) > 1e12:  # a direction has no ball in contact: push along the load
-                    e = e + w / wn * 1e-7
+                if np.linalg.cond(kmat) > 1e12:
+                    # A direction without stiffness: no ball in contact yet (push along the load), or one ball alone
+                    # under a light load (stiff along its own line only): Newton along the load's direction.
+                    u = w / wn
+                    k_u = float(u @ kmat @ u)
+                    s = float(u @ r) / k_u if k_u > 0.0 else 1e-7
+                    e = e + u * float(np.clip(s, -1e-5, 1e-5))      # damped as below
                     continue
                 step = np.linalg.solve(kmat, r)      # F(e + s) ~ F(e) - K s = -W
                 n = np.hypot(*step)                  # damped: never more than 10 um at once (contact sets change)

@@ -236,7 +236,7 @@ def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tupl
            "profile": p["profile"] if p["profile"] is not None else
            (f"constant:{p['speed_hz']:g}" if p["speed_hz"] is not None else "scenario"),
            "load_factor": float(gt.get("load_factor", p["load_factor"] if p["load_factor"] is not None else 1.0)),
-           "load_hp": p.get("load_hp"),
+           "load_hp": p.get("load_hp"), "radial_load_n": p.get("radial_load_n"),
            "seed": p["seed"], "slip": p["slip"], "noise_acc": p["noise_acc"], "noise_disp": p["noise_disp"],
            "noise_vel": p["noise_vel"], "sample_rate_hz": fs, "quantities": ",".join(p["quantities"]),
            "channels": ",".join(channels), "accelerometer": p["accelerometer"],

@@ -100,10 +100,14 @@ PARAMETERS: dict[str, Parameter] = {
                           doc="constant shaft speed (or give profile)"),
     "profile": Parameter("str", "", None, doc="speed profile over run time: constant:F, ramp:F0:F1:T, "
                          "steps:F1,F2,...:T (Hz, s); instead of speed_hz"),
-    "load_factor": Parameter("float", "", 1.0, 0.1, 10.0, doc="radial load / the case's own (gravity scaled)"),
+    "load_factor": Parameter("float", "", 1.0, 0.1, 10.0, doc="radial load / the case's own (gravity and the "
+                             "radial loads applied at the bearings scaled)"),
     "load_hp": Parameter("float", "hp", None, 0.0, None,
                          doc="a rig's load: the shaft speed follows from the case's load table (cwru_rig: 0-3 hp at "
                              "1797-1730 r/min; bkabem_core.model.load_table), unless speed_hz or profile gives it"),
+    "radial_load_n": Parameter("float", "N", None, 0.0, 1e7,
+                               doc="a rig's radial load on its loaded bearing, the one whose applied_radial_load_n "
+                                   "the case gives (mfpt_rig: the test bearing, 0-300 lbf = 0-1334 N)"),
     "noise_acc": Parameter("float", "m/s^2/sqrt(Hz)", None, 0.0, MAX_NOISE["noise_acc"],
                            doc="accelerometer noise density (default: the case's measurement section, else 0)"),
     "noise_disp": Parameter("float", "m/sqrt(Hz)", 0.0, 0.0, MAX_NOISE["noise_disp"],
@@ -133,7 +137,7 @@ PARAMETERS: dict[str, Parameter] = {
 }
 #: Parameters that describe the defects or the load (not with a scenario, which has its own).
 MACHINE_PARAMETERS = ("fault", "bearing", "length_m", "depth_m", "angle_deg", *(k.name for k in own_keys()), "edge",
-                      "shape", "load_factor", "load_hp")
+                      "shape", "load_factor", "load_hp", "radial_load_n")
 SCENARIO_ONLY = ("time_scale", "scenario_start_s")
 
 _TOP = ("dataset", "run", "grid", "random", "output")
@@ -602,12 +606,27 @@ class DatasetSpec:
         for o in own_keys():
             if o.name not in used:
                 params[o.name] = None
-        ident = _canonical([tables, params["load_factor"]])
+        loaded = None
+        if params["radial_load_n"] is not None:
+            lkey = keys.get("radial_load_n", "run.radial_load_n")
+            if params["load_factor"] != 1.0:
+                raise DatasetSpecError(lkey, "give radial_load_n or load_factor, not both" + where, src)
+            loaded = [b for b in BEARINGS if "applied_radial_load_n" in self.base_case.raw["bearings"][b]]
+            if len(loaded) != 1:
+                why = "none" if not loaded else "both"
+                raise DatasetSpecError(lkey, f"the case's loaded bearing is the one whose applied_radial_load_n it "
+                                       f"gives; {why} of {self.base_case.name}'s bearings give it" + where, src)
+        ident = _canonical([tables, params["load_factor"], params["radial_load_n"]])
         case = self._cases.get(ident)
         if case is None:
             raw = copy.deepcopy(self.base_case.raw)
             raw["defects"] = tables
             raw["excitation"]["gravity_m_s2"] = float(raw["excitation"]["gravity_m_s2"]) * params["load_factor"]
+            for b, table in raw["bearings"].items():       # a loader's load: the run's, or scaled with the rest
+                if loaded is not None and b == loaded[0]:
+                    table["applied_radial_load_n"] = float(params["radial_load_n"])
+                elif table.get("applied_radial_load_n", 0.0) > 0.0:
+                    table["applied_radial_load_n"] = float(table["applied_radial_load_n"]) * params["load_factor"]
             try:
                 case = Case.from_dict(raw, f"{self.source or self.name} run")
             except CaseError as exc:
@@ -616,6 +635,8 @@ class DatasetSpec:
                     k = keys.get(k.split(".", 1)[1], f"run.{k.split('.', 1)[1]}")
                 elif k == "excitation.gravity_m_s2":
                     k = keys.get("load_factor", "run.load_factor")
+                elif k.endswith(".applied_radial_load_n"):
+                    k = keys.get("radial_load_n", keys.get("load_factor", "run.radial_load_n"))
                 else:
                     k = f"dataset.case ({k})"
                 raise DatasetSpecError(k, f"{exc.reason}" + where, src) from None

@@ -45,13 +45,25 @@ def quasi_static_path_m(bearing: Bearing, radial_load_n, axial_load_n: float, ca
         w = (w[0] + turn.real, w[1] + turn.imag)
     ex = np.full(shape, e0[0])
     ey = np.full(shape, e0[1])
+    wn = np.maximum(np.hypot(w[0], w[1]), 1e-300)
+    ux, uy = w[0] / wn, w[1] / wn                        # the load's direction (per angle with a turning load)
     for it in range(1, max_iter + 1):
         fx, fy, (kxx, kxy, kyy) = bearing.forces_n(ex, ey, theta, film_m, with_stiffness=True, e_z_m=e0[2],
                                                    shaft_angle_rad=shaft_angles_rad, spin_angle_rad=spin_angles_rad)
         rx, ry = fx + w[0], fy + w[1]
         det = kxx * kyy - kxy * kxy
-        sx = (kyy * rx - kxy * ry) / det                 # K s = r  (F(e + s) ~ F(e) - K s = -W)
-        sy = (kxx * ry - kxy * rx) / det
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sx = (kyy * rx - kxy * ry) / det             # K s = r  (F(e + s) ~ F(e) - K s = -W)
+            sy = (kxx * ry - kxy * rx) / det
+        single = ~(np.abs(det) > 1e-12 * (kxx + kyy) ** 2)
+        if np.any(single):
+            # one ball alone under a light load is stiff along its own line only (or none touches yet): Newton
+            # along the load's direction there, as the bearing's own static solution does
+            k_u = ux * (kxx * ux + kxy * uy) + uy * (kxy * ux + kyy * uy)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                s_u = np.where(k_u > 0.0, (ux * rx + uy * ry) / k_u, 1e-7)
+            sx = np.where(single, ux * s_u, sx)
+            sy = np.where(single, uy * s_u, sy)
         n = np.hypot(sx, sy)
         scale = np.minimum(1.0, 2e-6 / np.maximum(n, 1e-300))   # never more than 2 um at once (contacts change)
         ex += sx * scale

@@ -18,6 +18,7 @@ The machine (module ``machine``)
 ================================
     Machine           -- rotor, bearings and housings of a case, each bearing at its own operating point
     BearingSite       -- one bearing of the machine at its operating point
+    static_force_n    -- the static loads on the FE model: the weight and the radial loads applied at bearings
 
 What a machine is (module ``summary``)
 ======================================
@@ -35,7 +36,7 @@ Reduced model and solvers (modules ``modal``, ``linemodes``, ``solvers``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Material", "ShaftElement", "Disk", "PointMass", "LinearBearing", "Rotor", "rotor_from_case", "Mesh", "mesh_for", "check_mesh", "check_line_modes", "Machine", "BearingSite", "machine_summary", "ModalBasis", "OrderModalForm", "SpeedCells", "LineModes", "ShaftSolver", "solve_direct"]
+__all__ = ["Material", "ShaftElement", "Disk", "PointMass", "LinearBearing", "Rotor", "rotor_from_case", "Mesh", "mesh_for", "check_mesh", "check_line_modes", "Machine", "BearingSite", "static_force_n", "machine_summary", "ModalBasis", "OrderModalForm", "SpeedCells", "LineModes", "ShaftSolver", "solve_direct"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Material": "elements",
@@ -51,6 +52,7 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "check_line_modes": "budget",
     "Machine": "machine",
     "BearingSite": "machine",
+    "static_force_n": "machine",
     "machine_summary": "summary",
     "ModalBasis": "modal",
     "OrderModalForm": "modal",

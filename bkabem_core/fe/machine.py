@@ -2,8 +2,9 @@
 
 Every part of bkabem describes the same machine (docs/method.md):
 
-1. The FE rotor (:func:`bkabem_core.fe.rotor.rotor_from_case`) gives each bearing's static radial load under gravity.
-   Two bearings make the rotor statically determinate, so these loads do not depend on any stiffness.
+1. The FE rotor (:func:`bkabem_core.fe.rotor.rotor_from_case`) gives each bearing's static radial load under gravity
+   and the radial loads a loader applies at the bearings (:func:`static_force_n`). Two bearings make the rotor
+   statically determinate, so these loads do not depend on any stiffness.
 2. Each bearing (:class:`bkabem_core.bearing.deep_groove.Bearing`, the same Sopanen model; at each position the
    bearing of that position, :meth:`Case.bearing_geometry`, with its own clearance) is put at its static
    equilibrium under that load and its axial load (:class:`BearingSite`).
@@ -99,6 +100,21 @@ class BearingSite:
                 "stiffness_variation": self.linearisation.stiffness_variation}
 
 
+def static_force_n(case: Case, rotor: Rotor) -> np.ndarray:
+    """The static loads on the FE model ``rotor`` of ``case`` (ndof,) [N, N m]: the weight of every mass
+    (:meth:`Rotor.gravity_force`) and each bearing's applied radial load (``[bearings.*] applied_radial_load_n``, a
+    loader on the shaft at the bearing's rotor node, downward like the weight).
+
+    The FE statics, the bearings' linearisation and excitation loads (:class:`Machine`) and the time-domain
+    reference's equilibrium all start from this one vector."""
+    f = rotor.gravity_force(case.gravity_m_s2)
+    for name in BEARINGS:
+        load = case.applied_radial_load_n(name)
+        if load > 0.0:
+            f[rotor.dof_index(int(case.raw["bearings"][name]["rotor_node"]), "y")] -= load
+    return f
+
+
 class Machine:
     """The case's rotor, bearings and housings, consistent with each other (module docstring).
 
@@ -126,7 +142,6 @@ class Machine:
         t0 = time.perf_counter()
         self.case = case
         raw = case.raw
-        g = case.gravity_m_s2
         if mesh == "auto":
             check_mesh(case)                                    # its size, before anything is allocated
             epw = float(raw["rotor"]["elements_per_wavelength"])
@@ -137,7 +152,7 @@ class Machine:
             warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
             try:
                 statics = rotor_from_case(raw, damping={})
-                loads = statics.static_bearing_loads_n(g)                           # statically determinate
+                loads = statics.bearing_reactions_n(static_force_n(case, statics))  # statically determinate
                 turning = self._turning_loads(statics)
             except (scipy.linalg.LinAlgWarning, np.linalg.LinAlgError) as exc:
                 raise singular_stiffness(case, str(exc).rstrip(".")) from None
@@ -149,8 +164,13 @@ class Machine:
             fx, fy = loads[name]
             w = np.array([-fx, -fy], dtype=float)                 # the load on the shaft the bearing carries
             axial = float(b["axial_load_n"])
-            lin = Bearing(geometry).linearise(w[0], w[1], axial_load_n=axial, damping_n_s_m=damper,
-                                              average_over_pitch=True)
+            try:
+                lin = Bearing(geometry).linearise(w[0], w[1], axial_load_n=axial, damping_n_s_m=damper,
+                                                  average_over_pitch=True)
+            except (ValueError, RuntimeError) as exc:
+                raise CaseError(f"bearings.{name}.axial_load_n", f"the {name.upper()} bearing has no static "
+                                f"equilibrium under {np.hypot(*w):.4g} N radial and {axial:g} N axial ({exc}): a "
+                                f"light rotor in a loose bearing; give it an axial preload", case.source) from None
             bearing = Bearing(geometry, defects=[d for d in case.defects(name) if d.depth_m > 0.0])
             bearing = bearing.with_bridging_load(bearing.peak_ball_load_n(lin.state))   # round pits: at its load
             if b["linearisation"] == "model":

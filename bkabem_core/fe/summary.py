@@ -89,7 +89,7 @@ def _bearing(case: Case, machine: Machine, name: str, lo: float, hi: float, note
             "clearance": prov["clearance"], "diametral_clearance_m": float(table["diametral_clearance_m"]),
             "n_balls": int(table["n_balls"]), "ball_diameter_m": float(table["ball_diameter_m"]),
             "pitch_diameter_m": float(table["pitch_diameter_m"]),
-            "static_radial_load_n": fr, "axial_load_n": fa, "static_load_rating_n": c0, "static_safety": s0,
+            "static_radial_load_n": fr, "applied_radial_load_n": case.applied_radial_load_n(name), "axial_load_n": fa, "static_load_rating_n": c0, "static_safety": s0,
             "limiting_speed_hz": limit,
             "fe_bearing": {"source": site.source,
                            "stiffness_n_m": {"horizontal": float(site.stiffness_n_m[0]),

@@ -95,6 +95,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "rotor_node": ("int", ("ge", 1)),
         "housing_node": ("int", ("ge", 1)),
         "axial_load_n": ("float", _NONNEG),
+        "applied_radial_load_n": ("float", _NONNEG),   # a loader's radial load at the bearing (optional; 0)
         "linearisation": ("str", ("in", {"model", "table"})),
         "table_stiffness_vertical_n_m": ("float", _POS),
         "table_stiffness_horizontal_n_m": ("float", _POS),
@@ -146,7 +147,7 @@ SCHEMA_V3_BEARING = {k: v for k, v in BEARING_KEYS.items() if k != "clearance_cl
 TOP_LEVEL = ("case", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating", "measurement")
 #: keys a section may leave out (their default: 0 = off; a position's bearing keys: the catalogue's or the model's;
 #: the acquisition's: the synthesiser's), so that cases written before them stay valid
-_OPTIONAL = {"baseline": BASELINE_OPTIONAL, "bearings.*": OPTIONAL, "operating": LOAD_KEYS,
+_OPTIONAL = {"baseline": BASELINE_OPTIONAL, "bearings.*": OPTIONAL + ("applied_radial_load_n",), "operating": LOAD_KEYS,
              "measurement": tuple(SCHEMA["measurement"])}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it; keys any table may leave out
 _KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
@@ -434,6 +435,10 @@ def _check_cross(raw: dict, source: str) -> None:
     problem = baseline_problem(raw)
     if problem is not None:
         raise CaseError(*problem, source)
+    for name in BEARING_NAMES:
+        if raw["bearings"][name].get("applied_radial_load_n", 0.0) > 0.0 and raw["excitation"]["load"] != "fe_share":
+            raise CaseError(f"bearings.{name}.applied_radial_load_n", "an applied radial load needs excitation.load = "
+                            "'fe_share' (with 'rotor_weight' the excitation would carry the weight alone)", source)
     if raw["baseline"]["misalignment_node"] not in shaft_nodes:
         raise CaseError("baseline.misalignment_node", f"must be a shaft node 1..{n_nodes} "
                         f"(got {raw['baseline']['misalignment_node']})", source)
@@ -621,6 +626,11 @@ class Case:
     def axial_load_n(self, location: str) -> float:
         """Axial load of bearing ``location`` [N]."""
         return float(self.raw["bearings"][self._position(location)]["axial_load_n"])
+
+    def applied_radial_load_n(self, location: str) -> float:
+        """The radial load a loader applies to the shaft at bearing ``location`` [N], downward like the weight; the
+        bearing carries it on top of its share of the rotor's weight (0: none)."""
+        return float(self.raw["bearings"][self._position(location)].get("applied_radial_load_n", 0.0))
 
     def bearing_damping_n_s_m(self, location: str) -> float:
         """The viscous damper across the bearing at ``location``, rotor to housing [N s/m]."""

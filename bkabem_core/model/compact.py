@@ -53,7 +53,7 @@ Expansion (:func:`expand`, every length taken to the micrometre):
   model's masses and supports default to the machine's (its rotor mass, the DE housing).
 * **The FE bearing of a position** (``table_*`` keys, used with ``linearisation = "table"``) defaults to the
   bearing model's own linearisation at the position's static load (gravity on the rotor, two supports: the lever
-  rule) and its axial load, with its damper: switching the position to ``"table"`` then changes nothing.
+  rule; plus a radial load applied at the bearing, ``applied_radial_load_n``) and its axial load, with its damper: switching the position to ``"table"`` then changes nothing.
 
 A compact case is validated as the full case it expands to, and every error names the key of the compact form
 (``machine.bearings.nde.position_m``, ``machine.shaft_steps_m``, ``machine.disks[1].mass_kg``).
@@ -428,9 +428,10 @@ def _masses(rotor: dict) -> list[tuple[float, float]]:
 
 
 def static_loads_n(full: dict) -> dict[str, float]:
-    """Each bearing's static radial load under gravity [N] (downward on the bearing) of a valid case in the full
-    form: the rotor's weight shared by the lever rule (two supports make the rotor statically determinate, so this
-    is the FE's static solution)."""
+    """Each bearing's static radial load [N] (downward on the bearing) of a valid case in the full form: the rotor's
+    weight shared by the lever rule, plus the radial load applied at the bearing (``applied_radial_load_n``, carried
+    by that bearing alone). Two supports make the rotor statically determinate, so this is the FE's static solution
+    (:func:`bkabem_core.fe.machine.static_force_n`)."""
     r = full["rotor"]
     g = float(full["excitation"]["gravity_m_s2"])
     z = r["node_positions_m"]
@@ -439,7 +440,8 @@ def static_loads_n(full: dict) -> dict[str, float]:
     weight = g * sum(mass for mass, _ in masses)
     moment = g * sum(mass * (z_nde - zc) for mass, zc in masses)      # about the NDE bearing
     de = moment / (z_nde - z_de)
-    return {"de": de, "nde": weight - de}
+    applied = {b: float(full["bearings"][b].get("applied_radial_load_n", 0.0)) for b in BEARINGS}
+    return {"de": de + applied["de"], "nde": weight - de + applied["nde"]}
 
 
 # --------------------------------------------------------------------------- the case

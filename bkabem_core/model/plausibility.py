@@ -130,6 +130,10 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
                                    "(3e9 is ~1 min on two cores)"),
     # FE bearing and support elements
     "bearings.*.axial_load_n": (0.0, 1e7, "axial bearing loads are 0 .. 10 MN"),
+    "bearings.*.applied_radial_load_n": (0.0, 1e7, "radial loads applied at a bearing are 0 .. 10 MN"),
+    # derived: applied radial load / the position's static_load_rating_n (above C0 the races dent permanently)
+    "bearings.*.applied_radial_load_ratio": (0.0, 1.0, "the applied radial load is at most the bearing's static "
+                                                       "load rating static_load_rating_n"),
     # derived: axial load / the position's static_load_rating_n (deep-groove ball bearings carry ~0.5 C0 axially)
     "bearings.*.axial_load_ratio": (0.0, 1.0, "the axial load is at most the bearing's static load rating "
                                               "static_load_rating_n"),
@@ -241,22 +245,24 @@ def problem(raw: dict) -> tuple[str, str] | None:
 
 
 def relation_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] | None:
-    """Bounds on ratios of two keys (``bearings.*.axial_load_ratio``: each position's axial load over its own
-    bearing's static load rating), or None (also when a key does not exist)."""
+    """Bounds on ratios of two keys (``bearings.*.axial_load_ratio`` and ``applied_radial_load_ratio``: each
+    position's axial and applied radial load over its own bearing's static load rating), or None (also when a key
+    does not exist)."""
     bounds = BOUNDS if bounds is None else bounds
-    lo, hi, why = bounds["bearings.*.axial_load_ratio"]
     brg = raw.get("bearings")
     for name, table in (brg.items() if isinstance(brg, dict) else ()):
         if not isinstance(table, dict):
             continue
-        c0, fa = table.get("static_load_rating_n"), table.get("axial_load_n")
-        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (c0, fa)) or not c0 > 0:
-            continue
-        if not lo <= fa / c0 <= hi:
-            return f"bearings.{name}.axial_load_n", (
-                f"{fa!r} N is {fa / c0:.3g} x bearings.{name}.static_load_rating_n ({c0:g} N), outside "
-                f"[{_fmt(lo)}, {_fmt(hi)}]: {why}{_UNIT_SLIP}; if it is right, widen it in the case: "
-                f'[{SECTION}] "bearings.*.axial_load_ratio" = [low, high]')
+        for key, ratio in (("axial_load_n", "axial_load_ratio"), ("applied_radial_load_n", "applied_radial_load_ratio")):
+            lo, hi, why = bounds[f"bearings.*.{ratio}"]
+            c0, f = table.get("static_load_rating_n"), table.get(key)
+            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (c0, f)) or not c0 > 0:
+                continue
+            if not lo <= f / c0 <= hi:
+                return f"bearings.{name}.{key}", (
+                    f"{f!r} N is {f / c0:.3g} x bearings.{name}.static_load_rating_n ({c0:g} N), outside "
+                    f"[{_fmt(lo)}, {_fmt(hi)}]: {why}{_UNIT_SLIP}; if it is right, widen it in the case: "
+                    f'[{SECTION}] "bearings.*.{ratio}" = [low, high]')
     return None
 
 

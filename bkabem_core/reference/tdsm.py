@@ -9,7 +9,8 @@ This is the reference BKA-BEM is validated against (paper section 5). It is the 
   own bearing and clearance, the axial displacement held at its static value under the axial load; the defects of
   each bearing) in parallel with the position's viscous bearing damper ``[bearings.*] damping_n_s_m`` (the same
   damper as in the FE and the 4-DOF model);
-* gravity on every mass and the coupling's running-speed force, turning with the shaft at its node (``[baseline]
+* gravity on every mass, the radial loads applied at the bearings (:func:`bkabem_core.fe.machine.static_force_n`)
+  and the coupling's running-speed force, turning with the shaft at its node (``[baseline]
   coupling_force_n``, :mod:`bkabem_core.reference.coupling`; the other baseline keys stay out);
 * constant shaft speed Omega (in ``Omega G``) and each bearing's cage angle
   ``theta = 2 pi FTF f t`` with its own FTF (t = 0 at cage angle 0, the BKA-BEM phase reference);
@@ -69,7 +70,7 @@ import scipy.linalg
 from bkabem_core.bearing.contacts import HertzPair, LinearPair, same_ball_set
 from bkabem_core.bearing.deep_groove import TWO_PI
 from bkabem_core.bearing.defects.registry import kind as defect_kind
-from bkabem_core.fe.machine import Machine
+from bkabem_core.fe.machine import Machine, static_force_n
 from bkabem_core.fe.rotor import Rotor, rotor_from_case
 from bkabem_core.model.case import Case
 from bkabem_core.model.vocabulary import BEARINGS, DIRECTIONS, LOCATIONS
@@ -84,7 +85,8 @@ _DIR_DOF = {"vertical": "y", "horizontal": "x"}
 
 @dataclass
 class StaticEquilibrium:
-    """Static equilibrium of the nonlinear model under gravity (dent ignored, cage angle 0).
+    """Static equilibrium of the nonlinear model under its static loads (gravity, the radial loads applied at the
+    bearings; dent ignored, cage angle 0).
 
     Attributes
     ----------
@@ -421,7 +423,7 @@ class Tdsm:
         """
         rot = self.rotor
         kb = self._k_ref.reshape(4)
-        fg = rot.gravity_force(self.gravity_m_s2)
+        fg = static_force_n(self.machine.case, rot)
         lu = scipy.linalg.lu_factor(rot.K)
         flex_b = scipy.linalg.lu_solve(lu, self.B)
         q_g = scipy.linalg.lu_solve(lu, fg)

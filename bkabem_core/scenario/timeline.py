@@ -260,7 +260,8 @@ class ScenarioState:
         Its defects: ``name`` (scenario name, or ``defects[i]`` of the case), ``bearing``, ``race``, ``length_m``,
         ``depth_m``, ``angle_deg`` (+ ``ball``) as in a case's ``[[defects]]``.
     load_factor : float
-        Radial load of the bearings relative to the case's own (gravity scaled).
+        Radial load of the bearings relative to the case's own (gravity and the radial loads applied at the
+        bearings scaled).
     label : str
         For people: ``"healthy"`` or e.g. ``"DE outer 0.20 mm x 10 um"``.
     case : Case
@@ -530,6 +531,9 @@ class Scenario:
             raw["defects"] = [{k: v for k, v in d.items() if k != "name"} for d in defects]
             raw["case"]["name"] = f"{base['case']['name']}"
             raw["excitation"]["gravity_m_s2"] = g0 * load
+            for name, b in raw["bearings"].items():         # a loader's load scales with the rest
+                if b.get("applied_radial_load_n", 0.0) > 0.0:
+                    b["applied_radial_load_n"] = float(base["bearings"][name]["applied_radial_load_n"]) * load
             try:
                 case = Case.from_dict(raw, f"{source or self.name} at {t:g} s")
             except CaseError as exc:
@@ -551,7 +555,7 @@ class Scenario:
                 if tr.name == name:
                     return f"{tr.key}{rest}"
             return f"scenario.case ({case_key})"
-        if case_key == "excitation.gravity_m_s2":
+        if case_key == "excitation.gravity_m_s2" or case_key.endswith(".applied_radial_load_n"):
             return "load.load_factor"
         return f"scenario.case ({case_key})"
 
