@@ -4,7 +4,8 @@
     OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_machine.py --repeat 1 --json out.json
 
 Each machine is a starting case of ``bkabem case new`` (``bkabem_core.model.starting``: two catalogue bearings, a
-rotor mass, a speed range) with a defect, or the embedded ``small_motor_6205_outer``; each measurement is a fresh
+rotor mass, a speed range) with a defect, the embedded ``small_motor_6205_outer``, or a rig twin (``mfpt_rig``,
+``cwru_rig``) with a round pit in its drive-end bearing; each measurement is a fresh
 process. Per machine: ``Case.from_toml`` (the compact form expanded, validated, each bearing linearised for its FE
 bearing keys), ``Machine`` (the FE converged up to the band) and ``BkaBem(case)`` (wall and CPU time), the number
 of lines, and a new speed, ``model.response([f])`` and ``model.spectrum(f)``, at 200 random speeds of the speed
@@ -23,10 +24,14 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: name -> (DE, NDE, rotor mass [kg], speed range [Hz], defect kind in the DE bearing, max_order), or None for the
-#: embedded case of that name
+#: name -> (DE, NDE, rotor mass [kg], speed range [Hz], defect kind in the DE bearing, max_order), None for the
+#: embedded case of that name, or (an embedded rig case, its speed range [Hz], the kind of a 21 mil round pit in its DE
+#: bearing)
 MACHINES = {
     "small_motor_6205_outer": None,
+    "mfpt_rig, DE outer pit": ("mfpt_rig", (5.0, 30.0), "outer"),
+    "mfpt_rig, DE inner pit": ("mfpt_rig", (5.0, 30.0), "inner"),
+    "cwru_rig, DE inner pit": ("cwru_rig", (5.0, 30.0), "inner"),
     "6205+6203 12 kg, DE outer": ("6205", "6203", 12.0, (5.0, 60.0), "outer", 50),
     "6010+6010 82 kg, DE outer": ("6010", "6010", 82.0, (5.0, 75.0), "outer", 50),
     "6205+6205 12 kg, DE inner": ("6205", "6205", 12.0, (5.0, 60.0), "inner", 50),
@@ -44,6 +49,13 @@ if spec is None:
     from importlib import resources
     text = resources.files("bkabem_core.embedded").joinpath("cases", {name!r} + ".toml").read_text()
     lo, hi = 5.0, 50.0
+elif len(spec) == 3:
+    from importlib import resources
+    rig, (lo, hi), kind = spec
+    text = resources.files("bkabem_core.embedded").joinpath("cases", rig + ".toml").read_text()
+    text = text.replace("defects = []", "", 1).replace("schema_version = 4\n", "schema_version = 4\n\n[[defects]]\n"
+                        "bearing = \"de\"\nrace = \"" + kind + "\"\nlength_m = 5.33e-4\ndepth_m = 2.79e-4\n"
+                        "angle_deg = -90.0\nedge = \"ball\"\nshape = \"round_pit\"\nedge_fraction = 0.1\n", 1)
 else:
     de, nde, mass, (lo, hi), kind, max_order = spec
     text = starting_case(de, nde, mass, (lo, hi), "bench_machine", slices=24)

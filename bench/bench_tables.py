@@ -350,8 +350,12 @@ def read_machine(d, _args):
         case = f"{name} ({r['lines']} lines, {r['dof']} DOF)"
         out.append(row(case, "preparation `BkaBem(case)` of a catalogue machine in the compact form (median)",
                        r["prep_s"], "{:.2f}", "s", le(2.0, "<= 2 s"), note=f"CPU {r['prep_cpu_s']:.2f} s"))
+        # the target is for up to 300 lines; a rig twin carries every line up to its band (700-1400)
+        few = r["lines"] <= 300
         out.append(row(case, "a new speed: `response` / `spectrum` (median of 200 speeds)", r["spectrum_ms"],
-                       "{:.2f}", "ms", le(1.0, "<= 1 ms"), note=f"response {r['response_ms']:.2f} ms"))
+                       "{:.2f}", "ms", le(1.0, "<= 1 ms") if few else None,
+                       note=f"response {r['response_ms']:.2f} ms" + ("" if few else "; the target is for <= 300 "
+                                                                                    "lines")))
     return out
 
 
