@@ -24,7 +24,7 @@ def _shorthand(p) -> None:
                    help="ROS parameter YAML file (same as --ros-args --params-file FILE); repeatable")
     p.add_argument("--machine-id", default=None, help="parameter machine_id")
     p.add_argument("--sample-rate", type=finite_float("--sample-rate", 0.0, strict=True), default=None,
-                   help="parameter sample_rate [Hz] (default 25600)")
+                   help="parameter sample_rate [Hz] (default: the case's measurement.sample_rate_hz, else 25600)")
     p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=None,
                    help="parameter chunk_duration [s] (default 0.1)")
     p.add_argument("--seed", type=pos_int("--seed", 0), default=None, help="parameter seed")

@@ -287,7 +287,8 @@ def add_parser(sub, add_case):
     p.add_argument("--seed", type=pos_int("--seed", 0), default=0, help="seed of machine 0 (machine i: seed+i)")
     p.add_argument("--prefix", default="machine_", help="namespace prefix (default machine_)")
     p.add_argument("--sample-rate", type=finite_float("--sample-rate", 0.0, strict=True), default=None,
-                   help="parameter sample_rate of every machine [Hz] (default 25600)")
+                   help="parameter sample_rate of every machine [Hz] (default: each case's "
+                        "measurement.sample_rate_hz, else 25600)")
     p.add_argument("--chunk-duration", type=finite_float("--chunk-duration", 0.0, strict=True), default=None,
                    help="parameter chunk_duration of every machine [s] (default 0.1)")
     p.add_argument("--qos", choices=("sensor_data", "reliable"), default=None,

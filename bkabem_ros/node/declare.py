@@ -103,13 +103,16 @@ def declare(node, name: str, default=None) -> None:
 
 
 def declare_all(node, case) -> None:
-    """Declare the rest of the table (``case`` and ``scenario`` come first), three defaults from the machine."""
+    """Declare the rest of the table (``case`` and ``scenario`` come first), four defaults from the machine: its
+    defect's depth, its highest speed, and its acquisition's rate and ball-pass jitter (a rig case's ``[measurement]``
+    section, so that a node on a rig twin streams what the rig's acquisition recorded)."""
     from bkabem_core.synth.measurement import Measurement  # noqa: PLC0415
 
-    slip = Measurement.of_case(case).slip
+    m = Measurement.of_case(case)
     derived = {"defect_depth": float(case.defect_depth_m),
                "max_speed": float(case.max_speed_hz) * TWO_PI,
-               "slip": float(slip) if slip is not None else None}
+               "slip": float(m.slip) if m.slip is not None else None,
+               "sample_rate": float(m.sample_rate_hz) if m.sample_rate_hz is not None else None}
     for spec in PARAMETERS:
         if spec.name not in ("case", "scenario"):
             declare(node, spec.name, derived.get(spec.name))

@@ -43,8 +43,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               "machine (fleet) id written into every message; empty: the node's namespace without the "
               "leading '/', or 'bkabem' in the root namespace"),
     ParamSpec("sample_rate", 25600.0, "Hz",
-              "samples per second and channel; lines near Nyquist fade out and are dropped, with a warning (a "
-              "scenario whose [speed] puts a line above Nyquist is refused at start: docs/ros_node.md, Band limit)",
+              "samples per second and channel; default the case's measurement section's sample_rate_hz, else 25600; "
+              "lines near Nyquist fade out and are dropped, with a warning (a scenario whose [speed] puts a line "
+              "above Nyquist is refused at start: docs/ros_node.md, Band limit)",
               range=(1000.0, 204800.0)),
     ParamSpec("chunk_duration", 0.1, "s",
               "length of one waveform message; samples per chunk = round(sample_rate * chunk_duration)",

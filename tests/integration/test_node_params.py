@@ -98,19 +98,22 @@ def test_example_config_loads(stack):
     assert lis.get_parameters(stack["b"], ["slip"]) == {"slip": 0.0}      # a case without [measurement] slip
 
 
-def test_a_rig_cases_slip_is_the_nodes_default(stack):
-    """The node takes its slip from the case's [measurement] section (cwru_rig: 0.001) unless it is given."""
+def test_a_rig_cases_acquisition_is_the_nodes_default(stack):
+    """The node takes its slip and sample rate from the case's [measurement] section (cwru_rig: 0.001 and 12 kHz)
+    unless they are given."""
     lis = stack["lis"]
     ns = {k: unique_namespace(f"slip{k}") for k in ("rig", "given")}
     procs = {}
     try:
-        for k, extra in (("rig", []), ("given", ["-p", "slip:=0.02"])):
-            procs[k] = Proc(bkabem_cmd("node", "--namespace", ns[k], "--sample-rate", "12000", "--ros-args",
-                                       "-p", "case:=cwru_rig", *extra), name=f"node {k}")
+        for k, extra in (("rig", []), ("given", ["-p", "slip:=0.02", "-p", "sample_rate:=25600.0"])):
+            procs[k] = Proc(bkabem_cmd("node", "--namespace", ns[k], "--ros-args", "-p", "case:=cwru_rig", *extra),
+                            name=f"node {k}")
         for p in procs.values():
             p.wait_for(r"streaming from t0", timeout=60)
-        assert lis.get_parameters(f"{ns['rig']}/bkabem", ["slip"]) == {"slip": 0.001}
-        assert lis.get_parameters(f"{ns['given']}/bkabem", ["slip"]) == {"slip": 0.02}
+        assert lis.get_parameters(f"{ns['rig']}/bkabem", ["slip", "sample_rate"]) == {"slip": 0.001,
+                                                                                     "sample_rate": 12000.0}
+        assert lis.get_parameters(f"{ns['given']}/bkabem", ["slip", "sample_rate"]) == {"slip": 0.02,
+                                                                                       "sample_rate": 25600.0}
     finally:
         for p in procs.values():
             p.kill()
