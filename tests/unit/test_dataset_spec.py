@@ -135,6 +135,10 @@ def test_embedded_specs_load_and_list(capsys):
     assert [r.params["fault"] for r in ex.runs[::2]] == ["healthy", "outer", "inner", "ball"]
     rtf = DatasetSpec.load("dataset_run_to_failure")
     assert len(rtf.runs) == 3 and len({r.params["seed"] for r in rtf.runs}) == 3 and rtf.runs[0].is_scenario
+    mfpt = DatasetSpec.load("mfpt_rig_loads")                  # MFPT's loads, 0-300 lbf, on the test bearing
+    loads_lbf = sorted({round(r.case_raw["bearings"]["de"]["applied_radial_load_n"] / 4.4482216) for r in mfpt.runs})
+    assert len(mfpt.runs) == 27 and loads_lbf == [0, 25, 50, 100, 150, 200, 250, 270, 300]
+    assert {r.params["sample_rate_hz"] for r in mfpt.runs} == {48828.125}              # the case's acquisition
     rc, out, err = _main(["dataset", "dataset_example", "--list"], capsys)
     assert rc == 0 and out.strip().splitlines()[-1] == f"8 runs, spec hash {ex.spec_hash}"
 

@@ -24,8 +24,9 @@ from bkabem_core.fe.machine import Machine
 from bkabem_core.model.case import Case, CaseError
 
 LBF_N = 4.4482216152605
-#: MFPT's published fault frequencies at its 25 Hz shaft (data set description, E. Bechhoefer 2013) [Hz]
-MFPT_AT_25_HZ = {"bpfo": 81.125, "bpfi": 118.875}
+#: MFPT's published fault frequencies at its 25 Hz shaft (data set description, E. Bechhoefer 2013) [Hz]; FTF and
+#: BSF as the public data-set indexes quote its multipliers (0.406 and 2.555 x the shaft)
+MFPT_AT_25_HZ = {"bpfo": 81.125, "bpfi": 118.875, "ftf": 0.406 * 25.0, "bsf": 2.555 * 25.0}
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +49,7 @@ def test_the_test_bearing_has_mfpts_fault_frequencies(rig):
 
     mult = BkaBem(rig).bearing_multipliers["de"]
     for k, hz in MFPT_AT_25_HZ.items():
-        assert abs(25.0 * getattr(mult, k) / hz - 1.0) < 0.005, (k, 25.0 * getattr(mult, k), hz)
+        assert abs(25.0 * getattr(mult, k) / hz - 1.0) < 0.005, (k, 25.0 * getattr(mult, k), hz)   # 0.5 %
     assert rig.applied_radial_load_n("de") == pytest.approx(270 * LBF_N, rel=1e-3)      # the baseline records' load
 
 
