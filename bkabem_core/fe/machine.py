@@ -2,9 +2,9 @@
 
 Every part of bkabem describes the same machine (docs/method.md):
 
-1. The FE rotor (:func:`bkabem_core.fe.rotor.rotor_from_case`) gives each bearing's static radial load under gravity
-   and the radial loads a loader applies at the bearings (:func:`static_force_n`). Two bearings make the rotor
-   statically determinate, so these loads do not depend on any stiffness.
+1. The FE rotor (:func:`bkabem_core.fe.rotor.rotor_from_case`) gives each bearing's static radial load under
+   gravity and the radial loads a loader applies at the bearings (:func:`static_force_n`). Two bearings make the
+   rotor statically determinate, so these loads do not depend on any stiffness.
 2. Each bearing (:class:`bkabem_core.bearing.deep_groove.Bearing`, the same Sopanen model; at each position the
    bearing of that position, :meth:`Case.bearing_geometry`, with its own clearance) is put at its static
    equilibrium under that load and its axial load (:class:`BearingSite`).

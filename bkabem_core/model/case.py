@@ -147,8 +147,8 @@ SCHEMA_V3_BEARING = {k: v for k, v in BEARING_KEYS.items() if k != "clearance_cl
 TOP_LEVEL = ("case", "defects", "baseline", "excitation", "bearings", "housings", "rotor", "operating", "measurement")
 #: keys a section may leave out (their default: 0 = off; a position's bearing keys: the catalogue's or the model's;
 #: the acquisition's: the synthesiser's), so that cases written before them stay valid
-_OPTIONAL = {"baseline": BASELINE_OPTIONAL, "bearings.*": OPTIONAL + ("applied_radial_load_n",), "operating": LOAD_KEYS,
-             "measurement": tuple(SCHEMA["measurement"])}
+_OPTIONAL = {"baseline": BASELINE_OPTIONAL, "bearings.*": OPTIONAL + ("applied_radial_load_n",),
+             "operating": LOAD_KEYS, "measurement": tuple(SCHEMA["measurement"])}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it; keys any table may leave out
 _KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
 _DEFECT_OPTIONAL = ("shape", "clock")        # a slot, as before; angle_deg instead of the clock

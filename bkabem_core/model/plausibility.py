@@ -253,7 +253,8 @@ def relation_problem(raw: dict, bounds: dict | None = None) -> tuple[str, str] |
     for name, table in (brg.items() if isinstance(brg, dict) else ()):
         if not isinstance(table, dict):
             continue
-        for key, ratio in (("axial_load_n", "axial_load_ratio"), ("applied_radial_load_n", "applied_radial_load_ratio")):
+        for key, ratio in (("axial_load_n", "axial_load_ratio"),
+                           ("applied_radial_load_n", "applied_radial_load_ratio")):
             lo, hi, why = bounds[f"bearings.*.{ratio}"]
             c0, f = table.get("static_load_rating_n"), table.get(key)
             if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (c0, f)) or not c0 > 0:
