@@ -47,7 +47,7 @@ import numpy as np
 
 from bkabem_core.bearing.defects.profiles import EDGE_PROFILES, SHAPES
 from bkabem_core.bearing.defects.registry import KINDS, kind, own_keys
-from bkabem_core.model.case import Case, CaseError, InputFileError, parse_toml, read_input_text
+from bkabem_core.model.case import Case, CaseError, InputFileError, parse_toml, read_input_text, scale_radial_load
 from bkabem_core.model.vocabulary import BEARINGS
 
 SCHEMA_VERSION = 1
@@ -621,12 +621,9 @@ class DatasetSpec:
         if case is None:
             raw = copy.deepcopy(self.base_case.raw)
             raw["defects"] = tables
-            raw["excitation"]["gravity_m_s2"] = float(raw["excitation"]["gravity_m_s2"]) * params["load_factor"]
-            for b, table in raw["bearings"].items():       # a loader's load: the run's, or scaled with the rest
-                if loaded is not None and b == loaded[0]:
-                    table["applied_radial_load_n"] = float(params["radial_load_n"])
-                elif table.get("applied_radial_load_n", 0.0) > 0.0:
-                    table["applied_radial_load_n"] = float(table["applied_radial_load_n"]) * params["load_factor"]
+            scale_radial_load(raw, params["load_factor"])
+            if loaded is not None:                          # the loader's load of this run (load_factor is 1)
+                raw["bearings"][loaded[0]]["applied_radial_load_n"] = float(params["radial_load_n"])
             try:
                 case = Case.from_dict(raw, f"{self.source or self.name} run")
             except CaseError as exc:

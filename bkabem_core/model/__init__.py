@@ -7,6 +7,7 @@ Case files
     CaseError        -- a case file is invalid: the dotted key at fault and why
     InputFileError   -- base of the errors of every input file (case, scenario, data-set spec)
     embedded_cases   -- names of the cases shipped with bkabem
+    scale_radial_load -- a case's radial load scaled: gravity and the loads applied at bearings (load factors)
     DEFAULT_CASE     -- the embedded default case, ``electric_motor_6010``
     SCHEMA_VERSION   -- the case schema this version writes
 
@@ -58,8 +59,8 @@ Vocabulary (module ``vocabulary``)
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "DEFAULT_CASE", "SCHEMA_VERSION", "machine_case",
-           "starting_case", "ResolvedBearing", "baseline_problem", "measurement_problem", "speed_at_load_hz",
+__all__ = ["Case", "CaseError", "InputFileError", "embedded_cases", "scale_radial_load", "DEFAULT_CASE",
+           "SCHEMA_VERSION", "machine_case", "starting_case", "ResolvedBearing", "baseline_problem", "measurement_problem", "speed_at_load_hz",
            "problem", "BOUNDS", "CatalogueBearing", "CatalogueError", "lookup", "designations", "radial_clearance_m",
            "not_a_file", "BEARINGS", "DIRECTIONS", "LOCATIONS"]
 
@@ -68,6 +69,7 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "CaseError": "case",
     "InputFileError": "files",
     "embedded_cases": "case",
+    "scale_radial_load": "case",
     "baseline_problem": "baseline_keys",
     "measurement_problem": "measurement_keys",
     "speed_at_load_hz": "load_table",

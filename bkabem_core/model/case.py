@@ -466,6 +466,15 @@ def _check_overlaps(defects: list, bearings: dict, source: str) -> None:
         seen.setdefault(where, []).append((i, (centre, half)))
 
 
+def scale_radial_load(raw: dict, factor: float) -> None:
+    """Scale the radial load of a case's full form ``raw`` in place by ``factor`` (a scenario's or a data set's
+    ``load_factor``): the gravity on its masses and any radial load applied at a bearing."""
+    raw["excitation"]["gravity_m_s2"] = float(raw["excitation"]["gravity_m_s2"]) * factor
+    for table in raw["bearings"].values():
+        if table.get("applied_radial_load_n", 0.0) > 0.0:
+            table["applied_radial_load_n"] = float(table["applied_radial_load_n"]) * factor
+
+
 # --------------------------------------------------------------------------- the Case object
 @dataclass
 class Case:

@@ -32,7 +32,15 @@ import numpy as np
 
 from bkabem_core.bearing.defects.profiles import EDGE_PROFILES
 from bkabem_core.bearing.defects.registry import KINDS, kind, kinds_with, own_keys
-from bkabem_core.model.case import Case, CaseError, InputFileError, embedded_names, parse_toml, read_input_text
+from bkabem_core.model.case import (
+    Case,
+    CaseError,
+    InputFileError,
+    embedded_names,
+    parse_toml,
+    read_input_text,
+    scale_radial_load,
+)
 
 SCHEMA_VERSION = 1
 #: Most states a scenario may have (each one is a model to prepare; ~0.1-2 s each for a grown defect).
@@ -519,7 +527,6 @@ class Scenario:
                                 source)
         base = self.case.raw
         base_defects = [dict(d, name=f"defects[{i}]") for i, d in enumerate(base["defects"])]
-        g0 = float(base["excitation"]["gravity_m_s2"])
         states: list[ScenarioState] = []
         for t in bounds:
             defects = base_defects + self.defects_at(t)
@@ -530,10 +537,7 @@ class Scenario:
             raw = copy.deepcopy(base)
             raw["defects"] = [{k: v for k, v in d.items() if k != "name"} for d in defects]
             raw["case"]["name"] = f"{base['case']['name']}"
-            raw["excitation"]["gravity_m_s2"] = g0 * load
-            for name, b in raw["bearings"].items():         # a loader's load scales with the rest
-                if b.get("applied_radial_load_n", 0.0) > 0.0:
-                    b["applied_radial_load_n"] = float(base["bearings"][name]["applied_radial_load_n"]) * load
+            scale_radial_load(raw, load)
             try:
                 case = Case.from_dict(raw, f"{source or self.name} at {t:g} s")
             except CaseError as exc:

@@ -1,10 +1,9 @@
 """The one stop rule of every spin loop (bkabem_ros.ros_env.until_stopped): an error raised once the context is shut
 down is the stop asked for; with the context valid it is a real error. A real rclpy context, no node, no DDS."""
 import pytest
+import rclpy
 
-rclpy = pytest.importorskip("rclpy")
-
-from bkabem_ros.ros_env import until_stopped  # noqa: E402
+from bkabem_ros.ros_env import until_stopped
 
 
 @pytest.fixture
