@@ -193,3 +193,27 @@ def test_sim2real_grid_specs_cover_the_runs_exactly():
             runs += [json.dumps(dict(fixed, **dict(zip(grid, combo))), sort_keys=True)] * reps
     assert sorted(runs) == sorted(json.dumps(p, sort_keys=True) for p, r in pts for _ in range(r))
     assert len(specs) == 4                                           # outer, healthy, and the inner pair split
+
+
+def test_the_low_band_reader_finds_shaft_orders_and_tells_them_from_fixed_lines():
+    """bench/rig_low_band.py on two synthetic 'records' at two speeds: a BPFI-like order and a 360 Hz supply line
+    over white noise; the order comes back as one order in both, the supply line as a fixed frequency, and a line
+    under the threshold is not reported."""
+    from rig_low_band import FS, table, tones
+    from scipy.signal import welch
+
+    rng = np.random.default_rng(3)
+    rows = []
+    for fr in (29.93, 29.54):
+        t = np.arange(int(10 * FS)) / FS
+        x = (0.05 * np.sin(2 * np.pi * 5.40 * fr * t) + 0.05 * np.sin(2 * np.pi * 360.0 * t)
+             + 1e-4 * np.sin(2 * np.pi * 17.0 * fr * t) + 0.01 * rng.standard_normal(t.size))
+        f, p = welch(x, FS, nperseg=int(2 * FS))
+        lines = tones(f, p, fr, 25.0)
+        orders = sorted(o for o, _d in lines)
+        assert len(orders) == 2 and abs(orders[0] - 5.40) < 0.02 and abs(orders[1] - 360.0 / fr) < 0.02
+        rows.append((f"{fr}", fr, 0.5, lines))
+    text = table(rows, 25.0)
+    assert "| 5.40x | 2 |" in text                 # an order in both records
+    assert "| 360 | 2 | 6.00 |" in text             # the supply line, fixed in Hz across the two speeds
+    assert "17.00x" not in text

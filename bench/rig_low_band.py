@@ -1,0 +1,124 @@
+"""What the CWRU rig's records carry below 2 kHz, where the twin's housings have no mode: the share of the power
+and the tones, read as shaft orders.
+
+    .venv/bin/python bench/rig_low_band.py DATA_DIR              # writes the table between the markers of docs/rigs.md
+    .venv/bin/python bench/rig_low_band.py DATA_DIR --no-docs    # prints it only
+
+DATA_DIR: the CWRU drive-end records as NumPy files (docs/validation_real.md says where they come from). For each
+record, the drive-end channel at 12 kHz (the 48 kHz healthy record decimated as in ``bench/validate_real.py``), its
+shaft speed without a tachometer (``realdata.diagnostics.estimate_speed``), a Welch PSD with 0.5 Hz lines (2 s
+Hann segments): the share of the 0-5.5 kHz power below 2 kHz, and the lines of 100-2000 Hz that stand at least
+``--over-db`` over the band's median PSD, each as a multiple of the shaft speed. An order that comes back in most
+records, at both speeds, is the rig's own (it follows the shaft); one that does not is the record's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+from scipy.signal import find_peaks, welch
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "bench"))
+
+from realdata.diagnostics import decimate, estimate_speed  # noqa: E402
+from realdata.records import scan  # noqa: E402
+
+DOCS = ROOT / "docs" / "rigs.md"
+BEGIN, END = "<!-- BEGIN rig_low_band -->", "<!-- END rig_low_band -->"
+FS = 12000.0
+BAND_HZ = (100.0, 2000.0)
+#: Two lines whose orders differ by less than this are one order [multiples of the shaft speed]
+ORDER_TOL = 0.03
+
+
+def read(record) -> tuple[float, float, np.ndarray, np.ndarray]:
+    """(shaft speed [Hz], share of 0-5.5 kHz power below 2 kHz, f [Hz], PSD [g^2/Hz]) of a record's DE channel."""
+    ch = record.load()
+    fr, _ = estimate_speed(ch, record.sample_rate_hz, record.speed_hz_nominal)
+    x = np.asarray(ch["DE"], dtype=float)
+    x = decimate(x, record.sample_rate_hz, FS) if record.sample_rate_hz != FS else x
+    f, p = welch(x - x.mean(), FS, nperseg=int(2 * FS))
+    share = p[f < 2000.0].sum() / p[f < 5500.0].sum()
+    return fr, float(share), f, p
+
+
+def tones(f: np.ndarray, p: np.ndarray, fr: float, over_db: float) -> list[tuple[float, float]]:
+    """(order, dB over the band's median PSD) of the peaks of 100-2000 Hz at least ``over_db`` over it."""
+    m = (f >= BAND_HZ[0]) & (f <= BAND_HZ[1])
+    floor = np.median(p[m])
+    db = 10.0 * np.log10(p[m] / floor)
+    idx, _ = find_peaks(db, height=over_db, distance=3)
+    return [(float(f[m][i] / fr), float(db[i])) for i in idx]
+
+
+def table(rows: list, over_db: float) -> str:
+    """The docs' table: per record its speed, low-band share and strongest orders; then the orders most records
+    share."""
+    out = [f"Lines of 100-2000 Hz at least {over_db:.0f} dB over the band's median PSD (0.5 Hz lines), as orders of "
+           "the record's shaft speed; the five strongest per record.", "",
+           "| record | 1x [Hz] | power below 2 kHz | strongest orders (dB over the floor) |", "|---|---|---|---|"]
+    count: dict = defaultdict(list)
+    for name, fr, share, lines in rows:
+        strongest = sorted(lines, key=lambda t: -t[1])[:5]
+        cells = ", ".join(f"{o:.2f}x ({d:.0f})" for o, d in sorted(strongest))
+        out.append(f"| {name} | {fr:.2f} | {100 * share:.0f} % | {cells} |")
+        seen = set()
+        for o, d in lines:
+            key = round(o / ORDER_TOL) * ORDER_TOL
+            if key not in seen:
+                seen.add(key)
+                count[key].append(d)
+    merged: dict = {}
+    for key in sorted(count):
+        near = [k for k in merged if abs(k - key) <= ORDER_TOL]
+        if near:
+            merged[near[0]] += count[key]
+        else:
+            merged[key] = list(count[key])
+    common = sorted(((k, v) for k, v in merged.items() if len(v) >= len(rows) / 2), key=lambda kv: kv[0])
+    out += ["", f"Orders present in at least half of the {len(rows)} records (median dB over the floor where "
+            "present):", "",
+            "| order | records | median dB |", "|---|---|---|"]
+    out += [f"| {k:.2f}x | {len(v)} | {np.median(v):.0f} |" for k, v in common]
+    fixed: dict = defaultdict(list)                # the same lines by frequency: what does not follow the shaft
+    for _name, fr, _share, lines in rows:
+        for hz in {round(o * fr) for o, _d in lines}:
+            fixed[hz].append(fr)
+    steady = [(hz, v) for hz, v in sorted(fixed.items()) if len(v) >= len(rows) / 2 and max(v) - min(v) > 0.2]
+    out += ["", "Lines at one frequency [Hz] in at least half of the records, at both speeds (they do not follow the "
+            "shaft):", "", "| line [Hz] | records | multiple of 60 Hz |", "|---|---|---|"]
+    out += [f"| {hz} | {len(v)} | {hz / 60.0:.2f} |" for hz, v in steady]
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("data_dir", type=Path, help="folder of the CWRU records (.npz)")
+    ap.add_argument("--over-db", type=float, default=25.0, help="a line's least level over the band's median [dB]")
+    ap.add_argument("--no-docs", action="store_true", help="print the table, do not write docs/rigs.md")
+    a = ap.parse_args(argv)
+    records = [r for r in scan(a.data_dir) if r.fault_bearing in (None, "de")]
+    if not records:
+        print(f"rig_low_band: data_dir: no CWRU record in {a.data_dir}", file=sys.stderr)
+        return 2
+    rows = []
+    for r in records:
+        fr, share, f, p = read(r)
+        rows.append((r.label, fr, share, tones(f, p, fr, a.over_db)))
+        print(f"{r.name}: 1x {fr:.3f} Hz, {100 * share:.0f} % below 2 kHz", file=sys.stderr)
+    text = table(rows, a.over_db)
+    print(text)
+    if not a.no_docs:
+        doc = DOCS.read_text()
+        i, j = doc.index(BEGIN) + len(BEGIN), doc.index(END)
+        DOCS.write_text(doc[:i] + "\n" + text + "\n" + doc[j:])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
