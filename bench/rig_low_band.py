@@ -60,7 +60,7 @@ def table(rows: list, over_db: float) -> str:
     """The docs' table: per record its speed, low-band share and strongest orders; then the orders most records
     share."""
     out = [f"Lines of 100-2000 Hz at least {over_db:.0f} dB over the band's median PSD (0.5 Hz lines), as orders of "
-           "the record's shaft speed; the five strongest per record.", "",
+           "the record's\nshaft speed; the five strongest per record.", "",
            "| record | 1x [Hz] | power below 2 kHz | strongest orders (dB over the floor) |", "|---|---|---|---|"]
     count: dict = defaultdict(list)
     for name, fr, share, lines in rows:
