@@ -15,7 +15,6 @@ levels and the RMS against the load, and three envelope spectra.
 from __future__ import annotations
 
 import argparse
-import re
 import subprocess
 import sys
 import tempfile
@@ -26,13 +25,13 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "bench"))
 
+from docs_blocks import replace_block  # noqa: E402
 from realdata.diagnostics import envelope_analysis, moments  # noqa: E402
 
 LBF_N = 4.4482216152605
 G = 9.80665
 BAND_HZ = (2000.0, 8000.0)
 DOCS = ROOT / "docs" / "rigs.md"
-BEGIN, END = "<!-- BEGIN mfpt_loads -->", "<!-- END mfpt_loads -->"
 
 
 def render(out: Path) -> Path:
@@ -71,14 +70,6 @@ def table(rows: list[dict]) -> str:
         out.append(f"| {r['fault']} | {r['lbf']:.0f} | {r['rms_g']:.3f} | {r['kurtosis']:.1f} | {lv['BPFO']:.1f} | "
                    f"{lv['BPFI']:.1f} | {lv['2BSF']:.1f} | {r['verdict']}{'' if right else ' (wrong)'} |")
     return "\n".join(out)
-
-
-def write_docs(text: str) -> None:
-    page = DOCS.read_text()
-    if BEGIN not in page or END not in page:
-        raise SystemExit(f"mfpt_loads: {DOCS} has no {BEGIN} ... {END} markers")
-    page = re.sub(re.escape(BEGIN) + ".*?" + re.escape(END), lambda _m: f"{BEGIN}\n{text}\n{END}", page, flags=re.S)
-    DOCS.write_text(page)
 
 
 def figure(rows: list[dict], png: Path) -> None:
@@ -135,7 +126,7 @@ def main(argv=None) -> int:
     text = table(rows)
     print(text)
     if not args.no_docs:
-        write_docs(text)
+        DOCS.write_text(replace_block(DOCS.read_text(), "mfpt_loads", text, "docs/rigs.md"))
         print(f"wrote the table into {DOCS.relative_to(ROOT)}")
     if args.png:
         figure(rows, Path(args.png))

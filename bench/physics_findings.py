@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import re
 import sys
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
+from docs_blocks import replace_block
 
 from bkabem_core.bearing.deep_groove import Bearing
 from bkabem_core.excitation.quasi_static import FourDofParameters, compute_excitation, quasi_static_excitation
@@ -34,13 +34,6 @@ DOC = ROOT / "docs" / "method.md"
 G = 9.80665
 EARLIER = {**PAPER_OVERRIDES, "bearings.de.axial_load_n": 0.0, "bearings.nde.axial_load_n": 0.0,
            "rotor.damping_model": "none", "rotor.elements_per_wavelength": 0.0}
-
-
-def replace_block(text, name, body):
-    pat = re.compile(rf"(<!-- BEGIN {name} -->\n)(.*?)(<!-- END {name} -->)", re.S)
-    if not pat.search(text):
-        raise SystemExit(f"docs/method.md has no block {name!r}")
-    return pat.sub(lambda m: m.group(1) + body.rstrip() + "\n" + m.group(3), text)
 
 
 def zeta_range(rotor, f_lo, f_hi, speed_hz=30.0):
@@ -228,8 +221,8 @@ def main() -> int:
     f = findings(case)
     p = paper_numbers(case)
     text = DOC.read_text()
-    text = replace_block(text, "findings", f)
-    text = replace_block(text, "paper", p)
+    text = replace_block(text, "findings", f, "docs/method.md")
+    text = replace_block(text, "paper", p, "docs/method.md")
     DOC.write_text(text)
     print(f)
     print()

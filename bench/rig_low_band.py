@@ -20,16 +20,16 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import find_peaks, welch
+from scipy.signal import find_peaks
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "bench"))
 
-from realdata.diagnostics import decimate, estimate_speed  # noqa: E402
+from docs_blocks import replace_block  # noqa: E402
+from realdata.diagnostics import decimate, estimate_speed, welch_psd  # noqa: E402
 from realdata.records import scan  # noqa: E402
 
 DOCS = ROOT / "docs" / "rigs.md"
-BEGIN, END = "<!-- BEGIN rig_low_band -->", "<!-- END rig_low_band -->"
 FS = 12000.0
 BAND_HZ = (100.0, 2000.0)
 #: Two lines whose orders differ by less than this are one order [multiples of the shaft speed]
@@ -40,9 +40,7 @@ def read(record) -> tuple[float, float, np.ndarray, np.ndarray]:
     """(shaft speed [Hz], share of 0-5.5 kHz power below 2 kHz, f [Hz], PSD [g^2/Hz]) of a record's DE channel."""
     ch = record.load()
     fr, _ = estimate_speed(ch, record.sample_rate_hz, record.speed_hz_nominal)
-    x = np.asarray(ch["DE"], dtype=float)
-    x = decimate(x, record.sample_rate_hz, FS) if record.sample_rate_hz != FS else x
-    f, p = welch(x - x.mean(), FS, nperseg=int(2 * FS))
+    f, p = welch_psd(decimate(ch["DE"], record.sample_rate_hz, FS), FS, resolution_hz=0.5)
     share = p[f < 2000.0].sum() / p[f < 5500.0].sum()
     return fr, float(share), f, p
 
@@ -114,9 +112,7 @@ def main(argv=None) -> int:
     text = table(rows, a.over_db)
     print(text)
     if not a.no_docs:
-        doc = DOCS.read_text()
-        i, j = doc.index(BEGIN) + len(BEGIN), doc.index(END)
-        DOCS.write_text(doc[:i] + "\n" + text + "\n" + doc[j:])
+        DOCS.write_text(replace_block(DOCS.read_text(), "rig_low_band", text, "docs/rigs.md"))
     return 0
 
 

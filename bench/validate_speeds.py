@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
 import sys
 import time
 from pathlib import Path
@@ -23,6 +22,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
+from docs_blocks import replace_block
 from tqdm import tqdm
 
 from bkabem_core.fe.machine import Machine
@@ -43,13 +43,6 @@ DIRS = ("vertical", "horizontal")
 
 def db(a, b):
     return 20.0 * np.log10(np.abs(a) / np.abs(b))
-
-
-def replace_block(text: str, name: str, body: str) -> str:
-    pat = re.compile(rf"(<!-- BEGIN {name} -->\n)(.*?)(<!-- END {name} -->)", re.S)
-    if not pat.search(text):
-        raise SystemExit(f"docs/validation.md has no block {name!r}")
-    return pat.sub(lambda m: m.group(1) + body.rstrip() + "\n" + m.group(3), text)
 
 
 # --------------------------------------------------------------------------- tables
@@ -239,17 +232,14 @@ def main(argv=None) -> int:
             plot_validation(r, str(IMG / f"validation_{f}hz.png"), quantity="acceleration")
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "validation.json").write_text(json.dumps([r.to_dict() for r in results]))
-    text = DOC.read_text()
-    text = replace_block(text, "targets", targets_table(errs, times))
-    text = replace_block(text, "summary", summary_table(errs))
-    text = replace_block(text, "scan", scan_table(errs))
-    text = replace_block(text, "timing", timing_table(results, times))
-    text = replace_block(text, "frequency", frequency_table(results))
-    text = replace_block(text, "dc", dc_table(results))
-    text = replace_block(text, "speed-30", detail_table(results[SPEEDS_RUN.index(30)]))
+    blocks = {"targets": targets_table(errs, times), "summary": summary_table(errs), "scan": scan_table(errs),
+              "timing": timing_table(results, times), "frequency": frequency_table(results),
+              "dc": dc_table(results), "speed-30": detail_table(results[SPEEDS_RUN.index(30)])}
     if not args.quick:
-        text = replace_block(text, "steps", step_study(case, plain.machine))
-        text = replace_block(text, "mesh", mesh_study(case))
+        blocks.update(steps=step_study(case, plain.machine), mesh=mesh_study(case))
+    text = DOC.read_text()
+    for name, body in blocks.items():
+        text = replace_block(text, name, body, "docs/validation.md")
     if not args.no_doc:
         DOC.write_text(text)
     print(targets_table(errs, times))
