@@ -217,3 +217,60 @@ def test_the_low_band_reader_finds_shaft_orders_and_tells_them_from_fixed_lines(
     assert "| 5.40x | 2 |" in text                 # an order in both records
     assert "| 360 | 2 | 6.00 |" in text             # the supply line, fixed in Hz across the two speeds
     assert "17.00x" not in text
+
+
+def _impact_train(rng, cv, fs=12000.0, seconds=10.0, f_fault=107.6, fr=29.93, modulation=0.0):
+    """Impacts at ``f_fault`` [Hz] ringing a 3 kHz, 3 % damped resonance, each with an energy of random spread
+    ``cv`` (lognormal, i.i.d.) times a periodic shaft-rate modulation of depth ``modulation``, over weak white
+    noise; also returns the number of impacts."""
+    n = int(seconds * f_fault)
+    times = np.arange(n) / f_fault
+    s2 = np.log1p(cv ** 2)                          # energy lognormal with that spread; the amplitude its root
+    energy = rng.lognormal(-s2 / 2.0, np.sqrt(s2), n) * (1.0 + modulation * np.cos(2 * np.pi * fr * times))
+    x = np.zeros(int(seconds * fs))
+    np.add.at(x, np.round(times * fs).astype(int), np.sqrt(energy))
+    th = np.arange(int(0.01 * fs)) / fs
+    wn, z = 2 * np.pi * 3000.0, 0.03
+    ring = np.exp(-z * wn * th) * np.sin(wn * np.sqrt(1 - z * z) * th)
+    return np.convolve(x, ring)[:x.size] + 1e-4 * rng.standard_normal(x.size), n
+
+
+def _textbook_line_over_floor_db(x, fs, f0):
+    """The fault line of the 2-4 kHz squared-envelope spectrum over the spectrum's median within 50 Hz of it
+    (outside +-2 Hz of the line's harmonics and of the shaft's orders: the local floor, where the impact's own
+    envelope spectrum is about as high as at the line), written here from the textbook: a FIR band-pass, the
+    analytic signal's squared magnitude, its DFT magnitude."""
+    from scipy.signal import firwin, hilbert
+
+    y = np.convolve(x, firwin(401, [2000.0, 4000.0], pass_zero=False, fs=fs), mode="same")
+    e = np.abs(hilbert(y)) ** 2
+    spec = np.abs(np.fft.rfft(e - e.mean()))
+    f = np.fft.rfftfreq(e.size, 1.0 / fs)
+    keep = np.abs(f - f0) < 50.0
+    for h in range(1, 5):
+        keep &= np.abs(f - h * f0) > 2.0
+    for k in range(1, 17):
+        keep &= np.abs(f - k * 29.93) > 2.0
+    line = spec[np.abs(f - f0) <= 0.5].max()
+    return 20.0 * np.log10(line / np.median(spec[keep]))
+
+
+@pytest.mark.parametrize("cv", [0.1, 0.5])
+def test_the_impacts_random_spread_is_read_through_a_periodic_modulation_and_bounds_the_envelope_line(cv):
+    """bench/impact_spread.py on impact trains of known random spread: the spread is read back within 20 % under
+    a deep shaft-rate modulation too (its lines in the passes' sequence are not randomness; it scales the random
+    part by sqrt(1 + depth^2 / 2)), and the squared-envelope line of an unmodulated train stands at the ceiling that
+    spread gives, within 2 dB."""
+    from impact_spread import ceiling_db, pass_energies, random_spread
+
+    fs, f0 = 12000.0, 107.6
+    rng = np.random.default_rng(11)
+    for depth in (0.0, 0.8):
+        x, n = _impact_train(rng, cv, modulation=depth)
+        energies, f = pass_energies(x, fs, f0 * 1.002)            # found from 0.2 % off, as on a record
+        assert abs(f - f0) < 1e-3 * f0 and n - 10 <= energies.size <= n   # the filter's ends cut ~7 passes
+        want = cv * np.sqrt(1.0 + depth ** 2 / 2.0)               # the modulation scales the random part too
+        assert abs(random_spread(energies) / want - 1.0) < 0.2, (depth, random_spread(energies), want)
+    x, n = _impact_train(rng, cv)
+    line = _textbook_line_over_floor_db(x, fs, f0)
+    assert abs(line - ceiling_db(n, cv)) <= 2.0, (line, ceiling_db(n, cv))
