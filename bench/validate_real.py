@@ -309,10 +309,12 @@ def differences(rows: list[dict], twin: str) -> list[str]:
     else:
         out.append(
             f"- Why, for today's twin: `{twin}` is the rig's machine and acquisition, calibrated once on the healthy "
-            "record (docs/rigs.md). What it does not have yet, each measured there: the race faults' line grows "
-            "with the pit's drop in the twin and not on the rig (the 7 mil records agree; the larger pits are "
-            "louder in the twin); the rig's content below 2 kHz is tones of its own sessions, which the twin's "
-            "housings (modes at 2.5-3 kHz) do not make; the rig's ball records carry a steady rise of the 2-4 kHz "
+            "record (docs/rigs.md). What it does not have yet, each measured there: the random strength of a "
+            "race fault's impacts, which grows with the pit on the rig and bounds its envelope line (the 7 mil "
+            "records agree; from 14 mil on the twin's impacts are ten times more alike from pass to pass, and its "
+            "line stands 20 dB higher: `bench/impact_spread.py`); the rig's content below 2 kHz, lines that come "
+            "back from record to record (a BPFI family of the drive-end bearing, 360 Hz, shaft orders), which the "
+            "twin's housings (modes at 2.5-3 kHz) do not carry; the rig's ball records carry a steady rise of the 2-4 kHz "
             "band, where the twin's ball pit strikes only in visits to the contact track; the FTF line of the "
             "race-fault records (a ball set that is not perfectly even) is not in the twin.")
     return out
