@@ -219,7 +219,7 @@ def test_the_low_band_reader_finds_shaft_orders_and_tells_them_from_fixed_lines(
     assert "17.00x" not in text
 
 
-def _impact_train(rng, cv, fs=12000.0, seconds=10.0, f_fault=107.6, fr=29.93, modulation=0.0):
+def _impact_train(rng, cv, fs=12000.0, seconds=5.0, f_fault=107.6, fr=29.93, modulation=0.0):
     """Impacts at ``f_fault`` [Hz] ringing a 3 kHz, 3 % damped resonance, each with an energy of random spread
     ``cv`` (lognormal, i.i.d.) times a periodic shaft-rate modulation of depth ``modulation``, over weak white
     noise; also returns the number of impacts."""
