@@ -248,6 +248,7 @@ def test_old_recordings_replay_to_todays_subscribers_and_echo(tmp_path):
     assert any(d["type"] == "BearingFaultFrequencies" and d["ground_truth"]["defects"] for d in lines)
 
 
+@pytest.mark.serial           # counts best-effort deliveries, which a test running beside it starves: run alone
 def test_committed_example_replays_and_echoes_as_text():
     from bkabem_msgs.msg import VibrationWaveform
 
@@ -267,8 +268,8 @@ def test_committed_example_replays_and_echoes_as_text():
         echo.kill()
         lis.close()
     got = lis.get(topic)
-    # 102 recorded; best effort as recorded (a loaded 2-core machine lost 30 of them at --rate 4): what arrives is
-    # the recording's, in order
+    # 102 recorded; best effort as recorded (a loaded 2-core machine lost 30 of them at --rate 4, and 45 at --rate 2
+    # beside the other tests of the tier): what arrives is the recording's, in order
     assert len(got) >= 60, len(got)
     recorded = [m.msg.first_sample_index for m in mcap_io.iter_messages(EXAMPLE)
                 if m.topic == "/vibration/de/acceleration"]
