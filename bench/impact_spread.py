@@ -73,8 +73,8 @@ def refine_frequency(e: np.ndarray, fs: float, f0: float) -> tuple[float, float]
 
 
 def pass_energies(x: np.ndarray, fs: float, f_fault_hz: float, band=BAND_HZ) -> tuple[np.ndarray, float]:
-    """Energy of the squared envelope of ``band`` [Hz] in each ball pass [g^2 samples], a window of one period
-    centred on the impacts, and the refined fault frequency [Hz]."""
+    """The energy of each ball pass (the squared envelope of ``band`` [Hz] of ``x`` [g] summed over a window of one
+    period centred on the impacts) [g^2 x samples], and the refined fault frequency [Hz]."""
     e = squared_envelope(x, fs, band[0], band[1])
     f, phase = refine_frequency(e, fs, f_fault_hz)
     period = fs / f
@@ -86,8 +86,8 @@ def pass_energies(x: np.ndarray, fs: float, f_fault_hz: float, band=BAND_HZ) -> 
 
 
 def random_spread(energies: np.ndarray) -> float:
-    """The pass-to-pass random spread of ``energies`` (module docstring): sqrt(median periodogram / ln 2), Hann-windowed, over
-    their mean [-]."""
+    """The pass-to-pass random spread of ``energies`` (module docstring) [-]: the square root of the median of
+    their Hann-windowed periodogram over ln 2, over their mean."""
     e = np.asarray(energies, dtype=float)
     w = np.hanning(e.size)                               # the strong periodic lines must not leak between them
     p = np.abs(np.fft.rfft((e - e.mean()) * w))[1:] ** 2 / np.sum(w ** 2)   # mean over frequencies: the variance
