@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import os
 import signal
-from collections.abc import Mapping
 
 import pytest
 
@@ -54,38 +53,15 @@ def four_dof_excitation(machine):
     return machine.excitation("de", method="four_dof")
 
 
-class _FaultLibrary(Mapping):
-    """kind -> the BkaBem model of ``motor_6010_<kind>``, each made on its first use (a worker that needs the outer
-    race alone does not pay for the ball's line set), from one model pool: they share one machine, each made like
-    the one before, as a scenario's model pool makes them (bkabem_core.scenario.models)."""
-
-    KINDS = ("healthy", "inner", "ball", "outer")
-
-    def __init__(self):
-        from bkabem_core.scenario.models import ModelPool
-
-        self._pool, self._models = ModelPool(), {}
-
-    def __getitem__(self, kind):
-        from bkabem_core.model.case import Case
-
-        if kind not in self.KINDS:
-            raise KeyError(kind)
-        if kind not in self._models:
-            self._models[kind] = self._pool.get(Case.load(f"motor_6010_{kind}"))
-        return self._models[kind]
-
-    def __iter__(self):
-        return iter(self.KINDS)
-
-    def __len__(self):
-        return len(self.KINDS)
-
-
 @pytest.fixture(scope="session")
 def fault_library():
-    """The fault library's models, one per kind (``motor_6010_<kind>``): kind -> BkaBem, made on first use."""
-    return _FaultLibrary()
+    """The fault library's models, one per kind (``motor_6010_<kind>``): kind -> BkaBem. They share one machine,
+    each made like the one before, as a scenario's model pool makes them (bkabem_core.scenario.models)."""
+    from bkabem_core.model.case import Case
+    from bkabem_core.scenario.models import ModelPool
+
+    pool = ModelPool()
+    return {k: pool.get(Case.load(f"motor_6010_{k}")) for k in ("healthy", "inner", "ball", "outer")}
 
 
 @pytest.fixture(scope="session")
@@ -107,8 +83,8 @@ def cli(monkeypatch, fault_library, capsys):
     from bkabem_ros.cli import core as core_cli
     from bkabem_ros.cli.main import main
 
-    monkeypatch.setattr(core_cli, "_model",
-                        lambda case, solver="modal": fault_library[case.name.removeprefix("motor_6010_")])
+    by_name = {f"motor_6010_{k}": m for k, m in fault_library.items()}
+    monkeypatch.setattr(core_cli, "_model", lambda case, solver="modal": by_name[case.name])
 
     def run(*argv):
         capsys.readouterr()
