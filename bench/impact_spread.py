@@ -132,10 +132,10 @@ def run(data_dir: Path, seeds: int) -> list[dict]:
 
 
 def table(rows: list[dict], seeds: int) -> str:
-    out = ["Each cell: measured / twin (`cwru_rig`, the mean over its seeds: "
-           f"{seeds}). Spread: the random part of the pass-to-pass energy of the 2-4 kHz impacts, over its mean; "
-           "ceiling:\nthe highest the fault line can stand over the SES floor with that spread; line: the fault "
-           "line's level (2-4 kHz SES,\nthe measure of docs/validation_real.md).", "",
+    out = [f"Each cell: measured / twin (`cwru_rig`, the mean over its seeds: {seeds}). Spread: the random part of "
+           "the pass-to-pass\nenergy of the 2-4 kHz impacts, over its mean; ceiling: the highest the fault line can "
+           "stand over the SES floor\nwith that spread; line: the fault line's level (2-4 kHz SES, the measure of "
+           "docs/validation_real.md).", "",
            "| record | passes | spread | ceiling [dB] | line [dB] | line - ceiling [dB] |", "|---|---|---|---|---|---|"]
     for r in rows:
         m, t = r["measured"], r["twin"]
