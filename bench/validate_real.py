@@ -314,8 +314,8 @@ def differences(rows: list[dict], twin: str) -> list[str]:
             "records agree; from 14 mil on the twin's impacts are ten times more alike from pass to pass, and its "
             "line stands 20 dB higher: `bench/impact_spread.py`); the rig's content below 2 kHz, lines that come "
             "back from record to record (a BPFI family of the drive-end bearing, 360 Hz, shaft orders), which the "
-            "twin's housings (modes at 2.5-3 kHz) do not carry; the rig's ball records carry a steady rise of the 2-4 kHz "
-            "band, where the twin's ball pit strikes only in visits to the contact track; the FTF line of the "
+            "twin's housings (modes at 2.5-3 kHz) do not carry; the rig's ball records carry a steady rise of the "
+            "2-4 kHz band, where the twin's ball pit strikes only in visits to the contact track; the FTF line of the "
             "race-fault records (a ball set that is not perfectly even) is not in the twin.")
     return out
 
