@@ -1,8 +1,10 @@
 """How much a race fault's impacts vary from one ball pass to the next, on the CWRU rig and in its twin, and the
 ceiling that spread puts on the fault line of a squared-envelope spectrum.
 
-    .venv/bin/python bench/impact_spread.py DATA_DIR              # writes the table between the markers of docs/rigs.md
-    .venv/bin/python bench/impact_spread.py DATA_DIR --no-docs    # prints it only
+    .venv/bin/python bench/impact_spread.py DATA_DIR              # the table into docs/rigs.md, the figure
+    .venv/bin/python bench/impact_spread.py DATA_DIR --no-docs    # prints the table only
+
+The figure: docs/img/impact_spread.png.
 
 DATA_DIR: the CWRU drive-end records as NumPy files (docs/validation_real.md says where they come from).
 
@@ -54,6 +56,7 @@ from realdata.diagnostics import decimate, envelope_analysis, estimate_speed, sq
 from realdata.records import EFFECTIVE_6205, RecordError, scan  # noqa: E402
 
 DOCS = ROOT / "docs" / "rigs.md"
+FIGURE = ROOT / "docs" / "img" / "impact_spread.png"
 FS = 12000.0
 BAND_HZ = (2000.0, 4000.0)
 #: Search range of the refined fault frequency [fraction of the nominal]; step [fraction]
@@ -150,11 +153,48 @@ def table(rows: list[dict], seeds: int) -> str:
     return "\n".join(out)
 
 
+def figure(rows: list[dict], path: Path) -> None:
+    """Two panels, one dot per record (measured: filled, twin: open; by kind): the fault line against the ceiling
+    its impacts' spread allows [dB], and the spread against the pit's size [mil]."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    colour = {"inner": "tab:red", "outer": "tab:blue"}
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.6))
+    levels = [r[w][k] for r in rows for w in ("measured", "twin") for k in ("ceiling_db", "line_db")]
+    lo, hi = min(levels) - 3.0, max(levels) + 3.0
+    a.plot([lo, hi], [lo, hi], color="0.5", lw=0.8, label="line = ceiling")
+    for r in rows:
+        c = colour[r["kind"]]
+        for w, face in (("measured", c), ("twin", "none")):
+            a.scatter(r[w]["ceiling_db"], r[w]["line_db"], s=28, edgecolors=c, facecolors=face)
+            b.scatter(r["size"] + (-0.6 if w == "measured" else 0.6), r[w]["spread"], s=28, edgecolors=c,
+                      facecolors=face)
+    for kind, c in colour.items():
+        for w, face in (("measured", c), ("twin", "none")):
+            a.scatter([], [], s=28, edgecolors=c, facecolors=face, label=f"{kind} race, {w}")
+    a.set_xlim(lo, hi)
+    a.set_ylim(lo, hi)
+    a.set_xlabel("ceiling from the impacts' spread [dB over the SES floor]")
+    a.set_ylabel("fault line, 2-4 kHz SES [dB over the floor]")
+    a.legend(fontsize=7)
+    b.set_yscale("log")
+    b.set_xticks(sorted({r["size"] for r in rows}))
+    b.set_xlabel("pit diameter [mil]")
+    b.set_ylabel("random spread of the pass energy [-]")
+    b.grid(True, which="both", color="0.9")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("data_dir", type=Path, help="folder of the CWRU records (.npz)")
     ap.add_argument("--seeds", type=int, default=2, help="twin renders per record (default 2)")
-    ap.add_argument("--no-docs", action="store_true", help="print the table, do not write docs/rigs.md")
+    ap.add_argument("--no-docs", action="store_true", help="print the table; write neither docs/rigs.md nor the figure")
     a = ap.parse_args(argv)
     if a.seeds < 1:
         print(f"impact_spread: --seeds: must be at least 1 (got {a.seeds})", file=sys.stderr)
@@ -171,6 +211,7 @@ def main(argv=None) -> int:
     print(text)
     if not a.no_docs:
         DOCS.write_text(replace_block(DOCS.read_text(), "impact_spread", text, "docs/rigs.md"))
+        figure(rows, FIGURE)
     return 0
 
 
