@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from docs_blocks import replace_block  # noqa: E402
 from realdata.diagnostics import decimate, estimate_speed, welch_psd  # noqa: E402
-from realdata.records import scan  # noqa: E402
+from realdata.records import RecordError, scan  # noqa: E402
 
 DOCS = ROOT / "docs" / "rigs.md"
 FS = 12000.0
@@ -100,7 +100,11 @@ def main(argv=None) -> int:
     ap.add_argument("--over-db", type=float, default=25.0, help="a line's least level over the band's median [dB]")
     ap.add_argument("--no-docs", action="store_true", help="print the table, do not write docs/rigs.md")
     a = ap.parse_args(argv)
-    records = [r for r in scan(a.data_dir) if r.fault_bearing in (None, "de")]
+    try:
+        records = [r for r in scan(a.data_dir) if r.fault_bearing in (None, "de")]
+    except RecordError as exc:                     # a missing folder, or one without records
+        print(f"rig_low_band: data_dir: {exc}", file=sys.stderr)
+        return 2
     if not records:
         print(f"rig_low_band: data_dir: no CWRU record in {a.data_dir}", file=sys.stderr)
         return 2

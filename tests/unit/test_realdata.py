@@ -274,3 +274,17 @@ def test_the_impacts_random_spread_is_read_through_a_periodic_modulation_and_bou
     x, n = _impact_train(rng, cv)
     line = _textbook_line_over_floor_db(x, fs, f0)
     assert abs(line - ceiling_db(n, cv)) <= 2.0, (line, ceiling_db(n, cv))
+
+
+@pytest.mark.parametrize("script", ["rig_low_band", "impact_spread"])
+def test_a_record_script_on_a_folder_without_records_says_so_in_one_line_and_exits_2(script, tmp_path, capsys):
+    """bench/rig_low_band.py and bench/impact_spread.py on a missing folder and on an empty one: exit 2, one line
+    naming the argument, nothing written to the docs."""
+    import importlib
+
+    main = importlib.import_module(script).main
+    for folder in (tmp_path / "missing", tmp_path):
+        capsys.readouterr()
+        assert main([str(folder), "--no-docs"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith(f"{script}: data_dir: "), err
