@@ -24,6 +24,6 @@ setup(
         kernel("_modalsum", ["py_modalsum.c", "modalsum.c"], ["-O3", "-std=c99", "-fvisibility=hidden"]),
         kernel("_synth", ["py_synth.c", "py_synth_lines.c", "synth_common.c", "synth_noise.c", "synth_block.c",
                           "synth_segment.c", "synth_slip.c", "synth_floor.c", "synth_rows.c", "synth_lines.c",
-                          "synth_knot.c"], libraries=["m"]),
+                          "synth_strike.c", "synth_knot.c"], libraries=["m"]),
     ],
 )

@@ -3,7 +3,7 @@ the buffer protocol), loaded by the modules that use them. What they do and why:
 
     _blocktri   -- batched block-tridiagonal complex solve (fe.solvers): blocktri.c, py_blocktri.c
     _modalsum   -- pole-residue sums of the modal form and its speed cells (fe.modal): modalsum.c, py_modalsum.c
-    _synth      -- the synthesiser's sample loops, line sets, noise, slip and floor (synth.kernel): synth_*.c,
+    _synth      -- the synthesiser's sample loops, line sets, noise, slip, floor, strikes (synth.kernel): synth_*.c,
                    py_synth.c, py_synth_lines.c
 """
 

@@ -12,7 +12,7 @@
 #include "synth_lines.h"
 
 #define KNOT_PLAN_ARRAYS 15
-#define SEG_PLAN_ARRAYS 9
+#define SEG_PLAN_ARRAYS 11
 
 typedef struct {
     Buf b[KNOT_PLAN_ARRAYS];
@@ -91,16 +91,16 @@ fail:
     return NULL;
 }
 
-PyDoc_STRVAR(lines_segment_plan_doc, "lines_segment_plan(lg, carrier, offset, wp, wq, consts, kappas, csrc, walks): see "
-                                     "render.FusedLines.segment_plan");
+PyDoc_STRVAR(lines_segment_plan_doc, "lines_segment_plan(lg, carrier, offset, wp, wq, consts, kappas, csrc, walks, "
+                                     "strike, strike_params): see render.FusedLines.segment_plan");
 
 static PyObject *py_lines_segment_plan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     (void)self;
     if (!nargs_ok("lines_segment_plan", nargs, SEG_PLAN_ARRAYS)) return NULL;
     static const char *names[SEG_PLAN_ARRAYS] = {"lg", "carrier", "offset", "wp", "wq", "consts", "kappas", "csrc",
-                                                 "walks"};
-    static const char kinds[SEG_PLAN_ARRAYS] = {'q', 'q', 'q', 'q', 'q', 'd', 'd', 'q', 'q'};
+                                                 "walks", "strike", "strike_params"};
+    static const char kinds[SEG_PLAN_ARRAYS] = {'q', 'q', 'q', 'q', 'q', 'd', 'd', 'q', 'q', 'q', 'd'};
     SegmentCapsule *c = calloc(1, sizeof(SegmentCapsule));
     if (c == NULL) return PyErr_NoMemory();
     for (int i = 0; i < SEG_PLAN_ARRAYS; ++i) {
@@ -109,16 +109,19 @@ static PyObject *py_lines_segment_plan(PyObject *self, PyObject *const *args, Py
     }
     LinesPlan *p = &c->p;
     p->lg = QP(c, 0), p->carrier = QP(c, 1), p->offset = QP(c, 2), p->wp = QP(c, 3), p->wq = QP(c, 4);
-    p->consts = DP(c, 5), p->kappas = DP(c, 6), p->csrc = QP(c, 7), p->walks = QP(c, 8);
+    p->consts = DP(c, 5), p->kappas = DP(c, 6), p->csrc = QP(c, 7), p->walks = QP(c, 8), p->strike = QP(c, 9);
     p->F = LEN(c, 0), p->K = LEN(c, 6), p->n_walks = 1;
     for (int64_t k = 0; k < LEN(c, 8) && k < p->K; ++k)
         if (p->walks[k] + 1 > p->n_walks) p->n_walks = p->walks[k] + 1;
     const char *why = NULL;
     if (LEN(c, 1) != p->F || LEN(c, 2) != p->F || LEN(c, 3) != p->F || LEN(c, 4) != p->F || LEN(c, 5) != 8 * p->F
-        || LEN(c, 7) != 2 * p->F || LEN(c, 8) != p->K)
-        why = "lengths: F families, 8 F constants, 2 F carrier sources, one walk per slip factor";
-    else
+        || LEN(c, 7) != 2 * p->F || LEN(c, 8) != p->K || LEN(c, 9) != p->F || LEN(c, 10) != 2)
+        why = "lengths: F families, 8 F constants, 2 F carrier sources, one walk per slip factor, F strike flags, "
+              "2 strike parameters";
+    else {
+        p->strike_sigma = DP(c, 10)[0], p->strike_offset = DP(c, 10)[1];
         why = lines_plan_check(p);
+    }
     if (why != NULL) {
         PyErr_Format(PyExc_ValueError, "plan: %s", why);
         goto fail;
@@ -191,12 +194,13 @@ done:
 }
 
 PyDoc_STRVAR(lines_render_doc, "lines_render(plan, m, j, fa, fb, xa, length, ua, fs, ta, tb, w, jw0, c1u, c2u, "
-                               "u_frac, warp, out, acc, off, dc, key, n0, sigma, extra): see render.FusedLines.segment");
+                               "u_frac, warp, out, acc, off, dc, key, n0, sigma, extra, strike_key): see "
+                               "render.FusedLines.segment");
 
 static PyObject *py_lines_render(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     (void)self;
-    if (!nargs_ok("lines_render", nargs, 25)) return NULL;
+    if (!nargs_ok("lines_render", nargs, 26)) return NULL;
     const SegmentCapsule *cap = PyCapsule_GetPointer(args[0], "bkabem.SegPlan");
     if (cap == NULL) return NULL;
     const LinesPlan *p = &cap->p;
@@ -209,6 +213,7 @@ static PyObject *py_lines_render(PyObject *self, PyObject *const *args, Py_ssize
     const double u_frac = PyFloat_AsDouble(args[15]);
     const uint64_t key = (uint64_t)PyLong_AsUnsignedLongLongMask(args[21]);
     const int64_t n0 = PyLong_AsLongLong(args[22]);
+    const uint64_t strike_key = (uint64_t)PyLong_AsUnsignedLongLongMask(args[25]);
     if (PyErr_Occurred()) return NULL;
     Buf bta = {0}, btb = {0}, bw = {0}, bwarp = {0}, bo = {0}, bacc = {0}, boff = {0}, bdc = {0}, bsig = {0};
     Buf bx = {0}, bfr = {0}, bwin = {0}, bgr = {0}, bsc = {0};
@@ -296,7 +301,7 @@ static PyObject *py_lines_render(PyObject *self, PyObject *const *args, Py_ssize
                       bw.held ? bw.v.buf : NULL, bw.held ? bw.v.shape[0] : 0, jw0, c1u, c2u, u_frac,
                       bwarp.held ? bwarp.v.buf : NULL, bdc.v.buf, bo.v.buf, bacc.held ? bacc.v.buf : NULL,
                       boff.held ? boff.v.buf : NULL, key, n0, bsig.held ? bsig.v.buf : NULL,
-                      bx.held ? bx.v.buf : NULL, has_floor ? &floor : NULL);
+                      bx.held ? bx.v.buf : NULL, has_floor ? &floor : NULL, strike_key);
     Py_END_ALLOW_THREADS
     if (rc) {
         PyErr_SetString(PyExc_ValueError, rc == -2 ? "lines_render: a phase increment beyond 2^63 units"

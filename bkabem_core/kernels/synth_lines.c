@@ -21,6 +21,7 @@
 #include "synth_floor.h"
 #include "synth_rows.h"
 #include "synth_slip.h"
+#include "synth_strike.h"
 
 /* One segment of a line set: m samples x C channels into out (written). Per family f (F of them): phases[f] =
  * {phase0, dphase0, ddphase} of the family phase and {...} of its carrier (uint64, the sample loop's fixed point),
@@ -42,7 +43,7 @@
                     v[c] = v[c] + sw[j] * (vb - v[c]);                                                              \
                 }                                                                                                   \
             }                                                                                                       \
-            float *o = blk + (int64_t)j * (CC);                                                                     \
+            float *o = dst + (int64_t)j * (CC);                                                                     \
             if (!car) {                                                                                             \
                 for (int c = 0; c < (CC); ++c) o[c] += v[c];                                                        \
                 continue;                                                                                           \
@@ -132,11 +133,13 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
                                     const int64_t *carrier, const int64_t *csrc, const int64_t *off_t, const float *ta,
                                     const float *tb, const int64_t *warp, const int64_t *wp, const int64_t *wq,
                                     const float *dc, double xi0, double blend_scale, float *out, double *acc,
-                                    const double *off, const NoiseArgs *na)
+                                    const double *off, const NoiseArgs *na, const int64_t *strike, int64_t sfam,
+                                    StrikeState *ss)
 {
     int32_t idx[BLOCK], frac[BLOCK];
-    float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK], CQ[BLOCK], SQ[BLOCK];
+    float W0[BLOCK], W1[BLOCK], W2[BLOCK], W3[BLOCK], sw[BLOCK], CQ[BLOCK], SQ[BLOCK], gain[BLOCK];
     float blk[BLOCK * LINES_MAX_C], flr[BLOCK * LINES_MAX_C];
+    float gblk[BLOCK * LINES_MAX_C];                     /* the struck families' sum, before their strikes' gain */
     uint64_t st[64][4];                                  /* per family: phase, increment of family and carrier */
     if (F > 64 || C > LINES_MAX_C || C < 1) return -1;
     for (int64_t f = 0; f < F; ++f) {
@@ -164,6 +167,11 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             for (int j = 0; j < nb; ++j)
                 for (int c = 0; c < C; ++c) blk[(int64_t)j * C + c] = dc[c];
         const int blend = tb != NULL;
+        if (ss != NULL) {                   /* the strikes' gain from the struck phase, before the families advance it */
+            strike_block(nb, st[sfam][0], st[sfam][1], phases[6 * sfam + 2],
+                         wp[sfam] >= 0 ? warp + wp[sfam] * m + k0 : NULL, ss, gain);
+            memset(gblk, 0, sizeof(float) * (size_t)(nb * C));
+        }
         for (int q = 0; q < n_groups; ++q) {                       /* the fast path: groups of one phase */
             const int nf = gstart[q + 1] - gstart[q], *mem = gmember + gstart[q];
             const int64_t f0 = mem[0];
@@ -199,7 +207,7 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             lines_group8_fma((int)C, nb, k0, &st[f0][0], &st[f0][1], phases[6 * f0 + 2],
                              wp[f0] >= 0 ? warp + wp[f0] * m + k0 : NULL, 62 - (int)lg[f0],
                              ((uint64_t)1 << lg[f0]) - 1, xi0, blend_scale, nf, A, blend ? Bt : NULL, NTg, carg, CQg,
-                             SQg, blk);
+                             SQg, ss != NULL && strike[f0] ? gblk : blk);
             for (int k = 1; k < nf; ++k) st[mem[k]][0] = st[f0][0], st[mem[k]][1] = st[f0][1];
         }
         if (blend && !fast) {
@@ -228,8 +236,20 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             }
             const int64_t NT = ((int64_t)1 << lg[f]) * C + 3 * C;        /* floats of one table */
             const float *A = ta + off_t[f], *B = blend ? tb + off_t[f] : NULL;
+            float *dst = ss != NULL && strike[f] ? gblk : blk;
             if (C == 8) LINES_ROWS(8);
             else LINES_ROWS(C);
+        }
+        if (ss != NULL) {                                        /* the struck families times their strikes' gain */
+            if (C == 8)
+                for (int j = 0; j < nb; ++j)
+                    for (int c = 0; c < 8; ++c) blk[8 * j + c] += gain[j] * gblk[8 * j + c];
+            else if (C == 4)
+                for (int j = 0; j < nb; ++j)
+                    for (int c = 0; c < 4; ++c) blk[4 * j + c] += gain[j] * gblk[4 * j + c];
+            else
+                for (int j = 0; j < nb; ++j)
+                    for (int64_t c = 0; c < C; ++c) blk[j * C + c] += gain[j] * gblk[j * C + c];
         }
         if (noise) {
             const float *extra = na->extra != NULL ? (const float *)na->extra + k0 * C : NULL;
@@ -255,10 +275,23 @@ static inline int round_i64(double v, int64_t *out)
     return 0;
 }
 
-const char *lines_plan_check(const LinesPlan *p)
+const char *lines_plan_check(LinesPlan *p)
 {
     if (p->F < 1 || p->F > LINES_MAX_F || p->K < 0 || p->K > 128)
         return "lengths: F <= 64 families, K <= 128 slip factors";
+    if (!(p->strike_sigma >= 0.0 && p->strike_sigma <= 10.0) || !(p->strike_offset >= 0.0 && p->strike_offset < 1.0))
+        return "strikes: sigma in 0 .. 10, offset in [0, 1) turns";
+    p->strike_family = -1;
+    for (int64_t f = 0; f < p->F; ++f) {
+        if (p->strike[f] == 0) continue;
+        const int64_t g = p->strike_family;
+        if (g < 0) {
+            p->strike_family = f;
+            continue;
+        }
+        if (p->wp[f] != p->wp[g] || memcmp(p->consts + 8 * f, p->consts + 8 * g, 4 * sizeof(double)) != 0)
+            return "strikes: the struck families must share one phase (its constants and slip row)";
+    }
     for (int64_t f = 0; f < p->F; ++f)
         if (p->lg[f] < 6 || p->lg[f] > 16 || p->offset[f] < 0 || p->wp[f] < -1 || p->wp[f] >= p->K
             || p->wq[f] < -1 || p->wq[f] >= p->K)
@@ -284,7 +317,7 @@ int lines_render(const LinesPlan *p, int64_t m, int64_t C, int64_t j, double fa,
                  int64_t length, double ua, double fs, const float *ta, const float *tb, const double *w, int64_t nw,
                  int64_t jw0, double c1u, double c2u, double u_frac, int64_t *warp, const float *dc, float *out,
                  double *acc, const double *off, uint64_t key, int64_t n0, const float *sigma, const float *extra,
-                 const FloorSource *fl)
+                 const FloorSource *fl, uint64_t strike_key)
 {
     if (m < 0 || length < 1 || C < 1 || C > LINES_MAX_C || (acc != NULL && off == NULL)) return -1;
     const int slip = w != NULL;
@@ -319,10 +352,11 @@ int lines_render(const LinesPlan *p, int64_t m, int64_t C, int64_t j, double fa,
             o[1] = (uint64_t)d0 + (uint64_t)j * (uint64_t)dd;
             o[2] = (uint64_t)dd;
         }
+    int64_t nwk = 0;
     if (slip) {                          /* the slip rows read, in runs of at most 8 of one walk */
         char need[128];
         if (nw % p->n_walks) return -1;
-        const int64_t nwk = nw / p->n_walks;
+        nwk = nw / p->n_walks;
         lines_rows_needed(p->F, C, ph, p->lg, p->carrier, p->csrc, p->wp, p->wq, p->K, need);
         for (int64_t i = 0, e; i < p->K; i = e) {
             if (!need[i]) {
@@ -335,6 +369,31 @@ int lines_render(const LinesPlan *p, int64_t m, int64_t C, int64_t j, double fa,
                 return -3;
         }
     }
+    /* the strike passed at sample j: the struck phase's integer turns less the offset, from its double value (the
+     * knot's ball passes, the advance since, the slip walk) made to agree with the loop's fixed point, whose
+     * fraction decides where a turn ends */
+    StrikeState strikes, *ss = NULL;
+    const int64_t g = p->strike_family;
+    if (g >= 0 && p->strike_sigma > 0.0 && m > 0) {
+        const double *k = p->consts + 8 * g;
+        const double c1 = (k[2] * fa + k[1]) / fs, c2 = k[3] * dfa / fsl, jd = (double)j;
+        double x = k[0] * ua + k[1] * xs + (c1 + c2 * jd) * jd - p->strike_offset;
+        uint64_t psi = ph[6 * g];
+        if (p->wp[g] >= 0) {
+            double walk;
+            if (synth_slip_value(jd, c1u, c2u, u_frac, w + p->walks[p->wp[g]] * nwk, nwk, jw0, &walk)) return -3;
+            x += p->kappas[p->wp[g]] * walk;
+            psi += (uint64_t)warp[p->wp[g] * m];
+        }
+        const uint64_t off_fixed = (uint64_t)llround(p->strike_offset * 4611686018427387904.0);
+        psi -= off_fixed;
+        const double f0 = (double)(psi & ((UINT64_C(1) << 62) - 1)) * 0x1.0p-62;
+        if (!(fabs(x) < 4.0e15)) return -2;
+        const double sg = p->strike_sigma;
+        strikes = (StrikeState){strike_key, off_fixed, sg, 2.0 * (1.0 - exp(-0.25 * sg * sg)), llround(x - f0),
+                                (int)(psi >> 62), INT64_MIN, 1.0, 1.0};
+        ss = &strikes;
+    }
     NoiseArgs na = {key, n0, sigma, NULL, extra, NULL, NULL, NULL, 0, 0, 0, NULL};
     if (fl != NULL) {
         na.frames = fl->frames, na.win = fl->win, na.grains = fl->grains, na.n_grains = fl->n_grains;
@@ -343,5 +402,5 @@ int lines_render(const LinesPlan *p, int64_t m, int64_t C, int64_t j, double fa,
     const int noisy = sigma != NULL || extra != NULL || fl != NULL;
     return lines_segment_f32(m, C, p->F, ph, p->lg, p->carrier, p->csrc, p->offset, ta, tb, slip ? warp : NULL,
                              p->wp, p->wq, dc, (double)j, 65536.0 / (double)length, out, acc, off,
-                             noisy ? &na : NULL);
+                             noisy ? &na : NULL, p->strike, g, ss);
 }

@@ -124,3 +124,17 @@ int synth_slip_warp(int64_t m, double j0, double c1, double c2, double u_frac, c
     double a[4] = {0, 0, 0, 0};
     return warp_scalar_range(0, m, j0, c1, c2, u_frac, w, nw, jw0, kappa, (int)K, m, out, &k, a);
 }
+
+int synth_slip_value(double xi, double c1, double c2, double u_frac, const double *w, int64_t nw, int64_t jw0,
+                     double *out)
+{
+    const double u = (c2 * xi + c1) * xi + u_frac;
+    if (nw < 4 || !(u >= 0.0 && u < 9.0e15)) return -1;
+    const int64_t k = warp_interval(u, jw0, nw);
+    if (k < 0) return -1;
+    double a[4];
+    warp_coefficients(w, k, a);
+    const double t = u - (double)(k + jw0);
+    *out = ((a[3] * t + a[2]) * t + a[1]) * t + a[0];
+    return 0;
+}

@@ -13,4 +13,9 @@
 int synth_slip_warp(int64_t m, double j0, double c1, double c2, double u_frac, const double *w, int64_t nw,
                     int64_t jw0, const double *kappa, int64_t K, int64_t *out);
 
+/* The walk W itself (the spline of synth_slip_warp, in passes) at xi samples after the knot, into *out. Returns 0, or
+ * -1 if xi falls outside w. */
+int synth_slip_value(double xi, double c1, double c2, double u_frac, const double *w, int64_t nw, int64_t jw0,
+                     double *out);
+
 #endif

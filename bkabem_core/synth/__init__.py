@@ -17,13 +17,14 @@
     SensorChain      -- the sensors between the machine and the samples
     Measurement      -- a case's [measurement] section: the rig's acquisition as defaults (module ``measurement``)
     BallTrack        -- a ball defect's wandering pit and spin slip (module ``balltrack``)
+    StrikeSpread     -- a race pit's strikes of random strength (module ``strikes``)
 """
 
 from bkabem_core._face import lazy_face
 
 __all__ = ["Synthesizer", "Settings", "Plan", "WarmModel", "Chunk", "waveform_features", "SpeedProfile",
            "parse_profile", "SynthError", "Accelerometer", "AntiAliasFilter", "HighPassFilter", "InterferenceTones",
-           "Quantiser", "SensorChain", "Measurement", "BallTrack"]
+           "Quantiser", "SensorChain", "Measurement", "BallTrack", "StrikeSpread"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Synthesizer": "synthesizer",
@@ -43,4 +44,5 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "SensorChain": "sensors",
     "Measurement": "measurement",
     "BallTrack": "balltrack",
+    "StrikeSpread": "strikes",
 })

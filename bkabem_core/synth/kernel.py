@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import math
 
 import numpy as np
 
@@ -344,6 +345,24 @@ def slip_warp_reference(m: int, j0: int, c1: float, c2: float, u_frac: float, w:
         wp = kappa * ww
         out[q] = np.rint((wp - np.rint(wp)) * 2.0 ** 52).astype(np.int64) << 10
     return out
+
+
+def slip_value_reference(xi: float, c1: float, c2: float, u_frac: float, w: np.ndarray, jw0: int) -> float:
+    """The walk W itself [passes] at ``xi`` samples after the knot: the Hermite cubic of :func:`slip_warp_reference`
+    at one sample (``kernels/synth_slip.c``, ``synth_slip_value``; the line kernel places a race pit's strikes with
+    it, :mod:`bkabem_core.synth.strikes`)."""
+    u = (c2 * xi + c1) * xi + u_frac
+    fl = math.floor(u)
+    k = int(fl) - int(jw0)
+    if k < 1 or k + 2 >= len(w):
+        raise ValueError(f"the walk's values do not cover pass {u!r}")
+    t = u - fl
+    w0, w1 = float(w[k]), float(w[k + 1])
+    m0, m1 = 0.5 * (float(w[k + 1]) - float(w[k - 1])), 0.5 * (float(w[k + 2]) - w0)
+    d = w1 - w0
+    a2 = ((3.0 * d) - (2.0 * m0)) - m1
+    a3 = ((-2.0 * d) + m0) + m1
+    return ((a3 * t + a2) * t + m0) * t + w0
 
 
 def carrier_mix(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:

@@ -49,6 +49,7 @@ from bkabem_core.synth.lines import LineSelection
 from bkabem_core.synth.profile import SynthError
 from bkabem_core.synth.randomness import SensorNoise
 from bkabem_core.synth.render import Amplitudes, FusedLines, LoopLines
+from bkabem_core.synth.strikes import StrikeSpread, strike_key
 
 #: line amplitudes kept per plan (the speeds of the last knots: a held or repeated speed costs nothing)
 AMPLITUDE_MEMO = 8
@@ -76,6 +77,8 @@ class Plan:
         self.lines = LineSelection(model, settings.max_order, settings.table_size)
         #: a ball defect's track wander and spin slip (None: no ball defect, or neither)
         self.track = BallTrack.of_model(model, self.lines.coefficients)
+        #: a race pit's random strike strength (None: no race pit with a spread, or no line on its strike phase)
+        self.strikes = StrikeSpread.of_model(model, self.lines) if settings.strikes else None
         self._gate_families = self._gate_slices = None
         self.spectrum = LineSpectrum(model, self.channels.combination, method)
         self.dc = self.channels.static_part(model)
@@ -103,12 +106,12 @@ class Plan:
         if (settings.kernel == "auto" and synth_kernel.LINES_AVAILABLE and settings.dtype == np.float32
                 and c <= FUSED_MAX_CHANNELS and fams <= FUSED_MAX_FAMILIES):
             lines = FusedLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.slip > 0, spin,
-                               column)
+                               column, self.strikes)
             return lines, synth_kernel.accumulate
         compiled = synth_kernel.AVAILABLE and settings.kernel != "reference"
         segment = synth_kernel.segment if compiled else synth_kernel.segment_reference
         lines = LoopLines(self.lines, self.channels, self.dc, settings.sample_rate_hz, settings.dtype, segment, spin,
-                          column)
+                          column, self.strikes)
         return lines, synth_kernel.accumulate if compiled else synth_kernel.accumulate_reference
 
     def _seeded(self, settings) -> None:
@@ -119,6 +122,8 @@ class Plan:
             self.floor = self.floor.reseeded(settings.seed)
         #: the acquisition's output stage bound to the channels and the seed (empty: none)
         self.output = settings.output.bind(settings.channels, settings.sample_rate_hz, settings.seed)
+        #: the key of the run's strike stream (a race pit's random strike strength)
+        self.strike_key = strike_key(settings.seed)
         gt = self.case.ground_truth()
         gt.update({
             "fault_multipliers": self.lines.multipliers["de"].to_dict(),          # the DE bearing's
@@ -132,6 +137,7 @@ class Plan:
             **settings.output.metadata(),
             "broadband_force_n_per_sqrt_hz": self.floor_density,
             **({"ball_track": self.track.to_dict()} if self.track is not None else {}),
+            **({"strikes": self.strikes.to_dict()} if self.strikes is not None else {}),
             "line_coefficients": self.lines.coefficients.tolist(),
             "line_bearings": self.model.phases.line_bearings(self.lines.coefficients),
             "line_multipliers": self.lines.nu.tolist(),

@@ -29,6 +29,7 @@ import numpy as np
 from bkabem_core.solve.harmonic import TWO_PI
 from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth.lines import carrier_sums
+from bkabem_core.synth.strikes import strike_gains_reference
 
 PASS = float(synth_kernel.PASS_UNITS)
 _MASK64 = (1 << 64) - 1
@@ -129,12 +130,15 @@ class FusedLines:
         whose spin is in column ``spin_column`` read the walk of that bearing's cage and spin slip together (0: none).
     spin_column : int
         The column of the defective ball's spin phase in the machine's phases (2: the DE's, 4: the NDE's).
+    strikes : StrikeSpread or None
+        A race pit's random strike strength (:mod:`bkabem_core.synth.strikes`): its families are multiplied by the
+        strikes' gain in the segment call (None, or a spread of 0: none).
     """
 
     renders_floor = True
 
     def __init__(self, selection, channels, dc, sample_rate_hz: float, slip: bool, spin_slip: float = 0.0,
-                 spin_column: int = 2):
+                 spin_column: int = 2, strikes=None):
         fams = selection.families
         c = len(channels)
         layout = fams.layout(c)
@@ -184,19 +188,27 @@ class FusedLines:
         self.walks = tuple(self.walk_sources.index(r[1]) for r in rows)
         self.csrc = carrier_sums(ff)
         self._layout, self._consts = layout, consts
-        self._segment_plan = self.segment_plan(layout, consts, self.kappas, self.wp, self.wq, self.csrc, self.walks)
+        on = strikes is not None and strikes.on
+        self.strike = np.asarray(strikes.families if on else np.zeros(len(ff), bool), dtype=np.int64)
+        self.strike_params = np.array([strikes.sigma, strikes.offset_turns] if on else [0.0, 0.0])
+        self._segment_plan = self.segment_plan(layout, consts, self.kappas, self.wp, self.wq, self.csrc, self.walks,
+                                               self.strike, self.strike_params)
         self._warp: dict = {}
 
     @staticmethod
-    def segment_plan(layout: dict, consts: np.ndarray, kappas, wp, wq, csrc, walks=None):
+    def segment_plan(layout: dict, consts: np.ndarray, kappas, wp, wq, csrc, walks=None, strike=None,
+                     strike_params=(0.0, 0.0)):
         """The segment kernel's plan (checked in C): the families' ``layout``, per phase (each family's, then its
         carrier's) ``consts`` (rate / BPFO, fixed, rate, rate / 2), the distinct slip rows' factors ``kappas`` and
-        walks ``walks`` (indices into :attr:`walk_sources`; None: the first walk for every one), each family's slip rows ``wp``, ``wq`` (-1: none)
-        and carrier sums ``csrc`` (F, 2)."""
+        walks ``walks`` (indices into :attr:`walk_sources`; None: the first walk for every one), each family's slip
+        rows ``wp``, ``wq`` (-1: none), carrier sums ``csrc`` (F, 2), the struck families ``strike`` (F,) (None:
+        none) and the strikes' (log-standard deviation, offset [turns]) ``strike_params``."""
         walks = np.zeros(len(kappas), dtype=np.int64) if walks is None else walks
+        strike = np.zeros(len(layout["lg"]), dtype=np.int64) if strike is None else strike
         return synth_kernel.lines_segment_plan(
             _i64(layout["lg"]), _i64(layout["carrier"]), _i64(layout["offset"]), _i64(wp), _i64(wq),
-            _f64(consts).reshape(-1), _f64(np.asarray(kappas, dtype=float)), _i64(csrc).reshape(-1), _i64(walks))
+            _f64(consts).reshape(-1), _f64(np.asarray(kappas, dtype=float)), _i64(csrc).reshape(-1), _i64(walks),
+            _i64(strike), _f64(strike_params))
 
     def family_tables(self) -> list:
         """Per family the slice of its table(s) in a knot's buffer (floats)."""
@@ -216,11 +228,12 @@ class FusedLines:
                                 self._work)
         return y, v_iso, table
 
-    def segment(self, a, b, lo: int, hi: int, out: np.ndarray, acc, off, walk, noise) -> bool:
+    def segment(self, a, b, lo: int, hi: int, out: np.ndarray, acc, off, walk, noise, strike_key: int = 0) -> bool:
         """Samples [lo, hi) of the segment between knots a and b (of these lines) into ``out`` (hi - lo, C)
         float32, with the static part, and ``noise`` (None or ``(key, n0, sigma, extra)``: ``extra`` None, an
         (m, C) block, or the broadband floor's :meth:`~bkabem_core.synth.floor.BroadbandFloor.source`) and the
-        features (``acc`` about ``off``) in the same pass: returns True (they are done)."""
+        features (``acc`` about ``off``) in the same pass, the struck families times the gain of the strikes of
+        stream ``strike_key`` (:func:`~bkabem_core.synth.strikes.strike_key`): returns True (they are done)."""
         m, j = hi - lo, lo - a.x
         length = b.x - a.x
         w = jw0 = None
@@ -240,7 +253,7 @@ class FusedLines:
         tb = None if b.amp is a.amp else b.amp.tables
         synth_kernel.lines_render(self._segment_plan, m, j, a.f, b.f, a.x, length, a.u_int + a.u_frac,
                                   self.sample_rate_hz, a.amp.tables, tb, w, jw0, c1u, c2u, a.u_frac, warp, out, acc,
-                                  off, self.dc, int(key) & _MASK64, int(n0), sigma, extra)
+                                  off, self.dc, int(key) & _MASK64, int(n0), sigma, extra, int(strike_key) & _MASK64)
         return True
 
 
@@ -256,15 +269,16 @@ class LoopLines:
     dtype : numpy dtype of the samples
     segment_fn : callable
         :func:`~bkabem_core.synth.kernel.segment` or its numpy reference.
-    spin_slip, spin_column : float, int
+    spin_slip, spin_column, strikes : float, int, StrikeSpread or None
         As :class:`FusedLines`.
     """
 
     renders_floor = False
 
     def __init__(self, selection, channels, dc, sample_rate_hz: float, dtype, segment_fn, spin_slip: float = 0.0,
-                 spin_column: int = 2):
+                 spin_column: int = 2, strikes=None):
         self.families = selection.families
+        self.strikes = strikes if strikes is not None and strikes.on else None
         self.spin_slip = float(spin_slip)
         self.spin_column = int(spin_column)
         self.nu, self.mu = selection.nu, selection.mu
@@ -298,11 +312,12 @@ class LoopLines:
         v_iso[:, :4], v_iso[:, 4:] = v.real, v.imag
         return y, v_iso, self.families.tables(y, self.dtype)
 
-    def segment(self, a, b, lo: int, hi: int, out: np.ndarray, acc, off, walk, noise) -> bool:
+    def segment(self, a, b, lo: int, hi: int, out: np.ndarray, acc, off, walk, noise, strike_key: int = 0) -> bool:
         """Samples [lo, hi) of the segment a-b into ``out`` with the static part: every family's table(s) through
         the sample loop at the family's own phase; a carrier's cosine and sine through the same loop from a
-        two-column table, mixed in (:func:`~bkabem_core.synth.kernel.carrier_mix`). Returns False: the noise and
-        the features are the caller's."""
+        two-column table, mixed in (:func:`~bkabem_core.synth.kernel.carrier_mix`); the struck families summed
+        apart and added times the strikes' gain (:func:`~bkabem_core.synth.strikes.strike_gains_reference`).
+        Returns False: the noise and the features are the caller's."""
         m = hi - lo
         length = b.x - a.x
         fs, bpfo = self.sample_rate_hz, self.bpfo_per_hz
@@ -333,18 +348,45 @@ class LoopLines:
                 del self._scratch[next(iter(self._scratch))]
         same = b.amp is a.amp
         blend = 65536.0 / length
+        struck = None if self.strikes is None or m == 0 else np.zeros_like(out)
+        gain = None
         for fi, fam in enumerate(self.families.families):
             phase0, dphase0, dd = phase_args(fam.rate_p, fam.fixed_p, a, b, j, fs, bpfo)
             warp = warp_of(fam.kappa_p, fam.p, fam.bearing_p)
+            dest = out
+            if struck is not None and self.strikes.families[fi]:
+                dest = struck
+                if gain is None:
+                    gain = self._strike_gain(fam, a, b, j, m, walk, warp, (phase0, dphase0, dd), strike_key)
             ta, tb = a.amp.tables[fi], (None if same else b.amp.tables[fi])
             for ti in range(len(ta)):
                 self._segment_fn(phase0, dphase0, dd, warp, ta[ti], None if tb is None else tb[ti], float(j), blend,
                                  scratch[ti], None, None)
             if not fam.carrier:
-                out += scratch[0]
+                dest += scratch[0]
                 continue
             q0, dq0, ddq = phase_args(fam.rate_q, fam.fixed_q, a, b, j, fs, bpfo)
-            self._segment_fn(q0, dq0, ddq, warp_of(fam.kappa_q, fam.q, fam.bearing_q), self._carrier_table, None, float(j), blend,
-                             scratch[2], None, None)
-            synth_kernel.carrier_mix(scratch[2], scratch[0], scratch[1], out)
+            self._segment_fn(q0, dq0, ddq, warp_of(fam.kappa_q, fam.q, fam.bearing_q), self._carrier_table, None,
+                             float(j), blend, scratch[2], None, None)
+            synth_kernel.carrier_mix(scratch[2], scratch[0], scratch[1], dest)
+        if gain is not None:
+            out += struck * gain[:, None].astype(out.dtype)
         return False
+
+    def _strike_gain(self, fam, a, b, j: int, m: int, walk, warp, phase: tuple, strike_key: int) -> np.ndarray:
+        """The strikes' gain of the m samples from sample j of segment a-b (float64) on family ``fam``'s phase
+        (``phase``: the sample loop's (phase0, dphase0, ddphase); ``warp``: its slip offsets or None)."""
+        fs, bpfo = self.sample_rate_hz, self.bpfo_per_hz
+        length = b.x - a.x
+        c1 = (fam.rate_p * a.f + fam.fixed_p) / fs
+        c2 = 0.5 * fam.rate_p * (b.f - a.f) / (fs * length)
+        first = (fam.rate_p / bpfo) * (a.u_int + a.u_frac) + fam.fixed_p * (a.x / fs) + (c1 + c2 * j) * j
+        u = synth_kernel.phases_reference(*phase, m)
+        if warp is not None:
+            u = u + warp.view(np.uint64)
+            c1u = bpfo / fs * a.f
+            c2u = 0.5 * bpfo / fs * (b.f - a.f) / length
+            w, jw0 = walk.bearing(fam.bearing_p).window(a.u_int, j, m, c1u, c2u, a.u_frac)
+            first += fam.kappa_p * synth_kernel.slip_value_reference(float(j), c1u, c2u, a.u_frac, w, jw0)
+        s = self.strikes
+        return strike_gains_reference(u, first, s.offset_turns, strike_key, s.sigma)

@@ -56,6 +56,8 @@ class Settings:
     taper_band : tuple
         :data:`TAPER_BAND`, or :data:`GUARD_TAPER_BAND` behind a steep anti-alias filter.
     broadband_floor : bool
+    strikes : bool
+        A race pit's strikes of random strength (:mod:`bkabem_core.synth.strikes`); False: all alike.
     noise_density : tuple of (quantity, density) or None
     snr_db : float or None
     kernel : {"auto", "loop", "reference"}
@@ -80,6 +82,7 @@ class Settings:
     output: OutputStage
     taper_band: tuple
     broadband_floor: bool
+    strikes: bool
     noise_density: tuple | None
     snr_db: float | None
     kernel: str
@@ -92,7 +95,8 @@ class Settings:
              table_size: int | None = None, accelerometer: Accelerometer | None = None,
              anti_alias: AntiAliasFilter | None = None, sensors=(), broadband_floor: bool = True,
              kernel: str = "auto", high_pass: HighPassFilter | None = None,
-             tones: InterferenceTones | None = None, quantisation: Quantiser | None = None) -> "Settings":
+             tones: InterferenceTones | None = None, quantisation: Quantiser | None = None,
+             strikes: bool = True) -> "Settings":
         """Checked settings from the synthesiser's keyword arguments (``seed=None``: a random seed)."""
         fs = _finite("sample_rate_hz", sample_rate_hz, 0.0, strict=True)
         if fs > MAX_SAMPLE_RATE_HZ:
@@ -145,13 +149,15 @@ class Settings:
             chain = SensorChain(tuple(chain) + tuple(sensors))
         except ValueError as e:
             raise SynthError("sensors", str(e).split(": ", 1)[-1]) from None
+        if not isinstance(strikes, (bool, np.bool_)):
+            raise SynthError("strikes", f"must be true or false (got {strikes!r})")
         if kernel not in KERNELS:
             raise SynthError("kernel", f"must be one of {', '.join(KERNELS)} (got {kernel!r})")
         base = cls(sample_rate_hz=fs, chunk_samples=n_chunk, channels=channels, band_limit=band_limit,
                    spectrum=spectrum, max_speed_step_hz=step, min_speed_hz=min_speed, slip=slip, seed=0,
                    dtype=np.dtype(dtype).type, max_order=max_order, table_size=table_size, sensors=chain,
                    output=OutputStage(tuple(stages)), taper_band=taper_band, broadband_floor=bool(broadband_floor),
-                   noise_density=None, snr_db=None, kernel=kernel)
+                   strikes=bool(strikes), noise_density=None, snr_db=None, kernel=kernel)
         return base.with_seed(seed).with_noise(noise_density, snr_db)
 
     def with_seed(self, seed: int | None) -> "Settings":

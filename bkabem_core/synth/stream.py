@@ -237,14 +237,14 @@ class Stream:
         return f, a.u_int + int(fl), tot - fl, a, b, xi / (b.x - a.x)
 
 
-def _segment_swap(a, b, lo: int, hi: int, out: np.ndarray, walk) -> None:
+def _segment_swap(a, b, lo: int, hi: int, out: np.ndarray, walk, strike_key: int) -> None:
     """A segment across a model switch (two line sets: knot a's and knot b's): each knot's lines rendered on their
     own at the common phases, blended linearly in time as the tables of one model are (the 2^-16 steps of the
     sample loop): phase continuous, the amplitudes move from one model to the other over the segment."""
     other = np.empty_like(out)
     for side, dest in ((a, out), (b, other)):
         side.amp.lines.segment(replace(a, amp=side.amp), replace(b, amp=side.amp), lo, hi, dest, None, None, walk,
-                               None)
+                               None, strike_key)
     xi = np.arange(lo - a.x, hi - a.x, dtype=np.float64) * (65536.0 / (b.x - a.x))
     w = (np.clip(np.floor(xi), 0.0, 65536.0) / 65536.0).astype(out.dtype)
     other -= out
@@ -294,8 +294,8 @@ def _render_samples(plan, stream, n0: int, n: int, acc) -> np.ndarray:
             else:
                 args = args + (None if floor is None else _floor_faded(floor[lo - n0:hi - n0], a, b, lo),)
         if a.amp.lines is not b.amp.lines:
-            _segment_swap(a, b, lo, hi, dest, walk)            # a model switch between line sets
-        elif a.amp.lines.segment(a, b, lo, hi, dest, seg_acc, off, walk, args):
+            _segment_swap(a, b, lo, hi, dest, walk, plan.strike_key)   # a model switch between line sets
+        elif a.amp.lines.segment(a, b, lo, hi, dest, seg_acc, off, walk, args, plan.strike_key):
             continue                                            # noise and features in the same pass
         if args is not None:                                    # the families' sum first, then one pass
             synth_kernel.noise_add(dest, args[0], lo, args[2], off, seg_acc, args[3])

@@ -81,7 +81,7 @@ class Synthesizer:
         Standard deviation of the ball-pass inter-arrival as a fraction of its nominal value (0 = off; real
         bearings 0.01-0.02). Must be in [0, 0.1]. Default: the case's ``[measurement] slip``, else 0.
     seed : int or None
-        Seed of slip, noise and floor (None: a random seed, reported in the ground truth).
+        Seed of slip, noise, floor and strikes (None: a random seed, reported in the ground truth).
     max_order : int or None
         Synthesise model orders up to this one (None: every order the model keeps).
     band_limit : {"auto", "taper", "error"}
@@ -122,26 +122,26 @@ class Synthesizer:
         Take what the arguments above leave at ``"case"`` (their default) from the case's ``[measurement]``
         section (:mod:`bkabem_core.synth.measurement`; default True); False: none of it, an ideal acquisition.
     sensors : sequence
-        Further sensors of the chain (:mod:`bkabem_core.synth.sensors`), after the anti-alias filter and the
-        accelerometer.
+        Further sensors of the chain (:mod:`bkabem_core.synth.sensors`), after the anti-alias filter and sensor.
     broadband_floor : bool
         Add the case's broadband floor (``baseline.broadband_force_n_per_sqrt_hz``: random force pairs across the
         bearings through the machine's receptance, :mod:`bkabem_core.synth.floor`) when the case sets one (default
-        True); made with the plan (at construction and at a model switch; the transfer is shared by the models of one
-        machine).
+        True); made with the plan (the transfer is shared by the models of one machine).
     kernel : {"auto", "loop", "reference"}
         Which sample kernels (:class:`~bkabem_core.synth.settings.Settings`); the samples agree to float32 rounding.
+    strikes : bool
+        A race pit's strikes of random strength (:mod:`bkabem_core.synth.strikes`; default True); False: all alike.
     """
 
     def __init__(self, model: BkaBem, sample_rate_hz: float | None = None, chunk_s: float = 0.1, *,
                  quantities=DEFAULT_QUANTITIES, noise_density: dict | None | str = FROM_CASE,
-                 snr_db: float | None = None, slip: float | str = FROM_CASE,
-                 seed: int | None = 0, max_order: int | None = None, band_limit: str = "auto",
-                 spectrum: str = "auto", knot_s: float = 0.1, max_speed_step_hz: float = 0.5,
-                 min_speed_hz: float = 0.05, initial_speed_hz: float | None = None, dtype=np.float32,
-                 features: bool = True, table_size: int | None = None, accelerometer=FROM_CASE,
+                 snr_db: float | None = None, slip: float | str = FROM_CASE, seed: int | None = 0,
+                 max_order: int | None = None, band_limit: str = "auto", spectrum: str = "auto", knot_s: float = 0.1,
+                 max_speed_step_hz: float = 0.5, min_speed_hz: float = 0.05, initial_speed_hz: float | None = None,
+                 dtype=np.float32, features: bool = True, table_size: int | None = None, accelerometer=FROM_CASE,
                  anti_alias=FROM_CASE, sensors=(), broadband_floor: bool = True, kernel: str = "auto",
-                 high_pass=FROM_CASE, tones=FROM_CASE, quantisation=FROM_CASE, measurement: bool = True):
+                 high_pass=FROM_CASE, tones=FROM_CASE, quantisation=FROM_CASE, measurement: bool = True,
+                 strikes: bool = True):
         if not isinstance(model, BkaBem):
             raise SynthError("model", f"must be a BkaBem (got {type(model).__name__})")
         #: the case's measurement chain (empty with ``measurement=False``)
@@ -163,11 +163,11 @@ class Synthesizer:
             band_limit = "taper" if int(model.case.raw["excitation"].get("max_order", 0)) == 0 else "error"
         self.settings = Settings.make(
             sample_rate_hz, chunk_s, quantities=quantities, noise_density=noise_density, snr_db=snr_db,
-            slip=0.0 if case_slip is None and slip == FROM_CASE else case_slip,
-            seed=seed, max_order=max_order, band_limit=band_limit, spectrum=spectrum,
-            max_speed_step_hz=max_speed_step_hz, min_speed_hz=min_speed_hz, dtype=dtype, table_size=table_size,
-            accelerometer=accelerometer, anti_alias=anti_alias, sensors=sensors, broadband_floor=broadband_floor,
-            kernel=kernel, high_pass=high_pass, tones=tones, quantisation=quantisation)
+            slip=0.0 if case_slip is None and slip == FROM_CASE else case_slip, seed=seed, max_order=max_order,
+            band_limit=band_limit, spectrum=spectrum, max_speed_step_hz=max_speed_step_hz, min_speed_hz=min_speed_hz,
+            dtype=dtype, table_size=table_size, accelerometer=accelerometer, anti_alias=anti_alias, sensors=sensors,
+            broadband_floor=broadband_floor, kernel=kernel, high_pass=high_pass, tones=tones,
+            quantisation=quantisation, strikes=strikes)
         self.knot_s = _finite("knot_s", knot_s, 0.0, strict=True)
         #: Most knots one speed step (one streamed chunk) may add; a real-time caller (the ROS node) lowers it so a
         #: jump of any size costs a bounded time (coarser amplitude interpolation through the jump, exact phase).

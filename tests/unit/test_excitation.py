@@ -28,7 +28,9 @@ def test_quasi_static_path_is_the_equilibrium_at_every_cage_angle(machine, excit
         # unknowns in um, residual in N (scaled for the root finder)
         sol = root(lambda e: np.array(b.forces_n(e[0] * 1e-6, e[1] * 1e-6, theta, e_z_m=e_z)) - w,
                    site.state.displacement_m[:2] * 1e6, method="hybr", tol=1e-14)
-        assert sol.success
+        # the root finder's own residual, not its flag: at this tolerance MINPACK may stop with "not making good
+        # progress" (numpy / scipy versions differ in the last bits) while standing on the root
+        assert np.max(np.abs(sol.fun)) < 1e-6, sol.message
         got = excitation.relative_displacement_m[::-1, j]                   # (horizontal, vertical)
         np.testing.assert_allclose(got, sol.x * 1e-6, rtol=0, atol=2e-11)
         f = np.array(b.forces_n(got[0], got[1], theta, e_z_m=e_z))

@@ -145,12 +145,15 @@ def test_identity_with_the_outer_race_results_of_main():
     ref = np.load(REF)
     m = BkaBem(Case.load())
     assert np.array_equal(m.orders, ref["orders"]) and m.is_order_set
-    assert np.array_equal(m.excitations["de"].complex_amplitude_m(), ref["de_amp"])
-    assert np.array_equal(m.excitations["nde"].complex_amplitude_m(), ref["nde_amp"])
+    # the same excitation to the Newton tolerance of its path (1e-15 m, excitation.path): numpy's sums and linear
+    # algebra differ from release to release in the last bits, and the iteration stops at another point within it
+    for b in ("de", "nde"):
+        np.testing.assert_allclose(m.excitations[b].complex_amplitude_m(), ref[f"{b}_amp"], rtol=0, atol=1e-15)
     x = m.response(ref["speeds"])
     scale = np.abs(ref["response"]).max(axis=1, keepdims=True)
     assert np.max(np.abs(x - ref["response"]) / scale) < 1e-9
-    assert np.allclose(m.dc_m, ref["dc"], rtol=1e-13, atol=0)
+    # components that are zero by symmetry: to the static equilibrium's tolerance (1e-9 of the load: ~1e-14 m)
+    assert np.allclose(m.dc_m, ref["dc"], rtol=1e-13, atol=1e-14)
 
 
 @pytest.fixture(scope="module")
@@ -278,7 +281,8 @@ def test_any_line_set_synthesis_is_the_line_spectrum(models):
     ten largest lines is the synthesiser's own line amplitude, and a chunk border anywhere gives the same
     samples (to float32 rounding: the families' phases are recomputed in double at every knot)."""
     m = models["inner"]
-    s = Synthesizer(m, sample_rate_hz=FS, chunk_s=0.5, quantities=("acceleration",), features=False)
+    # every strike alike (the line spectrum's lines as they are; random strike strengths: tests/unit/test_strikes.py)
+    s = Synthesizer(m, sample_rate_hz=FS, chunk_s=0.5, quantities=("acceleration",), features=False, strikes=False)
     speed = 24.0
     x = np.concatenate([s.next_chunk(speed).channel("de_vertical_acceleration") for _ in range(8)]).astype(float)
     ls = s.line_spectrum(speed)
@@ -289,7 +293,8 @@ def test_any_line_set_synthesis_is_the_line_spectrum(models):
     for j in np.argsort(a)[::-1][:10]:
         b = int(round(ls["frequency_hz"][j] * x.size / FS))
         assert spec[b - 2:b + 3].max() == pytest.approx(a[j], rel=0.01)
-    s2 = Synthesizer(m, sample_rate_hz=FS, chunk_s=0.5, quantities=("acceleration",), features=False)
+    s2 = Synthesizer(m, sample_rate_hz=FS, chunk_s=0.5, quantities=("acceleration",), features=False,
+                     strikes=False)
     y = np.concatenate([s2.next_chunk(speed, n).channel("de_vertical_acceleration")
                         for n in (7000, 25600 - 7000, 25600 * 7)])
     assert np.max(np.abs(x - y)) <= 1e-6 * np.abs(x).max()

@@ -36,7 +36,8 @@ import numpy as np
 from bkabem_core.bearing.defects import round_pit
 from bkabem_core.bearing.defects.profiles import TWO_PI, ContactGeometry, wrap_to_pi
 
-__all__ = ["DefectKey", "DefectKind", "RaceDefect", "TorusGrid", "torus_axes"]
+__all__ = ["DEFAULT_STRIKE_SPREAD", "MAX_STRIKE_SPREAD", "DefectKey", "DefectKind", "RaceDefect", "TorusGrid",
+           "torus_axes"]
 
 
 @dataclass(frozen=True)
@@ -283,9 +284,37 @@ class DefectKind(ABC):
         return self.part_name(fields or {}) or self.name
 
 
+#: Default of a race pit's ``strike_spread`` [-]: its argument is in :mod:`bkabem_core.synth.strikes`.
+DEFAULT_STRIKE_SPREAD = 1.0
+#: Largest ``strike_spread`` a case may give (a relative spread of the strikes' energy of 5 for a ball that loses all
+#: its load: beyond any measured pit; the lognormal's tail would then be a handful of strikes).
+MAX_STRIKE_SPREAD = 5.0
+
+
 class RaceDefect(DefectKind):
     """A pit in a race, at an angle of the bearing plane that the kind places (fixed, or turning with the shaft):
-    a ball is in one pit of a race at a time, so the drops of several pits of the kind take the deeper one."""
+    a ball is in one pit of a race at a time, so the drops of several pits of the kind take the deeper one.
+
+    Its own key ``strike_spread`` describes how the balls meet the pit, not the pit, and is read by the synthesiser
+    (:mod:`bkabem_core.synth.strikes`), not by the quasi-static model (whose strikes are all alike): the random
+    spread of the strikes' energy from ball to ball, per unit of the share of its load a ball loses in the pit.
+    """
+
+    own_keys = (DefectKey("strike_spread", "float", 0.0, DEFAULT_STRIKE_SPREAD,
+                          "random spread of the pit's strikes from ball to ball: the relative standard deviation of a "
+                          "strike's energy per unit of the share of its load a ball loses in the pit (0: every strike "
+                          "alike, the quasi-static model); bkabem_core.synth.strikes", required=False),)
+
+    def check_own_key(self, key: str, value, bearing: dict) -> str | None:
+        if key == "strike_spread":
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
+                    0.0 <= value <= MAX_STRIKE_SPREAD):
+                return f"must be a number from 0 (every strike alike) to {MAX_STRIKE_SPREAD:g} (got {value!r})"
+        return None
+
+    def dent_fields(self, table: dict) -> dict:
+        """The strikes' spread (``own``: carried to the ground truth and read by the synthesiser)."""
+        return {"own": (("strike_spread", float(table.get("strike_spread", DEFAULT_STRIKE_SPREAD))),)}
 
     @abstractmethod
     def centre_rad(self, angle_rad: float, shaft_angle_rad):
