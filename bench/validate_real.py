@@ -309,14 +309,16 @@ def differences(rows: list[dict], twin: str) -> list[str]:
     else:
         out.append(
             f"- Why, for today's twin: `{twin}` is the rig's machine and acquisition, calibrated once on the healthy "
-            "record (docs/rigs.md). What it does not have yet, each measured there: the random strength of a "
-            "race fault's impacts, which grows with the pit on the rig and bounds its envelope line (the 7 mil "
-            "records agree; from 14 mil on the twin's impacts are ten times more alike from pass to pass, and its "
-            "line stands 20 dB higher: `bench/impact_spread.py`); the rig's content below 2 kHz, lines that come "
-            "back from record to record (a BPFI family of the drive-end bearing, 360 Hz, shaft orders), which the "
-            "twin's housings (modes at 2.5-3 kHz) do not carry; the rig's ball records carry a steady rise of the "
-            "2-4 kHz band, where the twin's ball pit strikes only in visits to the contact track; the FTF line of the "
-            "race-fault records (a ball set that is not perfectly even) is not in the twin.")
+            "record (docs/rigs.md); a race pit's strikes vary in strength as much as the share of its load a ball "
+            "loses over the pit, which is what the rig's records show and what bounds their envelope lines "
+            "(`bench/impact_spread.py`). What it does not have yet, each measured there: the rig's content below 2 "
+            "kHz, lines that come back from record to record (a BPFI family of the drive-end bearing, 360 Hz, shaft "
+            "orders), which the twin's housings (modes at 2.5-3 kHz) do not carry; the race records' RMS, which does "
+            "not grow with the pit on the rig as the twin's does with its pit's drop; the rig's ball records carry a "
+            "steady rise of the 2-4 kHz band, where the twin's ball pit strikes only in visits to the contact track; "
+            "the FTF line of the race-fault records (a ball set that is not perfectly even) is not in the twin; and "
+            "the character of single pits (the 28 mil inner-race and 14 mil outer-race records hide their fault, the "
+            "7 mil outer race strikes harder).")
     return out
 
 
