@@ -1,9 +1,12 @@
-"""Shared fixtures: the embedded case, its BKA-BEM model and the fault library are built once per test session;
-``cli`` runs a core command in this process on the library's models, ``figures`` keeps the figures it draws."""
+"""Shared fixtures: the embedded case, its BKA-BEM model and the fault library are built once per test session
+(the fault library once per run: xdist's workers share one); ``cli`` runs a core command in this process on the
+library's models, ``figures`` keeps the figures it draws."""
 
 from __future__ import annotations
 
+import fcntl
 import os
+import pickle
 import signal
 
 import pytest
@@ -53,15 +56,52 @@ def four_dof_excitation(machine):
     return machine.excitation("de", method="four_dof")
 
 
-@pytest.fixture(scope="session")
-def fault_library():
-    """The fault library's models, one per kind (``motor_6010_<kind>``): kind -> BkaBem. They share one machine,
-    each made like the one before, as a scenario's model pool makes them (bkabem_core.scenario.models)."""
+#: The fault library of an xdist run, pickled once for all its workers (in the run's shared temporary folder)
+FAULT_LIBRARY_PICKLE = "fault_library.pickle"
+
+
+def _make_fault_library() -> dict:
+    """The fault library's models, all of them at once and always in this order (a model made like the one before
+    depends on which one that was)."""
     from bkabem_core.model.case import Case
     from bkabem_core.scenario.models import ModelPool
 
     pool = ModelPool()
     return {k: pool.get(Case.load(f"motor_6010_{k}")) for k in ("healthy", "inner", "ball", "outer")}
+
+
+@pytest.fixture(scope="session")
+def fault_library(tmp_path_factory):
+    """The fault library's models, one per kind (``motor_6010_<kind>``): kind -> BkaBem. They share one machine,
+    each made like the one before, as a scenario's model pool makes them (bkabem_core.scenario.models).
+
+    Under xdist the first worker to ask makes the library and pickles it into the run's shared temporary folder;
+    the others wait on a lock (asleep: the maker's line-mode threads get the cores) and unpickle it. Every worker,
+    the maker too, uses the unpickled copy: the same models, bit for bit, whichever worker made them and whatever
+    it ran before (the pickle is the one the model helper process sends, bkabem_core.scenario.models)."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        return _make_fault_library()
+    shared = tmp_path_factory.getbasetemp().parent
+    path = shared / FAULT_LIBRARY_PICKLE
+    with open(shared / (FAULT_LIBRARY_PICKLE + ".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            if not path.exists():
+                part = path.with_name(path.name + f".{os.getpid()}")
+                part.write_bytes(pickle.dumps(_make_fault_library(), protocol=pickle.HIGHEST_PROTOCOL))
+                os.replace(part, path)
+            return pickle.loads(path.read_bytes())
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def pytest_sessionfinish(session):
+    """The controller of an xdist run removes the fault library's pickle (hundreds of MB) once its workers are
+    done (a worker cannot know whether another one still has to read it)."""
+    config = session.config
+    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
+        return
+    (config._tmp_path_factory.getbasetemp() / FAULT_LIBRARY_PICKLE).unlink(missing_ok=True)
 
 
 @pytest.fixture(scope="session")
