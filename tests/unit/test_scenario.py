@@ -174,6 +174,14 @@ def _render(model, n_chunks, speeds, pool_model_changes=None, **kw):
     return out
 
 
+def _stream(model, speeds, **kw):
+    """The chunks of ``model`` rendered alone, one by one as :func:`_render` renders them (chunk j at
+    ``speeds[j + 1]``, from ``speeds[0]``)."""
+    synth = Synthesizer(model, sample_rate_hz=FS, chunk_s=CHUNK, initial_speed_hz=speeds[0], **kw)
+    for j in range(len(speeds) - 1):
+        yield np.array(synth.next_chunk(speeds[j + 1]).samples, dtype=np.float64)
+
+
 def _continuity(sc, chunks, truths, pool, opts, speeds, exact_blend: bool) -> set:
     """Check every change of state in a rendered run against the old and the new machine rendered alone; returns
     the kinds of change seen (defects before, after)."""
@@ -181,12 +189,23 @@ def _continuity(sc, chunks, truths, pool, opts, speeds, exact_blend: bool) -> se
     assert len(changes) >= 5
     w = np.floor(np.arange(N) * (65536.0 / N)) / 65536.0
     kinds = set()
+    # each state's machine alone is one stream, carried on as far as the changes need it: a state is the new
+    # machine of one change and the old one of the next, and the first k chunks of a stream are the same however
+    # many follow (the chunks _render(model, k + 2) gives, without rendering them again for every change)
+    alone: dict[int, tuple] = {}
+
+    def render_alone(index: int, n: int) -> list:
+        if index not in alone:
+            alone[index] = (_stream(pool.get(sc.states[index].case), speeds, **opts), [])
+        stream, out = alone[index]
+        while len(out) < n:
+            out.append(next(stream))
+        return out
+
     for k in changes:
-        old = pool.get(sc.states[truths[k - 1]["state_index"]].case)
-        new = pool.get(sc.states[truths[k]["state_index"]].case)
         kinds.add((len(truths[k - 1]["defects"]), len(truths[k]["defects"])))
-        c = _render(old, k + 2, speeds, **opts)            # the old machine all along
-        b = _render(new, k + 2, speeds, **opts)            # the new machine all along
+        c = render_alone(truths[k - 1]["state_index"], k + 2)   # the old machine all along
+        b = render_alone(truths[k]["state_index"], k + 2)       # the new machine all along
         for ch in range(chunks[k].shape[0]):
             amp = np.abs(b[k][ch]).max() + np.abs(c[k][ch]).max() + 1e-30
             # before the change the old stream, one chunk after it the new one: same phase (no jump), same slip
