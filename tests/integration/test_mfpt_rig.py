@@ -57,7 +57,10 @@ def test_every_documented_load_reads_as_its_fault(kind):
         mult = {k: row[f"{k}_per_hz"] for k in ("bpfo", "bpfi", "bsf", "ftf")}
         res = envelope_analysis(x, fs, (2000.0, 8000.0), 25.0, mult)
         assert res["verdict"] == kind, (lbf, res["verdict"], res["levels"])
-        assert res["levels"][line] > 20.0, (lbf, res["levels"])
+        # with a margin over the verdict's 10 dB: the strikes' random strength bounds a 1-s record's line near
+        # 10 log10(N / c^2) + 1.6 dB over its floor (N = 119 strikes of the inner race: 22 dB for a pit that unloads
+        # its balls, c = 1; docs/synthesis.md), and the line stands a few dB under that bound
+        assert res["levels"][line] > 13.0, (lbf, res["levels"])
         rms.append(float(np.std(x)))
     # the heavier the load, the harder the balls strike the pit: the level rises with the load
     assert rms[-1] > rms[0], rms

@@ -83,8 +83,20 @@ def test_synth_npz_is_the_library(kind, fault_library, classic_ball, tmp_path):
         big = np.argsort(np.abs(sp.acceleration[:, 1, DIRECTIONS.index("vertical")]))[-20:]
         assert _lines_of(np.asarray(x, float), FS, sp.frequency_hz[big]).sum() < 0.8 * _lines_of(
             np.asarray(xp, float), FS, sp.frequency_hz[big]).sum()
-    else:
+    elif kind == "healthy":
         _compare_lines(x, FS, model.spectrum(SPEED_HZ), 1, "vertical", f"{kind} npz")
+    else:
+        # a race pit's strikes vary in strength (synth/strikes.py): the library with every strike alike is the
+        # quasi-static model's lines; with its strikes the file keeps their power, part of it off the lines
+        alike = Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, seed=0, strikes=False)
+        xa = np.concatenate([c.samples for c in alike.render(f"constant:{SPEED_HZ}", SECONDS)], axis=1)[
+            names.index("de_vertical_acceleration")]
+        sp = model.spectrum(SPEED_HZ)
+        _compare_lines(xa, FS, sp, 1, "vertical", f"{kind} (strikes alike) npz")
+        xf, xaf = np.asarray(x, float), np.asarray(xa, float)
+        assert np.std(xf) == pytest.approx(np.std(xaf), rel=0.1)
+        big = np.argsort(np.abs(sp.acceleration[:, 1, DIRECTIONS.index("vertical")]))[-20:]
+        assert _lines_of(xf, FS, sp.frequency_hz[big]).sum() < _lines_of(xaf, FS, sp.frequency_hz[big]).sum()
     # every array's axes are named; the ISO velocity's labels are in the file too
     assert meta["axes"]["iso10816_velocity_rms_mm_s"][1:] == [["bearing", ["de", "nde"]],
                                                             ["direction", ["vertical", "horizontal", "overall"]]]
@@ -117,8 +129,9 @@ def dataset(tmp_path_factory):
     spec = tmp / "spec.toml"
     spec.write_text(f'[dataset]\nname = "kinds"\nschema_version = 1\nsampling = "grid"\n\n[run]\n'
                     f'duration_s = {SECONDS}\nsample_rate_hz = {FS}\nspeed_hz = {SPEED_HZ}\n'
-                    # the ball's pit on the track: the quasi-static model's lines (its wander: test_balltrack.py)
-                    f'wander_revolutions = 0.0\nspin_slip = 0.0\n\n'
+                    # the ball's pit on the track and every strike of a race pit alike: the quasi-static model's
+                    # lines (the wander: test_balltrack.py; the strikes: test_strikes.py)
+                    f'wander_revolutions = 0.0\nspin_slip = 0.0\nstrike_spread = 0.0\n\n'
                     f'[grid]\nfault = {list(KINDS)!r}\n\n[output]\nmcap = true\n'.replace("'", '"'))
     s = DatasetSpec.load(spec)
     render_dataset(s, tmp / "out", workers=1, sinks=(SINK,), log=lambda line: None)
