@@ -161,7 +161,7 @@ def _write_alone(kept: dict, path: Path, compression: str) -> float:
 def _case(run):
     from bkabem_core.model.case import Case
 
-    return Case(name=run.case_raw["case"]["name"], source="bench", raw=run.case_raw)
+    return Case.of_valid(run.case_raw, "bench")
 
 
 def main(argv=None) -> int:

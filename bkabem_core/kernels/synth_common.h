@@ -42,6 +42,7 @@ typedef double v2d __attribute__((vector_size(16)));
 typedef int64_t v2l __attribute__((vector_size(16)));
 typedef float v2f32 __attribute__((vector_size(8)));
 typedef float v4f32 __attribute__((vector_size(16)));
+typedef float v8f32 __attribute__((vector_size(32)));
 typedef double v2f64 __attribute__((vector_size(16)));
 typedef double v4f64 __attribute__((vector_size(32)));
 

@@ -241,12 +241,24 @@ static CLONES int lines_segment_f32(int64_t m, int64_t C, int64_t F, const uint6
             else LINES_ROWS(C);
         }
         if (ss != NULL) {                                        /* the struck families times their strikes' gain */
-            if (C == 8)
-                for (int j = 0; j < nb; ++j)
-                    for (int c = 0; c < 8; ++c) blk[8 * j + c] += gain[j] * gblk[8 * j + c];
+            if (C == 8)                                 /* a sample's row a vector, its gain broadcast */
+                for (int j = 0; j < nb; ++j) {
+                    v8f32 o, v;
+                    const float g = gain[j];
+                    memcpy(&o, blk + 8 * j, sizeof o);
+                    memcpy(&v, gblk + 8 * j, sizeof v);
+                    o += (v8f32){g, g, g, g, g, g, g, g} * v;
+                    memcpy(blk + 8 * j, &o, sizeof o);
+                }
             else if (C == 4)
-                for (int j = 0; j < nb; ++j)
-                    for (int c = 0; c < 4; ++c) blk[4 * j + c] += gain[j] * gblk[4 * j + c];
+                for (int j = 0; j < nb; ++j) {
+                    v4f32 o, v;
+                    const float g = gain[j];
+                    memcpy(&o, blk + 4 * j, sizeof o);
+                    memcpy(&v, gblk + 4 * j, sizeof v);
+                    o += (v4f32){g, g, g, g} * v;
+                    memcpy(blk + 4 * j, &o, sizeof o);
+                }
             else
                 for (int j = 0; j < nb; ++j)
                     for (int64_t c = 0; c < C; ++c) blk[j * C + c] += gain[j] * gblk[j * C + c];

@@ -40,40 +40,38 @@ static inline float rsqrt_one_minus(float z)
     return y;
 }
 
-void strike_block(int nb, uint64_t u, uint64_t d, uint64_t dd, const int64_t *warp, StrikeState *s, float *gain)
+/* The strikes' gain over samples j0 .. j1 - 1 that lie between strikes n and n + 1 (one run of the struck phase's
+ * turn): the blend of the two strikes' gains, a and b = g_{n+1} - g_n, and its normalisation (vectorised). */
+static inline void strike_run(int j0, int j1, const int32_t *frac, float a, float b, float mix, float *gain)
+{
+    for (int j = j0; j < j1; ++j) {
+        const float x = (float)frac[j] * 0x1p-24f;
+        gain[j] = (a + b * x) * rsqrt_one_minus(mix * x * (1.0f - x));
+    }
+}
+
+CLONES void strike_block(int nb, uint64_t u, uint64_t d, uint64_t dd, const int64_t *warp, StrikeState *s,
+                         float *gain)
 {
     int32_t turn[BLOCK], frac[BLOCK];
-    float a[BLOCK], b[BLOCK];
     uint64_t pu = u - s->offset, pd = d;          /* the struck phase less the offset: turns from the strikes */
     if (warp != NULL) phase_block(1, nb, &pu, &pd, dd, warp, 62, 3, turn, frac);
     else phase_block(0, nb, &pu, &pd, dd, NULL, 62, 3, turn, frac);
+    const float mix = (float)s->mix;
     int64_t n = s->n;
     int last = s->turn;
-    for (int j = 0; j < nb; ++j) {                /* the strike of each sample: a few per block */
+    for (int j = 0, e; j < nb; j = e) {           /* runs of one turn: a strike or two per block */
+        for (e = j + 1; e < nb && turn[e] == turn[j]; ++e) {}
         const int step = (turn[j] - last) & 3;   /* turns passed since the last sample: 0, 1 (or -1: 3) */
         last = turn[j];
-        if (step != 0) {
-            n += step == 3 ? -1 : step;
-            if (n == s->cached + 1) {
-                s->g0 = s->g1;
-            } else {
-                s->g0 = strike_gain(s->key, n, s->sigma);
-            }
-            s->g1 = strike_gain(s->key, n + 1, s->sigma);
-            s->cached = n;
-        } else if (n != s->cached) {              /* the segment's first strike */
-            s->g0 = strike_gain(s->key, n, s->sigma);
+        n += step == 3 ? -1 : step;
+        if (n != s->cached) {
+            s->g0 = n == s->cached + 1 ? s->g1 : strike_gain(s->key, n, s->sigma);
             s->g1 = strike_gain(s->key, n + 1, s->sigma);
             s->cached = n;
         }
-        a[j] = (float)s->g0;
-        b[j] = (float)(s->g1 - s->g0);
+        strike_run(j, e, frac, (float)s->g0, (float)(s->g1 - s->g0), mix, gain);
     }
     s->n = n;
     s->turn = last;
-    const float mix = (float)s->mix;
-    for (int j = 0; j < nb; ++j) {
-        const float x = (float)frac[j] * 0x1p-24f;
-        gain[j] = (a[j] + b[j] * x) * rsqrt_one_minus(mix * x * (1.0f - x));
-    }
 }
