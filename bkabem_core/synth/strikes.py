@@ -68,7 +68,7 @@ _MASK64 = (1 << 64) - 1
 _FRAC62 = (1 << 62) - 1
 #: The strike stream's word in the seed sequence of a run (next to the noise's and the slip walks')
 _TAG = 0x5781CE
-#: Points per turn on which the struck lines' quasi-static pulse is searched for its centre
+#: Points per turn (at least) on which the struck lines' quasi-static pulse is searched for its centre
 _OFFSET_GRID = 2048
 
 
@@ -231,12 +231,14 @@ def _pulse_centre(model, selection, fams: np.ndarray, bearing: str) -> float:
     lines = model.lines
     amp = np.asarray(lines.amplitude)[selection.keep]
     cols = [i for i, name in enumerate(lines.inputs) if name.split(".")[0] == bearing]
-    phi = np.arange(_OFFSET_GRID) / _OFFSET_GRID
-    energy = np.zeros(_OFFSET_GRID)
-    for i in np.flatnonzero(fams):
-        f = selection.families.families[i]
+    members = [selection.families.families[i] for i in np.flatnonzero(fams)]
+    top = max(int(np.max(np.abs(f.k))) for f in members)
+    n = max(_OFFSET_GRID, 1 << (4 * top).bit_length())         # no harmonic folds over on the grid
+    energy = np.zeros(n)
+    for f in members:
         y = amp[f.lines][:, cols]
         y = np.where(f.sign[:, None] < 0, np.conj(y), y)
-        g = np.exp(2j * np.pi * np.outer(phi, f.k)) @ y
-        energy += np.sum(np.abs(g) ** 2, axis=1)
-    return float(phi[int(np.argmax(energy))])
+        spec = np.zeros((n, len(cols)), complex)                 # sum_k y_k e^(i 2 pi k phi) on the grid: an FFT
+        np.add.at(spec, np.asarray(f.k) % n, y)
+        energy += np.sum(np.abs(np.fft.ifft(spec, axis=0)) ** 2, axis=1)
+    return int(np.argmax(energy)) / n
