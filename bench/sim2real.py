@@ -7,7 +7,8 @@
    ball, outer race at 3, 6 and 12 o'clock), CWRU's pit sizes (0.007-0.028 in; 0.021 in at most for the outer
    race, as CWRU has them), its four loads (0-3 hp at 1797, 1772, 1750, 1730 rpm), slip 1 % and 2 % (a rig twin:
    ``rig_slips``: the rig case's measured jitter and three times it), ``--seeds``
-   seeds each (the healthy machine more often, so that each class has about as many runs), 12 kHz, ``--segment-s``
+   seeds each (the healthy machine more often, so that each class has about as many runs; a rig twin's race pits
+   alternate over them between the ends of :data:`PIT_SPREADS`), 12 kHz, ``--segment-s``
    seconds; each run is the twin of its condition as ``bench/realdata/twin.py`` (``twin_run``) maps it. The runs
    are grouped into grid specs (written beside the data set, ``DIR/specs/``).
 2. Textbook features of the DE channel (``bench/realdata/classify.py``: envelope line levels at each fault
@@ -77,6 +78,10 @@ RPM_OF_LOAD = {hp: rpm for rpm, hp in LOAD_HP_OF_RPM.items()}
 SIZES = {"inner": (7, 14, 21, 28), "ball": (7, 14, 21, 28), "outer": (7, 14, 21)}
 POSITIONS = (3, 6, 12)
 SLIPS = (0.01, 0.02)
+#: A race pit's strike spread over the replicates of its conditions (the key ``strike_spread``, docs/synthesis.md):
+#: single pits of one size strike more or less evenly than the law's middle (1) by about a factor 1.5 either way on
+#: the CWRU rig (``bench/impact_spread.py``), so a race condition's runs alternate between the two ends of that range
+PIT_SPREADS = (round(1.0 / 1.5, 3), 1.5)
 #: Refits of each model on resampled twin runs (with replacement), to show how much its score on the measured
 #: records depends on the draw of the twin's data set.
 REFITS = 20
@@ -109,9 +114,16 @@ def runs_of(conds: list[Condition], twin: str, seeds: int, segment_s: float) -> 
     for c in conds:
         reps = seeds * max(1, round(top / per_kind[c.kind] / 2)) if c.kind == "healthy" else seeds
         base, overrides, params = twin_run(c, twin, RPM_OF_LOAD[c.load_hp] / 60.0)
-        for slip in slips:
+        for i, slip in enumerate(slips):
             p = dict(params, slip=slip, duration_s=float(segment_s), sample_rate_hz=FS, quantities=["acceleration"])
-            groups[(base, json.dumps(overrides, sort_keys=True))].append((p, reps, c))
+            if c.kind not in ("inner", "outer") or twin == LIBRARY:
+                groups[(base, json.dumps(overrides, sort_keys=True))].append((p, reps, c))
+                continue
+            n = len(PIT_SPREADS)                    # the replicates over the spreads, the odd one by the slip
+            for k, spread in enumerate(PIT_SPREADS):
+                r = reps // n + (1 if (k - i) % n < reps % n else 0)
+                if r:
+                    groups[(base, json.dumps(overrides, sort_keys=True))].append((dict(p, strike_spread=spread), r, c))
     return groups
 
 
@@ -374,7 +386,10 @@ def block(res: dict, me: dict, tw: dict, argv: list[str], img_name: str) -> str:
         "CWRU's pit sizes (7-28 mil; 21 at most on the outer race); loads 0-3 hp at CWRU's nominal speeds "
         f"(1797-1730 rpm); slip {' and '.join(f'{100 * x:g} %' for x in slips_of(twin))}; {res['seeds']} seed(s) "
         "per condition and slip (the healthy machine "
-        "more, so that each class has about as many runs); each run the twin of its condition as `twin_run` "
+        "more, so that each class has about as many runs)"
+        + ("" if twin == LIBRARY else f"; a race pit's `strike_spread` {' and '.join(f'{x:g}' for x in PIT_SPREADS)} "
+           "over those replicates (single pits differ from the law by about 1.5x either way on the rig)")
+        + "; each run the twin of its condition as `twin_run` "
         "maps it" + (" (the fault library: its own dents whatever the pit size, so the sizes are repeats with "
                      "other seeds)" if twin == LIBRARY else "") + ".",
         "",

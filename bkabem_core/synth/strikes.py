@@ -198,9 +198,10 @@ class StrikeSpread:
             if not isinstance(k, RaceDefect) or s == 0.0:
                 continue
             site = model.machine.sites[b]
-            dent = site.bearing.defects[j]                       # the model's own (round pits: bridged at its load)
+            own = site.bearing.defects                           # the model's own (round pits: bridged at its load)
+            dent = own[j] if j < len(own) and own[j].race == table["race"] else None
             profile = next((p for p in site.bearing.defect_set.profiles if p.dent is dent), None)
-            if profile is None:                                  # a pit of depth 0: no strikes
+            if profile is None:                 # a pit of depth 0 (or a machine not of this case): no strikes
                 continue
             fams = _struck_families(model, selection, k, b)
             if not fams.any():

@@ -10,6 +10,7 @@ from __future__ import annotations
 import itertools
 import json
 import sys
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -194,6 +195,26 @@ def test_sim2real_grid_specs_cover_the_runs_exactly():
             runs += [json.dumps(dict(fixed, **dict(zip(grid, combo))), sort_keys=True)] * reps
     assert sorted(runs) == sorted(json.dumps(p, sort_keys=True) for p, r in pts for _ in range(r))
     assert len(specs) == 4                                           # outer, healthy, and the inner pair split
+
+
+@pytest.mark.parametrize("seeds", [1, 2, 3])
+def test_sim2real_race_pits_span_the_strike_spread_with_the_same_runs(seeds):
+    """A rig twin's race conditions spread their replicates over PIT_SPREADS (each spread as often as the replicates
+    allow, over the slips together), the other kinds carry no spread, and the number of runs is what it was."""
+    from sim2real import PIT_SPREADS, conditions, runs_of
+
+    groups = runs_of(conditions((0,)), "cwru_rig", seeds, 1.0)
+    per_cond = {}
+    for pts in groups.values():
+        for p, reps, c in pts:
+            assert ("strike_spread" in p) == (c.kind in ("inner", "outer")), (c, p)
+            per_cond.setdefault(c, Counter())[p.get("strike_spread")] += reps
+    for c, counts in per_cond.items():
+        if c.kind in ("inner", "outer"):
+            assert sum(counts.values()) == 2 * seeds                  # two slips, ``seeds`` each
+            assert set(counts) == set(PIT_SPREADS) and max(counts.values()) - min(counts.values()) <= 1, counts
+        else:
+            assert set(counts) == {None}
 
 
 def test_the_low_band_reader_finds_shaft_orders_and_tells_them_from_fixed_lines():

@@ -168,6 +168,14 @@ def test_random_strikes_lower_the_envelope_line_to_their_ceiling(outer):
     assert ceiling - 8.0 < struck < ceiling + 3.0, (struck, ceiling)
 
 
+def test_a_pit_of_depth_zero_has_no_strikes(outer):
+    """A fleet's healthy machine is the defect case at depth 0: its bearing drops the pit, and so do the strikes."""
+    flat = BkaBem(outer.case.with_overrides({"defects.0.depth_m": 0.0}), like=outer)
+    assert StrikeSpread.of_model(flat, LineSelection(flat)) is None
+    s = Synthesizer(flat, FS, 0.1)
+    assert np.all(np.isfinite(s.next_chunk(SPEED_HZ).samples)) and "strikes" not in s.ground_truth()
+
+
 def test_the_ground_truth_says_how_the_strikes_were_drawn(outer):
     gt = Synthesizer(outer, FS).ground_truth()
     assert gt["strikes"]["kind"] == "outer" and gt["strikes"]["load_loss"] == 1.0
