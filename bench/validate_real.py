@@ -316,7 +316,8 @@ def differences(rows: list[dict], twin: str) -> list[str]:
             "orders), which the twin's housings (modes at 2.5-3 kHz) do not carry; the race records' RMS, which does "
             "not grow with the pit on the rig as the twin's does with its pit's drop; the rig's ball records carry a "
             "steady rise of the 2-4 kHz band, where the twin's ball pit strikes only in visits to the contact track; "
-            "the FTF line of the race-fault records (a ball set that is not perfectly even) is not in the twin; and "
+            "the race records' shaft orders above 2x-3x in the envelope (a sharper once-per-turn modulation of the "
+            "strikes; the race records' \"FTF\" line is one of them: `bench/shaft_orders.py`); and "
             "the character of single pits (the 28 mil inner-race and 14 mil outer-race records hide their fault, the "
             "7 mil outer race strikes harder).")
     return out

@@ -75,17 +75,11 @@ import scipy.fft
 
 from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth.sensors import SensorChain
+from bkabem_core.synth.splitmix import GOLDEN, MASK64, mix64
 
 FRAME_BITS = 15                 # frame length L = 2^15 samples (0.64 s at 51.2 kHz: 1.56 Hz line spacing)
 N_FRAMES = 4
 _TAG = 0xF1005
-_MASK = (1 << 64) - 1
-
-
-def _mix64(z: int) -> int:
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9 & _MASK
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EB & _MASK
-    return z ^ (z >> 31)
 
 
 def _state_space(model):
@@ -230,7 +224,7 @@ class FloorTransfer:
         (:func:`synth_kernel.floor_quantise`)."""
         n, fs = self.frame_length, self.sample_rate_hz
         by_input = self.by_input
-        nf, c = by_input.shape[1], by_input.shape[2]
+        c = by_input.shape[2]
         # E|A|^2 = 2 S^2 df: (g1 + i g2) sqrt(S^2 df); the factor 1/2 (exact) makes the unnormalised real inverse
         # FFT of the half spectrum, X_0 + 2 Re sum_k X_k e^(i 2 pi k t / L), the real part of the one-sided sum
         scale_a = 0.5 * (float(density) * math.sqrt(fs / n))
@@ -289,7 +283,7 @@ class BroadbandFloor:
         #: (N_FRAMES, L, C) int16; per channel: frames = scale * the int16 frames (max |x| -> 32767; 1 for a
         #: channel without floor)
         self.frames, self.scale = path.frames(self.density, self.seed)
-        self._key = _mix64(self.seed ^ _TAG)
+        self._key = mix64(self.seed ^ _TAG)
         self._buf = np.empty((0, self.frames.shape[2]), dtype=np.float32)
         self._rows: dict = {}
         self._last_grains = None
@@ -314,7 +308,7 @@ class BroadbandFloor:
         """(grain, frame, offset) of grain g (remembered: a grain spans ~3 chunks)."""
         row = self._rows.get(g)
         if row is None:
-            h = _mix64((self._key + (g & _MASK) * 0x9E3779B97F4A7C15) & _MASK)
+            h = mix64((self._key + (g & MASK64) * GOLDEN) & MASK64)
             row = self._rows[g] = (g, 2 * (g & 1) + (h & 1), (h >> 1) % self.frame_length)
             if len(self._rows) > 64:
                 del self._rows[next(iter(self._rows))]

@@ -52,7 +52,6 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-import math
 
 import numpy as np
 
@@ -324,22 +323,30 @@ def slip_warp(m: int, j0: int, c1: float, c2: float, u_frac: float, w: np.ndarra
     return out
 
 
-def slip_warp_reference(m: int, j0: int, c1: float, c2: float, u_frac: float, w: np.ndarray, jw0: int,
-                        kappas) -> np.ndarray:
-    """:func:`slip_warp` in numpy (the operations of the C function in its order): the walk's Hermite cubic in
-    Horner form per pass interval, ``rint(y 2^52) 2^10`` with ``y = kappa W - rint(kappa W)``."""
-    kap = np.atleast_1d(np.asarray(kappas, dtype=np.float64))
-    xi = np.arange(j0, j0 + m, dtype=np.float64)
+def _walk_hermite(xi: np.ndarray, c1: float, c2: float, u_frac: float, w: np.ndarray, jw0: int) -> np.ndarray:
+    """The walk W [passes] at ``xi`` samples after the knot (float64 array): the pass ``u = (c2 xi + c1) xi +
+    u_frac``, then the Hermite cubic of ``w`` (the walk at passes ``jw0, jw0 + 1, ...``) over its interval in Horner
+    form, in the operations and order of ``kernels/synth_slip.c``; ValueError if ``w`` does not cover every ``u``."""
     u = (c2 * xi + c1) * xi + u_frac
     fl = np.floor(u)
-    k = fl.astype(np.int64) - jw0
+    k = fl.astype(np.int64) - int(jw0)
+    if k.size and (k.min() < 1 or k.max() + 2 >= len(w)):
+        raise ValueError(f"the walk's values do not cover passes {float(u.min())!r} .. {float(u.max())!r}")
     t = u - fl
     w0, w1 = w[k], w[k + 1]
     m0, m1 = 0.5 * (w[k + 1] - w[k - 1]), 0.5 * (w[k + 2] - w[k])
     d = w1 - w0
     a2 = ((3.0 * d) - (2.0 * m0)) - m1
     a3 = ((-2.0 * d) + m0) + m1
-    ww = ((a3 * t + a2) * t + m0) * t + w0
+    return ((a3 * t + a2) * t + m0) * t + w0
+
+
+def slip_warp_reference(m: int, j0: int, c1: float, c2: float, u_frac: float, w: np.ndarray, jw0: int,
+                        kappas) -> np.ndarray:
+    """:func:`slip_warp` in numpy (the operations of the C function in its order): the walk's Hermite cubic in
+    Horner form per pass interval, ``rint(y 2^52) 2^10`` with ``y = kappa W - rint(kappa W)``."""
+    kap = np.atleast_1d(np.asarray(kappas, dtype=np.float64))
+    ww = _walk_hermite(np.arange(j0, j0 + m, dtype=np.float64), c1, c2, u_frac, np.asarray(w, dtype=np.float64), jw0)
     out = np.empty((kap.size, int(m)), dtype=np.int64)
     for q, kappa in enumerate(kap):
         wp = kappa * ww
@@ -351,18 +358,7 @@ def slip_value_reference(xi: float, c1: float, c2: float, u_frac: float, w: np.n
     """The walk W itself [passes] at ``xi`` samples after the knot: the Hermite cubic of :func:`slip_warp_reference`
     at one sample (``kernels/synth_slip.c``, ``synth_slip_value``; the line kernel places a race pit's strikes with
     it, :mod:`bkabem_core.synth.strikes`)."""
-    u = (c2 * xi + c1) * xi + u_frac
-    fl = math.floor(u)
-    k = int(fl) - int(jw0)
-    if k < 1 or k + 2 >= len(w):
-        raise ValueError(f"the walk's values do not cover pass {u!r}")
-    t = u - fl
-    w0, w1 = float(w[k]), float(w[k + 1])
-    m0, m1 = 0.5 * (float(w[k + 1]) - float(w[k - 1])), 0.5 * (float(w[k + 2]) - w0)
-    d = w1 - w0
-    a2 = ((3.0 * d) - (2.0 * m0)) - m1
-    a3 = ((-2.0 * d) + m0) + m1
-    return ((a3 * t + a2) * t + m0) * t + w0
+    return float(_walk_hermite(np.array([float(xi)]), c1, c2, u_frac, np.asarray(w, dtype=np.float64), jw0)[0])
 
 
 def carrier_mix(cs: np.ndarray, re: np.ndarray, im: np.ndarray, out: np.ndarray) -> None:

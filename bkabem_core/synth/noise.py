@@ -16,9 +16,9 @@ import math
 
 import numpy as np
 
+from bkabem_core.synth.splitmix import GOLDEN, MASK64, mix64
+
 _U64 = np.uint64
-_MASK64 = (1 << 64) - 1
-_GOLDEN = 0x9E3779B97F4A7C15
 _SALT = 0xD1B54A32D192ED03
 
 #: 1024 layers of the ziggurat: the base strip's edge R closes them (Marsaglia & Tsang 2000).
@@ -46,20 +46,16 @@ def _tables():
 _X, _F, _XF, _RF = _tables()
 
 
-def _mix(z: int) -> int:
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9 & _MASK64
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EB & _MASK64
-    return z ^ (z >> 31)
 
 
 def words(key: int, block: int, steps: int) -> np.ndarray:
     """(steps, 4) uint64 words of the four xoshiro256++ lanes of noise block ``block``."""
-    x = _mix((key & _MASK64) ^ _mix((block + _GOLDEN) & _MASK64))
+    x = mix64((key & MASK64) ^ mix64((block + GOLDEN) & MASK64))
     st = np.zeros((4, 4), dtype=np.uint64)
     for lane in range(4):
         for i in range(4):
-            x = (x + _GOLDEN) & _MASK64
-            st[i, lane] = _mix(x)
+            x = (x + GOLDEN) & MASK64
+            st[i, lane] = mix64(x)
     s0, s1, s2, s3 = (st[i].copy() for i in range(4))
     out = np.empty((steps, 4), dtype=np.uint64)
 
@@ -89,12 +85,12 @@ def _fast(w: np.ndarray):
 
 def _slow(key: int, n: int, c: int, w: int) -> np.float32:
     """The normal of sample n, channel c whose word w failed the fast test (``zn_slow``)."""
-    h = _mix((key & _MASK64) ^ ((n * 64 + c) * _SALT & _MASK64))
+    h = mix64((key & MASK64) ^ ((n * 64 + c) * _SALT & MASK64))
 
     def nxt():
         nonlocal h
-        h = (h + _GOLDEN) & _MASK64
-        return _mix(h)
+        h = (h + GOLDEN) & MASK64
+        return mix64(h)
 
     def uniform():
         return ((nxt() >> 11) + 0.5) * 2.0 ** -53

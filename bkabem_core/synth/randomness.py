@@ -16,6 +16,7 @@ import numpy as np
 
 from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth.features import _FOLD
+from bkabem_core.synth.splitmix import stream_key
 
 
 class _Walk:
@@ -214,7 +215,7 @@ class SlipWalks:
 def noise_key(seed: int) -> int:
     """The 64-bit key of the sensor-noise stream of ``seed`` (``kernels/synth_noise.c``: the sample loops make the normals
     of absolute sample n from it, in blocks of 256 samples)."""
-    return int(np.random.SeedSequence([int(seed), NoiseBlocks._TAG]).generate_state(1, np.uint64)[0])
+    return stream_key(seed, NoiseBlocks._TAG)
 
 
 class NoiseBlocks:

@@ -61,10 +61,10 @@ import numpy as np
 from bkabem_core.bearing.defects.protocol import DEFAULT_STRIKE_SPREAD, RaceDefect
 from bkabem_core.bearing.defects.registry import kind
 from bkabem_core.synth import kernel as synth_kernel
+from bkabem_core.synth.splitmix import GOLDEN, MASK64, mix64_array, stream_key
 
 __all__ = ["StrikeSpread", "load_loss", "strike_key", "strike_gain", "strike_gains_reference"]
 
-_MASK64 = (1 << 64) - 1
 _FRAC62 = (1 << 62) - 1
 #: The strike stream's word in the seed sequence of a run (next to the noise's and the slip walks')
 _TAG = 0x5781CE
@@ -85,16 +85,14 @@ def load_loss(bearing, state, profile) -> float:
 
 def strike_key(seed: int) -> int:
     """The 64-bit key of the strike stream of ``seed``."""
-    return int(np.random.SeedSequence([int(seed), _TAG]).generate_state(1, np.uint64)[0])
+    return stream_key(seed, _TAG)
 
 
-def _mix64(z: np.ndarray) -> np.ndarray:
-    """SplitMix64's finaliser on uint64 arrays (``kernels/synth_strike.c``, ``mix64``)."""
+def _step(z: np.ndarray) -> np.ndarray:
+    """One SplitMix64 step on uint64 arrays: the increment, then the finaliser (``kernels/synth_strike.c``,
+    ``mix64``)."""
     with np.errstate(over="ignore"):
-        z = z + np.uint64(0x9E3779B97F4A7C15)
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return z ^ (z >> np.uint64(31))
+        return mix64_array(z + np.uint64(GOLDEN))
 
 
 def strike_gain(key: int, n, sigma: float) -> np.ndarray:
@@ -103,8 +101,8 @@ def strike_gain(key: int, n, sigma: float) -> np.ndarray:
     n = np.asarray(n, dtype=np.int64)
     if sigma == 0.0:
         return np.ones(n.shape)
-    a = _mix64(np.uint64(int(key) & _MASK64) ^ _mix64(n.view(np.uint64)))
-    b = _mix64(a)
+    a = _step(np.uint64(int(key) & MASK64) ^ _step(n.view(np.uint64)))
+    b = _step(a)
     u1 = ((a >> np.uint64(11)).astype(np.float64) + 0.5) * 2.0 ** -53
     u2 = (b >> np.uint64(11)).astype(np.float64) * 2.0 ** -53
     xi = np.sqrt(-2.0 * np.log(u1)) * np.cos(6.283185307179586 * u2)
@@ -120,7 +118,7 @@ def strike_gains_reference(phases: np.ndarray, first: float, offset_turns: float
     fraction; later ones count the turns the fixed point passes; linear in the phase x between strikes n and n + 1,
     over ``sqrt(1 - 2 x (1 - x) (1 - E[g]^2))``, the mean square of such a blend of two independent gains (every
     sample keeps the mean power of strikes all alike)."""
-    off = np.uint64(int(round(offset_turns * synth_kernel.PASS_UNITS)) & _MASK64)
+    off = np.uint64(int(round(offset_turns * synth_kernel.PASS_UNITS)) & MASK64)
     with np.errstate(over="ignore"):
         psi = phases.astype(np.uint64) - off
     turn = (psi >> np.uint64(62)).astype(np.int64)

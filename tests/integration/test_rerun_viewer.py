@@ -223,7 +223,7 @@ def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path)
         by_name = {c["ContainerBlueprint"].get("display_name"): (p, c["ContainerBlueprint"]) for p, c in bp.items()
                    if "ContainerBlueprint" in c}
         for L in ("DE", "NDE"):
-            (cp, cond), (lp, levels) = by_name[f"{L} condition"], by_name[f"{L} levels"]
+            (_, cond), (lp, levels) = by_name[f"{L} condition"], by_name[f"{L} levels"]
             cond["contents"] = cond["contents"] + levels["contents"][1:] + levels["contents"][:1]
             column = by_name[L][1]
             i = column["contents"].index(lp)

@@ -297,9 +297,56 @@ def test_the_impacts_random_spread_is_read_through_a_periodic_modulation_and_bou
     assert abs(line - ceiling_db(n, cv)) <= 2.0, (line, ceiling_db(n, cv))
 
 
-@pytest.mark.parametrize("script", ["rig_low_band", "impact_spread"])
+def _windowed_train(rng, window, fs=12000.0, seconds=10.0, fr=29.93):
+    """An outer-race impact train at the 6205's measured BPFO (``_impact_train``'s ring, spread 0.3), each impact's
+    energy times ``window(theta)`` of the shaft angle at it."""
+    f0 = EFFECTIVE_6205["bpfo"] * fr
+    n = int(seconds * f0)
+    times = np.arange(n) / f0
+    energy = rng.lognormal(-0.045, 0.3, n) * window(2 * np.pi * fr * times)
+    x = np.zeros(int(seconds * fs))
+    np.add.at(x, np.round(times * fs).astype(int), np.sqrt(energy))
+    th = np.arange(int(0.01 * fs)) / fs
+    wn, z = 2 * np.pi * 3000.0, 0.03
+    ring = np.exp(-z * wn * th) * np.sin(wn * np.sqrt(1 - z * z) * th)
+    return np.convolve(x, ring)[:x.size] + 1e-4 * rng.standard_normal(x.size), fr
+
+
+def test_shaft_orders_tell_a_sharp_once_per_turn_window_from_a_smooth_one():
+    """bench/shaft_orders.py: impacts under a smooth window (1 + 0.8 cos theta) keep 1x and lose the orders from 3x
+    on; under a sharp one (10x for a tenth of the turn) the orders 3x-6x and the fault line's sidebands stand >= 10 dB
+    higher. The "FTF" reading of such a train is its |BPFO - 4 f_r| line: the same line of the spectrum."""
+    from shaft_orders import levels
+
+    rng = np.random.default_rng(5)
+    x, fr = _windowed_train(rng, lambda th: 1.0 + 0.8 * np.cos(th))
+    smooth = levels(x, 12000.0, fr, EFFECTIVE_6205, "outer")
+    x, fr = _windowed_train(rng, lambda th: np.where(np.cos(th) > 0.951, 10.0, 1.0))
+    sharp = levels(x, 12000.0, fr, EFFECTIVE_6205, "outer")
+    assert smooth["orders"][0] > 20.0 and max(smooth["orders"][2:]) < 15.0, smooth["orders"]
+    assert min(np.subtract(sharp["orders"][2:], smooth["orders"][2:])) >= 10.0, (sharp["orders"], smooth["orders"])
+    assert min(np.subtract(sharp["sidebands"][2:], smooth["sidebands"][2:])) >= 10.0
+    assert sharp["ftf_hz"] == sharp["f4_hz"] and sharp["ftf"] > 20.0
+
+
+def test_the_ball_fold_reads_an_uneven_ball_set_and_nothing_where_the_balls_are_alike():
+    """bench/shaft_orders.py's fold of pass energies over the balls: 9 balls whose energies differ by 20 % under a
+    pass-to-pass spread of 40 % read 0.2 within 25 %; alike balls read under 0.04."""
+    from shaft_orders import ball_spread
+
+    rng = np.random.default_rng(3)
+    balls = 1.0 + 0.2 * rng.standard_normal(9)
+    turns = 120
+    noise = rng.lognormal(-0.5 * np.log1p(0.16), np.sqrt(np.log1p(0.16)), (turns, 9))
+    uneven = (noise * balls).ravel()
+    want = balls.std(ddof=1) / balls.mean()
+    assert abs(ball_spread(uneven, 9) / want - 1.0) < 0.25, (ball_spread(uneven, 9), want)
+    assert ball_spread(noise.ravel(), 9) < 0.04
+
+
+@pytest.mark.parametrize("script", ["rig_low_band", "impact_spread", "shaft_orders"])
 def test_a_record_script_on_a_folder_without_records_says_so_in_one_line_and_exits_2(script, tmp_path, capsys):
-    """bench/rig_low_band.py and bench/impact_spread.py on a missing folder and on an empty one: exit 2, one line
+    """bench/rig_low_band.py, bench/impact_spread.py and bench/shaft_orders.py on a missing folder and on an empty one: exit 2, one line
     naming the argument, nothing written to the docs."""
     import importlib
 

@@ -1,0 +1,227 @@
+"""How sharply the shaft modulates a race fault's impacts on the CWRU rig and in its twin: the shaft orders of the
+squared envelope, and what the "FTF" line of a race-fault record is.
+
+    .venv/bin/python bench/shaft_orders.py DATA_DIR              # the table into docs/rigs.md, the figure
+    .venv/bin/python bench/shaft_orders.py DATA_DIR --no-docs    # prints the table only
+    .venv/bin/python bench/shaft_orders.py DATA_DIR --twin CASE --no-docs   # another twin: a case name or TOML
+
+The figure: docs/img/shaft_orders.png.
+
+DATA_DIR: the CWRU drive-end records as NumPy files (docs/validation_real.md says where they come from).
+
+For each inner- and outer-race record of the drive-end bearing, and for the twin of its condition (``realdata.twin``:
+the mapping of ``bench/validate_real.py``), the drive-end channel at 12 kHz, the squared-envelope spectrum (SES) of
+2-4 kHz (``realdata.diagnostics.envelope_analysis``: the measure of docs/validation_real.md), and in it, in dB over
+the SES floor:
+
+- the shaft orders ``k f_r``, k = 1 .. ``ORDERS``;
+- the fault line's lower shaft sidebands ``|F - k f_r|`` (F = BPFO or BPFI), k = 1 .. ``ORDERS``.
+
+Why (McFadden & Smith, J. Sound Vib. 96 (1984); Randall & Antoni, MSSP 25 (2011), section 2): impacts whose strength
+follows the shaft angle through a window ``w(theta)`` put ``|W_k|^2`` into the SES at ``k f_r`` and, around every
+harmonic of F, into ``F +- k f_r``. A smooth window (a load zone that swings a little) has coefficients that fall
+fast with k; a narrow or sharp one (a load that nearly vanishes once per turn, a pit that is struck only over part
+of the turn) keeps them to high k. The orders' fall with k measures the window's sharpness, record by record, with
+no model of it.
+
+The cage line. A record's "FTF" is read in a window of +-1 % around ``FTF = BPFO / Z``. With the 6205's measured
+multipliers (BPFO 3.598 x, Z = 9), ``|BPFO - 4 f_r| = 0.402 f_r`` and ``|BPFI - 5 f_r|`` (the same number, since
+BPFO + BPFI = Z f_r) lie 0.55 % from FTF = 0.3998 f_r: inside the window, and 0.07 Hz from it at 30 Hz, less than one
+line of a 10-s record's spectrum. The script prints both readings (they come from the same line of the SES when the
+two coincide), and the twin's, whose own bearing puts the two 4 % apart. What an uneven ball set would make is
+read directly: the pass energies of ``bench/impact_spread.py`` folded over the Z balls (pass n is ball n mod Z for
+either race), each ball's mean over the cage turns, their spread over the mean with the folding's own scatter (the
+within-ball variance over the number of turns) removed. The shaft's modulation folds in too where Z passes come
+back to nearly whole turns, so it is an upper bound of the balls' own differences.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "bench"))
+
+from docs_blocks import replace_block  # noqa: E402
+from impact_spread import pass_energies  # noqa: E402
+from realdata.diagnostics import (  # noqa: E402
+    TOL_BALL,
+    TOL_RACE,
+    decimate,
+    envelope_analysis,
+    estimate_speed,
+    line_level,
+)
+from realdata.records import EFFECTIVE_6205, RecordError, scan  # noqa: E402
+
+DOCS = ROOT / "docs" / "rigs.md"
+FIGURE = ROOT / "docs" / "img" / "shaft_orders.png"
+FS = 12000.0
+BAND_HZ = (2000.0, 4000.0)
+ORDERS = 6
+#: Balls of the 6205 (the rig's drive-end bearing)
+Z_6205 = 9
+KEY = {"inner": "bpfi", "outer": "bpfo"}
+
+
+def levels(x: np.ndarray, fs: float, fr: float, mult: dict, kind: str, mains_hz: float = 60.0) -> dict:
+    """The SES levels of a DE signal ``x`` [g] at ``fs`` [Hz], shaft speed ``fr`` [Hz], fault multipliers ``mult``
+    [per shaft Hz] and fault ``kind`` (inner, outer) [dB over the SES floor]: ``orders`` (k f_r), ``sidebands``
+    (|F - k f_r|), both k = 1 .. ORDERS; ``ftf`` (the cage line's window) and ``f4`` (a window of the same width at
+    |BPFO - 4 f_r|), with the frequencies [Hz] each reading found."""
+    a = envelope_analysis(x, fs, BAND_HZ, fr, mult, mains_hz=mains_hz, keep_spectrum=True)
+    f, S, floor = a["f"], a["S"], a["floor"]
+
+    def db(f0: float, tol: float) -> tuple[float, float]:
+        v, fp = line_level(f, S, f0, tol)
+        return 20.0 * math.log10(v / floor), fp
+
+    F = mult[KEY[kind]] * fr
+    ftf, f_ftf = db(mult["ftf"] * fr, TOL_BALL)
+    f4, f_f4 = db(abs(mult["bpfo"] - 4.0) * fr, TOL_BALL)
+    return {"orders": [db(k * fr, TOL_RACE)[0] for k in range(1, ORDERS + 1)],
+            "sidebands": [db(abs(F - k * fr), TOL_RACE)[0] for k in range(1, ORDERS + 1)],
+            "ftf": ftf, "ftf_hz": f_ftf, "f4": f4, "f4_hz": f_f4}
+
+
+def ball_spread(energies: np.ndarray, z: int) -> float:
+    """The spread of the balls' mean pass energies over the mean energy [-] (module docstring): ``energies`` one
+    per ball pass, ``z`` balls."""
+    e = np.asarray(energies, dtype=float)
+    turns = e.size // z
+    per = e[:turns * z].reshape(turns, z)                 # a row per cage turn, a column per ball
+    between = per.mean(axis=0).var(ddof=1) - per.var(axis=0, ddof=1).mean() / turns
+    return math.sqrt(max(between, 0.0)) / float(per.mean())
+
+
+def run(data_dir: Path, seeds: int, twin_case: str = "cwru_rig") -> list[dict]:
+    from realdata.twin import Condition, synthesize
+    from tqdm import tqdm
+
+    records = [r for r in scan(data_dir) if r.kind in KEY and r.fault_bearing in (None, "de")]
+    rows = []
+    for r in tqdm(records, unit="record", desc="shaft_orders", dynamic_ncols=True):
+        ch = r.load()
+        fr, _ = estimate_speed(ch, r.sample_rate_hz, r.speed_hz_nominal)
+        x = decimate(ch["DE"], r.sample_rate_hz, FS)
+        meas = levels(x, FS, fr, EFFECTIVE_6205, r.kind)
+        meas["balls"] = ball_spread(pass_energies(x, FS, EFFECTIVE_6205[KEY[r.kind]] * fr)[0], Z_6205)
+        duration = ch["DE"].size / r.sample_rate_hz
+        twins = []
+        for seed in range(1, seeds + 1):
+            out = synthesize(Condition.of(r), twin_case, seed, fr, FS, duration)
+            twins.append(levels(out["DE"], FS, fr, out["mult"], r.kind, out["mains_hz"]))
+        twin = {k: np.mean([t[k] for t in twins], axis=0).tolist() for k in ("orders", "sidebands")}
+        twin.update({k: float(np.mean([t[k] for t in twins])) for k in ("ftf", "f4")})
+        rows.append({"label": r.label, "kind": r.kind, "size": r.size_mils, "fr": fr, "measured": meas,
+                     "twin": twin, "twin_mult": out["mult"]})
+    return rows
+
+
+def _cells(m: list[float], t: list[float]) -> str:
+    return " | ".join(f"{a:.0f} / {b:.0f}" for a, b in zip(m, t))
+
+
+def table(rows: list[dict], seeds: int, twin_case: str = "cwru_rig") -> str:
+    ks = range(1, ORDERS + 1)
+    out = [f"Each cell: measured / twin (`{twin_case}`, the mean over its seeds: {seeds}), dB over the floor of the "
+           "2-4 kHz squared-envelope spectrum.", "",
+           "Shaft orders `k f_r`:", "",
+           "| record | " + " | ".join(f"{k}x" for k in ks) + " |", "|---|" + "---|" * ORDERS]
+    for r in rows:
+        out.append(f"| {r['label']} | {_cells(r['measured']['orders'], r['twin']['orders'])} |")
+    out += ["", "The fault line's lower shaft sidebands `|F - k f_r|` (F = BPFI or BPFO):", "",
+            "| record | " + " | ".join(f"F - {k}x" for k in ks) + " |", "|---|" + "---|" * ORDERS]
+    for r in rows:
+        out.append(f"| {r['label']} | {_cells(r['measured']['sidebands'], r['twin']['sidebands'])} |")
+    out += ["", "Medians over the records, measured - twin [dB]:", "",
+            "| kind | " + " | ".join(f"{k}x" for k in ks) + " | " + " | ".join(f"F - {k}x" for k in ks) + " |",
+            "|---|" + "---|" * (2 * ORDERS)]
+    for kind in ("inner", "outer"):
+        sel = [r for r in rows if r["kind"] == kind]
+        if not sel:
+            continue
+        d = {q: np.median([np.subtract(r["measured"][q], r["twin"][q]) for r in sel], axis=0)
+             for q in ("orders", "sidebands")}
+        out.append(f"| {kind} ({len(sel)}) | " + " | ".join(f"{v:+.0f}" for v in np.concatenate(
+            [d["orders"], d["sidebands"]])) + " |")
+    m = rows[0]["twin_mult"]
+    apart = abs(abs(EFFECTIVE_6205["bpfo"] - 4.0) / EFFECTIVE_6205["ftf"] - 1.0)
+    apart_t = abs(abs(m["bpfo"] - 4.0) / m["ftf"] - 1.0)
+    same = sum(1 for r in rows if abs(r["measured"]["ftf_hz"] - r["measured"]["f4_hz"]) < 1e-9)
+    out += ["", f"The cage line's window (+-{100 * TOL_BALL:.0f} %) and |BPFO - 4 f_r|: {100 * apart:.2f} % apart at "
+            f"the 6205's measured multipliers, {100 * apart_t:.1f} % at the twin's. In {same} of {len(rows)} records "
+            "both readings are the same line of the SES. Median over the records, measured / twin: "
+            f"FTF {np.median([r['measured']['ftf'] for r in rows]):.0f} / "
+            f"{np.median([r['twin']['ftf'] for r in rows]):.0f} dB, |BPFO - 4 f_r| "
+            f"{np.median([r['measured']['f4'] for r in rows]):.0f} / {np.median([r['twin']['f4'] for r in rows]):.0f}"
+            " dB.", "",
+            f"The balls' own differences in the measured records (the pass energies folded over the {Z_6205} balls, an "
+            "upper bound): " + ", ".join(f"{r['label']} {r['measured']['balls']:.2f}" for r in rows) + "."]
+    return "\n".join(out)
+
+
+def figure(rows: list[dict], path: Path) -> None:
+    """Two panels, per kind the median over its records (measured: filled, twin: open) against k: the shaft
+    orders and the fault line's lower shaft sidebands [dB over the SES floor]."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    colour = {"inner": "tab:red", "outer": "tab:blue"}
+    ks = np.arange(1, ORDERS + 1)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.4), sharey=True)
+    for ax, q, title in zip(axes, ("orders", "sidebands"), ("shaft orders k f_r", "fault line's sidebands F - k f_r")):
+        for kind, c in colour.items():
+            sel = [r for r in rows if r["kind"] == kind]
+            if not sel:
+                continue
+            for w, style in (("measured", dict(marker="o", ls="-")), ("twin", dict(marker="o", ls="--", mfc="none"))):
+                v = np.median([r[w][q] for r in sel], axis=0)
+                ax.plot(ks, v, color=c, label=f"{kind} race, {w} ({len(sel)})", **style)
+        ax.set_xticks(ks)
+        ax.set_xlabel("k")
+        ax.set_title(title + " (median over the records)", fontsize=10)
+        ax.grid(True, color="0.9")
+    axes[0].set_ylabel("2-4 kHz SES [dB over its floor]")
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("data_dir", type=Path, help="folder of the CWRU records (.npz)")
+    ap.add_argument("--seeds", type=int, default=2, help="twin renders per record (default 2)")
+    ap.add_argument("--twin", default="cwru_rig", help="the twin: an embedded case name or a case TOML (default "
+                    "cwru_rig); docs/rigs.md takes only cwru_rig's table")
+    ap.add_argument("--no-docs", action="store_true", help="print the table; write neither docs/rigs.md nor the figure")
+    a = ap.parse_args(argv)
+    if a.seeds < 1:
+        print(f"shaft_orders: --seeds: must be at least 1 (got {a.seeds})", file=sys.stderr)
+        return 2
+    try:
+        rows = run(a.data_dir, a.seeds, a.twin)
+    except RecordError as exc:                     # a missing folder, or one without records
+        print(f"shaft_orders: data_dir: {exc}", file=sys.stderr)
+        return 2
+    if not rows:
+        print(f"shaft_orders: data_dir: no drive-end race-fault record in {a.data_dir}", file=sys.stderr)
+        return 2
+    text = table(rows, a.seeds, a.twin)
+    print(text)
+    if not a.no_docs and a.twin == "cwru_rig":
+        DOCS.write_text(replace_block(DOCS.read_text(), "shaft_orders", text, "docs/rigs.md"))
+        figure(rows, FIGURE)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
