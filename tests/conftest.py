@@ -1,13 +1,16 @@
 """Shared fixtures: the embedded case, its BKA-BEM model and the fault library are built once per test session
-(the fault library once per run: xdist's workers share one); ``cli`` runs a core command in this process on the
+(the fault library once for as long as the code it is made from does not change: build/test-cache); ``cli`` runs a core command in this process on the
 library's models, ``figures`` keeps the figures it draws."""
 
 from __future__ import annotations
 
 import fcntl
+import functools
+import hashlib
 import os
 import pickle
 import signal
+from pathlib import Path
 
 import pytest
 
@@ -30,18 +33,15 @@ def case():
 
 
 @pytest.fixture(scope="session")
-def machine(case):
-    from bkabem_core.fe.machine import Machine
-
-    return Machine(case)
+def machine(model):
+    """The default model's machine (FE rotor, bearings, housings)."""
+    return model.machine
 
 
 @pytest.fixture(scope="session")
-def model(case, machine):
+def model(case, cached_model):
     """The default BKA-BEM model of the embedded case (quasi-static excitation of both bearings)."""
-    from bkabem_core.solve.harmonic import BkaBem
-
-    return BkaBem(case, machine=machine)
+    return cached_model(case)
 
 
 @pytest.fixture(scope="session")
@@ -56,8 +56,27 @@ def four_dof_excitation(machine):
     return machine.excitation("de", method="four_dof")
 
 
-#: The fault library of an xdist run, pickled once for all its workers (in the run's shared temporary folder)
-FAULT_LIBRARY_PICKLE = "fault_library.pickle"
+#: Where the fault library and the cached models are kept between runs, under a key of everything they are made
+#: from (:func:`_library_key`)
+LIBRARY_CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache"
+
+
+@functools.cache
+def _library_key() -> str:
+    """The fault library's cache key: a hash of every file of ``bkabem_core`` its models could depend on (the code,
+    the embedded cases and bearings, the kernels' sources and built modules) and of the Python, numpy and scipy
+    versions. Any change to one of them makes a new library; nothing else can change it."""
+    import sys
+
+    import numpy
+    import scipy
+
+    root = Path(__file__).resolve().parents[1] / "bkabem_core"
+    h = hashlib.sha256(f"{sys.version}|{numpy.__version__}|{scipy.__version__}".encode())
+    for f in sorted(root.rglob("*")):
+        if f.is_file() and f.suffix in (".py", ".toml", ".csv", ".json", ".c", ".h", ".so"):
+            h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes())
+    return h.hexdigest()[:20]
 
 
 def _make_fault_library() -> dict:
@@ -70,51 +89,64 @@ def _make_fault_library() -> dict:
     return {k: pool.get(Case.load(f"motor_6010_{k}")) for k in ("healthy", "inner", "ball", "outer")}
 
 
-@pytest.fixture(scope="session")
-def fault_library(tmp_path_factory):
-    """The fault library's models, one per kind (``motor_6010_<kind>``): kind -> BkaBem. They share one machine,
-    each made like the one before, as a scenario's model pool makes them (bkabem_core.scenario.models).
-
-    Under xdist the first worker to ask makes the library and pickles it into the run's shared temporary folder;
-    the others wait on a lock (asleep: the maker's line-mode threads get the cores) and unpickle it. Every worker,
-    the maker too, uses the unpickled copy: the same models, bit for bit, whichever worker made them and whatever
-    it ran before (the pickle is the one the model helper process sends, bkabem_core.scenario.models)."""
-    if "PYTEST_XDIST_WORKER" not in os.environ:
-        return _make_fault_library()
-    shared = tmp_path_factory.getbasetemp().parent
-    path = shared / FAULT_LIBRARY_PICKLE
-    with open(shared / (FAULT_LIBRARY_PICKLE + ".lock"), "w") as lock:
+def _cached(name: str, make):
+    """The object ``make()`` returns, pickled once into ``build/test-cache/<library key>-<name>.pickle`` and
+    unpickled from there by every later caller, run or worker, while the library key holds (under a lock: one
+    maker, the others wait asleep). Pickles of other keys are removed when a new one is written."""
+    LIBRARY_CACHE.mkdir(parents=True, exist_ok=True)
+    key = _library_key()
+    path = LIBRARY_CACHE / f"{key}-{name}.pickle"
+    with open(LIBRARY_CACHE / "cache.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         try:
             if not path.exists():
                 part = path.with_name(path.name + f".{os.getpid()}")
-                part.write_bytes(pickle.dumps(_make_fault_library(), protocol=pickle.HIGHEST_PROTOCOL))
+                part.write_bytes(pickle.dumps(make(), protocol=pickle.HIGHEST_PROTOCOL))
                 os.replace(part, path)
+                for old in LIBRARY_CACHE.glob("*.pickle*"):
+                    if not old.name.startswith(key + "-"):
+                        old.unlink(missing_ok=True)
             return pickle.loads(path.read_bytes())
         finally:
             fcntl.flock(lock, fcntl.LOCK_UN)
 
 
-def pytest_sessionfinish(session):
-    """The controller of an xdist run removes the fault library's pickle (hundreds of MB) once its workers are
-    done (a worker cannot know whether another one still has to read it)."""
-    config = session.config
-    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
-        return
-    (config._tmp_path_factory.getbasetemp() / FAULT_LIBRARY_PICKLE).unlink(missing_ok=True)
+@pytest.fixture(scope="session")
+def fault_library():
+    """The fault library's models, one per kind (``motor_6010_<kind>``): kind -> BkaBem. They share one machine,
+    each made like the one before, as a scenario's model pool makes them (bkabem_core.scenario.models).
+
+    Made once and kept in ``build/test-cache`` under :func:`_library_key` (:func:`_cached`): the next run (either
+    tier, any worker) unpickles it while nothing it is made from has changed. Every worker, the maker too, uses the
+    unpickled copy: the same models, bit for bit, whichever run or worker made them (the pickle is the one the
+    model helper process sends, bkabem_core.scenario.models)."""
+    return _cached("fault_library", _make_fault_library)
 
 
 @pytest.fixture(scope="session")
-def classic_ball(fault_library):
+def cached_model():
+    """``cached_model(case, like=None)``: ``BkaBem(case, like=like)``, made once for as long as the code does not
+    change (:func:`_cached`, keyed by the case's hash and ``like``'s). For a test that needs a model of a case as
+    its input; a test of how models are made calls BkaBem itself."""
+    from bkabem_core.solve.harmonic import BkaBem
+
+    def get(case, like=None):
+        name = hashlib.sha256(f"{case.name}|{case.source}|{case.case_hash}|{'' if like is None else like.case.case_hash}".encode())
+        return _cached(f"model-{name.hexdigest()[:20]}", lambda: BkaBem(case, like=like))
+
+    return get
+
+
+@pytest.fixture(scope="session")
+def classic_ball(fault_library, cached_model):
     """The fault library's ball defect with its pit kept on the contact track and no spin slip
     (``wander_revolutions = 0``, ``spin_slip = 0``): the quasi-static model's clean 2 x BSF comb, for the tests of
     what a ball defect's lines are (their intermittency: tests/unit/test_balltrack.py)."""
     from bkabem_core.model.case import Case
-    from bkabem_core.solve.harmonic import BkaBem
 
     case = Case.load("motor_6010_ball").with_overrides({"defects.0.wander_revolutions": 0.0,
                                                          "defects.0.spin_slip": 0.0})
-    return BkaBem(case, like=fault_library["ball"])
+    return cached_model(case, like=fault_library["ball"])
 
 
 @pytest.fixture

@@ -1,5 +1,6 @@
 """The check the line-mode tests share: the fast real forms of bkabem_core.fe.linemodes against the complex
-eigen-decomposition of each line (tests/unit/test_linemodes.py on a sample of lines, tests/integration on all)."""
+eigen-decomposition of each line (tests/integration/test_linemodes_all.py: a sample of lines of the library's
+models, and all of one; tests/unit/test_linemodes.py: the fall-back)."""
 
 from __future__ import annotations
 

@@ -16,7 +16,6 @@ import pytest
 from scipy import stats
 
 from bkabem_core.model.case import Case, CaseError
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth.balltrack import AxisWalk, BallTrack, keep_knots, rho_of_sigma, sigma_for_correlation
 from bkabem_core.synth.synthesizer import Synthesizer
 
@@ -24,11 +23,11 @@ FS, SPEED = 25600.0, 25.0
 
 
 @pytest.fixture(scope="module")
-def ball_models(fault_library, classic_ball):
+def ball_models(fault_library, classic_ball, cached_model):
     """(default: wandering, spin slip; classic: the pit on the track; fast: a short correlation, 60 revolutions)."""
     fast = Case.load("motor_6010_ball").with_overrides({"defects.0.wander_revolutions": 60.0})
     return {"default": fault_library["ball"], "classic": classic_ball,
-            "fast": BkaBem(fast, like=fault_library["ball"])}
+            "fast": cached_model(fast, like=fault_library["ball"])}
 
 
 def _render(model, seconds, chunk_s=0.5, seed=1, slip=0.01, **kw):
@@ -213,7 +212,7 @@ def test_envelope_2xbsf_is_weaker_and_smeared_than_with_the_pit_on_the_track(bal
     assert out["default"][1] < 0.5, out
 
 
-def test_spin_slip_makes_2xbsf_a_lorentzian_and_leaves_the_cage_lines(fault_library, classic_ball):
+def test_spin_slip_makes_2xbsf_a_lorentzian_and_leaves_the_cage_lines(fault_library, classic_ball, cached_model):
     """Spin slip alone (no wander, no cage slip): the envelope's 2 x BSF (harmonic 2 of the spin) is the Lorentzian
     of a phase random walk, of half-power width (2 pi 2 kappa sigma)^2 BPFO / (2 pi) (kappa = BSF / (FTF z) spin
     turns per ball pass; 3.46 Hz here; a least-squares Lorentzian fit to 24 averaged 2-s spectra measured 3.34 Hz);
@@ -222,7 +221,7 @@ def test_spin_slip_makes_2xbsf_a_lorentzian_and_leaves_the_cage_lines(fault_libr
 
     sigma = 0.05
     case = classic_ball.case.with_overrides({"defects.0.spin_slip": sigma})
-    m = BkaBem(case, like=fault_library["ball"])
+    m = cached_model(case, like=fault_library["ball"])
     fm = m.fault_multipliers
     kappa = fm.bsf / (fm.ftf * m.n_balls)
     want = (2 * np.pi * 2 * kappa * sigma) ** 2 * fm.bpfo * SPEED / (2 * np.pi)

@@ -54,10 +54,8 @@ def test_compact_motor_gives_the_hand_written_fe(case, machine):
     assert np.max(np.abs(f_b[elastic] / f_a[elastic] - 1.0)) < 0.01
 
 
-def test_compact_motor_gives_the_hand_written_spectra(case, model):
-    from bkabem_core.solve.harmonic import BkaBem
-
-    other = BkaBem(Case.load(COMPACT_MOTOR))
+def test_compact_motor_gives_the_hand_written_spectra(case, model, cached_model):
+    other = cached_model(Case.load(COMPACT_MOTOR))
     for speed in (25.0, 60.0):
         sa, sb = model.spectrum(speed), other.spectrum(speed)
         np.testing.assert_allclose(sb.frequency_hz, sa.frequency_hz, rtol=1e-12)

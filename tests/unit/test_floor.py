@@ -24,8 +24,8 @@ SPEED_HZ = 25.0
 
 
 @pytest.fixture(scope="module")
-def healthy():
-    return BkaBem(Case.load("motor_6010_healthy"))
+def healthy(cached_model):
+    return cached_model(Case.load("motor_6010_healthy"))
 
 
 def _run(model, seconds, floor=True, seed=5, chunk_s=0.1):

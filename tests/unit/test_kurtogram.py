@@ -149,10 +149,10 @@ def _verdict(model: BkaBem, floor: bool = True) -> dict:
 
 
 @pytest.fixture(scope="module")
-def machines():
+def machines(cached_model):
     """The outer- and inner-race machines with their lines to the band limit (max_order = 0: every line above
     the threshold; the FE is converged to half the case's top sample rate)."""
-    return {kind: BkaBem(Case.load(f"motor_6010_{kind}").with_overrides({"excitation.max_order": 0}))
+    return {kind: cached_model(Case.load(f"motor_6010_{kind}").with_overrides({"excitation.max_order": 0}))
             for kind in ("outer", "inner")}
 
 
@@ -165,13 +165,13 @@ def test_kurtogram_picks_a_structural_band_with_slip(machines, kind):
     assert v["slip_invariant"], v
 
 
-def test_kurtogram_check_fails_on_a_truncated_comb():
+def test_kurtogram_check_fails_on_a_truncated_comb(cached_model):
     """The artefact the check must catch: 50 x BPFO (7.57 kHz at 25 Hz), no broadband floor, 1 % slip: the
     kurtogram picks a narrow band just above the comb, with no FE resonance in it, that slip made. The pit's strikes
     all alike (``strike_spread = 0``): random strike strengths spread the comb's power between its lines, which
     hides the artefact this check is built to see."""
-    model = BkaBem(Case.load("motor_6010_outer").with_overrides({"excitation.max_order": 50,
-                                                                  "defects.0.strike_spread": 0.0}))
+    model = cached_model(Case.load("motor_6010_outer").with_overrides({"excitation.max_order": 50,
+                                                                        "defects.0.strike_spread": 0.0}))
     v = _verdict(model, floor=False)
     print(v)
     assert not (v["below_top_line"] or v["holds_a_resonance"] or v["slip_invariant"]), v

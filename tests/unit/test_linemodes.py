@@ -1,8 +1,9 @@
 """The line modes (bkabem_core.fe.linemodes): the real plane-rotated form and the anchored refinement against the
-complex eigen-decomposition of every line, on the fault library's inner-race and ball line sets."""
+complex eigen-decomposition of every line (the fault library's inner-race and ball line sets against it:
+tests/integration/test_linemodes_all.py)."""
 
 import numpy as np
-from linemodes_check import TOL, hardest_lines, worst_error
+from linemodes_check import TOL, worst_error
 
 from bkabem_core.fe.linemodes import LineModes
 from bkabem_core.fe.modal import ModalBasis, plane_mask
@@ -29,31 +30,6 @@ def test_the_fe_separates_into_two_planes_and_the_plane_basis_spans_the_same_mod
         w, big = np.array([2 * np.pi * nu * f]), np.array([2 * np.pi * f])
         h1, h2 = b.solve_unit(w, big), mixed.solve_unit(w, big)
         assert np.abs(h1 - h2).max() <= 1e-8 * np.abs(h2).max()
-
-
-def test_line_modes_of_the_inner_race_lines_match_the_complex_decomposition(fault_library):
-    """The inner-race machine's 893 lines (multipliers 1-931): the real form with anchors and refinement against
-    the complex state matrix of each line, receptances within TOL at every speed up to the maximum, on the refined
-    lines farthest from their anchors and every tenth line (all lines: tests/integration/test_linemodes_all.py)."""
-    m = fault_library["inner"]
-    nu = m.multipliers[m._locked_idx]
-    fast = LineModes(m.basis, nu)              # afresh: the library model's own was extended from another's
-    assert fast.stats["method"] == "real+anchors"
-    assert fast.stats["refined"] > 0.6 * nu.size                 # the refinement is what is being tested
-    pick = hardest_lines(nu)
-    ref = LineModes(m.basis, nu[pick], method="complex")
-    assert worst_error(m.case, nu[pick], fast.subset(pick), ref, range(pick.size)) <= TOL
-
-
-def test_line_modes_of_the_ball_lines_match_the_complex_decomposition(fault_library):
-    """The ball machine's 1813 lines (FTF-spaced sidebands: groups of up to 60 lines per anchor): the refined
-    lines farthest from their anchors and every tenth line, within TOL."""
-    m = fault_library["ball"]
-    nu = m.multipliers[m._locked_idx]
-    fast = LineModes(m.basis, nu)
-    pick = hardest_lines(nu)
-    ref = LineModes(m.basis, nu[pick], method="complex")
-    assert worst_error(m.case, nu[pick], fast.subset(pick), ref, range(pick.size)) <= TOL
 
 
 def test_a_refinement_too_far_from_its_anchor_falls_back_to_the_exact_decomposition(fault_library):

@@ -18,7 +18,6 @@ import pytest
 from scipy import signal
 
 from bkabem_core.model.case import Case, CaseError
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth.measurement import Measurement
 from bkabem_core.synth.sensors import AntiAliasFilter, HighPassFilter, InterferenceTones, Quantiser
 from bkabem_core.synth.synthesizer import SynthError, Synthesizer
@@ -40,9 +39,9 @@ def _case(section: dict | None = RIG, name: str = "motor_6010_outer") -> Case:
 
 
 @pytest.fixture(scope="module")
-def rig(fault_library):
+def rig(fault_library, cached_model):
     """The fault library's outer race with the rig's acquisition (the same machine: the FE reused)."""
-    return BkaBem(_case(), like=fault_library["outer"])
+    return cached_model(_case(), like=fault_library["outer"])
 
 
 def _line(x: np.ndarray, fs: float, f_hz: float) -> float:
@@ -152,9 +151,9 @@ def test_features_are_those_of_the_recorded_samples(rig):
         assert np.allclose(chunk.features["peak"], np.abs(d).max(axis=1), rtol=1e-5)
 
 
-def test_sensor_noise_of_the_case_at_standstill(fault_library):
+def test_sensor_noise_of_the_case_at_standstill(fault_library, cached_model):
     """At standstill only the sensor noise is left: RMS = density x sqrt(fs / 2)."""
-    m = BkaBem(_case({"noise_density_m_s2_per_sqrt_hz": 1e-3}), like=fault_library["outer"])
+    m = cached_model(_case({"noise_density_m_s2_per_sqrt_hz": 1e-3}), like=fault_library["outer"])
     x = _samples(Synthesizer(m, 25600.0, 0.5, quantities=("acceleration",), seed=4), "constant:0", 2.0)
     assert x.std(axis=1) == pytest.approx(np.full(4, 1e-3 * math.sqrt(12800.0)), rel=0.02)
 
@@ -209,14 +208,15 @@ def test_measurement_section_is_checked():
     assert Measurement.of_case(over).quantisation == Quantiser(1e-3)
 
 
-def test_the_rigs_slip_is_the_default_of_synthesis_node_and_data_sets(tmp_path, monkeypatch, fault_library):
+def test_the_rigs_slip_is_the_default_of_synthesis_node_and_data_sets(tmp_path, monkeypatch, fault_library,
+                                                                    cached_model):
     """A rig's ball-pass jitter (``[measurement] slip``) is the synthesiser's, ``bkabem synth``'s, a data set's and
     the node's default; an explicit value wins, ``--no-measurement`` / ``measurement=False`` leaves it out."""
     import bkabem_core.solve.harmonic as harmonic
     from bkabem_core.dataset.spec import DatasetSpec
     from bkabem_ros.cli.main import main
 
-    jittery = BkaBem(_case(dict(RIG, slip=0.002)), like=fault_library["outer"])
+    jittery = cached_model(_case(dict(RIG, slip=0.002)), like=fault_library["outer"])
     assert Synthesizer(jittery).settings.slip == 0.002
     assert Synthesizer(jittery, slip=0.0).settings.slip == 0.0
     assert Synthesizer(jittery, measurement=False).settings.slip == 0.0

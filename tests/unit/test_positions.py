@@ -50,8 +50,8 @@ def two() -> Case:
 
 
 @pytest.fixture(scope="module")
-def two_model(two) -> BkaBem:
-    return BkaBem(two)
+def two_model(two, cached_model) -> BkaBem:
+    return cached_model(two)
 
 
 # --------------------------------------------------------------------------- the case

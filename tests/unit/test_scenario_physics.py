@@ -26,15 +26,14 @@ def _table() -> list[tuple[float, float, float, float, float, float, float]]:
 
 
 @pytest.fixture(scope="module")
-def states():
+def states(cached_model):
     from bkabem_core.scenario.timeline import Scenario
-    from bkabem_core.solve.harmonic import BkaBem
 
     s = Scenario.load("de_outer_run_to_failure")
     out, base = {}, None
     for t_h, *_ in _table():
         st = next(x for x in s.states if math.isclose(x.start_s / 3600, t_h, abs_tol=0.006))
-        m = BkaBem(st.case, like=base) if base is not None else BkaBem(st.case)
+        m = cached_model(st.case, like=base)
         base = base or m
         out[t_h] = (st, m)
     return out

@@ -6,8 +6,6 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from bkabem_core.model.case import Case
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth.sensors import MOUNTING_RESONANCE_HZ, Accelerometer, AntiAliasFilter
 from bkabem_core.synth.synthesizer import SynthError, Synthesizer
 
@@ -32,9 +30,8 @@ def test_anti_alias_filter_is_butterworth():
     assert abs(aa.gain(40000.0)) == pytest.approx(1 / np.sqrt(1 + 2.0 ** 12), rel=1e-9)     # order 6
 
 
-def test_chain_applies_to_the_lines_of_the_right_channels():
+def test_chain_applies_to_the_lines_of_the_right_channels(model):
     """Acceleration lines get the accelerometer and the filter, displacement (the probe) the filter only."""
-    model = BkaBem(Case.load())
     acc, aa = Accelerometer.mounted("magnet"), AntiAliasFilter(5000.0, 4)
     plain = Synthesizer(model, 51200.0, features=False)
     chain = Synthesizer(model, 51200.0, features=False, accelerometer=acc, anti_alias=aa)

@@ -42,11 +42,11 @@ def _lever_rule(case: Case, force: complex) -> dict:
 
 
 @pytest.fixture(scope="module")
-def coupled():
+def coupled(cached_model):
     """motor_6010_outer with a 30 N coupling force and no unbalance (its 1x line alone): BkaBem."""
     case = Case.load("motor_6010_outer").with_overrides({"baseline.coupling_force_n": COUPLING_N,
                                                          "baseline.unbalance_grade_mm_s": 0.0})
-    return BkaBem(case)
+    return cached_model(case)
 
 
 # --------------------------------------------------------------------------- the coupling force: statics, 1x line
@@ -216,12 +216,12 @@ def test_zero_coupling_force_is_the_case_without_the_key(fault_library):
 
 # --------------------------------------------------------------------------- looseness and electrical harmonics
 @pytest.fixture(scope="module")
-def loose():
+def loose(cached_model):
     case = Case.load("motor_6010_healthy").with_overrides({
         "baseline.looseness_force_n": 12.0, "baseline.looseness_orders": 6, "baseline.unbalance_grade_mm_s": 0.0,
         "baseline.electrical_force_n": 5.0, "baseline.electrical_harmonics": [4.0, 6.0],
         "baseline.electrical_harmonic_forces_n": [2.0, 1.0]})
-    return BkaBem(case)
+    return cached_model(case)
 
 
 def test_looseness_is_a_sawtooth_comb_of_shaft_orders(loose):

@@ -121,18 +121,18 @@ def test_the_c_kernel_and_the_numpy_reference_give_the_same_strikes_across_chunk
         assert np.max(np.abs(runs["auto", 0.1] - runs[other])) < 2e-5 * rms, other
 
 
-def test_a_spread_of_zero_is_every_strike_alike_bit_for_bit(outer):
-    zero = BkaBem(outer.case.with_overrides({"defects.0.strike_spread": 0.0}), like=outer)
+def test_a_spread_of_zero_is_every_strike_alike_bit_for_bit(outer, cached_model):
+    zero = cached_model(outer.case.with_overrides({"defects.0.strike_spread": 0.0}), like=outer)
     assert np.array_equal(_waveform(zero, True, 2.0), _waveform(outer, False, 2.0))
 
 
 # --------------------------------------------------------------------------- what a pipeline sees
 @pytest.mark.parametrize("spread", [0.4, 1.0])
-def test_each_pass_is_struck_anew_and_the_rms_stays(outer, spread):
+def test_each_pass_is_struck_anew_and_the_rms_stays(outer, spread, cached_model):
     """20 s at 25 Hz (3000 ball passes): the energy of each ball pass over the same pass with every strike alike
     varies by about the stated spread (a little less: a strike's ringing runs on into the blend towards the next),
     around 1, and the RMS is the quasi-static model's (to the sampling error of 3000 random strikes)."""
-    model = BkaBem(outer.case.with_overrides({"defects.0.strike_spread": spread}), like=outer)
+    model = cached_model(outer.case.with_overrides({"defects.0.strike_spread": spread}), like=outer)
     x, x0 = _waveform(model, True), _waveform(model, False)
     per = FS / (SPEED_HZ * model.bpfo_per_hz)
     n = int(x.size / per) - 1
@@ -168,9 +168,9 @@ def test_random_strikes_lower_the_envelope_line_to_their_ceiling(outer):
     assert ceiling - 8.0 < struck < ceiling + 3.0, (struck, ceiling)
 
 
-def test_a_pit_of_depth_zero_has_no_strikes(outer):
+def test_a_pit_of_depth_zero_has_no_strikes(outer, cached_model):
     """A fleet's healthy machine is the defect case at depth 0: its bearing drops the pit, and so do the strikes."""
-    flat = BkaBem(outer.case.with_overrides({"defects.0.depth_m": 0.0}), like=outer)
+    flat = cached_model(outer.case.with_overrides({"defects.0.depth_m": 0.0}), like=outer)
     assert StrikeSpread.of_model(flat, LineSelection(flat)) is None
     s = Synthesizer(flat, FS, 0.1)
     assert np.all(np.isfinite(s.next_chunk(SPEED_HZ).samples)) and "strikes" not in s.ground_truth()

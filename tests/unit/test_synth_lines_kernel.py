@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from bkabem_core.model.case import Case
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth import kernel as sk
 from bkabem_core.synth.lines import carrier_sums
 from bkabem_core.synth.render import FusedLines, LoopLines
@@ -92,7 +91,7 @@ def test_vector_and_generic_paths_agree_with_noise_floor_and_odd_blocks(kind, qu
     assert np.all(np.abs(a - g) <= TOL * top), (np.abs(a - g) / top).max()
 
 
-def test_carrier_sums_follow_the_families_groups_and_orders():
+def test_carrier_sums_follow_the_families_groups_and_orders(cached_model):
     """The plan's carrier sums (:func:`~bkabem_core.synth.lines.carrier_sums`): an inner race's BPFI families take
     the shaft orders 2, 3, 4 as sums of the others of their group (table size and phase), the first one and
     families of another group from their own phase; a ball's spin families the cage orders likewise. Every sum
@@ -100,7 +99,7 @@ def test_carrier_sums_follow_the_families_groups_and_orders():
     pair is taken (4 = 2 + 2)."""
     for kind, axis in (("inner", 0), ("ball", 1)):
         case = Case.load(f"motor_6010_{kind}").with_overrides({"excitation.max_order": 50})   # the 50-order plan
-        s = Synthesizer(BkaBem(case), sample_rate_hz=25600.0, chunk_s=0.05, features=False)
+        s = Synthesizer(cached_model(case), sample_rate_hz=25600.0, chunk_s=0.05, features=False)
         ff = s._plan.lines.families.families
         cs = carrier_sums(ff)
         summed = {ff[i].q[axis]: tuple(int(v) for v in cs[i]) for i in range(len(ff)) if cs[i][0] >= 0}

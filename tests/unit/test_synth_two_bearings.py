@@ -39,10 +39,10 @@ def _cwru_text(nde_race: str = "inner") -> str:
 
 
 @pytest.fixture(scope="module")
-def cwru() -> BkaBem:
+def cwru(cached_model) -> BkaBem:
     case = Case.from_toml(_cwru_text(), "cwru.toml")
     assert [(d.bearing, d.race) for d in case.defects()] == [("de", "outer"), ("nde", "inner")]
-    return BkaBem(case)
+    return cached_model(case)
 
 
 def _synth(model, **kw) -> Synthesizer:
@@ -252,11 +252,11 @@ def test_one_bearing_type_keeps_one_walk(model, fault_library):
     assert set(loop._stream.walk._walks) == {"de"}
 
 
-def test_a_ball_defect_of_the_nde_is_gated_and_slips_on_the_nde(cwru):
+def test_a_ball_defect_of_the_nde_is_gated_and_slips_on_the_nde(cwru, cached_model):
     """A ball defect in the 6203 (NDE): its track gates the lines on the NDE's spin and the NDE's cage orders
     (not the DE's 6205 lines), its steps are the NDE's cage revolutions counted in DE ball passes
     (BPFO_de / FTF_nde), and its spin slip reads the NDE's walk; the run renders through both kernel paths."""
-    m = BkaBem(Case.from_toml(_cwru_text("ball"), "cwru_ball.toml"))
+    m = cached_model(Case.from_toml(_cwru_text("ball"), "cwru_ball.toml"))
     tb = {b: textbook_multipliers(m.case.bearing_table(b)) for b in ("de", "nde")}
     s = _synth(m, slip=0.0, seed=1)
     track = s._plan.track

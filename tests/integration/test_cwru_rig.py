@@ -24,6 +24,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 from realdata.diagnostics import decimate, envelope_analysis, moments  # noqa: E402
 from realdata.records import EFFECTIVE_6205  # noqa: E402
 
+pytestmark = pytest.mark.slow                  # renders of the rig's twin held against its records
+
 FIXTURE = ROOT / "tests" / "fixtures" / "cwru" / "excerpts.npz"
 #: CWRU's published fault frequencies [multiples of the shaft speed] ("Bearing information" page of the Data Center)
 CWRU_6205 = {"bpfi": 5.4152, "bpfo": 3.5848, "ftf": 0.39828, "bsf": 2.3570}
@@ -44,11 +46,10 @@ def _line(x: np.ndarray, fs: float, f: float) -> float:
     return 2.0 * abs(np.dot((x - x.mean()) * w, np.exp(-2j * np.pi * f * t))) / w.sum()
 
 
-def test_the_rigs_bearings_have_cwrus_fault_frequencies():
+def test_the_rigs_bearings_have_cwrus_fault_frequencies(cached_model):
     from bkabem_core.model.case import Case
-    from bkabem_core.solve.harmonic import BkaBem
 
-    model = BkaBem(Case.load("cwru_rig"))
+    model = cached_model(Case.load("cwru_rig"))
     for name, published in (("de", CWRU_6205), ("nde", CWRU_6203)):
         mult = model.bearing_multipliers[name]
         for k, v in published.items():

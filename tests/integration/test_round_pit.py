@@ -21,6 +21,8 @@ from bkabem_core.bearing.halfspace import HalfSpaceGrid
 from bkabem_core.model.case import Case, CaseError
 from bkabem_ros.cli.main import main
 
+pytestmark = pytest.mark.slow                  # contact solves on fine grids and renders of pitted machines
+
 INCH = 25.4e-3
 MIL = 1e-3 * INCH
 CWRU_DEPTH = 0.011 * INCH
@@ -215,11 +217,10 @@ def test_a_pit_that_does_not_fit_is_one_line_and_exit_2(capsys, tmp_path, defect
 
 
 # --------------------------------------------------------------------------- the signal
-def test_the_envelope_line_of_a_7_mil_pit_is_weaker_than_a_21_mil_pits():
+def test_the_envelope_line_of_a_7_mil_pit_is_weaker_than_a_21_mil_pits(cached_model):
     """The fault-library motor (6010 bearings) with a CWRU pit in the DE outer race at 6 o'clock, 25 Hz, 1 % slip,
     sensor noise: the BPFO line of the envelope spectrum (textbook analysis here) stands far higher above its
     floor for the 21 mil pit than for the 7 mil one."""
-    from bkabem_core.solve.harmonic import BkaBem
     from bkabem_core.synth.synthesizer import Synthesizer
 
     fs, speed = 51200.0, 25.0
@@ -228,7 +229,7 @@ def test_the_envelope_line_of_a_7_mil_pit_is_weaker_than_a_21_mil_pits():
     for mils in (7, 21):
         case = base.with_overrides({"defects.0.shape": "round_pit", "defects.0.length_m": mils * MIL,
                                     "defects.0.depth_m": CWRU_DEPTH})
-        model = BkaBem(case, like=model) if model is not None else BkaBem(case)
+        model = cached_model(case, like=model)
         s = Synthesizer(model, sample_rate_hz=fs, chunk_s=0.25, quantities=("acceleration",), slip=0.01, seed=3,
                         noise_density={"acceleration": 2e-4}, band_limit="taper", features=False)
         x = np.concatenate([s.next_chunk(speed).channel("de_vertical_acceleration") for _ in range(4)]).astype(float)
