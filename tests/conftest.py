@@ -1,6 +1,6 @@
-"""Shared fixtures: the embedded case, its BKA-BEM model and the fault library are built once per test session
-(the fault library once for as long as the code it is made from does not change: build/test-cache); ``cli`` runs a core command in this process on the
-library's models, ``figures`` keeps the figures it draws."""
+"""Shared fixtures: the embedded case, its BKA-BEM model and the fault library are made once for as long as the
+code they are made from does not change (build/test-cache, ``cached_model``); ``cli`` runs a core command in this
+process on the library's models, ``figures`` keeps the figures it draws."""
 
 from __future__ import annotations
 
@@ -131,8 +131,9 @@ def cached_model():
     from bkabem_core.solve.harmonic import BkaBem
 
     def get(case, like=None):
-        name = hashlib.sha256(f"{case.name}|{case.source}|{case.case_hash}|{'' if like is None else like.case.case_hash}".encode())
-        return _cached(f"model-{name.hexdigest()[:20]}", lambda: BkaBem(case, like=like))
+        like_hash = "" if like is None else like.case.case_hash
+        name = hashlib.sha256(f"{case.name}|{case.source}|{case.case_hash}|{like_hash}".encode()).hexdigest()[:20]
+        return _cached(f"model-{name}", lambda: BkaBem(case, like=like))
 
     return get
 

@@ -46,8 +46,6 @@ def _tables():
 _X, _F, _XF, _RF = _tables()
 
 
-
-
 def words(key: int, block: int, steps: int) -> np.ndarray:
     """(steps, 4) uint64 words of the four xoshiro256++ lanes of noise block ``block``."""
     x = mix64((key & MASK64) ^ mix64((block + GOLDEN) & MASK64))
