@@ -129,7 +129,7 @@ def _cells(m: list[float], t: list[float]) -> str:
 
 def table(rows: list[dict], seeds: int, twin_case: str = "cwru_rig") -> str:
     ks = range(1, ORDERS + 1)
-    out = [f"Each cell: measured / twin (`{twin_case}`, the mean over its seeds: {seeds}), dB over the floor of the "
+    out = [f"Each cell: measured / twin (`{twin_case}`, the mean over its seeds: {seeds}), dB over the floor of the\n"
            "2-4 kHz squared-envelope spectrum.", "",
            "Shaft orders `k f_r`:", "",
            "| record | " + " | ".join(f"{k}x" for k in ks) + " |", "|---|" + "---|" * ORDERS]
