@@ -26,7 +26,7 @@ def test_line_modes_of_every_inner_race_line_match_the_complex_decomposition():
 def test_line_modes_of_the_inner_race_lines_match_the_complex_decomposition(fault_library):
     """The inner-race machine's 893 lines (multipliers 1-931): the real form with anchors and refinement against
     the complex state matrix of each line, receptances within TOL at every speed up to the maximum, on the refined
-    lines farthest from their anchors and every tenth line (all lines: tests/integration/test_linemodes_all.py)."""
+    lines farthest from their anchors and every tenth line (all lines of a fresh model: the test above)."""
     m = fault_library["inner"]
     nu = m.multipliers[m._locked_idx]
     fast = LineModes(m.basis, nu)              # afresh: the library model's own was extended from another's

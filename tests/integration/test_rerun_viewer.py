@@ -153,13 +153,13 @@ def _wait_for_depths(node, done, timeout: float) -> list[int]:
 
 
 def test_a_scenario_in_the_viewer_health_panels_and_ground_truth_trend(tmp_path):
-    """A real node runs the embedded run to failure (de_outer_run_to_failure) at x1200 from 1.9 h until its log
-    says the DE depth has climbed to 35 um (~21 s on an idle host: 7 h of scenario time) and saves its .rrd; in the viewer
-    the DE ground-truth trend climbs in steps (the red outer-race series spans most of the plot's height), the NDE one is the green 'no defect' line at 0, the health
-    panels have their text, and nothing reports an error. At the screenshots' window size (and at 1600 x 900)
-    every tab row shows all its titles and the white one is the view shown (:meth:`HeadlessViewer.title_problems`),
-    which reports the review's layout (five trends in one row: the ground truth's tab hidden, another tab's title
-    over its plot).
+    """A real node runs the embedded run to failure (de_outer_run_to_failure) at x1200 from 1.9 h until its log says the
+    DE depth has climbed to 35 um (~21 s on an idle host: 7 h of scenario time) and saves its .rrd; in the viewer the
+    DE ground-truth trend climbs in steps (the red outer-race series spans most of the plot's height), the NDE one is
+    the green 'no defect' line at 0, the health panels have their text, and nothing reports an error. At the
+    screenshots' window size (and at 1600 x 900) every tab row shows all its titles and the white one is the view
+    shown (:meth:`HeadlessViewer.title_problems`), which reports the review's layout (five trends in one row: the
+    ground truth's tab hidden, another tab's title over its plot).
     Screenshots: ``rtf_trends.png``, ``rtf_de_truth.png`` in the test's folder (``make screenshots`` makes
     docs/img/rerun_scenario.png the same way)."""
     import signal

@@ -313,9 +313,9 @@ def _windowed_train(rng, window, fs=12000.0, seconds=10.0, fr=29.93):
 
 
 def test_shaft_orders_tell_a_sharp_once_per_turn_window_from_a_smooth_one():
-    """bench/shaft_orders.py: impacts under a smooth window (1 + 0.8 cos theta) keep 1x and lose the orders from 3x
-    on; under a sharp one (10x for a tenth of the turn) the orders 3x-6x and the fault line's sidebands stand >= 10 dB
-    higher. The "FTF" reading of such a train is its |BPFO - 4 f_r| line: the same line of the spectrum."""
+    """bench/shaft_orders.py: impacts under a smooth window (1 + 0.8 cos theta) keep 1x and lose the orders from
+    3x on; under a sharp one (10x for a tenth of the turn) the orders 3x-6x and the fault line's sidebands stand
+    >= 10 dB higher. The "FTF" reading of such a train is its |BPFO - 4 f_r| line: the same line of the spectrum."""
     from shaft_orders import levels
 
     rng = np.random.default_rng(5)
@@ -330,8 +330,8 @@ def test_shaft_orders_tell_a_sharp_once_per_turn_window_from_a_smooth_one():
 
 
 def test_the_ball_fold_reads_an_uneven_ball_set_and_nothing_where_the_balls_are_alike():
-    """bench/shaft_orders.py's fold of pass energies over the balls: 9 balls whose energies differ by 20 % under a
-    pass-to-pass spread of 40 % read 0.2 within 25 %; alike balls read under 0.04."""
+    """bench/shaft_orders.py's fold of pass energies over the balls: 9 balls whose energies differ by about 20 %
+    under a pass-to-pass spread of 40 % read their spread within 25 %; alike balls read under 0.04."""
     from shaft_orders import ball_spread
 
     rng = np.random.default_rng(3)
@@ -346,8 +346,8 @@ def test_the_ball_fold_reads_an_uneven_ball_set_and_nothing_where_the_balls_are_
 
 @pytest.mark.parametrize("script", ["rig_low_band", "impact_spread", "shaft_orders"])
 def test_a_record_script_on_a_folder_without_records_says_so_in_one_line_and_exits_2(script, tmp_path, capsys):
-    """bench/rig_low_band.py, bench/impact_spread.py and bench/shaft_orders.py on a missing folder and on an empty one: exit 2, one line
-    naming the argument, nothing written to the docs."""
+    """bench/rig_low_band.py, bench/impact_spread.py and bench/shaft_orders.py on a missing folder and on an empty
+    one: exit 2, one line naming the argument, nothing written to the docs."""
     import importlib
 
     main = importlib.import_module(script).main
