@@ -33,6 +33,11 @@ from pathlib import Path
 TWO_PI = 2.0 * math.pi
 #: The type of the speed topic.
 SPEED_TYPE = "std_msgs/msg/Float64"
+#: The ROS graph's node name for an endpoint whose node it does not know yet (its participant's node list arrives
+#: after the endpoint itself), and how many graph checks a publisher of the wrong type may stay that way before it
+#: is reported without its name (a plain DDS writer never gets one)
+UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"
+NAME_WAIT_CHECKS = 3
 
 #: The fastest shaft a case may have [Hz] (the upper plausibility bound of operating.max_speed_hz, 120 000 rpm): a
 #: profile above it is a unit slip, not a speed any node will take.
@@ -355,6 +360,9 @@ class SpeedTypeWatch:
     ----------
     seen : set of (str, str)
         ``(publisher node, its type)`` warned about.
+    unnamed : dict
+        Endpoint GID -> the checks for which the graph has not named the node of a publisher of the wrong type
+        (reported by name once it is named, or without it after :data:`NAME_WAIT_CHECKS` checks).
     """
 
     def __init__(self, node, topic: str, unit_name):
@@ -362,6 +370,7 @@ class SpeedTypeWatch:
 
         self.node, self.topic, self.unit_name = node, topic, unit_name
         self.seen: set[tuple[str, str]] = set()
+        self.unnamed: dict[bytes, int] = {}
         self.timer = node.create_timer(2.0, self.check, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def check(self) -> None:
@@ -373,6 +382,11 @@ class SpeedTypeWatch:
         for info in infos:
             if info.topic_type == SPEED_TYPE:
                 continue
+            if info.node_name == UNKNOWN_NODE_NAME:
+                gid = bytes(info.endpoint_gid)
+                self.unnamed[gid] = self.unnamed.get(gid, 0) + 1
+                if self.unnamed[gid] < NAME_WAIT_CHECKS:
+                    continue                     # the graph names it at a later check, as a rule the next one
             who = f"{info.node_namespace.rstrip('/')}/{info.node_name}"
             key = (who, info.topic_type)
             if key not in self.seen:
