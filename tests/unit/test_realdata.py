@@ -240,14 +240,17 @@ def test_the_low_band_reader_finds_shaft_orders_and_tells_them_from_fixed_lines(
     assert "17.00x" not in text
 
 
-def _impact_train(rng, cv, fs=12000.0, seconds=5.0, f_fault=107.6, fr=29.93, modulation=0.0):
+def _impact_train(rng, cv, fs=12000.0, seconds=5.0, f_fault=107.6, fr=29.93, modulation=0.0, window=None):
     """Impacts at ``f_fault`` [Hz] ringing a 3 kHz, 3 % damped resonance, each with an energy of random spread
-    ``cv`` (lognormal, i.i.d.) times a periodic shaft-rate modulation of depth ``modulation``, over weak white
-    noise; also returns the number of impacts."""
+    ``cv`` (lognormal, i.i.d.) times ``window(theta)`` of the shaft angle at it (default: a periodic shaft-rate
+    modulation of depth ``modulation``), over weak white noise; also returns the number of impacts."""
+    if window is None:
+        def window(th):
+            return 1.0 + modulation * np.cos(th)
     n = int(seconds * f_fault)
     times = np.arange(n) / f_fault
     s2 = np.log1p(cv ** 2)                          # energy lognormal with that spread; the amplitude its root
-    energy = rng.lognormal(-s2 / 2.0, np.sqrt(s2), n) * (1.0 + modulation * np.cos(2 * np.pi * fr * times))
+    energy = rng.lognormal(-s2 / 2.0, np.sqrt(s2), n) * window(2 * np.pi * fr * times)
     x = np.zeros(int(seconds * fs))
     np.add.at(x, np.round(times * fs).astype(int), np.sqrt(energy))
     th = np.arange(int(0.01 * fs)) / fs
@@ -297,19 +300,12 @@ def test_the_impacts_random_spread_is_read_through_a_periodic_modulation_and_bou
     assert abs(line - ceiling_db(n, cv)) <= 2.0, (line, ceiling_db(n, cv))
 
 
-def _windowed_train(rng, window, fs=12000.0, seconds=10.0, fr=29.93):
-    """An outer-race impact train at the 6205's measured BPFO (``_impact_train``'s ring, spread 0.3), each impact's
-    energy times ``window(theta)`` of the shaft angle at it."""
-    f0 = EFFECTIVE_6205["bpfo"] * fr
-    n = int(seconds * f0)
-    times = np.arange(n) / f0
-    energy = rng.lognormal(-0.045, 0.3, n) * window(2 * np.pi * fr * times)
-    x = np.zeros(int(seconds * fs))
-    np.add.at(x, np.round(times * fs).astype(int), np.sqrt(energy))
-    th = np.arange(int(0.01 * fs)) / fs
-    wn, z = 2 * np.pi * 3000.0, 0.03
-    ring = np.exp(-z * wn * th) * np.sin(wn * np.sqrt(1 - z * z) * th)
-    return np.convolve(x, ring)[:x.size] + 1e-4 * rng.standard_normal(x.size), fr
+def _windowed_train(rng, window, fr=29.93):
+    """10 s of ``_impact_train`` (spread 0.3 in the log of the energy) at the 6205's measured BPFO under
+    ``window(theta)``, and the shaft speed [Hz]."""
+    x, _ = _impact_train(rng, np.sqrt(np.expm1(0.09)), seconds=10.0, f_fault=EFFECTIVE_6205["bpfo"] * fr, fr=fr,
+                         window=window)
+    return x, fr
 
 
 def test_shaft_orders_tell_a_sharp_once_per_turn_window_from_a_smooth_one():
