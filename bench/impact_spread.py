@@ -40,7 +40,6 @@ direction. tests/unit/test_realdata.py checks the estimate and the law on impact
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from pathlib import Path
@@ -53,7 +52,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from docs_blocks import replace_block  # noqa: E402
 from realdata.diagnostics import decimate, envelope_analysis, estimate_speed, squared_envelope  # noqa: E402
-from realdata.records import EFFECTIVE_6205, RecordError, scan  # noqa: E402
+from realdata.records import EFFECTIVE_6205, race_record_main, scan  # noqa: E402
 
 DOCS = ROOT / "docs" / "rigs.md"
 FIGURE = ROOT / "docs" / "img" / "impact_spread.png"
@@ -190,29 +189,14 @@ def figure(rows: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
+def _write_docs(rows: list[dict], text: str, _args) -> None:
+    DOCS.write_text(replace_block(DOCS.read_text(), "impact_spread", text, "docs/rigs.md"))
+    figure(rows, FIGURE)
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("data_dir", type=Path, help="folder of the CWRU records (.npz)")
-    ap.add_argument("--seeds", type=int, default=2, help="twin renders per record (default 2)")
-    ap.add_argument("--no-docs", action="store_true", help="print the table; write neither docs/rigs.md nor the figure")
-    a = ap.parse_args(argv)
-    if a.seeds < 1:
-        print(f"impact_spread: --seeds: must be at least 1 (got {a.seeds})", file=sys.stderr)
-        return 2
-    try:
-        rows = run(a.data_dir, a.seeds)
-    except RecordError as exc:                     # a missing folder, or one without records
-        print(f"impact_spread: data_dir: {exc}", file=sys.stderr)
-        return 2
-    if not rows:
-        print(f"impact_spread: data_dir: no drive-end race-fault record in {a.data_dir}", file=sys.stderr)
-        return 2
-    text = table(rows, a.seeds)
-    print(text)
-    if not a.no_docs:
-        DOCS.write_text(replace_block(DOCS.read_text(), "impact_spread", text, "docs/rigs.md"))
-        figure(rows, FIGURE)
-    return 0
+    return race_record_main("impact_spread", __doc__.split("\n\n")[0], argv, lambda a: run(a.data_dir, a.seeds),
+                            lambda rows, a: table(rows, a.seeds), _write_docs)
 
 
 if __name__ == "__main__":

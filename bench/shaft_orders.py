@@ -37,7 +37,6 @@ back to nearly whole turns, so it is an upper bound of the balls' own difference
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from pathlib import Path
@@ -57,7 +56,7 @@ from realdata.diagnostics import (  # noqa: E402
     estimate_speed,
     line_level,
 )
-from realdata.records import EFFECTIVE_6205, RecordError, scan  # noqa: E402
+from realdata.records import EFFECTIVE_6205, race_record_main, scan  # noqa: E402
 
 DOCS = ROOT / "docs" / "rigs.md"
 FIGURE = ROOT / "docs" / "img" / "shaft_orders.png"
@@ -196,31 +195,16 @@ def figure(rows: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("data_dir", type=Path, help="folder of the CWRU records (.npz)")
-    ap.add_argument("--seeds", type=int, default=2, help="twin renders per record (default 2)")
-    ap.add_argument("--twin", default="cwru_rig", help="the twin: an embedded case name or a case TOML (default "
-                    "cwru_rig); docs/rigs.md takes only cwru_rig's table")
-    ap.add_argument("--no-docs", action="store_true", help="print the table; write neither docs/rigs.md nor the figure")
-    a = ap.parse_args(argv)
-    if a.seeds < 1:
-        print(f"shaft_orders: --seeds: must be at least 1 (got {a.seeds})", file=sys.stderr)
-        return 2
-    try:
-        rows = run(a.data_dir, a.seeds, a.twin)
-    except RecordError as exc:                     # a missing folder, or one without records
-        print(f"shaft_orders: data_dir: {exc}", file=sys.stderr)
-        return 2
-    if not rows:
-        print(f"shaft_orders: data_dir: no drive-end race-fault record in {a.data_dir}", file=sys.stderr)
-        return 2
-    text = table(rows, a.seeds, a.twin)
-    print(text)
-    if not a.no_docs and a.twin == "cwru_rig":
+def _write_docs(rows: list[dict], text: str, args) -> None:
+    if args.twin == "cwru_rig":                     # the page holds the rig's own twin only
         DOCS.write_text(replace_block(DOCS.read_text(), "shaft_orders", text, "docs/rigs.md"))
         figure(rows, FIGURE)
-    return 0
+
+
+def main(argv=None) -> int:
+    return race_record_main("shaft_orders", __doc__.split("\n\n")[0], argv,
+                            lambda a: run(a.data_dir, a.seeds, a.twin), lambda rows, a: table(rows, a.seeds, a.twin),
+                            _write_docs, twin_option=True)
 
 
 if __name__ == "__main__":

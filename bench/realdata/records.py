@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import csv
 import re
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -208,3 +209,37 @@ def scan(folder) -> list[Record]:
     order = {k: i for i, k in enumerate(KINDS)}
     out.sort(key=lambda r: (order[r.kind], r.load_hp, r.position_oclock or 0, r.size_mils))
     return out
+
+
+def race_record_main(name: str, description: str, argv, run, table, write_docs, twin_option: bool = False) -> int:
+    """The command line of a bench script over a folder's race-fault records: ``DATA_DIR``, ``--seeds`` (twin
+    renders per record), ``--no-docs`` and, with ``twin_option``, ``--twin CASE``. ``run(args)`` gives the rows,
+    ``table(rows, args)`` the text printed, ``write_docs(rows, text, args)`` writes the page and the figure (not
+    with ``--no-docs``). Bad input (``--seeds`` below 1, a folder without records or without race-fault records):
+    one line naming the argument on stderr, exit 2."""
+    import argparse
+
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("data_dir", type=Path, help="folder of the CWRU records (.npz)")
+    ap.add_argument("--seeds", type=int, default=2, help="twin renders per record (default 2)")
+    if twin_option:
+        ap.add_argument("--twin", default="cwru_rig", help="the twin: an embedded case name or a case TOML "
+                        "(default cwru_rig); docs/rigs.md takes only cwru_rig's table")
+    ap.add_argument("--no-docs", action="store_true", help="print the table; write neither docs/rigs.md nor the figure")
+    a = ap.parse_args(argv)
+    if a.seeds < 1:
+        print(f"{name}: --seeds: must be at least 1 (got {a.seeds})", file=sys.stderr)
+        return 2
+    try:
+        rows = run(a)
+    except RecordError as exc:                     # a missing folder, or one without records
+        print(f"{name}: data_dir: {exc}", file=sys.stderr)
+        return 2
+    if not rows:
+        print(f"{name}: data_dir: no drive-end race-fault record in {a.data_dir}", file=sys.stderr)
+        return 2
+    text = table(rows, a)
+    print(text)
+    if not a.no_docs:
+        write_docs(rows, text, a)
+    return 0
