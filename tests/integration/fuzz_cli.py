@@ -16,15 +16,20 @@ Inputs (deterministic for a seed):
 
 Used by ``tests/integration/test_fuzz_cli.py`` (a time-bounded sample) and as a script for the full counts::
 
-    python tests/integration/fuzz_cli.py [--n-case 120] [--n-scenario 80] [--n-args 200] [--cli "python -m bkabem_ros"] [--jobs 2]
+    python tests/integration/fuzz_cli.py [--n-case 120] [--n-scenario 80] [--n-args 200]
+                                         [--cli "python -m bkabem_ros"] [--jobs 2] [--fork-server]
 
-Processes run with a 6 GiB address-space limit (a blow-up becomes a MemoryError, not a swapping machine), on
+The script starts every run as a fresh interpreter (``--cli``); the test forks each from a :class:`ForkServer`, an
+interpreter that has imported the command line once: the same runs as processes of their own, without half a
+second of start-up each (``test_fork_server_runs_are_the_fresh_processes_runs`` holds the two to the same
+outcomes). Processes run with a 6 GiB address-space limit (a blow-up becomes a MemoryError, not a swapping machine), on
 loopback with a random ``ROS_DOMAIN_ID``, and are killed after ``timeout`` seconds (counted as a hang).
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import math
 import os
@@ -35,6 +40,7 @@ import shlex
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -309,7 +315,8 @@ def argument_inputs(n: int, seed: int = 14) -> list[Input]:
          {"--sample-rate": ["nan", "0", "-1", "1", "1e9"], "--chunk-duration": ["nan", "0", "1e9"],
           "--seed": ["-1", "x"], "--namespace": ["bad ns", "/1x", "//", "/a b"], "--name": ["bad name", "1x", ""],
           "--params-file": ["{dir}/garbage.yaml", "{dir}/missing.yaml", "{dir}/binary.yaml"],
-          "--record": ["{ro}/x.mcap", "{dir}/missing/x.mcap", "/dev/full", "{dir}/full.mcap"], "--case": ["{dir}/missing.toml"],
+          "--record": ["{ro}/x.mcap", "{dir}/missing/x.mcap", "/dev/full", "{dir}/full.mcap"],
+          "--case": ["{dir}/missing.toml"],
           "--spectrum-rate": ["nan", "-1", "1e9"],
           "--scenario": ["{dir}/missing.toml", "{dir}/garbage.yaml", "{dir}/binary.yaml", "no_such_scenario", "mixed",
                          "{dir}"],
@@ -382,13 +389,13 @@ def _arg_input(cmd: str, base: list[str], opt: str, value: str, outputs: list[st
 
 
 # --------------------------------------------------------------------------- running and judging
-def _fixture_files(d: Path, ro: Path) -> None:
+def _fixture_files(d: Path, ro: Path, recordings: bool = True) -> None:
     (d / "garbage.csv").write_text("time_s,speed_hz\n0,x\n1,\n")
     (d / "garbage.yaml").write_text("/**:\n  ros__parameters: [unclosed\n")
     (d / "binary.yaml").write_bytes(bytes(range(256)))
     (d / "garbage.mcap").write_bytes(b"\x89MCAP0\r\n" + os.urandom(300))
     ok = REPO / "recordings" / "example_runup.mcap"
-    if ok.exists():
+    if recordings and ok.exists():                  # 3 MB of copies: only for the inputs that name a recording
         data = ok.read_bytes()
         (d / "ok.mcap").write_bytes(data)
         (d / "half.mcap").write_bytes(data[: len(data) // 2])
@@ -485,26 +492,160 @@ def judge(inp: Input, rc: int | None, stdout: str, stderr: str, workdir: Path) -
     return "ok0"
 
 
-def run_one(inp: Input, cli: list[str], env: dict, timeout: float, base_dir: Path) -> Outcome:
+def run_one(inp: Input, run, timeout: float, base_dir: Path) -> Outcome:
+    """Run one input in a folder of its own with the fixture files; ``run(argv, cwd, timeout)`` is a
+    :class:`FreshProcesses` or a :class:`ForkServer` and returns ``(exit code or None for a hang, stdout, stderr)``."""
     d = Path(tempfile.mkdtemp(prefix="fz_", dir=base_dir))
-    _fixture_files(d, d / "ro")
+    _fixture_files(d, d / "ro", recordings=any(".mcap" in a for a in inp.argv))
     ro = read_only_dir(d)
     for name, data in inp.files.items():
         (d / name).write_bytes(data)
     argv = [a.replace("{dir}", str(d)).replace("{ro}", str(ro)) for a in inp.argv]
     t0 = time.monotonic()
-    p = subprocess.Popen(cli + argv, cwd=d, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         errors="replace", preexec_fn=_limit_memory, start_new_session=True)
-    try:
-        out, err = p.communicate(timeout=timeout)
-        rc = p.returncode
-    except subprocess.TimeoutExpired:
-        os.killpg(p.pid, 9)
-        out, err = p.communicate()
-        rc = None
+    rc, out, err = run(argv, d, timeout)
     verdict = judge(inp, rc, out, err, d)
     os.chmod(d / "ro", 0o755)
     return Outcome(inp, rc, err, verdict, time.monotonic() - t0)
+
+
+class FreshProcesses:
+    """Each run a new interpreter, ``cli + argv`` (``python -m bkabem_ros`` or the console script), as a user runs
+    it."""
+
+    def __init__(self, cli: list[str], env: dict):
+        self.cli, self.env = cli, env
+
+    def __call__(self, argv: list[str], cwd: Path, timeout: float) -> tuple[int | None, str, str]:
+        p = subprocess.Popen(self.cli + argv, cwd=cwd, env=self.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True, errors="replace", preexec_fn=_limit_memory, start_new_session=True)
+        try:
+            out, err = p.communicate(timeout=timeout)
+            return p.returncode, out, err
+        except subprocess.TimeoutExpired:
+            os.killpg(p.pid, 9)
+            out, err = p.communicate()
+            return None, out, err
+
+    def close(self) -> None:
+        pass
+
+
+# --------------------------------------------------------------------------- the fork server
+#: The fork server's program. It imports what a ``bkabem`` command imports when it runs, says ``ready``, then reads
+#: one JSON request per line on stdin: ``{"id", "argv", "cwd", "stdout", "stderr", "memory"}``. For each it forks a
+#: child that starts a session of its own (so that a hang is killed with its helpers), limits its address space,
+#: takes the request's files as its stdout and stderr and /dev/null as its stdin, and runs the command line's
+#: ``main`` at this program's top level: an exception no handler caught ends it the way it ends ``python -m
+#: bkabem_ros`` (the interpreter's traceback, exit code 1) and ``sys.exit`` as it does there (atexit handlers and
+#: all). The server answers ``ID started PID`` at once and ``ID exited CODE`` when it has reaped the child (CODE as
+#: :attr:`subprocess.Popen.returncode` gives it: negative for a signal).
+ZYGOTE = r"""
+import json, os, resource, select, sys
+
+import numpy, scipy.linalg, scipy.signal, scipy.integrate, scipy.interpolate  # noqa: E401,F401
+import matplotlib.pyplot  # noqa: F401
+import bkabem_core, bkabem_core.model, bkabem_core.fe, bkabem_core.solve, bkabem_core.excitation  # noqa: E401,F401
+import bkabem_core.synth, bkabem_core.scenario, bkabem_core.dataset, bkabem_core.analysis  # noqa: E401,F401
+import bkabem_ros.cli.main  # noqa: F401
+
+reply = os.dup(1)
+os.write(reply, b"ready\n")
+running, pending, child = {}, b"", None
+while child is None:
+    while running:                                      # reap what has ended
+        try:
+            pid, status = os.waitpid(-1, os.WNOHANG)
+        except ChildProcessError:
+            break
+        if pid == 0:
+            break
+        os.write(reply, f"{running.pop(pid)} exited {os.waitstatus_to_exitcode(status)}\n".encode())
+    if not select.select([0], [], [], 0.02)[0]:
+        continue
+    data = os.read(0, 1 << 16)
+    if not data:                                        # stdin closed: the test is done with the server
+        sys.exit(0)
+    pending += data
+    while child is None and b"\n" in pending:
+        line, pending = pending.split(b"\n", 1)
+        req = json.loads(line)
+        pid = os.fork()
+        if pid == 0:
+            child = req
+        else:
+            running[pid] = req["id"]
+            os.write(reply, f"{req['id']} started {pid}\n".encode())
+os.setsid()
+os.close(reply)
+resource.setrlimit(resource.RLIMIT_AS, (child["memory"], child["memory"]))
+os.chdir(child["cwd"])
+os.dup2(os.open(os.devnull, os.O_RDONLY), 0)
+os.dup2(os.open(child["stdout"], os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644), 1)
+os.dup2(os.open(child["stderr"], os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644), 2)
+sys.argv = ["bkabem", *child["argv"]]
+del json, resource, select, running, pending, reply
+from bkabem_ros.cli.main import main
+sys.exit(main(child["argv"]))
+"""
+
+
+class ForkServer:
+    """Each run a process forked from one interpreter that has imported what the command line imports
+    (:data:`ZYGOTE`). A process of its own all the same: its own pid and session, the memory limit, its exit code,
+    stdout and stderr, killed with its helpers after ``timeout``. What it skips is the interpreter's start-up and
+    imports (about half a second a run), which the other command-line tests pay and ``test_cli_start_time``
+    measures."""
+
+    def __init__(self, env: dict, base_dir: Path):
+        self._log = open(base_dir / "fork_server.log", "w+")
+        self._p = subprocess.Popen([sys.executable, "-c", ZYGOTE], env=env, cwd=base_dir, stdin=subprocess.PIPE,
+                                   stdout=subprocess.PIPE, stderr=self._log, text=True)
+        self._lock, self._ids, self._runs = threading.Lock(), itertools.count(), {}
+        if self._p.stdout.readline().strip() != "ready":
+            self._p.kill()
+            self._log.seek(0)
+            raise RuntimeError(f"the fork server did not start: {self._log.read()[-3000:]}")
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        for line in self._p.stdout:
+            rid, what, value = line.split()
+            run = self._runs[int(rid)]
+            if what == "started":
+                run["pid"] = int(value)
+                run["started"].set()
+            else:
+                run["code"] = int(value)
+                run["exited"].set()
+
+    def __call__(self, argv: list[str], cwd: Path, timeout: float) -> tuple[int | None, str, str]:
+        rid = next(self._ids)
+        run = self._runs[rid] = {"started": threading.Event(), "exited": threading.Event()}
+        out, err = cwd / ".stdout", cwd / ".stderr"
+        req = {"id": rid, "argv": argv, "cwd": str(cwd), "stdout": str(out), "stderr": str(err),
+               "memory": MEMORY_LIMIT_BYTES}
+        with self._lock:
+            self._p.stdin.write(json.dumps(req) + "\n")
+            self._p.stdin.flush()
+        if not run["started"].wait(60):
+            raise RuntimeError(f"the fork server does not answer (exit code {self._p.poll()})")
+        code = run["code"] if run["exited"].wait(timeout) else None
+        if code is None:                                    # a hang: the run and whatever it started
+            try:
+                os.killpg(run["pid"], 9)
+            except ProcessLookupError:                      # killed before it had its own session
+                os.kill(run["pid"], 9)
+            run["exited"].wait(60)
+        del self._runs[rid]
+        text = [p.read_text(errors="replace") if p.exists() else "" for p in (out, err)]
+        out.unlink(missing_ok=True), err.unlink(missing_ok=True)
+        return code, text[0], text[1]
+
+    def close(self) -> None:
+        self._p.stdin.close()
+        self._p.wait(60)
+        self._log.close()
 
 
 def fuzz_env() -> dict:
@@ -515,22 +656,28 @@ def fuzz_env() -> dict:
     return env
 
 
-def run_all(inputs: list[Input], cli: list[str], timeout: float = 60.0, jobs: int = 2,
+def run_all(inputs: list[Input], cli: list[str] | None = None, timeout: float = 60.0, jobs: int = 2,
             budget_s: float | None = None) -> list[Outcome]:
+    """Run ``inputs``, ``jobs`` at a time, until ``budget_s`` (if given) is spent: each in a fresh interpreter
+    ``cli + argv`` if ``cli`` is given, else forked from a :class:`ForkServer`."""
     env = fuzz_env()
     base = Path(tempfile.mkdtemp(prefix="bkabem_fuzz_"))
     t_end = None if budget_s is None else time.monotonic() + budget_s
     out: list[Outcome] = []
+    run = FreshProcesses(cli, env) if cli else ForkServer(env, base)
 
     def job(inp):
         if t_end is not None and time.monotonic() > t_end:
             return None
-        return run_one(inp, cli, env, timeout, base)
+        return run_one(inp, run, timeout, base)
 
-    with ThreadPoolExecutor(max_workers=jobs) as ex:
-        for r in ex.map(job, inputs):
-            if r is not None:
-                out.append(r)
+    try:
+        with ThreadPoolExecutor(max_workers=jobs) as ex:
+            for r in ex.map(job, inputs):
+                if r is not None:
+                    out.append(r)
+    finally:
+        run.close()
     return out
 
 
@@ -554,8 +701,11 @@ def main(argv=None) -> int:
     ap.add_argument("--cli", default=f"{sys.executable} -m bkabem_ros")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--timeout", type=float, default=60.0)
+    ap.add_argument("--fork-server", action="store_true",
+                    help="fork each run from one interpreter that has imported the command line (as the test does) "
+                         "instead of starting --cli afresh")
     a = ap.parse_args(argv)
-    cli = shlex.split(a.cli)
+    cli = None if a.fork_server else shlex.split(a.cli)
     t0 = time.monotonic()
     rc = 0
     for title, inputs in (("case files", case_inputs(a.n_case)), ("scenario files", scenario_inputs(a.n_scenario)),
