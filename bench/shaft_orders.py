@@ -1,5 +1,6 @@
 """How sharply the shaft modulates a race fault's impacts on the CWRU rig and in its twin: the shaft orders of the
-squared envelope, and what the "FTF" line of a race-fault record is.
+squared envelope, and what the "FTF" line of a race-fault record is; and the same shaft orders where no race is
+pitted (the healthy and ball-fault records).
 
     .venv/bin/python bench/shaft_orders.py DATA_DIR              # the table into docs/rigs.md, the figure
     .venv/bin/python bench/shaft_orders.py DATA_DIR --no-docs    # prints the table only
@@ -16,6 +17,10 @@ the SES floor:
 
 - the shaft orders ``k f_r``, k = 1 .. ``ORDERS``;
 - the fault line's lower shaft sidebands ``|F - k f_r|`` (F = BPFO or BPFI), k = 1 .. ``ORDERS``.
+
+The healthy and ball-fault records get the shaft orders alone: there the 2-4 kHz band is the housing's response to
+the bearing's rolling (and, for a ball fault, to the pit's strikes), and its shaft orders say how much that follows
+the shaft angle without a race pit.
 
 Why (McFadden & Smith, J. Sound Vib. 96 (1984); Randall & Antoni, MSSP 25 (2011), section 2): impacts whose strength
 follows the shaft angle through a window ``w(theta)`` put ``|W_k|^2`` into the SES at ``k f_r`` and, around every
@@ -66,11 +71,14 @@ ORDERS = 6
 #: Balls of the 6205 (the rig's drive-end bearing)
 Z_6205 = 9
 KEY = {"inner": "bpfi", "outer": "bpfo"}
+#: Bins of the shaft angle for :func:`turn_profile`
+TURN_BINS = 36
 
 
 def levels(x: np.ndarray, fs: float, fr: float, mult: dict, kind: str, mains_hz: float = 60.0) -> dict:
     """The SES levels of a DE signal ``x`` [g] at ``fs`` [Hz], shaft speed ``fr`` [Hz], fault multipliers ``mult``
-    [per shaft Hz] and fault ``kind`` (inner, outer) [dB over the SES floor]: ``orders`` (k f_r), ``sidebands``
+    [per shaft Hz] and fault ``kind`` [dB over the SES floor]: ``orders`` (k f_r); for a race (inner, outer) also
+    ``sidebands``
     (|F - k f_r|), both k = 1 .. ORDERS; ``ftf`` (the cage line's window) and ``f4`` (a window of the same width at
     |BPFO - 4 f_r|), with the frequencies [Hz] each reading found."""
     a = envelope_analysis(x, fs, BAND_HZ, fr, mult, mains_hz=mains_hz, keep_spectrum=True)
@@ -80,12 +88,28 @@ def levels(x: np.ndarray, fs: float, fr: float, mult: dict, kind: str, mains_hz:
         v, fp = line_level(f, S, f0, tol)
         return 20.0 * math.log10(v / floor), fp
 
+    orders = [db(k * fr, TOL_RACE)[0] for k in range(1, ORDERS + 1)]
+    if kind not in KEY:                                 # no race pit: the shaft orders and the turn's profile
+        return {"orders": orders, "turn": turn_profile(x, fs, fr)}
     F = mult[KEY[kind]] * fr
     ftf, f_ftf = db(mult["ftf"] * fr, TOL_BALL)
     f4, f_f4 = db(abs(mult["bpfo"] - 4.0) * fr, TOL_BALL)
-    return {"orders": [db(k * fr, TOL_RACE)[0] for k in range(1, ORDERS + 1)],
+    return {"orders": orders,
             "sidebands": [db(abs(F - k * fr), TOL_RACE)[0] for k in range(1, ORDERS + 1)],
             "ftf": ftf, "ftf_hz": f_ftf, "f4": f4, "f4_hz": f_f4}
+
+
+def turn_profile(x: np.ndarray, fs: float, fr: float, bins: int = TURN_BINS) -> float:
+    """How much the power of the 2-4 kHz band follows the shaft angle: its squared envelope averaged in ``bins``
+    bins of the angle (from a constant speed ``fr`` [Hz]), largest over smallest [-]. A stationary noise gives a
+    little more than 1 (each bin's mean scatters); a load zone that the shaft swings, more."""
+    from scipy import signal
+
+    sos = signal.butter(6, BAND_HZ, "bandpass", fs=fs, output="sos")
+    env = np.abs(signal.hilbert(signal.sosfiltfilt(sos, np.asarray(x, dtype=float)))) ** 2
+    b = np.floor((np.arange(env.size) / fs * fr) % 1.0 * bins).astype(int)
+    prof = np.bincount(b, weights=env, minlength=bins) / np.bincount(b, minlength=bins)
+    return float(prof.max() / prof.min())
 
 
 def ball_spread(energies: np.ndarray, z: int) -> float:
@@ -102,21 +126,23 @@ def run(data_dir: Path, seeds: int, twin_case: str = "cwru_rig") -> list[dict]:
     from realdata.twin import Condition, synthesize
     from tqdm import tqdm
 
-    records = [r for r in scan(data_dir) if r.kind in KEY and r.fault_bearing in (None, "de")]
+    records = [r for r in scan(data_dir) if r.fault_bearing in (None, "de")]
     rows = []
     for r in tqdm(records, unit="record", desc="shaft_orders", dynamic_ncols=True):
         ch = r.load()
         fr, _ = estimate_speed(ch, r.sample_rate_hz, r.speed_hz_nominal)
         x = decimate(ch["DE"], r.sample_rate_hz, FS)
         meas = levels(x, FS, fr, EFFECTIVE_6205, r.kind)
-        meas["balls"] = ball_spread(pass_energies(x, FS, EFFECTIVE_6205[KEY[r.kind]] * fr)[0], Z_6205)
+        race = r.kind in KEY
+        if race:
+            meas["balls"] = ball_spread(pass_energies(x, FS, EFFECTIVE_6205[KEY[r.kind]] * fr)[0], Z_6205)
         duration = ch["DE"].size / r.sample_rate_hz
         twins = []
         for seed in range(1, seeds + 1):
             out = synthesize(Condition.of(r), twin_case, seed, fr, FS, duration)
             twins.append(levels(out["DE"], FS, fr, out["mult"], r.kind, out["mains_hz"]))
-        twin = {k: np.mean([t[k] for t in twins], axis=0).tolist() for k in ("orders", "sidebands")}
-        twin.update({k: float(np.mean([t[k] for t in twins])) for k in ("ftf", "f4")})
+        twin = {k: np.mean([t[k] for t in twins], axis=0).tolist() for k in ("orders", "sidebands")[:1 + race]}
+        twin.update({k: float(np.mean([t[k] for t in twins])) for k in (("ftf", "f4") if race else ("turn",))})
         rows.append({"label": r.label, "kind": r.kind, "size": r.size_mils, "fr": fr, "measured": meas,
                      "twin": twin, "twin_mult": out["mult"]})
     return rows
@@ -128,6 +154,10 @@ def _cells(m: list[float], t: list[float]) -> str:
 
 def table(rows: list[dict], seeds: int, twin_case: str = "cwru_rig") -> str:
     ks = range(1, ORDERS + 1)
+    rest = [r for r in rows if r["kind"] not in KEY]
+    rows = [r for r in rows if r["kind"] in KEY]
+    if not rows:                                        # no race-fault record: the other records' orders alone
+        return _rest_table(rest, seeds, twin_case)
     out = [f"Each cell: measured / twin (`{twin_case}`, the mean over its seeds: {seeds}), dB over the floor of the\n"
            "2-4 kHz squared-envelope spectrum.", "",
            "Shaft orders `k f_r`:", "",
@@ -141,14 +171,14 @@ def table(rows: list[dict], seeds: int, twin_case: str = "cwru_rig") -> str:
     out += ["", "Medians over the records, measured - twin [dB]:", "",
             "| kind | " + " | ".join(f"{k}x" for k in ks) + " | " + " | ".join(f"F - {k}x" for k in ks) + " |",
             "|---|" + "---|" * (2 * ORDERS)]
-    for kind in ("inner", "outer"):
-        sel = [r for r in rows if r["kind"] == kind]
+    for kind in ("inner", "outer", "healthy", "ball"):
+        sel = [r for r in rows + rest if r["kind"] == kind]
         if not sel:
             continue
         d = {q: np.median([np.subtract(r["measured"][q], r["twin"][q]) for r in sel], axis=0)
-             for q in ("orders", "sidebands")}
-        out.append(f"| {kind} ({len(sel)}) | " + " | ".join(f"{v:+.0f}" for v in np.concatenate(
-            [d["orders"], d["sidebands"]])) + " |")
+             for q in ("orders", "sidebands") if q in sel[0]["twin"]}
+        side = [f"{v:+.0f}" for v in d["sidebands"]] if "sidebands" in d else ["-"] * ORDERS
+        out.append(f"| {kind} ({len(sel)}) | " + " | ".join([f"{v:+.0f}" for v in d["orders"]] + side) + " |")
     m = rows[0]["twin_mult"]
     apart = abs(abs(EFFECTIVE_6205["bpfo"] - 4.0) / EFFECTIVE_6205["ftf"] - 1.0)
     apart_t = abs(abs(m["bpfo"] - 4.0) / m["ftf"] - 1.0)
@@ -162,6 +192,22 @@ def table(rows: list[dict], seeds: int, twin_case: str = "cwru_rig") -> str:
             " dB.", "",
             f"The balls' own differences in the measured records (the pass energies folded over the {Z_6205} balls, an "
             "upper bound): " + ", ".join(f"{r['label']} {r['measured']['balls']:.2f}" for r in rows) + "."]
+    if rest:
+        out += ["", _rest_table(rest, seeds, twin_case, head=False)]
+    return "\n".join(out)
+
+
+def _rest_table(rest: list[dict], seeds: int, twin_case: str, head: bool = True) -> str:
+    """The shaft orders of the records without a race pit (healthy, ball fault), measured / twin."""
+    out = [f"Each cell: measured / twin (`{twin_case}`, the mean over its seeds: {seeds}), dB over the floor of the\n"
+           "2-4 kHz squared-envelope spectrum.", ""] if head else []
+    out += ["Shaft orders `k f_r` where no race is pitted (the healthy and ball-fault records), and the 2-4 kHz "
+            f"band's power over the turn ({TURN_BINS} bins of the shaft angle, largest / smallest):", "",
+            "| record | " + " | ".join(f"{k}x" for k in range(1, ORDERS + 1)) + " | over the turn |",
+            "|---|" + "---|" * (ORDERS + 1)]
+    for r in rest:
+        out.append(f"| {r['label']} | {_cells(r['measured']['orders'], r['twin']['orders'])} | "
+                   f"{r['measured']['turn']:.2f} / {r['twin']['turn']:.2f} |")
     return "\n".join(out)
 
 
@@ -173,17 +219,18 @@ def figure(rows: list[dict], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    colour = {"inner": "tab:red", "outer": "tab:blue"}
+    colour = {"inner": "tab:red", "outer": "tab:blue", "healthy": "tab:green", "ball": "tab:orange"}
     ks = np.arange(1, ORDERS + 1)
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.4), sharey=True)
     for ax, q, title in zip(axes, ("orders", "sidebands"), ("shaft orders k f_r", "fault line's sidebands F - k f_r")):
         for kind, c in colour.items():
             sel = [r for r in rows if r["kind"] == kind]
-            if not sel:
+            if not sel or q not in sel[0]["twin"]:
                 continue
             for w, style in (("measured", dict(marker="o", ls="-")), ("twin", dict(marker="o", ls="--", mfc="none"))):
                 v = np.median([r[w][q] for r in sel], axis=0)
-                ax.plot(ks, v, color=c, label=f"{kind} race, {w} ({len(sel)})", **style)
+                what = f"{kind} race" if kind in KEY else kind
+                ax.plot(ks, v, color=c, label=f"{what}, {w} ({len(sel)})", **style)
         ax.set_xticks(ks)
         ax.set_xlabel("k")
         ax.set_title(title + " (median over the records)", fontsize=10)

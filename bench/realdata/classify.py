@@ -45,6 +45,22 @@ FEATURE_SETS = {
 }
 
 
+#: The features by what they read, for the ablation of ``bench/sim2real.py`` (each left out in turn): a family whose
+#: absence raises the score on the measured records is one the twin teaches differently from the rig.
+FEATURE_FAMILIES = {
+    "FTF lines": tuple(i for i, n in enumerate(FEATURE_NAMES) if n.startswith("FTF ")),
+    "1x lines": tuple(i for i, n in enumerate(FEATURE_NAMES) if n.startswith("1x ")),
+    # both read the shaft's modulation of the envelope: on the rig's race records the line in the FTF window is the
+    # shaft sideband |BPFO - 4x| = |BPFI - 5x| (docs/rigs.md)
+    "FTF and 1x lines": tuple(i for i, n in enumerate(FEATURE_NAMES) if n.startswith(("FTF ", "1x "))),
+    "BPFO lines": tuple(i for i, n in enumerate(FEATURE_NAMES) if n.startswith("BPFO ")),
+    "BPFI lines": tuple(i for i, n in enumerate(FEATURE_NAMES) if n.startswith("BPFI ")),
+    "2BSF lines": tuple(i for i, n in enumerate(FEATURE_NAMES) if n.startswith("2BSF ")),
+    "kurtosis, crest, band K": tuple(FEATURE_NAMES.index(n) for n in ("log kurtosis", "crest", "log(1 + band K)")),
+    "RMS": (FEATURE_NAMES.index("log RMS"),),
+    "band shares": tuple(i for i, n in enumerate(FEATURE_NAMES) if n.endswith(" share")),
+}
+
 def features(d: dict) -> np.ndarray:
     """The feature vector (:data:`FEATURE_NAMES`) of a :func:`realdata.diagnostics.diagnose` result."""
     fx, ku = d["ses"]["fixed"]["levels"], d["ses"]["kurtogram"]["levels"]

@@ -197,6 +197,35 @@ def test_sim2real_grid_specs_cover_the_runs_exactly():
     assert len(specs) == 4                                           # outer, healthy, and the inner pair split
 
 
+def test_sim2real_ablation_finds_the_family_the_twin_teaches_the_other_way():
+    """Four classes, two families of two features each: ``right`` separates the classes alike in the twin and the
+    measurement; ``flipped`` separates them too, more sharply, but the measurement carries it for another class (as
+    the rig's race records carry an envelope line at FTF that the twin gives only its ball faults). Leaving
+    ``flipped`` out raises the measured score; leaving ``right`` out lowers it; the twin's own held-out score stays
+    high either way, so only the measurement can tell."""
+    from sim2real import ablation, ablation_lines
+
+    rng = np.random.default_rng(3)
+    k, n = 4, 40
+    y = np.repeat(np.arange(k), n)
+
+    corner = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+
+    def table(flip):                                    # the classes at the corners of a square, noise sd 1
+        x = np.hstack([4.0 * corner[y], 8.0 * corner[(y + flip) % k]])
+        return x + rng.normal(0.0, 1.0, x.shape)
+
+    tw = {"X": table(0), "y": y, "groups": [(int(c), i % 10) for i, c in enumerate(y)]}
+    me = {"X": table(1), "y": y}
+    sets = {"both": (0, 1, 2, 3)}
+    fams = {"right": (0, 1), "flipped": (2, 3)}
+    ab = ablation(tw, me, 0.01, sets, fams)["both"]
+    assert ab["flipped"]["measured"] > ab["none"]["measured"] + 0.2, ab
+    assert ab["right"]["measured"] < ab["none"]["measured"] + 0.05, ab
+    assert min(r["twin_cv"] for r in ab.values()) > 0.75, ab
+    text = "\n".join(ablation_lines({"both": {**ab}}, len(y)))
+    assert "rises without flipped (+" in text and "falls without right (-" in text, text
+
 @pytest.mark.parametrize("seeds", [1, 2, 3])
 def test_sim2real_race_pits_span_the_strike_spread_with_the_same_runs(seeds):
     """A rig twin's race conditions spread their replicates over PIT_SPREADS (each spread as often as the replicates
@@ -324,6 +353,24 @@ def test_shaft_orders_tell_a_sharp_once_per_turn_window_from_a_smooth_one():
     assert min(np.subtract(sharp["sidebands"][2:], smooth["sidebands"][2:])) >= 10.0
     assert sharp["ftf_hz"] == sharp["f4_hz"] and sharp["ftf"] > 20.0
 
+
+def test_shaft_orders_of_a_record_without_a_race_pit_read_a_rolling_noise_that_follows_the_shaft():
+    """bench/shaft_orders.py on a healthy or ball-fault record reads the shaft orders alone: a broadband noise whose
+    power follows the shaft angle (1 + 0.5 cos theta, the depth of a load zone swung by a turning load) stands at 1x
+    >= 15 dB over the SES floor, a stationary one under 10 dB at every order; the band's power over the turn reads
+    the modulation's 3 : 1."""
+    from shaft_orders import levels
+
+    rng = np.random.default_rng(8)
+    fs, fr = 12000.0, 29.93
+    t = np.arange(int(10 * fs)) / fs
+    noise = rng.standard_normal(t.size)
+    follows = levels(noise * np.sqrt(1.0 + 0.5 * np.cos(2 * np.pi * fr * t)), fs, fr, EFFECTIVE_6205, "healthy")
+    steady = levels(noise, fs, fr, EFFECTIVE_6205, "ball")
+    assert set(follows) == set(steady) == {"orders", "turn"}
+    assert follows["orders"][0] >= 15.0 and max(steady["orders"]) < 10.0, (follows, steady)
+    # the band's power over the turn: 1.5 : 0.5 = 3 for the modulated noise (less its bins' scatter), ~1 steady
+    assert 2.4 < follows["turn"] < 3.3 and steady["turn"] < 1.25, (follows["turn"], steady["turn"])
 
 def test_the_ball_fold_reads_an_uneven_ball_set_and_nothing_where_the_balls_are_alike():
     """bench/shaft_orders.py's fold of pass energies over the balls: 9 balls whose energies differ by about 20 %
