@@ -61,6 +61,7 @@ FEATURE_FAMILIES = {
     "band shares": tuple(i for i, n in enumerate(FEATURE_NAMES) if n.endswith(" share")),
 }
 
+
 def features(d: dict) -> np.ndarray:
     """The feature vector (:data:`FEATURE_NAMES`) of a :func:`realdata.diagnostics.diagnose` result."""
     fx, ku = d["ses"]["fixed"]["levels"], d["ses"]["kurtogram"]["levels"]

@@ -611,7 +611,9 @@ class ForkServer:
     def _read(self) -> None:
         for line in self._p.stdout:
             rid, what, value = line.split()
-            run = self._runs[int(rid)]
+            run = self._runs.get(int(rid))
+            if run is None:                                 # a run given up on (its kill was not reaped in time)
+                continue
             if what == "started":
                 run["pid"] = int(value)
                 run["started"].set()

@@ -24,26 +24,25 @@ CLI = [sys.executable, "-m", "bkabem_ros"]
 
 
 def test_fork_server_runs_are_the_fresh_processes_runs(tmp_path):
-    """The same inputs (a few of each kind, one of them a hang cut by its timeout) give the same exit code, verdict
-    and stderr whether each is a fresh ``python -m bkabem_ros`` or a child of the fork server; and a child whose
-    ``main`` raises ends as the interpreter ends it, with the traceback and exit code 1 (the verdict a bug in the
-    command line would get)."""
-    inputs = (fuzz_cli.case_inputs(4, SEED) + fuzz_cli.scenario_inputs(4, SEED) + fuzz_cli.argument_inputs(6, SEED)
-              + [fuzz_cli.Input("a run longer than its timeout: speed published forever",
-                                ["speed", "--profile", "constant:25", "--quiet"])])
-    timeout = 5.0
-    fresh = fuzz_cli.run_all(inputs, CLI, timeout=timeout, jobs=2)
-    forked = fuzz_cli.run_all(inputs, None, timeout=timeout, jobs=2)
-    assert [o.verdict for o in fresh].count("hang") == 1
-    def said(o):                                            # each run's folder named alike
-        return re.sub(r"bkabem_fuzz_[^/]+/fz_[^/\s:]+", "RUN", o.stderr)
+    """The same inputs (a few of each kind) give the same exit code, verdict and stderr whether each is a fresh
+    ``python -m bkabem_ros`` or a child of the fork server; a run that never ends is cut by its timeout alike; and a
+    child whose ``main`` raises ends as the interpreter ends it, with the traceback and exit code 1 (the verdict a
+    bug in the command line would get)."""
+    inputs = fuzz_cli.case_inputs(4, SEED) + fuzz_cli.scenario_inputs(4, SEED) + fuzz_cli.argument_inputs(6, SEED)
+    fresh = fuzz_cli.run_all(inputs, CLI, timeout=60.0, jobs=2)
+    forked = fuzz_cli.run_all(inputs, None, timeout=60.0, jobs=2)
+
+    def said(o):            # each run's folder, and a ROS log line's time stamp, named alike
+        return re.sub(r"\[\d+\.\d+\]", "[T]", re.sub(r"bkabem_fuzz_[^/]+/fz_[^/\s:]+", "RUN", o.stderr))
 
     for a, b in zip(fresh, forked, strict=True):
         assert (a.returncode, a.verdict, said(a)) == (b.returncode, b.verdict, said(b)), a.input.label
-    env = fuzz_cli.fuzz_env()
-    server = fuzz_cli.ForkServer(env, tmp_path)
+    forever = [fuzz_cli.Input("speed published forever", ["speed", "--profile", "constant:25", "--quiet"])]
+    assert [o.verdict for o in fuzz_cli.run_all(forever, CLI, timeout=4.0)] == ["hang"]
+    assert [o.verdict for o in fuzz_cli.run_all(forever, None, timeout=4.0)] == ["hang"]
+    server = fuzz_cli.ForkServer(fuzz_cli.fuzz_env(), tmp_path)
     try:
-        rc, _, err = server([1], tmp_path, timeout)       # argparse cannot take an int: an exception nothing catches
+        rc, _, err = server([1], tmp_path, 60.0)          # argparse cannot take an int: an exception nothing catches
     finally:
         server.close()
     assert rc == 1 and "Traceback (most recent call last)" in err and "TypeError" in err, (rc, err)
