@@ -20,7 +20,9 @@ the SES floor:
 
 The healthy and ball-fault records get the shaft orders alone: there the 2-4 kHz band is the housing's response to
 the bearing's rolling (and, for a ball fault, to the pit's strikes), and its shaft orders say how much that follows
-the shaft angle without a race pit.
+the shaft angle without a race pit. Beside the healthy record the script sets what a rolling noise that followed
+the twin's own contacts would read (:func:`contact_swing`, :func:`swinging_noise`): a candidate for that
+modulation, sized by the twin's loads, not fitted.
 
 Why (McFadden & Smith, J. Sound Vib. 96 (1984); Randall & Antoni, MSSP 25 (2011), section 2): impacts whose strength
 follows the shaft angle through a window ``w(theta)`` put ``|W_k|^2`` into the SES at ``k f_r`` and, around every
@@ -112,6 +114,38 @@ def turn_profile(x: np.ndarray, fs: float, fr: float, bins: int = TURN_BINS) -> 
     return float(prof.max() / prof.min())
 
 
+def contact_swing(twin_case: str = "cwru_rig", location: str = "de", n: int = TURN_BINS) -> dict:
+    """How much a rolling noise that follows the contacts' stiffness would swing over the turn in the twin: its
+    ``location`` bearing under its static radial load, axial preload and the load that turns with the shaft
+    (``Machine`` sites: ``radial_load_n``, ``axial_load_n``, ``rotating_load_n``), at ``n`` shaft angles. Roughness
+    and waviness excite each loaded contact through its stiffness, ``dQ/d delta = 1.5 K^(2/3) Q^(1/3)`` for a
+    Hertzian point contact, so independent contacts give a noise power ``~ sum_i Q_i^(2/3)``. Returns the loads
+    [N] and ``swing``, that sum's largest over its smallest [-]."""
+    from bkabem_core.fe.machine import Machine
+    from bkabem_core.model.case import Case
+
+    site = Machine(Case.load(twin_case), mesh=None).sites[location]
+    w, r = np.asarray(site.radial_load_n, dtype=float), complex(site.rotating_load_n)
+    power = []
+    for th in np.arange(n) * 2.0 * np.pi / n:
+        turn = r * np.exp(1j * th)
+        q = np.asarray(site.bearing.state(w[0] + turn.real, w[1] + turn.imag,
+                                          axial_load_n=float(site.axial_load_n)).ball_loads_n)
+        power.append(np.sum(np.clip(q, 0.0, None) ** (2.0 / 3.0)))
+    return {"weight_n": float(np.hypot(*w)), "preload_n": float(site.axial_load_n), "turning_n": abs(r),
+            "swing": float(max(power) / min(power))}
+
+
+def swinging_noise(swing: float, seconds: float, fr: float, seeds: int = 4, fs: float = FS) -> dict:
+    """A stationary noise whose power swings by ``swing`` (largest / smallest) once per turn, ``1 + m cos theta``,
+    read as the records are: the mean over ``seeds`` of its 1x [dB over the SES floor] and :func:`turn_profile`."""
+    m = (swing - 1.0) / (swing + 1.0)
+    t = np.arange(int(round(seconds * fs))) / fs
+    got = [levels(np.random.default_rng(s).standard_normal(t.size) * np.sqrt(1.0 + m * np.cos(2 * np.pi * fr * t)),
+                  fs, fr, EFFECTIVE_6205, "healthy") for s in range(seeds)]
+    return {"x1": float(np.mean([g["orders"][0] for g in got])), "turn": float(np.mean([g["turn"] for g in got]))}
+
+
 def ball_spread(energies: np.ndarray, z: int) -> float:
     """The spread of the balls' mean pass energies over the mean energy [-] (module docstring): ``energies`` one
     per ball pass, ``z`` balls."""
@@ -144,7 +178,11 @@ def run(data_dir: Path, seeds: int, twin_case: str = "cwru_rig") -> list[dict]:
         twin = {k: np.mean([t[k] for t in twins], axis=0).tolist() for k in ("orders", "sidebands")[:1 + race]}
         twin.update({k: float(np.mean([t[k] for t in twins])) for k in (("ftf", "f4") if race else ("turn",))})
         rows.append({"label": r.label, "kind": r.kind, "size": r.size_mils, "fr": fr, "measured": meas,
-                     "twin": twin, "twin_mult": out["mult"]})
+                     "twin": twin, "twin_mult": out["mult"], "seconds": duration})
+    healthy = [row for row in rows if row["kind"] == "healthy"]
+    if healthy:                                         # what a noise that follows the contacts would read there
+        c = contact_swing(twin_case)
+        healthy[0]["contacts"] = dict(c, **swinging_noise(c["swing"], healthy[0]["seconds"], healthy[0]["fr"]))
     return rows
 
 
@@ -208,6 +246,15 @@ def _rest_table(rest: list[dict], seeds: int, twin_case: str, head: bool = True)
     for r in rest:
         out.append(f"| {r['label']} | {_cells(r['measured']['orders'], r['twin']['orders'])} | "
                    f"{r['measured']['turn']:.2f} / {r['twin']['turn']:.2f} |")
+    for r in rest:
+        if "contacts" in r:
+            c = r["contacts"]
+            out += ["", "A rolling noise that followed the twin's drive-end contacts "
+                    f"({c['weight_n']:.1f} N of weight, {c['preload_n']:.0f} N of preload, {c['turning_n']:.1f} N "
+                    f"turning with the shaft; power ~ sum Q^(2/3)) would swing {c['swing']:.2f} : 1 over the turn "
+                    f"and read, in a noise as long as the {r['label']} record, 1x {c['x1']:.0f} dB and "
+                    f"{c['turn']:.2f} over the turn (the record: {r['measured']['orders'][0]:.0f} dB and "
+                    f"{r['measured']['turn']:.2f})."]
     return "\n".join(out)
 
 

@@ -372,6 +372,22 @@ def test_shaft_orders_of_a_record_without_a_race_pit_read_a_rolling_noise_that_f
     # the band's power over the turn: 1.5 : 0.5 = 3 for the modulated noise (less its bins' scatter), ~1 steady
     assert 2.4 < follows["turn"] < 3.3 and steady["turn"] < 1.25, (follows["turn"], steady["turn"])
 
+def test_a_noise_that_follows_the_contacts_swings_with_the_turning_load_only(tmp_path):
+    """bench/shaft_orders.py's estimate of a rolling noise that follows the contacts' stiffness (power ~ sum Q^(2/3))
+    over the turn: constant without a load that turns with the shaft, swinging with the rig's coupling force, and
+    a noise that swings by that much reads a 1x line that grows with the swing."""
+    from shaft_orders import contact_swing, swinging_noise
+
+    text = (ROOT / "bkabem_core" / "embedded" / "cases" / "cwru_rig.toml").read_text()
+    assert "coupling_force_n = 23.0" in text
+    still = tmp_path / "still.toml"
+    still.write_text(text.replace("coupling_force_n = 23.0", "coupling_force_n = 0.0"))
+    assert contact_swing(str(still))["swing"] == pytest.approx(1.0, abs=1e-9)
+    rig = contact_swing("cwru_rig")
+    assert rig["turning_n"] > 20.0 and 1.05 < rig["swing"] < 2.0, rig
+    weak, strong = swinging_noise(1.05, 5.0, 29.93), swinging_noise(1.5, 5.0, 29.93)
+    assert strong["x1"] > weak["x1"] + 6.0 and strong["turn"] > weak["turn"], (weak, strong)
+
 def test_the_ball_fold_reads_an_uneven_ball_set_and_nothing_where_the_balls_are_alike():
     """bench/shaft_orders.py's fold of pass energies over the balls: 9 balls whose energies differ by about 20 %
     under a pass-to-pass spread of 40 % read their spread within 25 %; alike balls read under 0.04."""
