@@ -165,7 +165,6 @@ def paper_numbers(case):
     b = case.bearing("de")
     ex804 = compute_excitation(b, dataclasses.replace(FourDofParameters.from_case(case, "de"), rotor_mass_kg=82.0,
                                                       relative_amplitude_threshold=0, max_order=0), 390.0)
-    qs804 = quasi_static_excitation(b, 82 * G, 390.0, 2048, 0, 0)
     model = BkaBem(case)
     ex495 = model.excitations["de"]
     rad = dataclasses.replace(FourDofParameters.from_case(case, "de"), rotor_mass_kg=495.0 / G, relative_amplitude_threshold=0,

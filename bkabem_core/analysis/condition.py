@@ -159,7 +159,7 @@ def envelope_spectrum(x, fs: float, band_hz: tuple[float, float] | None = None, 
     # leaves its magnitude unchanged) it is a K-bin signal, sampled here at m >= 2K points over
     # the window instead of n: the same envelope at a lower rate (3-5x fewer FFT points; the
     # envelope's content above K bins, which would fold back, is negligible).
-    k0, kk = int(band[0]), int(band.size)
+    kk = int(band.size)
     m = _fast_len(2 * kk)
     z = np.zeros((ws.spectrum.shape[0], m), dtype=np.complex64)
     z[:, :kk] = ws.spectrum[:, band]

@@ -51,7 +51,7 @@ class HertzPair:
 
     def __init__(self, bearings, cage_angles_rad, films_m=(0.0, 0.0), axial_m=(0.0, 0.0)):
         b0, b1 = bearings
-        g0, g1 = b0.geometry, b1.geometry
+        g0 = b0.geometry
         cage_angles_rad = np.asarray(cage_angles_rad, dtype=float)
         self.split = bool(cage_angles_rad.ndim == 2 or not same_ball_set(b0, b1))
         if self.split:

@@ -119,7 +119,6 @@ def _spectrum_table(sp, max_rows: int = 12, designations: dict | None = None) ->
         lines = [head.rstrip(": ")] + [f"  {b.upper()} bearing{' ' + names[b] if names.get(b) else ''}: {kin(ff)}"
                                        for b, ff in per.items()]
     acc = np.abs(sp.acceleration)
-    disp = np.abs(sp.displacement)
     band = np.flatnonzero(sp.in_band)
     rows = band[_largest(acc[band], max_rows)]
     labels = [sp.labels[i] if sp.labels is not None else f"{int(sp.orders[i])} BPFO" for i in rows]

@@ -71,12 +71,9 @@ from bkabem_ros.node.params import (  # noqa: F401  (re-exported)
     ParamSpec,
 )
 from bkabem_ros.node.source import (
-    FAULT_TYPE,
-    SPECTRUM_TYPE,
     TWO_PI,
     MachineSource,
     parse_labels,
-    prepare_model,
 )
 from bkabem_ros.node.speed import (
     SPEED_TYPE,

@@ -221,7 +221,6 @@ class RerunLogger(RecordingRows):
         """``VibrationWaveform``: every sample via ``send_columns`` (one row per sample, one
         scalar per channel), the block's min/max and RMS (displacement: peak-to-peak), and
         the shaft speed at its first sample. Acceleration also feeds the condition window."""
-        rr = self._rr
         a = msgs.waveform_array(msg)
         n = a.shape[1]
         if n == 0:
@@ -273,7 +272,6 @@ class RerunLogger(RecordingRows):
         display units vs frequency in Hz; the static part k = 0 goes to the health panel) and
         the fault-frequency markers. At most ``max_spectrum_rate_hz`` per location and quantity
         (sample time); returns whether logged."""
-        rr = self._rr
         f, k, amp, _ph = msgs.spectrum_arrays(msg)
         if f.size == 0:
             return False
@@ -319,7 +317,6 @@ class RerunLogger(RecordingRows):
         marked harmonics up to ``f_max`` [Hz] (the harmonics of the lines the defects of bearings with
         these lines excite), below the zero line (``MARKER_DEPTH`` x ``top`` deep, so they never cover
         the spectrum's lines)."""
-        rr = self._rr
         defects = self._defects_with_lines_of(loc)
         plan = fault_lines.marker_plan(lines, defects, f_max) if f_max > 0 and top > 0 else []
         by_line: dict[str, list[float]] = {}

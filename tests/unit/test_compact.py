@@ -3,7 +3,6 @@ embedded motor, the expansion's rules, the FE bearing defaults, and bad input na
 
 from __future__ import annotations
 
-import copy
 import math
 import tomllib
 from pathlib import Path

@@ -263,7 +263,6 @@ def test_continuity_when_an_inner_race_dent_is_added(pool):
     got = [(np.array(ch.samples, dtype=np.float64), gt) for ch, gt in run.chunks(0.8)]
     k = next(j for j, (_, gt) in enumerate(got) if gt["defects"])
     assert k == 4 and got[k][1]["defects"][0]["fault_frequency"] == "bpfi"
-    raw = _toml(text)
     speeds = [25.0] * (len(got) + 1)
     c = _render(pool.get(sc.states[0].case), k + 2, speeds, **opts)
     b = _render(pool.get(sc.states[1].case), k + 2, speeds, **opts)
