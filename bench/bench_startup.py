@@ -79,7 +79,7 @@ def pytest_runs(cwd: Path, plan) -> dict:
     runs = [pytest_run(cwd, *paths, options=options) for paths, options in plan]
     out = {"wall_s": sum(r["wall_s"] for r in runs), "exit_code": next((r["exit_code"] for r in runs
                                                                         if r["exit_code"]), 0),
-           "summary": " | ".join(r["summary"] for r in runs)[-400:], "runs": runs}
+           "summary": "; ".join(r["summary"] for r in runs)[-400:], "runs": runs}     # (a table cell: no "|")
     for key in ("passed", "failed", "error", "errors", "skipped"):
         if any(key in r for r in runs):
             out[key] = sum(r.get(key, 0) for r in runs)

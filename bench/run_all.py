@@ -336,7 +336,8 @@ def render_area(area: str, records: dict) -> str:
     out = ["| case | quantity | value | target | met | by |", "|---|---|---|---|---|---|"]
     for r in rows:
         met = {True: "yes", False: "**no**", None: ""}[r.get("met")] if "target" in r else ""
-        out.append(f"| {r['case']} | {r['quantity']} | {shown(r)} | {r.get('target', '')} | {met} | {r['by']} |")
+        cells = [r["case"], r["quantity"], shown(r), r.get("target", ""), met, r["by"]]
+        out.append("| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |")    # "|" inside a cell
     return "\n".join(out) + "\n\n" + "\n".join(notes)
 
 
