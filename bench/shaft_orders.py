@@ -79,10 +79,10 @@ TURN_BINS = 36
 
 def levels(x: np.ndarray, fs: float, fr: float, mult: dict, kind: str, mains_hz: float = 60.0) -> dict:
     """The SES levels of a DE signal ``x`` [g] at ``fs`` [Hz], shaft speed ``fr`` [Hz], fault multipliers ``mult``
-    [per shaft Hz] and fault ``kind`` [dB over the SES floor]: ``orders`` (k f_r); for a race (inner, outer) also
-    ``sidebands``
-    (|F - k f_r|), both k = 1 .. ORDERS; ``ftf`` (the cage line's window) and ``f4`` (a window of the same width at
-    |BPFO - 4 f_r|), with the frequencies [Hz] each reading found."""
+    [per shaft Hz] and fault ``kind`` [dB over the SES floor]: ``orders`` (k f_r), k = 1 .. ORDERS. For a race
+    (inner, outer) also ``sidebands`` (|F - k f_r|, the same k), ``ftf`` (the cage line's window) and ``f4`` (a window
+    of the same width at |BPFO - 4 f_r|), with the frequencies [Hz] each reading found; for any other kind ``turn``
+    (:func:`turn_profile`)."""
     a = envelope_analysis(x, fs, BAND_HZ, fr, mult, mains_hz=mains_hz, keep_spectrum=True)
     f, S, floor = a["f"], a["S"], a["floor"]
 
