@@ -62,6 +62,7 @@ from realdata.diagnostics import (  # noqa: E402
     envelope_analysis,
     estimate_speed,
     line_level,
+    squared_envelope,
 )
 from realdata.records import EFFECTIVE_6205, race_record_main, scan  # noqa: E402
 
@@ -105,10 +106,7 @@ def turn_profile(x: np.ndarray, fs: float, fr: float, bins: int = TURN_BINS) -> 
     """How much the power of the 2-4 kHz band follows the shaft angle: its squared envelope averaged in ``bins``
     bins of the angle (from a constant speed ``fr`` [Hz]), largest over smallest [-]. A stationary noise gives a
     little more than 1 (each bin's mean scatters); a load zone that the shaft swings, more."""
-    from scipy import signal
-
-    sos = signal.butter(6, BAND_HZ, "bandpass", fs=fs, output="sos")
-    env = np.abs(signal.hilbert(signal.sosfiltfilt(sos, np.asarray(x, dtype=float)))) ** 2
+    env = squared_envelope(x, fs, *BAND_HZ)           # (its filter's ends cut: only turns the profile)
     b = np.floor((np.arange(env.size) / fs * fr) % 1.0 * bins).astype(int)
     prof = np.bincount(b, weights=env, minlength=bins) / np.bincount(b, minlength=bins)
     return float(prof.max() / prof.min())
@@ -298,7 +296,7 @@ def _write_docs(rows: list[dict], text: str, args) -> None:
 def main(argv=None) -> int:
     return race_record_main("shaft_orders", __doc__.split("\n\n")[0], argv,
                             lambda a: run(a.data_dir, a.seeds, a.twin), lambda rows, a: table(rows, a.seeds, a.twin),
-                            _write_docs, twin_option=True)
+                            _write_docs, twin_option=True, reads="record")
 
 
 if __name__ == "__main__":
