@@ -211,12 +211,13 @@ def scan(folder) -> list[Record]:
     return out
 
 
-def race_record_main(name: str, description: str, argv, run, table, write_docs, twin_option: bool = False) -> int:
+def race_record_main(name: str, description: str, argv, run, table, write_docs, twin_option: bool = False,
+                     reads: str = "race-fault record") -> int:
     """The command line of a bench script over a folder's race-fault records: ``DATA_DIR``, ``--seeds`` (twin
     renders per record), ``--no-docs`` and, with ``twin_option``, ``--twin CASE``. ``run(args)`` gives the rows,
     ``table(rows, args)`` the text printed, ``write_docs(rows, text, args)`` writes the page and the figure (not
-    with ``--no-docs``). Bad input (``--seeds`` below 1, a folder without records or without race-fault records):
-    one line naming the argument on stderr, exit 2."""
+    with ``--no-docs``). Bad input (``--seeds`` below 1, a folder without records or without the drive-end
+    records the script ``reads``): one line naming the argument on stderr, exit 2."""
     import argparse
 
     ap = argparse.ArgumentParser(description=description)
@@ -236,7 +237,7 @@ def race_record_main(name: str, description: str, argv, run, table, write_docs, 
         print(f"{name}: data_dir: {exc}", file=sys.stderr)
         return 2
     if not rows:
-        print(f"{name}: data_dir: no drive-end race-fault record in {a.data_dir}", file=sys.stderr)
+        print(f"{name}: data_dir: no drive-end {reads} in {a.data_dir}", file=sys.stderr)
         return 2
     text = table(rows, a)
     print(text)
