@@ -287,6 +287,15 @@ def verdict_scores(y: np.ndarray, verdicts: list[str], keep=None) -> dict:
 
 
 
+def held_out(make, X: np.ndarray, y: np.ndarray, folds: list) -> np.ndarray:
+    """Each sample's label predicted by a model ``make()`` fitted on the other folds (``folds``: index arrays)."""
+    pred = np.empty_like(y)
+    for test in folds:
+        train = np.setdiff1d(np.arange(len(y)), test)
+        pred[test] = make().fit(X[train], y[train]).predict(X[test])
+    return pred
+
+
 def evaluate(tw: dict, me: dict, l2: float) -> dict:
     """Both models on both feature sets: held-out conditions of the twin (5 grouped folds), then fitted on the
     whole twin set and scored on the measured records; the textbook verdict on both."""
@@ -297,10 +306,7 @@ def evaluate(tw: dict, me: dict, l2: float) -> dict:
         names = [FEATURE_NAMES[i] for i in cols]
         for name, make in (("logistic regression", lambda: LogisticRegression(l2)),
                            ("nearest centroid", NearestCentroid)):
-            cv = np.empty_like(tw["y"])
-            for test in folds:
-                train = np.setdiff1d(np.arange(len(tw["y"])), test)
-                cv[test] = make().fit(Xt[train], tw["y"][train]).predict(Xt[test])
+            cv = held_out(make, Xt, tw["y"], folds)
             model = make().fit(Xt, tw["y"])
             pred = model.predict(Xm)
             rng = np.random.default_rng(7)
@@ -339,10 +345,7 @@ def ablation(tw: dict, me: dict, l2: float, sets: dict = FEATURE_SETS, families:
             if drop and (len(keep) == len(cols) or not keep):
                 continue
             Xt, Xm = tw["X"][:, keep], me["X"][:, keep]
-            cv = np.empty_like(tw["y"])
-            for test in folds:
-                train = np.setdiff1d(np.arange(len(tw["y"])), test)
-                cv[test] = LogisticRegression(l2).fit(Xt[train], tw["y"][train]).predict(Xt[test])
+            cv = held_out(lambda: LogisticRegression(l2), Xt, tw["y"], folds)
             s = scores(me["y"], LogisticRegression(l2).fit(Xt, tw["y"]).predict(Xm))
             out[fset][fam] = {"measured": s["accuracy"], "balanced": s["balanced"],
                               "twin_cv": float(np.mean(cv == tw["y"]))}
