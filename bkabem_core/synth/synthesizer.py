@@ -124,9 +124,9 @@ class Synthesizer:
     sensors : sequence
         Further sensors of the chain (:mod:`bkabem_core.synth.sensors`), after the anti-alias filter and sensor.
     broadband_floor : bool
-        Add the case's broadband floor (``baseline.broadband_force_n_per_sqrt_hz``: random force pairs across the
-        bearings through the machine's receptance, :mod:`bkabem_core.synth.floor`) when the case sets one (default
-        True); made with the plan (the transfer is shared by the models of one machine).
+        Add the case's broadband floor and background (``baseline.broadband_force_n_per_sqrt_hz``,
+        ``background_acceleration_m_s2_per_sqrt_hz``; :mod:`bkabem_core.synth.floor`) when the case sets them
+        (default True); made with the plan (the transfer is shared by the models of one machine).
     kernel : {"auto", "loop", "reference"}
         Which sample kernels (:class:`~bkabem_core.synth.settings.Settings`); the samples agree to float32 rounding.
     strikes : bool
