@@ -24,7 +24,6 @@ BASELINE_KEYS: dict[str, tuple] = {
     "electrical_force_n": ("float", _NONNEG),
     "line_frequency_hz": ("float", _POS),
     "broadband_force_n_per_sqrt_hz": ("float", _NONNEG),
-    "background_acceleration_m_s2_per_sqrt_hz": ("float", _NONNEG),
     "coupling_force_n": ("float", _NONNEG),
     "coupling_phase_deg": ("float", _ANGLE),
     "electrical_harmonics": ("float[]", ("range", 1.0, 1000.0)),
@@ -33,8 +32,8 @@ BASELINE_KEYS: dict[str, tuple] = {
     "looseness_orders": ("int", ("range", 1, 200)),
 }
 #: keys a case may leave out (default: 0 = off, no harmonics)
-BASELINE_OPTIONAL = ("broadband_force_n_per_sqrt_hz", "background_acceleration_m_s2_per_sqrt_hz", "coupling_force_n",
-                     "coupling_phase_deg", "electrical_harmonics", "electrical_harmonic_forces_n", "looseness_force_n", "looseness_orders")
+BASELINE_OPTIONAL = ("broadband_force_n_per_sqrt_hz", "coupling_force_n", "coupling_phase_deg",
+                     "electrical_harmonics", "electrical_harmonic_forces_n", "looseness_force_n", "looseness_orders")
 #: [baseline] of a migrated older case: nothing but the bearings (what those versions computed)
 BASELINE_OFF = {"unbalance_grade_mm_s": 0.0, "unbalance_phase_deg": 0.0, "misalignment_force_n": 0.0,
                 "misalignment_node": 1, "electrical_force_n": 0.0, "line_frequency_hz": 50.0}

@@ -28,6 +28,7 @@ MEASUREMENT_KEYS: dict[str, tuple] = {
     "tone_amplitudes_m_s2": ("float[]", _NONNEG),
     "quantisation_step_m_s2": ("float", _POS),
     "noise_density_m_s2_per_sqrt_hz": ("float", _NONNEG),
+    "input_noise_m_s2_per_sqrt_hz": ("float", _NONNEG),
     "slip": ("float", ("range", 0.0, 0.1)),
 }
 

@@ -100,9 +100,6 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "baseline.electrical_force_n": (0.0, 1e6, "magnetic pull forces are 0 .. 1 MN"),
     "baseline.broadband_force_n_per_sqrt_hz": (0.0, 100.0, "broadband bearing forces are 0 .. 100 N/sqrt(Hz) "
                                                           "(roughness of a new bearing: ~0.01-0.05; docs/faults.md)"),
-    "baseline.background_acceleration_m_s2_per_sqrt_hz": (0.0, 10.0, "a machine's background vibration is 0 .. 10 "
-                                                                     "m/s^2/sqrt(Hz) (the CWRU rig: ~2e-3; "
-                                                                     "docs/rigs.md)"),
     "baseline.line_frequency_hz": (1.0, 1000.0, "supply frequencies are 1 .. 1000 Hz (grids 50/60 Hz, drives up "
                                                 "to a few hundred)"),
     # the 4-DOF excitation model

@@ -15,17 +15,15 @@ with ``H`` the receptance of the channel's displacement combination to force pai
 channel's factor ((i 2 pi f)^2 for acceleration, 10^3 i 2 pi f for velocity in mm/s, 1 for displacement) and the
 measurement chain (accelerometer on the housing channels, anti-alias filter on all; :mod:`bkabem_core.synth.sensors`).
 
-**The rig's background** (case key ``baseline.background_acceleration_m_s2_per_sqrt_hz``, 0 = off). What a
-housing accelerometer picks up from everything the model does not hold: the motor's magnetic and aerodynamic forces
-on its frame, the driven machine, the bed plate. On a machine frame above its mounts' resonances these many broadband
-sources drive a heavy, well-damped structure whose response is close to flat in acceleration; the CWRU rig's healthy
-record is flat within +-4 dB from 20 Hz to its anti-alias filter outside the housing's resonance band
-(docs/rigs.md). Model: each housing, in each radial direction, moves with an independent, stationary, Gaussian
-acceleration of one-sided density ``B`` [m/s^2/sqrt(Hz)], flat over the band; the channels that read a housing's
-motion (acceleration, velocity) see it through the same channel factor and measurement chain as the floor
-(``B / (i 2 pi f)^2`` as a housing displacement); the shaft-relative displacement does not (below its bearing modes
-the shaft follows its housing). It is drawn into the same frames as the floor, from its own stream
-(:func:`background_normals`), so it costs the render nothing.
+**The acquisition's input floor** (case key ``measurement.input_noise_m_s2_per_sqrt_hz``, 0 = off). A recorded
+acceleration carries a broadband floor that is neither the bearing's nor the converter's: the CWRU rig's healthy
+record is flat within +-5 dB from 100 Hz to its anti-alias filter, through the housing's and the mount's resonances
+that shape everything the machine sends, and 50 dB above its converter's floor (docs/rigs.md). So it enters after
+the mount and before the AC coupling and the anti-alias filter: pick-up of the signal line, the conditioner, or
+vibration that reaches the sensor by a path the mount does not shape. Model: on each acceleration channel of a
+housing an independent, stationary, Gaussian acceleration of flat one-sided density ``B`` [m/s^2/sqrt(Hz)], through
+the chain without the accelerometer's mount (:meth:`FloorTransfer.input_transfer`). It is drawn into the same
+frames as the floor, from its own stream (:func:`input_normals`), so it costs the render nothing.
 
 Source of the level: the force of a rolling contact on its roughness is the contact stiffness times the roughness
 displacement. Superfinished raceways and balls of deep-groove bearings have RMS roughness of order 0.02-0.1 um
@@ -85,7 +83,6 @@ from collections import OrderedDict
 import numpy as np
 import scipy.fft
 
-from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
 from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth.sensors import SensorChain
 from bkabem_core.synth.splitmix import GOLDEN, MASK64, mix64
@@ -93,10 +90,7 @@ from bkabem_core.synth.splitmix import GOLDEN, MASK64, mix64
 FRAME_BITS = 15                 # frame length L = 2^15 samples (0.64 s at 51.2 kHz: 1.56 Hz line spacing)
 N_FRAMES = 4
 _TAG = 0xF1005
-_BACKGROUND_TAG = 0xBAC6
-#: the outputs (LOCATIONS x DIRECTIONS) the background moves: each housing, each radial direction
-BACKGROUND_OUTPUTS = tuple(LOCATIONS.index(loc) * len(DIRECTIONS) + j for loc in LOCATIONS if loc.endswith("_housing")
-                           for j in range(len(DIRECTIONS)))
+_INPUT_TAG = 0xBAC6
 
 
 def _state_space(model):
@@ -168,23 +162,25 @@ class FloorTransfer:
         #: float32 as the frames: its rounding, ~6e-8 relative, is far below the frames' own spread)
         self.by_input = np.ascontiguousarray(transfer.transpose(2, 0, 1), dtype=np.complex64)
         self.frequency_hz = f
-        #: (4, F, C) complex64: per housing motion (BACKGROUND_OUTPUTS), its transfer to every channel per m/s^2 of
-        #: housing acceleration; zero on the channels that do not read a housing's motion
-        bg = np.zeros((len(BACKGROUND_OUTPUTS), f.size, len(cindex)), complex)
-        housing = set(int(u) for u in np.asarray(housing_cols).ravel())
-        per_acc = 1.0 / (iw * iw)                                              # housing displacement per m/s^2
-        for c, u in enumerate(np.asarray(cindex, dtype=int)):
-            if u not in housing:
-                continue
-            g = per_acc * fac[:, c] * (gains[:, u] if gains is not None else 1.0)
-            for j, out in enumerate(BACKGROUND_OUTPUTS):
-                if combination[u, out] != 0.0:
-                    bg[j, :, c] = combination[u, out] * g
-        self.by_background = np.ascontiguousarray(bg, dtype=np.complex64)
+        #: (F, C) complex64: the chain without the mount on each housing acceleration channel (0 elsewhere)
+        self.by_input_noise = self.input_transfer(f, cindex, power, housing_cols, combination.shape[0], sensors)
         t = np.arange(2 * self.half)
         self.window = np.sin(np.pi * t / (2 * self.half)).astype(np.float32)
-        for a in (self.by_input, self.by_background, self.frequency_hz, self.window):
+        for a in (self.by_input, self.by_input_noise, self.frequency_hz, self.window):
             a.flags.writeable = False
+
+    @staticmethod
+    def input_transfer(f, cindex, power, housing_cols, n_columns: int, sensors: SensorChain) -> np.ndarray:
+        """(F, C) complex64 gain of the acquisition's input floor (module docstring) at ``f`` [Hz] on each channel:
+        the chain without the accelerometer's mount on the acceleration channels of a housing, 0 on the others."""
+        chain = SensorChain(tuple(s for s in sensors.sensors if s.name != "accelerometer"))
+        gains = chain.gains(f, housing_cols, n_columns)
+        housing = {int(u) for u in np.asarray(housing_cols).ravel()}
+        out = np.zeros((f.size, len(cindex)), complex)
+        for c, (u, p) in enumerate(zip(np.asarray(cindex, dtype=int), np.asarray(power, dtype=int))):
+            if u in housing and p == 2:
+                out[:, c] = 1.0 if gains is None else gains[:, u]
+        return out.astype(np.complex64)
 
     @property
     def transfer(self) -> np.ndarray:
@@ -245,13 +241,13 @@ class FloorTransfer:
                 cls._users.pop(structure, None)
                 cls._shared.pop(structure, None)
 
-    def frames(self, density: float, seed: int, background: float = 0.0) -> tuple:
+    def frames(self, density: float, seed: int, input_noise: float = 0.0) -> tuple:
         """(int16 frames (N_FRAMES, L, C), float32 scale per channel) of a floor of ``density`` [N/sqrt(Hz)], the
-        rig's ``background`` [m/s^2/sqrt(Hz)] and ``seed`` (module docstring). Per frame i: the complex amplitudes of
+        acquisition's ``input_noise`` [m/s^2/sqrt(Hz)] and ``seed`` (module docstring). Per frame i: the complex amplitudes of
         the four force pairs from the stream :func:`frame_keys` ``(seed)[i]`` of the sensor noise's ziggurat, times
         the transfer and summed over the pairs in one C pass into the Hermitian half of the spectrum
-        (:func:`synth_kernel.floor_spectrum`, complex64); the background's four housing motions from
-        :func:`background_normals` ``(seed, i)`` times their transfer added to it; one float32 real inverse FFT;
+        (:func:`synth_kernel.floor_spectrum`, complex64); the input floor's amplitudes from :func:`input_normals`
+        ``(seed, i)`` times its transfer added to it; one float32 real inverse FFT;
         then one scale per channel and the int16 rounding in one C pass (:func:`synth_kernel.floor_quantise`)."""
         n, fs = self.frame_length, self.sample_rate_hz
         by_input = self.by_input
@@ -259,7 +255,7 @@ class FloorTransfer:
         # E|A|^2 = 2 S^2 df: (g1 + i g2) sqrt(S^2 df); the factor 1/2 (exact) makes the unnormalised real inverse
         # FFT of the half spectrum, X_0 + 2 Re sum_k X_k e^(i 2 pi k t / L), the real part of the one-sided sum
         scale_a = 0.5 * (float(density) * math.sqrt(fs / n))
-        scale_b = 0.5 * (float(background) * math.sqrt(fs / n))
+        scale_b = 0.5 * (float(input_noise) * math.sqrt(fs / n))
         frames = np.empty((N_FRAMES, n, c), dtype=np.float32)
         half = np.zeros((n // 2 + 1, c), np.complex64)
         for i, key in enumerate(frame_keys(seed)):
@@ -267,9 +263,9 @@ class FloorTransfer:
                 synth_kernel.floor_spectrum(key, by_input, scale_a, half[1:n // 2])
             else:
                 half[:] = 0.0
-            if background > 0.0:
-                a = background_normals(seed, i, self.by_background.shape[:2]) * np.float32(scale_b)
-                half[1:n // 2] += np.einsum("jf,jfc->fc", a, self.by_background)
+            if input_noise > 0.0:
+                half[1:n // 2] += input_normals(seed, i, self.by_input_noise.shape) * np.float32(scale_b) \
+                    * self.by_input_noise
             frames[i] = scipy.fft.irfft(half, n, axis=0, norm="forward")
         return synth_kernel.floor_quantise(frames)
 
@@ -282,11 +278,11 @@ def frame_keys(seed: int) -> list:
     return [int(k) for k in np.random.SeedSequence([int(seed), _TAG]).generate_state(N_FRAMES, np.uint64)]
 
 
-def background_normals(seed: int, frame: int, shape: tuple) -> np.ndarray:
-    """Complex64 array of ``shape`` (housing motions, lines) with independent standard normal real and imaginary
-    parts: the background's amplitudes in frame ``frame`` of a floor of ``seed`` (numpy's PCG64 on
-    ``SeedSequence([seed, _BACKGROUND_TAG, frame])``: a stream of its own, independent of the floor's)."""
-    rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence([int(seed), _BACKGROUND_TAG, int(frame)])))
+def input_normals(seed: int, frame: int, shape: tuple) -> np.ndarray:
+    """Complex64 array of ``shape`` (lines, channels) with independent standard normal real and imaginary parts: the
+    input floor's amplitudes in frame ``frame`` of a floor of ``seed`` (numpy's PCG64 on
+    ``SeedSequence([seed, _INPUT_TAG, frame])``: a stream of its own, independent of the floor's)."""
+    rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence([int(seed), _INPUT_TAG, int(frame)])))
     g = rng.standard_normal((*shape, 2), dtype=np.float32)
     return g[..., 0] + 1j * g[..., 1]
 
@@ -308,8 +304,8 @@ class BroadbandFloor:
     seed : int
     sensors : SensorChain
         The measurement chain (:mod:`bkabem_core.synth.sensors`).
-    background_m_s2_rthz : float
-        One-sided density of the rig's background acceleration of each housing and direction [m/s^2/sqrt(Hz)]
+    input_noise_m_s2_rthz : float
+        One-sided density of the acquisition's input floor on each housing acceleration channel [m/s^2/sqrt(Hz)]
         (>= 0; with ``density_n_rthz``, not both 0).
 
     The seed-independent part is the process's :meth:`FloorTransfer.shared` one; a floor of another seed is
@@ -318,14 +314,14 @@ class BroadbandFloor:
 
     def __init__(self, model, density_n_rthz: float, combination, cindex, power, scale, housing_cols,
                  sample_rate_hz: float, seed: int, sensors: SensorChain = SensorChain(),
-                 background_m_s2_rthz: float = 0.0):
+                 input_noise_m_s2_rthz: float = 0.0):
         path = FloorTransfer.shared(model, combination, cindex, power, scale, housing_cols, sample_rate_hz, sensors)
-        self._seeded(path, density_n_rthz, seed, background_m_s2_rthz)
+        self._seeded(path, density_n_rthz, seed, input_noise_m_s2_rthz)
 
-    def _seeded(self, path: FloorTransfer, density_n_rthz: float, seed: int, background_m_s2_rthz: float) -> None:
+    def _seeded(self, path: FloorTransfer, density_n_rthz: float, seed: int, input_noise_m_s2_rthz: float) -> None:
         self.path = path
         self.density = float(density_n_rthz)
-        self.background = float(background_m_s2_rthz)
+        self.input_noise = float(input_noise_m_s2_rthz)
         self.sample_rate_hz = path.sample_rate_hz
         self.frame_length = path.frame_length
         self.half = path.half
@@ -334,7 +330,7 @@ class BroadbandFloor:
         self.seed = int(seed)
         #: (N_FRAMES, L, C) int16; per channel: frames = scale * the int16 frames (max |x| -> 32767; 1 for a
         #: channel without floor)
-        self.frames, self.scale = path.frames(self.density, self.seed, self.background)
+        self.frames, self.scale = path.frames(self.density, self.seed, self.input_noise)
         self._key = mix64(self.seed ^ _TAG)
         self._buf = np.empty((0, self.frames.shape[2]), dtype=np.float32)
         self._rows: dict = {}
@@ -344,7 +340,7 @@ class BroadbandFloor:
         """The floor of these channels and level with another seed: this one's transfer and window (shared), new
         frames; the same samples as a floor made from scratch with that seed."""
         floor = BroadbandFloor.__new__(BroadbandFloor)
-        floor._seeded(self.path, self.density, seed, self.background)
+        floor._seeded(self.path, self.density, seed, self.input_noise)
         return floor
 
     @property
@@ -353,9 +349,9 @@ class BroadbandFloor:
         return self.path.transfer
 
     def psd(self) -> np.ndarray:
-        """(F, C) one-sided PSD of the floor and the background at :attr:`frequency_hz` [channel unit^2 / Hz]."""
+        """(F, C) one-sided PSD of the floor and the input floor at :attr:`frequency_hz` [channel unit^2 / Hz]."""
         return (self.density ** 2 * np.sum(np.abs(self.transfer) ** 2, axis=2)
-                + self.background ** 2 * np.sum(np.abs(self.path.by_background) ** 2, axis=0))
+                + self.input_noise ** 2 * np.abs(self.path.by_input_noise) ** 2)
 
     def _grain(self, g: int) -> tuple:
         """(grain, frame, offset) of grain g (remembered: a grain spans ~3 chunks)."""

@@ -24,6 +24,9 @@ key                                meaning
 ``tone_amplitudes_m_s2``           ... and their 0-peak amplitudes as recorded [m/s^2]
 ``quantisation_step_m_s2``         the converter's step [m/s^2]
 ``noise_density_m_s2_per_sqrt_hz`` the accelerometer's white noise, one-sided [m/s^2/sqrt(Hz)]
+``input_noise_m_s2_per_sqrt_hz``   the acquisition's broadband floor at the acceleration channels' input, flat,
+                                   one-sided [m/s^2/sqrt(Hz)]: after the mount, before the AC coupling and the
+                                   anti-alias filter (:mod:`bkabem_core.synth.floor`)
 ``slip``                           the rig's random jitter of the ball passes: standard deviation of the
                                    ball-pass interval over its mean [-] (the synthesiser's ``slip``)
 =================================  ==========================================================================
@@ -73,6 +76,8 @@ class Measurement:
         ``{"acceleration": m/s^2/sqrt(Hz)}``.
     slip : float or None
         Random jitter of the ball passes [-] (std of the interval / its mean).
+    input_noise : float or None
+        The acquisition's broadband floor at the acceleration channels' input [m/s^2/sqrt(Hz)].
     """
 
     sample_rate_hz: float | None = None
@@ -83,6 +88,7 @@ class Measurement:
     quantisation: Quantiser | None = None
     noise_density: dict | None = None
     slip: float | None = None
+    input_noise: float | None = None
 
     @classmethod
     def from_section(cls, m: dict | None) -> "Measurement":
@@ -109,7 +115,8 @@ class Measurement:
             noise = {"acceleration": float(m["noise_density_m_s2_per_sqrt_hz"])}
         rate = float(m["sample_rate_hz"]) if "sample_rate_hz" in m else None
         slip = float(m["slip"]) if "slip" in m else None
-        return cls(rate, acc, aa, hp, tones, q, noise, slip)
+        floor = float(m["input_noise_m_s2_per_sqrt_hz"]) if "input_noise_m_s2_per_sqrt_hz" in m else None
+        return cls(rate, acc, aa, hp, tones, q, noise, slip, floor)
 
     @classmethod
     def of_case(cls, case) -> "Measurement":
@@ -121,7 +128,8 @@ class Measurement:
 
     def to_dict(self) -> dict:
         """Its elements' parameters (None where absent), JSON-ready."""
-        out = {"sample_rate_hz": self.sample_rate_hz, "noise_density": self.noise_density, "slip": self.slip}
+        out = {"sample_rate_hz": self.sample_rate_hz, "noise_density": self.noise_density, "slip": self.slip,
+               "input_noise": self.input_noise}
         for k in ("accelerometer", "anti_alias", "high_pass", "tones", "quantisation"):
             v = getattr(self, k)
             out[k] = None if v is None else v.to_dict()

@@ -88,14 +88,13 @@ class Plan:
         baseline = model.case.raw["baseline"]
         self.floor_density = float(baseline.get("broadband_force_n_per_sqrt_hz", 0.0)) \
             if settings.broadband_floor else 0.0
-        #: the rig's background acceleration of each housing [m/s^2/sqrt(Hz)] (drawn into the floor's frames)
-        self.background = float(baseline.get("background_acceleration_m_s2_per_sqrt_hz", 0.0)) \
-            if settings.broadband_floor else 0.0
+        #: the acquisition's input floor [m/s^2/sqrt(Hz)] (drawn into the floor's frames)
+        self.input_noise = settings.input_noise
         ch = self.channels
-        #: the broadband floor and background of these channels (None: neither)
+        #: the broadband floor and the input floor of these channels (None: neither)
         self.floor = BroadbandFloor(model, self.floor_density, ch.combination, ch.cindex, ch.power, ch.scale,
                                     ch.housing_columns, settings.sample_rate_hz, settings.seed, settings.sensors,
-                                    self.background) if self.floor_density > 0 or self.background > 0 else None
+                                    self.input_noise) if self.floor_density > 0 or self.input_noise > 0 else None
         #: shaft speeds [Hz] between which some line is near the Nyquist taper (knot placement)
         self.taper_speeds_hz = self.lines.taper_speeds_hz(settings.sample_rate_hz, settings.taper_band)
         self.n_channels = len(ch.channels)
@@ -140,7 +139,7 @@ class Plan:
             **settings.sensors.metadata(),
             **settings.output.metadata(),
             "broadband_force_n_per_sqrt_hz": self.floor_density,
-            "background_acceleration_m_s2_per_sqrt_hz": self.background,
+            "input_noise_m_s2_per_sqrt_hz": self.input_noise,
             **({"ball_track": self.track.to_dict()} if self.track is not None else {}),
             **({"strikes": self.strikes.to_dict()} if self.strikes is not None else {}),
             "line_coefficients": self.lines.coefficients.tolist(),

@@ -60,6 +60,9 @@ class Settings:
         A race pit's strikes of random strength (:mod:`bkabem_core.synth.strikes`); False: all alike.
     noise_density : tuple of (quantity, density) or None
     snr_db : float or None
+    input_noise : float
+        The acquisition's broadband floor at the acceleration channels' input [m/s^2/sqrt(Hz)] (0: none;
+        :mod:`bkabem_core.synth.floor`).
     kernel : {"auto", "loop", "reference"}
         Which sample kernels: the C line-set kernels where they apply (float32, <= 64 channels and families),
         else the per-family C loop (``"auto"``); always the per-family C loop (``"loop"``); the per-family numpy
@@ -86,6 +89,7 @@ class Settings:
     noise_density: tuple | None
     snr_db: float | None
     kernel: str
+    input_noise: float = 0.0
 
     @classmethod
     def make(cls, sample_rate_hz: float = 25600.0, chunk_s: float = 0.1, *, quantities=DEFAULT_QUANTITIES,
@@ -96,7 +100,7 @@ class Settings:
              anti_alias: AntiAliasFilter | None = None, sensors=(), broadband_floor: bool = True,
              kernel: str = "auto", high_pass: HighPassFilter | None = None,
              tones: InterferenceTones | None = None, quantisation: Quantiser | None = None,
-             strikes: bool = True) -> "Settings":
+             strikes: bool = True, input_noise: float | None = None) -> "Settings":
         """Checked settings from the synthesiser's keyword arguments (``seed=None``: a random seed)."""
         fs = _finite("sample_rate_hz", sample_rate_hz, 0.0, strict=True)
         if fs > MAX_SAMPLE_RATE_HZ:
@@ -157,7 +161,8 @@ class Settings:
                    spectrum=spectrum, max_speed_step_hz=step, min_speed_hz=min_speed, slip=slip, seed=0,
                    dtype=np.dtype(dtype).type, max_order=max_order, table_size=table_size, sensors=chain,
                    output=OutputStage(tuple(stages)), taper_band=taper_band, broadband_floor=bool(broadband_floor),
-                   strikes=bool(strikes), noise_density=None, snr_db=None, kernel=kernel)
+                   strikes=bool(strikes), noise_density=None, snr_db=None, kernel=kernel,
+                   input_noise=_finite("input_noise", 0.0 if input_noise is None else input_noise, 0.0))
         return base.with_seed(seed).with_noise(noise_density, snr_db)
 
     def with_seed(self, seed: int | None) -> "Settings":

@@ -124,9 +124,9 @@ class Synthesizer:
     sensors : sequence
         Further sensors of the chain (:mod:`bkabem_core.synth.sensors`), after the anti-alias filter and sensor.
     broadband_floor : bool
-        Add the case's broadband floor and background (``baseline.broadband_force_n_per_sqrt_hz``,
-        ``background_acceleration_m_s2_per_sqrt_hz``; :mod:`bkabem_core.synth.floor`) when the case sets them
-        (default True); made with the plan (the transfer is shared by the models of one machine).
+        Add the case's broadband floor (``baseline.broadband_force_n_per_sqrt_hz``: random force pairs across the
+        bearings through the machine's receptance, :mod:`bkabem_core.synth.floor`) when the case sets one (default
+        True); made with the plan (the transfer is shared by the models of one machine).
     kernel : {"auto", "loop", "reference"}
         Which sample kernels (:class:`~bkabem_core.synth.settings.Settings`); the samples agree to float32 rounding.
     strikes : bool
@@ -167,7 +167,7 @@ class Synthesizer:
             band_limit=band_limit, spectrum=spectrum, max_speed_step_hz=max_speed_step_hz, min_speed_hz=min_speed_hz,
             dtype=dtype, table_size=table_size, accelerometer=accelerometer, anti_alias=anti_alias, sensors=sensors,
             broadband_floor=broadband_floor, kernel=kernel, high_pass=high_pass, tones=tones,
-            quantisation=quantisation, strikes=strikes)
+            quantisation=quantisation, strikes=strikes, input_noise=m.input_noise)
         self.knot_s = _finite("knot_s", knot_s, 0.0, strict=True)
         #: Most knots one speed step (one streamed chunk) may add; a real-time caller (the ROS node) lowers it so a
         #: jump of any size costs a bounded time (coarser amplitude interpolation through the jump, exact phase).
