@@ -25,6 +25,12 @@ housing an independent, stationary, Gaussian acceleration of flat one-sided dens
 the chain without the accelerometer's mount (:meth:`FloorTransfer.input_transfer`). It is drawn into the same
 frames as the floor, from its own stream (:func:`input_normals`), so it costs the render nothing.
 
+**A faulty bearing rolls rougher.** A defect's key ``roughness_db`` (every kind; 0 = as the case) raises the force
+pairs of its bearing by that many dB over the case's density (the largest of the bearing's defects): a bearing with
+a defect rolls rougher than a sound one (:data:`~bkabem_core.bearing.defects.protocol.ROUGHNESS`). Where a case has
+no floor (density 0) there is nothing to raise. The CWRU rig's seeded bearings carry 12-40 dB more than its healthy
+one in the housing's band where their signal is Gaussian (docs/rigs.md).
+
 Source of the level: the force of a rolling contact on its roughness is the contact stiffness times the roughness
 displacement. Superfinished raceways and balls of deep-groove bearings have RMS roughness of order 0.02-0.1 um
 (Harris & Kotzalas, *Essential concepts of bearing technology*, 5th ed., ch. 23 on surface finish; ISO 15242-1
@@ -241,16 +247,17 @@ class FloorTransfer:
                 cls._users.pop(structure, None)
                 cls._shared.pop(structure, None)
 
-    def frames(self, density: float, seed: int, input_noise: float = 0.0) -> tuple:
+    def frames(self, density: float, seed: int, input_noise: float = 0.0, by_input=None) -> tuple:
         """(int16 frames (N_FRAMES, L, C), float32 scale per channel) of a floor of ``density`` [N/sqrt(Hz)], the
         acquisition's ``input_noise`` [m/s^2/sqrt(Hz)] and ``seed`` (module docstring). Per frame i: the complex amplitudes of
         the four force pairs from the stream :func:`frame_keys` ``(seed)[i]`` of the sensor noise's ziggurat, times
         the transfer and summed over the pairs in one C pass into the Hermitian half of the spectrum
         (:func:`synth_kernel.floor_spectrum`, complex64); the input floor's amplitudes from :func:`input_normals`
         ``(seed, i)`` times its transfer added to it; one float32 real inverse FFT;
-        then one scale per channel and the int16 rounding in one C pass (:func:`synth_kernel.floor_quantise`)."""
+        then one scale per channel and the int16 rounding in one C pass (:func:`synth_kernel.floor_quantise`).
+        ``by_input``: the force pairs' transfer scaled per pair (a faulty bearing's roughness), else :attr:`by_input`."""
         n, fs = self.frame_length, self.sample_rate_hz
-        by_input = self.by_input
+        by_input = self.by_input if by_input is None else by_input
         c = by_input.shape[2]
         # E|A|^2 = 2 S^2 df: (g1 + i g2) sqrt(S^2 df); the factor 1/2 (exact) makes the unnormalised real inverse
         # FFT of the half spectrum, X_0 + 2 Re sum_k X_k e^(i 2 pi k t / L), the real part of the one-sided sum
@@ -307,6 +314,9 @@ class BroadbandFloor:
     input_noise_m_s2_rthz : float
         One-sided density of the acquisition's input floor on each housing acceleration channel [m/s^2/sqrt(Hz)]
         (>= 0; with ``density_n_rthz``, not both 0).
+    pair_gains : sequence of 4 float or None
+        Amplitude factor of each force pair (de vertical, de horizontal, nde vertical, nde horizontal) over
+        ``density_n_rthz``: a faulty bearing's roughness (None: 1 each).
 
     The seed-independent part is the process's :meth:`FloorTransfer.shared` one; a floor of another seed is
     :meth:`reseeded` (its frames only).
@@ -314,8 +324,13 @@ class BroadbandFloor:
 
     def __init__(self, model, density_n_rthz: float, combination, cindex, power, scale, housing_cols,
                  sample_rate_hz: float, seed: int, sensors: SensorChain = SensorChain(),
-                 input_noise_m_s2_rthz: float = 0.0):
+                 input_noise_m_s2_rthz: float = 0.0, pair_gains=None):
         path = FloorTransfer.shared(model, combination, cindex, power, scale, housing_cols, sample_rate_hz, sensors)
+        gains = np.ones(4) if pair_gains is None else np.asarray(pair_gains, dtype=float)
+        #: the force pairs' transfer with their gains (:attr:`FloorTransfer.by_input` itself where all are 1)
+        self.by_input = path.by_input if np.all(gains == 1.0) else np.ascontiguousarray(
+            path.by_input * gains[:, None, None].astype(np.float32))
+        self.pair_gains = gains
         self._seeded(path, density_n_rthz, seed, input_noise_m_s2_rthz)
 
     def _seeded(self, path: FloorTransfer, density_n_rthz: float, seed: int, input_noise_m_s2_rthz: float) -> None:
@@ -330,7 +345,7 @@ class BroadbandFloor:
         self.seed = int(seed)
         #: (N_FRAMES, L, C) int16; per channel: frames = scale * the int16 frames (max |x| -> 32767; 1 for a
         #: channel without floor)
-        self.frames, self.scale = path.frames(self.density, self.seed, self.input_noise)
+        self.frames, self.scale = path.frames(self.density, self.seed, self.input_noise, self.by_input)
         self._key = mix64(self.seed ^ _TAG)
         self._buf = np.empty((0, self.frames.shape[2]), dtype=np.float32)
         self._rows: dict = {}
@@ -340,13 +355,14 @@ class BroadbandFloor:
         """The floor of these channels and level with another seed: this one's transfer and window (shared), new
         frames; the same samples as a floor made from scratch with that seed."""
         floor = BroadbandFloor.__new__(BroadbandFloor)
+        floor.by_input, floor.pair_gains = self.by_input, self.pair_gains
         floor._seeded(self.path, self.density, seed, self.input_noise)
         return floor
 
     @property
     def transfer(self) -> np.ndarray:
-        """(F, C, 4) complex transfer [channel unit / N] at :attr:`frequency_hz` (:attr:`FloorTransfer.transfer`)."""
-        return self.path.transfer
+        """(F, C, 4) complex transfer [channel unit / N] at :attr:`frequency_hz`, each pair with its gain."""
+        return self.by_input.transpose(1, 2, 0)
 
     def psd(self) -> np.ndarray:
         """(F, C) one-sided PSD of the floor and the input floor at :attr:`frequency_hz` [channel unit^2 / Hz]."""

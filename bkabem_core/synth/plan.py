@@ -41,6 +41,7 @@ from collections import OrderedDict
 import numpy as np
 
 from bkabem_core.fe.modal import SpeedCells
+from bkabem_core.model.vocabulary import BEARINGS
 from bkabem_core.synth import kernel as synth_kernel
 from bkabem_core.synth.balltrack import BallTrack
 from bkabem_core.synth.channels import ChannelMap
@@ -94,12 +95,22 @@ class Plan:
         #: the broadband floor and the input floor of these channels (None: neither)
         self.floor = BroadbandFloor(model, self.floor_density, ch.combination, ch.cindex, ch.power, ch.scale,
                                     ch.housing_columns, settings.sample_rate_hz, settings.seed, settings.sensors,
-                                    self.input_noise) if self.floor_density > 0 or self.input_noise > 0 else None
+                                    self.input_noise, self._pair_gains(model.case)) \
+            if self.floor_density > 0 or self.input_noise > 0 else None
         #: shaft speeds [Hz] between which some line is near the Nyquist taper (knot placement)
         self.taper_speeds_hz = self.lines.taper_speeds_hz(settings.sample_rate_hz, settings.taper_band)
         self.n_channels = len(ch.channels)
         self._seeded(settings)
         self._memo: OrderedDict = OrderedDict()
+
+    @staticmethod
+    def _pair_gains(case) -> np.ndarray:
+        """The floor's force-pair gains (de v, de h, nde v, nde h): each bearing's largest ``roughness_db`` of its
+        defects, as an amplitude factor (:mod:`bkabem_core.synth.floor`)."""
+        db = {b: 0.0 for b in BEARINGS}
+        for d in case.raw["defects"]:
+            db[d["bearing"]] = max(db[d["bearing"]], float(d.get("roughness_db", 0.0)))
+        return np.array([10.0 ** (db[b] / 20.0) for b in BEARINGS for _ in range(2)])
 
     def _kernels(self, settings):
         """(line kernels, feature accumulation) for the settings (:class:`~bkabem_core.synth.settings.Settings`

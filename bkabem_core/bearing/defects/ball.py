@@ -24,7 +24,15 @@ from collections.abc import Mapping
 import numpy as np
 
 from bkabem_core.bearing.defects.profiles import ContactGeometry, bridged_drop_m, wrap_to_pi
-from bkabem_core.bearing.defects.protocol import DefectKey, DefectKind, TorusGrid, torus_axes
+from bkabem_core.bearing.defects.protocol import (
+    ROUGHNESS,
+    DefectKey,
+    DefectKind,
+    TorusGrid,
+    roughness_field,
+    roughness_problem,
+    torus_axes,
+)
 
 #: Defaults of ``wander_revolutions`` [ball revolutions] and ``spin_slip`` [-]: their argument is in
 #: :mod:`bkabem_core.synth.balltrack`.
@@ -51,7 +59,8 @@ class Ball(DefectKind):
                           required=False),
                 DefectKey("spin_slip", "float", 0.0, DEFAULT_SPIN_SLIP,
                           "random slip of the ball's spin: std of its advance per ball pass / the nominal "
-                          "(0: none); bkabem_core.synth.balltrack", required=False))
+                          "(0: none); bkabem_core.synth.balltrack", required=False),
+                ROUGHNESS)
 
     def surface_rate_per_hz(self, fault_multipliers) -> float:
         return fault_multipliers.bsf
@@ -84,6 +93,8 @@ class Ball(DefectKind):
             raise ValueError(f"ball_index: must be in 0..{geometry.n_balls - 1} (got {dent.ball_index})")
 
     def check_own_key(self, key: str, value, bearing: dict) -> str | None:
+        if key == "roughness_db":
+            return roughness_problem(value)
         if key == "wander_revolutions":
             d, pd = bearing["ball_diameter_m"], bearing["pitch_diameter_m"]
             per_cage = pd / d * (1.0 + d / pd * math.cos(math.radians(bearing["contact_angle_deg"])))   # BSF / FTF
@@ -113,7 +124,7 @@ class Ball(DefectKind):
         """The ball number, and the ball's motion (``own``: carried to the ground truth, not used here)."""
         return {"ball_index": int(table["ball"]) - 1,
                 "own": (("wander_revolutions", float(table.get("wander_revolutions", DEFAULT_WANDER_REVOLUTIONS))),
-                        ("spin_slip", float(table.get("spin_slip", DEFAULT_SPIN_SLIP))))}
+                        ("spin_slip", float(table.get("spin_slip", DEFAULT_SPIN_SLIP))), roughness_field(table))}
 
     def table_fields(self, dent) -> dict:
         return {"ball": dent.ball_index + 1, **dict(dent.own)}

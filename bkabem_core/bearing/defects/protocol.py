@@ -36,8 +36,8 @@ import numpy as np
 from bkabem_core.bearing.defects import round_pit
 from bkabem_core.bearing.defects.profiles import TWO_PI, ContactGeometry, wrap_to_pi
 
-__all__ = ["DEFAULT_STRIKE_SPREAD", "MAX_STRIKE_SPREAD", "DefectKey", "DefectKind", "RaceDefect", "TorusGrid",
-           "torus_axes"]
+__all__ = ["DEFAULT_STRIKE_SPREAD", "MAX_ROUGHNESS_DB", "MAX_STRIKE_SPREAD", "ROUGHNESS", "DefectKey", "DefectKind",
+           "RaceDefect", "TorusGrid", "roughness_field", "roughness_problem", "torus_axes"]
 
 
 @dataclass(frozen=True)
@@ -284,6 +284,30 @@ class DefectKind(ABC):
         return self.part_name(fields or {}) or self.name
 
 
+#: Largest ``roughness_db`` a case may give [dB] (a floor 1000 times the case's in amplitude).
+MAX_ROUGHNESS_DB = 60.0
+#: Every kind's key ``roughness_db``: the faulty bearing's broadband floor over the case's. A bearing with a defect
+#: rolls rougher than a sound one: a seeded pit's bearing was taken apart and put back, a worn one carries debris and
+#: wear, the "generalized roughness" that comes with damage (Stack, Habetler & Harley, IEEE Trans. Ind. Appl. 40(3),
+#: 2004). Read by the synthesiser (:mod:`bkabem_core.synth.floor`), not by the quasi-static model.
+ROUGHNESS = DefectKey("roughness_db", "float", 0.0, 0.0,
+                      "how much louder the faulty bearing's broadband floor is than the case's "
+                      "(baseline.broadband_force_n_per_sqrt_hz), in dB of its force (0: as the case's); "
+                      "bkabem_core.synth.floor", "dB", required=False)
+
+
+def roughness_problem(value) -> str | None:
+    """Why ``value`` is not a ``roughness_db`` (None: it is one)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= MAX_ROUGHNESS_DB:
+        return f"must be a number of dB from 0 (the case's floor) to {MAX_ROUGHNESS_DB:g} (got {value!r})"
+    return None
+
+
+def roughness_field(table: dict) -> tuple:
+    """``("roughness_db", value)`` of a ``[[defects]]`` table (0 where it gives none): an entry of ``own``."""
+    return ("roughness_db", float(table.get("roughness_db", 0.0)))
+
+
 #: Default of a race pit's ``strike_spread`` [-]: its argument is in :mod:`bkabem_core.synth.strikes`.
 DEFAULT_STRIKE_SPREAD = 1.0
 #: Largest ``strike_spread`` a case may give (a relative spread of the strikes' energy of 5 for a ball that loses all
@@ -303,9 +327,11 @@ class RaceDefect(DefectKind):
     own_keys = (DefectKey("strike_spread", "float", 0.0, DEFAULT_STRIKE_SPREAD,
                           "random spread of the pit's strikes from ball to ball: the relative standard deviation of a "
                           "strike's energy per unit of the share of its load a ball loses in the pit (0: every strike "
-                          "alike, the quasi-static model); bkabem_core.synth.strikes", required=False),)
+                          "alike, the quasi-static model); bkabem_core.synth.strikes", required=False), ROUGHNESS)
 
     def check_own_key(self, key: str, value, bearing: dict) -> str | None:
+        if key == "roughness_db":
+            return roughness_problem(value)
         if key == "strike_spread":
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
                     0.0 <= value <= MAX_STRIKE_SPREAD):
@@ -313,8 +339,10 @@ class RaceDefect(DefectKind):
         return None
 
     def dent_fields(self, table: dict) -> dict:
-        """The strikes' spread (``own``: carried to the ground truth and read by the synthesiser)."""
-        return {"own": (("strike_spread", float(table.get("strike_spread", DEFAULT_STRIKE_SPREAD))),)}
+        """The strikes' spread and the bearing's roughness (``own``: carried to the ground truth and read by the
+        synthesiser)."""
+        return {"own": (("strike_spread", float(table.get("strike_spread", DEFAULT_STRIKE_SPREAD))),
+                        roughness_field(table))}
 
     @abstractmethod
     def centre_rad(self, angle_rad: float, shaft_angle_rad):
