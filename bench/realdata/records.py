@@ -35,6 +35,12 @@ KINDS = ("healthy", "inner", "ball", "outer")
 #: from +x (horizontal) towards +y (up), bkabem's convention: 6 o'clock is the bottom, centred in the load zone.
 POSITION_ANGLE_DEG = {6: -90.0, 3: 0.0, 12: 90.0}
 
+
+def seeded_bearing_make(size_mils: int) -> str:
+    """The make of CWRU's seeded bearing for a pit of ``size_mils``: its 0.028 in pits were cut in NTN bearings
+    (CWRU's fault specifications), the others in the rig's SKF ones."""
+    return "NTN" if size_mils == 28 else "SKF"
+
 #: Fault multipliers [per shaft Hz] of the drive-end 6205, as CWRU publishes them (0 deg contact angle):
 #: BPFI, BPFO, FTF, BSF (CWRU's "rolling element" 4.7135 is 2 x BSF).
 CWRU_6205 = {"bpfo": 3.5848, "bpfi": 5.4152, "ftf": 0.39828, "bsf": 2.3567}
