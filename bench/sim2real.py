@@ -7,9 +7,9 @@
    ball, outer race at 3, 6 and 12 o'clock), CWRU's pit sizes (0.007-0.028 in; 0.021 in at most for the outer
    race, as CWRU has them), its four loads (0-3 hp at 1797, 1772, 1750, 1730 rpm), slip 1 % and 2 % (a rig twin:
    ``rig_slips``: the rig case's measured jitter and three times it), ``--seeds``
-   seeds each (the healthy machine more often, so that each class has about as many runs; a rig twin's seeded
-   bearings alternate over them between the ends of :data:`ROUGHNESS_OFFSETS_DB` around their make's roughness,
-   its race pits between the ends of :data:`PIT_SPREADS`), 12 kHz, ``--segment-s``
+   seeds each (the healthy machine more often, so that each class has about as many runs; a rig twin's race pits
+   alternate over them between the ends of :data:`PIT_SPREADS`; its seeded bearings roll as rough as their make's
+   on the rig, ``twin_run``), 12 kHz, ``--segment-s``
    seconds; each run is the twin of its condition as ``bench/realdata/twin.py`` (``twin_run``) maps it. The runs
    are grouped into grid specs (written beside the data set, ``DIR/specs/``).
 2. Textbook features of the DE channel (``bench/realdata/classify.py``: envelope line levels at each fault
@@ -64,6 +64,7 @@ from realdata.records import EFFECTIVE_6205, LOAD_HP_OF_RPM, RecordError, scan  
 from realdata.twin import (  # noqa: E402
     CHANNELS,
     LIBRARY,
+    SEEDED_ROUGHNESS_DB,
     Condition,
     base_case_ref,
     case_toml,
@@ -84,10 +85,6 @@ SLIPS = (0.01, 0.02)
 #: single pits of one size strike more or less evenly than the law's middle (1) by about a factor 1.5 either way on
 #: the CWRU rig (``bench/impact_spread.py``), so a race condition's runs alternate between the two ends of that range
 PIT_SPREADS = (round(1.0 / 1.5, 3), 1.5)
-#: A seeded bearing's roughness over the replicates of its conditions, in dB around its make's (``roughness_db``,
-#: :data:`realdata.twin.SEEDED_ROUGHNESS_DB`): the rig's Gaussian records of one make lie within about 2 dB of the
-#: median (SKF) or 5 dB (NTN) (bench/rig_floor.py), so a fault condition's runs alternate between the two ends
-ROUGHNESS_OFFSETS_DB = (-3.0, 3.0)
 #: Refits of each model on resampled twin runs (with replacement), to show how much its score on the measured
 #: records depends on the draw of the twin's data set.
 REFITS = 20
@@ -122,19 +119,14 @@ def runs_of(conds: list[Condition], twin: str, seeds: int, segment_s: float) -> 
         base, overrides, params = twin_run(c, twin, RPM_OF_LOAD[c.load_hp] / 60.0)
         for i, slip in enumerate(slips):
             p = dict(params, slip=slip, duration_s=float(segment_s), sample_rate_hz=FS, quantities=["acceleration"])
-            if c.kind == "healthy" or twin == LIBRARY:
+            if c.kind not in ("inner", "outer") or twin == LIBRARY:
                 groups[(base, json.dumps(overrides, sort_keys=True))].append((p, reps, c))
                 continue
-            # the replicates over the spreads (a ball: over the roughness only), the odd one by the slip; each slip
-            # pairs the spreads with the roughness the other way round
-            n = len(ROUGHNESS_OFFSETS_DB)
-            for k, offset in enumerate(ROUGHNESS_OFFSETS_DB):
+            n = len(PIT_SPREADS)                    # the replicates over the spreads, the odd one by the slip
+            for k, spread in enumerate(PIT_SPREADS):
                 r = reps // n + (1 if (k - i) % n < reps % n else 0)
-                q = dict(p, roughness_db=p["roughness_db"] + offset)
-                if c.kind in ("inner", "outer"):
-                    q["strike_spread"] = PIT_SPREADS[(k + i) % len(PIT_SPREADS)]
                 if r:
-                    groups[(base, json.dumps(overrides, sort_keys=True))].append((q, r, c))
+                    groups[(base, json.dumps(overrides, sort_keys=True))].append((dict(p, strike_spread=spread), r, c))
     return groups
 
 
@@ -465,10 +457,9 @@ def block(res: dict, me: dict, tw: dict, argv: list[str], img_name: str) -> str:
         "per condition and slip (the healthy machine "
         "more, so that each class has about as many runs)"
         + ("" if twin == LIBRARY else f"; a race pit's `strike_spread` {' and '.join(f'{x:g}' for x in PIT_SPREADS)} "
-           "over those replicates (single pits differ from the law by about 1.5x either way on the rig), and a seeded "
-           "bearing's `roughness_db` its make's "
-           f"{' and '.join(f'{x:+g} dB' for x in ROUGHNESS_OFFSETS_DB)} (the rig's bearings of one make differ by "
-           "2-5 dB)")
+           "over those replicates (single pits differ from the law by about 1.5x either way on the rig); a seeded "
+           "bearing's `roughness_db` its make's on the rig ("
+           + ", ".join(f"{m} {db:g} dB" for m, db in SEEDED_ROUGHNESS_DB.items()) + ")")
         + "; each run the twin of its condition as `twin_run` "
         "maps it" + (" (the fault library: its own dents whatever the pit size, so the sizes are repeats with "
                      "other seeds)" if twin == LIBRARY else "") + ".",

@@ -309,17 +309,20 @@ def differences(rows: list[dict], twin: str) -> list[str]:
     else:
         out.append(
             f"- Why, for today's twin: `{twin}` is the rig's machine and acquisition, calibrated once on the healthy "
-            "record (docs/rigs.md); a race pit's strikes vary in strength as much as the share of its load a ball "
-            "loses over the pit, which is what the rig's records show and what bounds their envelope lines "
-            "(`bench/impact_spread.py`). What it does not have yet, each measured there: the rig's content below 2 "
-            "kHz, lines that come back from record to record (a BPFI family of the drive-end bearing, 360 Hz, shaft "
-            "orders), which the twin's housings (modes at 2.5-3 kHz) do not carry; the race records' RMS, which does "
-            "not grow with the pit on the rig as the twin's does with its pit's drop; the rig's ball records carry a "
-            "steady rise of the 2-4 kHz band, where the twin's ball pit strikes only in visits to the contact track; "
-            "the race records' shaft orders above 2x-3x in the envelope (a sharper once-per-turn modulation of the "
-            "strikes; the race records' \"FTF\" line is one of them: `bench/shaft_orders.py`); and "
-            "the character of single pits (the 28 mil inner-race and 14 mil outer-race records hide their fault, the "
-            "7 mil outer race strikes harder).")
+            "record (docs/rigs.md), with the acquisition's input floor that gives the records' level between the "
+            "lines from 100 Hz to the anti-alias filter; a seeded bearing rolls rougher than the healthy one by its "
+            "make's `roughness_db` (SKF 15 dB, NTN 36 dB, read from the eight fault records whose signal is "
+            "Gaussian, so those eight do not check it: `bench/rig_floor.py`), which is what lifts the ball records' "
+            "level; a race pit's strikes vary in strength as much as the share of its load a "
+            "ball loses over the pit, which is what the rig's records show and what bounds their envelope lines "
+            "(`bench/impact_spread.py`). What it does not have yet, each measured there: the lines below 2 kHz that "
+            "come back from record to record (a BPFI family of the drive-end bearing, 360 Hz, shaft orders); the "
+            "strength of a race pit's strikes, which on the rig hardly depends on the pit's size (7-21 mil) while "
+            "the twin's follows its pit's drop, so that over the seeded bearing's floor the twin's 7 mil strikes "
+            "are 11-22 dB too weak and its 14 mil outer-race strikes too strong; the race records' shaft orders "
+            "above 2x-3x in the envelope (a sharper once-per-turn modulation of the strikes; the race records' "
+            "\"FTF\" line is one of them: `bench/shaft_orders.py`); and the character of single pits (the 14 mil "
+            "outer-race record hides its fault under its bearing's floor, its twin does not).")
     return out
 
 
