@@ -10,6 +10,11 @@ shaft speed without a tachometer (``realdata.diagnostics.estimate_speed``), a We
 Hann segments): the share of the 0-5.5 kHz power below 2 kHz, and the lines of 100-2000 Hz that stand at least
 ``--over-db`` over the band's median PSD, each as a multiple of the shaft speed. An order that comes back in most
 records, at both speeds, is the rig's own (it follows the shaft); one that does not is the record's.
+
+A line at one frequency in most records, at both speeds, that is an even multiple of the supply is the motor's
+magnetic force (docs/faults.md, ``electrical_harmonics``): its amplitude in the healthy record over the twin's
+acceleration per newton of that force (the harmonic solve of ``cwru_rig``) is the force the case carries
+(:func:`electrical_force`).
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "bench"))
 
 from docs_blocks import replace_block  # noqa: E402
-from realdata.diagnostics import decimate, estimate_speed, welch_psd  # noqa: E402
+from realdata.diagnostics import G, amplitude_spectrum, decimate, estimate_speed, welch_psd  # noqa: E402
 from realdata.records import RecordError, scan  # noqa: E402
 
 DOCS = ROOT / "docs" / "rigs.md"
@@ -52,6 +57,27 @@ def tones(f: np.ndarray, p: np.ndarray, fr: float, over_db: float) -> list[tuple
     db = 10.0 * np.log10(p[m] / floor)
     idx, _ = find_peaks(db, height=over_db, distance=3)
     return [(float(f[m][i] / fr), float(db[i])) for i in idx]
+
+
+def electrical_force(healthy, multiple: int, mains_hz: float = 60.0) -> tuple[float, float, float]:
+    """(the healthy record's DE amplitude at ``multiple`` x the supply [m/s^2], the twin's DE vertical acceleration
+    per newton of that magnetic force [m/s^2/N], their ratio: the force [N]). The record's amplitude: the largest
+    line of its Hann-windowed amplitude spectrum within 0.5 Hz of the frequency; the twin's: ``cwru_rig``'s
+    harmonic solve at the record's speed with ``electrical_harmonics = [multiple]`` and 1 N."""
+    from bkabem_core.model.case import Case
+    from bkabem_core.solve.harmonic import BkaBem
+
+    ch = healthy.load()
+    fr, _ = estimate_speed(ch, healthy.sample_rate_hz, healthy.speed_hz_nominal)
+    f, a = amplitude_spectrum(decimate(ch["DE"], healthy.sample_rate_hz, FS), FS)
+    f0 = multiple * mains_hz
+    measured = float(np.max(a[np.abs(f - f0) <= 0.5])) * G
+    case = Case.load("cwru_rig").with_overrides({"baseline.electrical_harmonics": [float(multiple)],
+                                                 "baseline.electrical_harmonic_forces_n": [1.0]})
+    sp = BkaBem(case).spectrum(fr)
+    i = int(np.argmin(np.abs(sp.frequency_hz - f0)))
+    per_n = float(np.abs(sp.displacement[i, 1, 0]) * (2.0 * np.pi * sp.frequency_hz[i]) ** 2)   # DE housing, vertical
+    return measured, per_n, measured / per_n
 
 
 def table(rows: list, over_db: float) -> str:
@@ -114,6 +140,12 @@ def main(argv=None) -> int:
         rows.append((r.label, fr, share, tones(f, p, fr, a.over_db)))
         print(f"{r.name}: 1x {fr:.3f} Hz, {100 * share:.0f} % below 2 kHz", file=sys.stderr)
     text = table(rows, a.over_db)
+    healthy = [r for r in records if r.kind == "healthy"]
+    if healthy:
+        amp, per_n, force = electrical_force(healthy[0], 6)
+        text += (f"\n\nThe 360 Hz line (6 x the supply) in the healthy record: {amp:.3g} m/s^2 at the drive end; the "
+                 f"twin's drive-end acceleration per newton of a 6 x supply magnetic force on its core: {per_n:.3g} "
+                 f"m/s^2/N; so `electrical_harmonics = [6.0]`, `electrical_harmonic_forces_n = [{force:.2g}]`.")
     print(text)
     if not a.no_docs:
         DOCS.write_text(replace_block(DOCS.read_text(), "rig_low_band", text, "docs/rigs.md"))

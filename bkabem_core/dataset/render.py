@@ -266,8 +266,8 @@ def label_row(run: Run, gt: dict, segment: int, first: int, n: int, speeds: tupl
                     pre + "fault_frequency_hz": d["fault_frequency_hz"],
                     pre + "strike_frequency_hz": d["strike_frequency_hz"]})
     row.update({"case": gt["case"], "case_hash": gt["case_hash"], "bearing_designation": gt["bearing_designation"]})
-    for k, v in gt["baseline"].items():
-        row[f"baseline_{k}"] = v
+    for k, v in gt["baseline"].items():             # a list (electrical_harmonics) as JSON: one type in every table
+        row[f"baseline_{k}"] = json.dumps(list(v)) if isinstance(v, (list, tuple)) else v
     row.update({"scenario": gt.get("scenario", "") or "", "scenario_hash": gt.get("scenario_hash", "") or "",
                 "state_index": int(gt.get("state_index", 0)), "state_label": gt.get("state_label", ""),
                 "state_start_s": float(gt.get("state_start_s", 0.0)),

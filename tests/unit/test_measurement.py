@@ -351,3 +351,32 @@ def _toml(raw: dict) -> str:
                 lines.append(f"[[{sec}.{k}]]")
                 lines += [f"{kk} = {value(vv)}" for kk, vv in item.items()]
     return "\n".join(lines) + "\n"
+
+
+def test_the_labels_of_a_rig_with_electrical_harmonics_write_to_parquet_and_csv(tmp_path):
+    """A list-valued baseline key (``electrical_harmonics``, ``cwru_rig``) is one JSON string in a labels row, so
+    labels.csv can be written (a list column has no CSV form) and parquet and CSV hold the same type."""
+    import json
+
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    from bkabem_core.dataset.render import render_run
+    from bkabem_core.dataset.spec import DatasetSpec
+
+    spec = DatasetSpec.from_toml("""
+[dataset]
+name = "rig"
+schema_version = 1
+seed = 1
+case = "cwru_rig"
+[run]
+fault = "healthy"
+duration_s = 0.1
+speed_hz = 29.9
+""")
+    row = render_run(spec.runs[0], str(tmp_path / "out"))["labels"][0]
+    assert json.loads(row["baseline_electrical_harmonics"]) == [6.0]
+    pacsv.write_csv(pa.Table.from_pylist([row]), tmp_path / "labels.csv")
+    back = pacsv.read_csv(tmp_path / "labels.csv")
+    assert json.loads(back.column("baseline_electrical_harmonic_forces_n")[0].as_py()) == [5.3]

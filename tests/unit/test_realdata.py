@@ -403,10 +403,10 @@ def test_the_ball_fold_reads_an_uneven_ball_set_and_nothing_where_the_balls_are_
     assert ball_spread(noise.ravel(), 9) < 0.04
 
 
-@pytest.mark.parametrize("script", ["rig_low_band", "impact_spread", "shaft_orders"])
+@pytest.mark.parametrize("script", ["rig_low_band", "impact_spread", "shaft_orders", "rig_floor"])
 def test_a_record_script_on_a_folder_without_records_says_so_in_one_line_and_exits_2(script, tmp_path, capsys):
-    """bench/rig_low_band.py, bench/impact_spread.py and bench/shaft_orders.py on a missing folder and on an empty
-    one: exit 2, one line naming the argument, nothing written to the docs."""
+    """bench/rig_low_band.py, bench/impact_spread.py, bench/shaft_orders.py and bench/rig_floor.py on a missing
+    folder and on an empty one: exit 2, one line naming the argument, nothing written to the docs."""
     import importlib
 
     main = importlib.import_module(script).main
@@ -415,3 +415,28 @@ def test_a_record_script_on_a_folder_without_records_says_so_in_one_line_and_exi
         assert main([str(folder), "--no-docs"]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith(f"{script}: data_dir: "), err
+
+
+def test_the_input_floor_reader_recovers_a_white_floor_under_lines_and_a_resonant_floor():
+    """bench/rig_floor.py's estimator on a synthetic record: white noise of density B through a known gain, a
+    resonant floor that it subtracts, and tones that the median over lines ignores: B within the Welch estimate's
+    spread (1024 averages of a 1 Hz PSD, well under 5 %)."""
+    from scipy import signal
+
+    from rig_floor import input_floor_of
+
+    rng = np.random.default_rng(3)
+    fs, n, b = 12000.0, 12000 * 60, 2e-3
+    x = rng.standard_normal(n) * b * np.sqrt(fs / 2)                    # white, one-sided density b
+    t = np.arange(n) / fs
+    for f0 in (360.0, 1437.0, 4800.0):
+        x += 0.05 * np.sin(2 * np.pi * f0 * t)                           # tones far over the floor
+    sos = signal.butter(4, [2500.0, 3500.0], "bandpass", fs=fs, output="sos")
+    x += signal.sosfilt(sos, rng.standard_normal(n)) * 0.5            # a resonant floor in 2.5-3.5 kHz
+    f, p = signal.welch(x, fs, nperseg=int(fs))
+    floor = np.zeros_like(f)
+    gain2 = np.ones_like(f)
+    got = np.sqrt(input_floor_of(f, p, floor, gain2))
+    assert abs(got / b - 1.0) < 0.05, got
+    # a gain the chain puts on it is divided out
+    assert abs(np.sqrt(input_floor_of(f, 4.0 * p, floor, 4.0 * gain2)) / b - 1.0) < 0.05
