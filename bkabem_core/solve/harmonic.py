@@ -387,13 +387,14 @@ class BkaBem:
         elif solver == "modal":
             if reuse and like._basis is not None and like.input_names == self.input_names:
                 self._basis = like._basis
-                if like._line_modes is not None:
+                if like._line_modes is not None:            # the speed-locked lines only, as line_modes makes them
+                    locked = self.multipliers[self._locked_idx]
                     pos = {float(v): i for i, v in enumerate(like._line_modes.multipliers)}
-                    rows = [pos.get(float(v)) for v in self.multipliers]
+                    rows = [pos.get(float(v)) for v in locked]
                     if all(r is not None for r in rows):
                         self._line_modes = like._line_modes.subset(rows)
                     else:
-                        self._line_modes = like._line_modes.extended(self.multipliers)
+                        self._line_modes = like._line_modes.extended(locked)
             else:
                 self._basis = self._make_basis()
             self.order_modal_form()
