@@ -139,7 +139,9 @@ def factorise(points: list[tuple[dict, int]]) -> list[tuple[dict, dict, int]]:
 
     Points with other keys or another fault kind go to other specs. A set of points is one grid when the points of
     its varying keys are the full Cartesian product of their values, each with the same replicate count; otherwise
-    it is split by the first varying key and each part tried again.
+    it is split by one varying key and each part tried again: the key whose split gives the fewest specs (a key that
+    varies with another, such as a seeded bearing's roughness with its pit size, splits the set into few grids; the
+    first key alone could split it into one spec per point). Each spec is one ``bkabem dataset`` process.
     """
     shapes = list(dict.fromkeys((tuple(sorted(p)), _canon(p.get("fault"))) for p, _ in points))
     if len(shapes) > 1:                             # other keys or another fault kind: apart first
@@ -161,11 +163,14 @@ def factorise(points: list[tuple[dict, int]]) -> list[tuple[dict, dict, int]]:
         fixed = {k: pts[0][0][k] for k in keys if k not in varying}
         grid = {k: [json.loads(v) for v in values[k]] for k in varying}
         return [(fixed, grid, pts[0][1])]
-    k = varying[0]
-    out = []
-    for v in values[k]:
-        out += factorise([(p, r) for p, r in pts if _canon(p[k]) == v])
-    return out
+    best = None
+    for k in varying:
+        out = []
+        for v in values[k]:
+            out += factorise([(p, r) for p, r in pts if _canon(p[k]) == v])
+        if best is None or len(out) < len(best):
+            best = out
+    return best
 
 
 def write_specs(groups: dict, folder: Path) -> list[tuple[Path, int]]:

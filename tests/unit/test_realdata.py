@@ -421,9 +421,8 @@ def test_the_input_floor_reader_recovers_a_white_floor_under_lines_and_a_resonan
     """bench/rig_floor.py's estimator on a synthetic record: white noise of density B through a known gain, a
     resonant floor that it subtracts, and tones that the median over lines ignores: B within the Welch estimate's
     spread (1024 averages of a 1 Hz PSD, well under 5 %)."""
-    from scipy import signal
-
     from rig_floor import input_floor_of
+    from scipy import signal
 
     rng = np.random.default_rng(3)
     fs, n, b = 12000.0, 12000 * 60, 2e-3
