@@ -137,7 +137,8 @@ def twin_run(cond: Condition, twin: str, speed_hz: float) -> tuple[str, dict, di
         if cond.kind != "healthy":
             d = _library_defect(cond.kind)
             params.update(fault=cond.kind, bearing=bearing, length_m=float(d["length_m"]),
-                          depth_m=float(d["depth_m"]), angle_deg=float(d["angle_deg"]), edge=d["edge"])
+                          depth_m=float(d["depth_m"]), angle_deg=float(d["angle_deg"]), edge=d["edge"],
+                          roughness_db=float(d.get("roughness_db", 0.0)))
             if cond.kind == "outer":
                 params["angle_deg"] = cond.angle_deg
             if cond.kind == "ball":

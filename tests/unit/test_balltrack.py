@@ -251,7 +251,7 @@ def test_spin_slip_makes_2xbsf_a_lorentzian_and_leaves_the_cage_lines(fault_libr
 # --------------------------------------------------------------------------- the case keys
 def test_case_keys_are_checked():
     ball = Case.load("motor_6010_ball")
-    assert ball.defects()[0].own == (("wander_revolutions", 900.0), ("spin_slip", 0.02), ("roughness_db", 0.0))
+    assert ball.defects()[0].own == (("wander_revolutions", 900.0), ("spin_slip", 0.02), ("roughness_db", 15.0))
     assert ball.ground_truth()["defects"][0]["wander_revolutions"] == 900.0
     for key, value, match in (("wander_revolutions", 3.0, "one cage revolution"),
                               ("wander_revolutions", -1.0, "must be >= 0"),

@@ -187,9 +187,9 @@ def test_the_ground_truth_says_how_the_strikes_were_drawn(outer):
 # --------------------------------------------------------------------------- the case key
 def test_the_case_key_is_checked():
     outer = Case.load("motor_6010_outer")
-    assert outer.defects()[0].own == (("strike_spread", 1.0), ("roughness_db", 0.0))
+    assert outer.defects()[0].own == (("strike_spread", 1.0), ("roughness_db", 15.0))     # the library's: rougher
     assert outer.with_overrides({"defects.0.strike_spread": 0.5}).defects()[0].own == (("strike_spread", 0.5),
-                                                                                       ("roughness_db", 0.0))
+                                                                                       ("roughness_db", 15.0))
     for value, match in ((-0.1, "must be >= 0"), (6.0, "from 0"), ("x", "must be a number"), (True, "must be")):
         with pytest.raises(CaseError, match=match) as exc:
             outer.with_overrides({"defects.0.strike_spread": value})
