@@ -132,6 +132,11 @@ STEPS = [
                            "--json", "{json}"], read_validate_real, 60, needs_data=True),
     Step("sim2real", [PY, "bench/sim2real.py", DATA, "--seeds", "1", "--out", "bench/results/realism", "--json",
                       "{json}"], read_sim2real, 150, needs_data=True),
+    # the fault library's machine (not the rig's) as the twin: what a pipeline trained on the product's default
+    # machine alone makes of the rig's records
+    Step("sim2real_library", [PY, "bench/sim2real.py", DATA, "--twin", "motor_6010", "--seeds", "1", "--out",
+                              "bench/results/realism_library", "--json", "{json}"], read_sim2real, 300,
+         needs_data=True),
 ]
 
 #: area -> (title, steps whose rows it shows, in this order). Areas marked optional run only when named.
@@ -147,7 +152,7 @@ AREAS = {
     "machine": ("Any machine: catalogue machines in the compact form", ["machine"]),
     "startup": ("Start-up time and the fast test tier", ["startup"]),
     "realism": ("Realism: the twin against measured CWRU records (only with a data folder)",
-                ["validate_real", "sim2real"]),
+                ["validate_real", "sim2real", "sim2real_library"]),
     "suite": ("The whole test suite (optional: only with --areas suite)", ["suite"]),
 }
 OPTIONAL = {"suite"}
