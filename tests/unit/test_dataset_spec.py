@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from bkabem_core.dataset.spec import DatasetSpec
+from bkabem_core.model.case import Case
 
 
 def _spec(tmp_path: Path, text: str, name: str = "spec.toml") -> Path:
@@ -133,6 +134,11 @@ def test_embedded_specs_load_and_list(capsys):
     ex = DatasetSpec.load("dataset_example")
     assert len(ex.runs) == 8 and sum(r.params["duration_s"] for r in ex.runs) == 8.0
     assert [r.params["fault"] for r in ex.runs[::2]] == ["healthy", "outer", "inner", "ball"]
+    # the faulty runs' bearing rolls as rough as the fault library's cases say; a healthy run has no defect to carry it
+    library = {k: Case.load(f"motor_6010_{k}").raw["defects"][0]["roughness_db"] for k in ("outer", "inner", "ball")}
+    for r in ex.runs:
+        d = r.case_raw["defects"]
+        assert (d == []) if r.params["fault"] == "healthy" else (d[0]["roughness_db"] == library[r.params["fault"]])
     rtf = DatasetSpec.load("dataset_run_to_failure")
     assert len(rtf.runs) == 3 and len({r.params["seed"] for r in rtf.runs}) == 3 and rtf.runs[0].is_scenario
     mfpt = DatasetSpec.load("mfpt_rig_loads")                  # MFPT's loads, 0-300 lbf, on the test bearing
