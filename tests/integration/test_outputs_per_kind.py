@@ -56,13 +56,14 @@ def _compare_lines(x, fs, sp, location_index: int, direction: str, what: str) ->
     np.testing.assert_allclose(got, a[pick], rtol=0.02, atol=0.02, err_msg=f"{what}: {[sp.labels[i] for i in pick]}")
 
 
-def _lines_alone(model, names, strikes: bool) -> np.ndarray:
-    """The DE vertical acceleration of ``model`` without the broadband floor: the library's faulty bearing rolls 15
-    dB rougher than a sound one (docs/faults.md), a floor of ~0.06 m/s^2 per line at this resolution, which would
+def _de_vertical(model, names, **kw) -> np.ndarray:
+    """The DE vertical acceleration of ``model`` as the library renders it (seed 0, 0.1-s chunks), with the
+    synthesiser's keywords ``kw``. ``broadband_floor=False`` for the lines alone: the library's faulty bearing rolls
+    15 dB rougher than a sound one (docs/faults.md), a floor of ~0.06 m/s^2 per line at this resolution, which would
     hide the lines' agreement (the floor itself: tests/unit/test_floor.py, tests/unit/test_roughness.py)."""
     from bkabem_core.synth.synthesizer import Synthesizer
 
-    s = Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, seed=0, strikes=strikes, broadband_floor=False)
+    s = Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, seed=0, **kw)
     return np.concatenate([c.samples for c in s.render(f"constant:{SPEED_HZ}", SECONDS)], axis=1)[
         names.index("de_vertical_acceleration")]
 
@@ -86,11 +87,9 @@ def test_synth_npz_is_the_library(kind, fault_library, classic_ball, tmp_path):
     if kind == "ball":
         # the library's ball wanders on and off the contact track (its strikes are intermittent), so its samples
         # carry less than the quasi-static model's lines; with the pit held on the track they are those lines
-        pinned = Synthesizer(classic_ball, sample_rate_hz=FS, chunk_s=0.1, seed=0)
-        xp = np.concatenate([c.samples for c in pinned.render(f"constant:{SPEED_HZ}", SECONDS)], axis=1)[
-            names.index("de_vertical_acceleration")]
+        xp = _de_vertical(classic_ball, names)
         sp = classic_ball.spectrum(SPEED_HZ)
-        _compare_lines(_lines_alone(classic_ball, names, strikes=True), FS, sp, 1, "vertical",
+        _compare_lines(_de_vertical(classic_ball, names, broadband_floor=False), FS, sp, 1, "vertical",
                        "ball (pit on the track) npz")
         big = np.argsort(np.abs(sp.acceleration[:, 1, DIRECTIONS.index("vertical")]))[-20:]
         assert _lines_of(np.asarray(x, float), FS, sp.frequency_hz[big]).sum() < 0.8 * _lines_of(
@@ -100,11 +99,10 @@ def test_synth_npz_is_the_library(kind, fault_library, classic_ball, tmp_path):
     else:
         # a race pit's strikes vary in strength (synth/strikes.py): the library with every strike alike is the
         # quasi-static model's lines; with its strikes the file keeps their power, part of it off the lines
-        alike = Synthesizer(model, sample_rate_hz=FS, chunk_s=0.1, seed=0, strikes=False)
-        xa = np.concatenate([c.samples for c in alike.render(f"constant:{SPEED_HZ}", SECONDS)], axis=1)[
-            names.index("de_vertical_acceleration")]
+        xa = _de_vertical(model, names, strikes=False)
         sp = model.spectrum(SPEED_HZ)
-        _compare_lines(_lines_alone(model, names, strikes=False), FS, sp, 1, "vertical", f"{kind} (strikes alike) npz")
+        _compare_lines(_de_vertical(model, names, strikes=False, broadband_floor=False), FS, sp, 1, "vertical",
+                       f"{kind} (strikes alike) npz")
         xf, xaf = np.asarray(x, float), np.asarray(xa, float)
         assert np.std(xf) == pytest.approx(np.std(xaf), rel=0.1)
         big = np.argsort(np.abs(sp.acceleration[:, 1, DIRECTIONS.index("vertical")]))[-20:]

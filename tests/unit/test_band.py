@@ -53,5 +53,5 @@ def test_envelope_in_the_high_resonance_band_finds_the_defect(fault_library, cla
         x = np.concatenate([c.channel("de_vertical_acceleration") for c in s.render(f"constant:{SPEED_HZ}", SECONDS)])
         ratios.append(_envelope_peak_over_floor(x.astype(float), FS,
                                                 STRIKE[kind](model.fault_multipliers.at_speed(SPEED_HZ))))
-    assert ratios[0] > 15.0, (kind, ratios)     # 181x, 71x, 33x measured; 1.2-2.5x with the lines cut at 50 x BPFO
-    assert ratios[1] < ratios[0], (kind, ratios)
+    assert ratios[0] > 15.0, (kind, ratios)     # 85x, 46x, 33x measured; 1.2-2.5x with the lines cut at 50 x BPFO
+    assert ratios[1] < ratios[0], (kind, ratios)  # 14x, 7x, 2.8x measured with the library's 15 dB
