@@ -18,13 +18,14 @@
     Measurement      -- a case's [measurement] section: the rig's acquisition as defaults (module ``measurement``)
     BallTrack        -- a ball defect's wandering pit and spin slip (module ``balltrack``)
     StrikeSpread     -- a race pit's strikes of random strength (module ``strikes``)
+    RollingSwing     -- a bearing's floor swinging with a load that turns with the shaft (module ``rolling``)
 """
 
 from bkabem_core._face import lazy_face
 
 __all__ = ["Synthesizer", "Settings", "Plan", "WarmModel", "Chunk", "waveform_features", "SpeedProfile",
            "parse_profile", "SynthError", "Accelerometer", "AntiAliasFilter", "HighPassFilter", "InterferenceTones",
-           "Quantiser", "SensorChain", "Measurement", "BallTrack", "StrikeSpread"]
+           "Quantiser", "SensorChain", "Measurement", "BallTrack", "StrikeSpread", "RollingSwing"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Synthesizer": "synthesizer",
@@ -45,4 +46,5 @@ __getattr__, __dir__ = lazy_face(__name__, {
     "Measurement": "measurement",
     "BallTrack": "balltrack",
     "StrikeSpread": "strikes",
+    "RollingSwing": "rolling",
 })

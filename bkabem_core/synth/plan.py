@@ -50,6 +50,7 @@ from bkabem_core.synth.lines import LineSelection
 from bkabem_core.synth.profile import SynthError
 from bkabem_core.synth.randomness import SensorNoise
 from bkabem_core.synth.render import Amplitudes, FusedLines, LoopLines
+from bkabem_core.synth.rolling import RollingSwing
 from bkabem_core.synth.strikes import StrikeSpread, strike_key
 
 #: line amplitudes kept per plan (the speeds of the last knots: a held or repeated speed costs nothing)
@@ -97,6 +98,8 @@ class Plan:
                                     ch.housing_columns, settings.sample_rate_hz, settings.seed, settings.sensors,
                                     self.input_noise, self._pair_gains(model.case)) \
             if self.floor_density > 0 or self.input_noise > 0 else None
+        #: the floor's swing with a load that turns with the shaft (None: no floor force, or no turning load)
+        self.rolling = RollingSwing.of_plan(model, self.floor, self.lines.bpfo_per_hz)
         #: shaft speeds [Hz] between which some line is near the Nyquist taper (knot placement)
         self.taper_speeds_hz = self.lines.taper_speeds_hz(settings.sample_rate_hz, settings.taper_band)
         self.n_channels = len(ch.channels)
@@ -134,6 +137,8 @@ class Plan:
                                  settings.seed, settings.dtype)
         if self.floor is not None and self.floor.seed != settings.seed:
             self.floor = self.floor.reseeded(settings.seed)
+        if self.rolling is not None and self.rolling.seed != settings.seed:
+            self.rolling = self.rolling.reseeded(settings.seed)
         #: the acquisition's output stage bound to the channels and the seed (empty: none)
         self.output = settings.output.bind(settings.channels, settings.sample_rate_hz, settings.seed)
         #: the key of the run's strike stream (a race pit's random strike strength)

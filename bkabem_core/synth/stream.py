@@ -283,7 +283,8 @@ def _render_samples(plan, stream, n0: int, n: int, acc) -> np.ndarray:
     floor = plan.floor_block(n0, n) if floor_on and not lazy else None
     fused = synth_kernel.AVAILABLE and (noise.on or floor_on)
     late = not fused and (noise.on or floor is not None)  # numpy: added, moments taken, at the end
-    seg_acc = None if late else acc
+    swing = plan.rolling                                  # the floor's swing with a turning load: added last
+    seg_acc = None if late or swing is not None else acc
     for a, b, lo, hi in segments:
         dest = out[lo - n0:hi - n0]
         args = None
@@ -306,8 +307,12 @@ def _render_samples(plan, stream, n0: int, n: int, acc) -> np.ndarray:
             noise.add(out, n0, segments)
         if floor is not None:
             out += floor
-        if acc is not None:
-            plan.accumulate(out, off, acc)
+    if swing is not None:
+        fs = plan.settings.sample_rate_hz
+        for a, b, lo, hi in segments:
+            out[lo - n0:hi - n0] += _floor_faded(swing.block(a, b, lo, hi, fs), a, b, lo)
+    if acc is not None and seg_acc is None:
+        plan.accumulate(out, off, acc)
     return out
 
 
