@@ -13,6 +13,10 @@ frames       ``FloorTransfer.frames`` of a new seed: what ``Synthesizer.reset()`
 whole floor  transfer + frames: what every new seed cost before the transfer was shared (the in-run reference)
 machines     ``--machines`` synthesisers of one model (8 channels, a seed each, as a fleet's machines), each with its
              floor: wall time and traced memory per machine (run the same script of an older checkout to compare)
+swing        the CWRU rig's twin (``cwru_rig``, healthy, whose coupling's load turns with the shaft) rendering
+             ``--swing-seconds`` at its 12 kHz, 4 housing accelerations, with its floor swinging over the turn
+             (:mod:`bkabem_core.synth.rolling`) and with the swing taken out of the same synthesiser, alternated
+             (A B A B): the medians [x real time] and their ratio, measured in one run
 """
 
 from __future__ import annotations
@@ -76,10 +80,32 @@ def bench_machines(model, n: int) -> dict:
     return {"machines": n, "ms_each": 1e3 * wall / n, "mb_each": mem / 1e6 / n}
 
 
+def bench_swing(seconds: float, repeat: int) -> dict:
+    rig = Synthesizer(BkaBem(Case.load("cwru_rig")), sample_rate_hz=12000.0, chunk_s=0.1, seed=1, features=True,
+                      quantities=["acceleration"])
+    swing = rig._plan.rolling
+    n = int(round(seconds * 12000.0))
+    times = {"swing": [], "stationary": []}
+    for _ in range(repeat):
+        for name, part in (("swing", swing), ("stationary", None)):
+            rig._plan.rolling = part
+            rig.reset()
+            done, t0 = 0, time.perf_counter()
+            while done < n:
+                done += rig.next_chunk(29.95, min(rig.chunk_samples, n - done)).samples.shape[1]
+            times[name].append(time.perf_counter() - t0)
+    rig._plan.rolling = swing
+    a, b = statistics.median(times["swing"]), statistics.median(times["stationary"])
+    return {"seconds": seconds, "x_real_time_swing": seconds / a, "x_real_time_stationary": seconds / b,
+            "cost_ratio": a / b}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=7, help="seeds timed; medians are reported (default 7)")
     ap.add_argument("--machines", type=int, default=12, help="synthesisers of one model made (default 12; 0: none)")
+    ap.add_argument("--swing-seconds", type=float, default=20.0, help="signal rendered per swing run (default 20; "
+                    "0: none)")
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
     model = BkaBem(Case.load("motor_6010_healthy"))
@@ -98,9 +124,15 @@ def main(argv=None) -> int:
         if fleet:
             print(f"\n{fleet['machines']} synthesisers of one model (8 channels, a seed each) with their floor: "
                   f"{fleet['ms_each']:.0f} ms and {fleet['mb_each']:.1f} MB (traced) per machine")
+        swing = bench_swing(a.swing_seconds, max(3, a.repeat // 2)) if a.swing_seconds > 0 else None
+        if swing:
+            print(f"\ncwru_rig, 12 kHz x 4 ch, {swing['seconds']:g} s: {swing['x_real_time_swing']:.0f} x real time with "
+                  f"the floor swinging, {swing['x_real_time_stationary']:.0f} x without: {swing['cost_ratio']:.2f} x "
+                  "the time")
         print(f"# load {os.getloadavg()[0]:.2f} at the end")
     if a.json:
-        Path(a.json).write_text(json.dumps({"rows": rows, "machines": fleet, "load": os.getloadavg()}, indent=1))
+        Path(a.json).write_text(json.dumps({"rows": rows, "machines": fleet, "swing": swing,
+                                            "load": os.getloadavg()}, indent=1))
     return 0
 
 

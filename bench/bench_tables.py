@@ -223,6 +223,11 @@ def read_floor(d, _args):
     if m:
         out.append(row(f"{m['machines']} synthesisers of one model (8 ch)", "per machine: time and traced memory",
                        m["ms_each"], "{:.0f}", "ms", note=f"{m['mb_each']:.1f} MB"))
+    w = d.get("swing")
+    if w:
+        out.append(row("cwru_rig, healthy (12 kHz x 4 ch)", "synthesis with the floor swinging over the turn / without "
+                       "(same run, alternated)", w["cost_ratio"], "{:.2f}", "x the time",
+                       note=f"{w['x_real_time_swing']:.0f} / {w['x_real_time_stationary']:.0f} x real time"))
     return out
 
 

@@ -20,9 +20,9 @@ the SES floor:
 
 The healthy and ball-fault records get the shaft orders alone: there the 2-4 kHz band is the housing's response to
 the bearing's rolling (and, for a ball fault, to the pit's strikes), and its shaft orders say how much that follows
-the shaft angle without a race pit. Beside the healthy record the script sets what a rolling noise that followed
-the twin's own contacts would read (:func:`contact_swing`, :func:`swinging_noise`): a candidate for that
-modulation, sized by the twin's loads, not fitted.
+the shaft angle without a race pit. Beside the healthy record the script sets what a noise that follows the twin's
+own contacts reads alone (:func:`contact_swing`, :func:`swinging_noise`): the swing the twin's rolling noise has
+(``bkabem_core/synth/rolling.py``), sized by the twin's loads, not fitted.
 
 Why (McFadden & Smith, J. Sound Vib. 96 (1984); Randall & Antoni, MSSP 25 (2011), section 2): impacts whose strength
 follows the shaft angle through a window ``w(theta)`` put ``|W_k|^2`` into the SES at ``k f_r`` and, around every
@@ -30,6 +30,12 @@ harmonic of F, into ``F +- k f_r``. A smooth window (a load zone that swings a l
 fast with k; a narrow or sharp one (a load that nearly vanishes once per turn, a pit that is struck only over part
 of the turn) keeps them to high k. The orders' fall with k measures the window's sharpness, record by record, with
 no model of it.
+
+Noise or lines. A 1x in the squared envelope of a band comes either from a noise whose power swings once per turn
+or from discrete lines in the band one shaft order apart (their beat). For the records without a race pit the
+script also reads 1x after the band's discrete lines are clipped away (:func:`clip_lines`: the magnitude of the
+whole record's spectrum clipped to twice its running median over ``CLIP_HZ``, the phase kept): a 1x that stays is the
+noise's own.
 
 The cage line. A record's "FTF" is read in a window of +-1 % around ``FTF = BPFO / Z``. With the 6205's measured
 multipliers (BPFO 3.598 x, Z = 9), ``|BPFO - 4 f_r| = 0.402 f_r`` and ``|BPFI - 5 f_r|`` (the same number, since
@@ -76,6 +82,22 @@ Z_6205 = 9
 KEY = {"inner": "bpfi", "outer": "bpfo"}
 #: Bins of the shaft angle for :func:`turn_profile`
 TURN_BINS = 36
+#: Width [Hz] of the running median a discrete line is clipped to (:func:`clip_lines`): many lines of a noise's
+#: spectrum, several shaft orders
+CLIP_HZ = 200.0
+
+
+def clip_lines(x: np.ndarray, fs: float, factor: float = 2.0, width_hz: float = CLIP_HZ) -> np.ndarray:
+    """``x`` with its discrete lines clipped away: the magnitude of its spectrum (one FFT of the whole signal) limited
+    to ``factor`` times its running median over ``width_hz`` [Hz], the phase kept. A noise keeps its modulation (its
+    spectrum has no line above that), lines one shaft order apart lose the beat they put into the envelope."""
+    from scipy.ndimage import median_filter
+
+    X = np.fft.rfft(x)
+    a = np.abs(X)
+    size = max(3, int(round(width_hz * x.size / fs)) | 1)
+    limit = factor * median_filter(a, size=size, mode="nearest")
+    return np.fft.irfft(X * np.minimum(1.0, limit / np.maximum(a, 1e-300)), x.size)
 
 
 def levels(x: np.ndarray, fs: float, fr: float, mult: dict, kind: str, mains_hz: float = 60.0) -> dict:
@@ -92,8 +114,10 @@ def levels(x: np.ndarray, fs: float, fr: float, mult: dict, kind: str, mains_hz:
         return 20.0 * math.log10(v / floor), fp
 
     orders = [db(k * fr, TOL_RACE)[0] for k in range(1, ORDERS + 1)]
-    if kind not in KEY:                                 # no race pit: the shaft orders and the turn's profile
-        return {"orders": orders, "turn": turn_profile(x, fs, fr)}
+    if kind not in KEY:                                 # no race pit: the shaft orders, the turn's profile, and 1x
+        c = envelope_analysis(clip_lines(x, fs), fs, BAND_HZ, fr, mult, mains_hz=mains_hz, keep_spectrum=True)
+        clipped = 20.0 * math.log10(line_level(c["f"], c["S"], fr, TOL_RACE)[0] / c["floor"])
+        return {"orders": orders, "turn": turn_profile(x, fs, fr), "x1_clipped": clipped}
     F = mult[KEY[kind]] * fr
     ftf, f_ftf = db(mult["ftf"] * fr, TOL_BALL)
     f4, f_f4 = db(abs(mult["bpfo"] - 4.0) * fr, TOL_BALL)
@@ -174,7 +198,7 @@ def run(data_dir: Path, seeds: int, twin_case: str = "cwru_rig") -> list[dict]:
             out = synthesize(Condition.of(r), twin_case, seed, fr, FS, duration)
             twins.append(levels(out["DE"], FS, fr, out["mult"], r.kind, out["mains_hz"]))
         twin = {k: np.mean([t[k] for t in twins], axis=0).tolist() for k in ("orders", "sidebands")[:1 + race]}
-        twin.update({k: float(np.mean([t[k] for t in twins])) for k in (("ftf", "f4") if race else ("turn",))})
+        twin.update({k: float(np.mean([t[k] for t in twins])) for k in (("ftf", "f4") if race else ("turn", "x1_clipped"))})
         rows.append({"label": r.label, "kind": r.kind, "size": r.size_mils, "fr": fr, "measured": meas,
                      "twin": twin, "twin_mult": out["mult"], "seconds": duration})
     healthy = [row for row in rows if row["kind"] == "healthy"]
@@ -239,20 +263,22 @@ def _rest_table(rest: list[dict], seeds: int, twin_case: str, head: bool = True)
            "2-4 kHz squared-envelope spectrum.", ""] if head else []
     out += ["Shaft orders `k f_r` where no race is pitted (the healthy and ball-fault records), and the 2-4 kHz "
             f"band's power over the turn ({TURN_BINS} bins of the shaft angle, largest / smallest):", "",
-            "| record | " + " | ".join(f"{k}x" for k in range(1, ORDERS + 1)) + " | over the turn |",
-            "|---|" + "---|" * (ORDERS + 1)]
+            "| record | " + " | ".join(f"{k}x" for k in range(1, ORDERS + 1)) + " | over the turn | 1x, lines clipped |",
+            "|---|" + "---|" * (ORDERS + 2)]
     for r in rest:
         out.append(f"| {r['label']} | {_cells(r['measured']['orders'], r['twin']['orders'])} | "
-                   f"{r['measured']['turn']:.2f} / {r['twin']['turn']:.2f} |")
+                   f"{r['measured']['turn']:.2f} / {r['twin']['turn']:.2f} | "
+                   f"{r['measured']['x1_clipped']:.0f} / {r['twin']['x1_clipped']:.0f} |")
     for r in rest:
         if "contacts" in r:
             c = r["contacts"]
-            out += ["", "A rolling noise that followed the twin's drive-end contacts "
+            out += ["", "The twin's rolling noise follows its drive-end contacts "
                     f"({c['weight_n']:.1f} N of weight, {c['preload_n']:.0f} N of preload, {c['turning_n']:.1f} N "
-                    f"turning with the shaft; power ~ sum Q^(2/3)) would swing {c['swing']:.2f} : 1 over the turn "
-                    f"and read, in a noise as long as the {r['label']} record, 1x {c['x1']:.0f} dB and "
-                    f"{c['turn']:.2f} over the turn (the record: {r['measured']['orders'][0]:.0f} dB and "
-                    f"{r['measured']['turn']:.2f})."]
+                    f"turning with the shaft; power ~ sum Q^(2/3)): it swings {c['swing']:.2f} : 1 over the turn. A "
+                    f"noise that swings that much, alone, reads in a record as long as the {r['label']} one 1x "
+                    f"{c['x1']:.0f} dB and {c['turn']:.2f} over the turn (the record: "
+                    f"{r['measured']['orders'][0]:.0f} dB and {r['measured']['turn']:.2f}; the twin, whose band also "
+                    "holds the input floor, which does not swing: the table)."]
     return "\n".join(out)
 
 

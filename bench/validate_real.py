@@ -172,6 +172,7 @@ def run(args) -> dict:
     bar.close()
     out["wall_s"] = time.perf_counter() - t0
     out["summary"] = summarise(out["records"])
+    out["transmission_shape"] = transmission_shape(out["records"])
     return out, spectra
 
 
@@ -255,6 +256,28 @@ def band_rows(rows: list[dict]) -> list[list]:
     return out
 
 
+def transmission_shape(rows: list[dict]) -> dict:
+    """How the twin's spectrum is shaped against the rig's below the housing's band: for each race-fault record
+    (whose strikes excite the structure at every frequency), the twin's energy less the record's in each broad band
+    below 2 kHz, relative to the same difference in 2-4 kHz [dB], the median over the records and its range.
+    Negative: the twin carries less there than the rig does, for the same energy in the band the envelope reads."""
+    races = [r for r in rows if r["kind"] in ("inner", "outer")]
+    if not races:
+        return {}
+    ref = [i for i, (lo, hi) in enumerate(BROAD_BANDS) if lo >= 2000.0 and hi <= 4000.0]
+    low = [i for i, (lo, hi) in enumerate(BROAD_BANDS) if hi <= 2000.0]
+    diffs = []
+    for r in races:
+        m = np.asarray(r["measured"]["DE"]["bands_db"], dtype=float)
+        t = np.mean([tw["DE"]["bands_db"] for tw in r["twin"]], axis=0)
+        d = t - m
+        e_m = 10 * np.log10(np.sum(10 ** (m[ref] / 10))), 10 * np.log10(np.sum(10 ** (t[ref] / 10)))
+        diffs.append(d[low] - (e_m[1] - e_m[0]))
+    diffs = np.array(diffs)
+    return {"bands": [BROAD_BANDS[i] for i in low], "median_db": np.median(diffs, axis=0).tolist(),
+            "min_db": diffs.min(axis=0).tolist(), "max_db": diffs.max(axis=0).tolist(), "records": len(races)}
+
+
 def differences(rows: list[dict], twin: str) -> list[str]:
     """Where the twin differs, per kind, from the medians of the numbers above."""
     out = []
@@ -296,6 +319,16 @@ def differences(rows: list[dict], twin: str) -> list[str]:
         else:
             text += "."
         out.append("- " + text)
+    shape = transmission_shape(rows)
+    if shape:
+        out.append(
+            f"- **Below 2 kHz** (the {shape['records']} race-fault records, whose strikes excite the structure at every "
+            "frequency: the twin's energy less the record's in each band, relative to the same difference in 2-4 kHz; "
+            "median and range): " + ", ".join(
+                f"{lo / 1e3:g}-{hi / 1e3:g} kHz {m:+.0f} dB ({a:+.0f} to {b:+.0f})"
+                for (lo, hi), m, a, b in zip(shape["bands"], shape["median_db"], shape["min_db"], shape["max_db"]))
+            + ". Where the twin matches the rig in the band the envelope reads, it carries that much less (or more) "
+            "below it: the path from the bearing to the sensor below the housing's resonance.")
     if twin == LIBRARY:
         out.append(
             "- Why, for today's twin: `motor_6010` is another machine. Its bearing is a 6010 (14 balls: BPFO 6.06x, "
@@ -313,9 +346,13 @@ def differences(rows: list[dict], twin: str) -> list[str]:
             "lines from 100 Hz to the anti-alias filter; a seeded bearing rolls rougher than the healthy one by its "
             "make's `roughness_db` (SKF 15 dB, NTN 36 dB, read from the eight fault records whose signal is "
             "Gaussian, so those eight do not check it: `bench/rig_floor.py`), which is what lifts the ball records' "
-            "level; a race pit's strikes vary in strength as much as the share of its load a "
+            "level; each bearing's rolling noise follows the load on its balls, which the coupling's turning load "
+            "swings once per turn (`bkabem_core/synth/rolling.py`: the healthy and ball records' 1x in the "
+            "envelope, which on the rig stays when the lines are clipped away: `bench/shaft_orders.py`); a race pit's strikes vary in strength as much as the share of its load a "
             "ball loses over the pit, which is what the rig's records show and what bounds their envelope lines "
-            "(`bench/impact_spread.py`). What it does not have yet, each measured there: the lines below 2 kHz that "
+            "(`bench/impact_spread.py`). What it does not have yet, each measured there: the structure's response "
+            "below 2 kHz (the line above: no mode of the twin's housings lies there, and the rig's race strikes "
+            "carry more there, relative to 2-4 kHz, than the twin's); the lines below 2 kHz that "
             "come back from record to record (a BPFI family of the drive-end bearing, 360 Hz, shaft orders); the "
             "strength of a race pit's strikes, which on the rig hardly depends on the pit's size (7-21 mil) while "
             "the twin's follows its pit's drop, so that over the seeded bearing's floor the twin's 7 mil strikes "

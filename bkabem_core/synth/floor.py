@@ -31,6 +31,10 @@ a defect rolls rougher than a sound one (:data:`~bkabem_core.bearing.defects.pro
 no floor (density 0) there is nothing to raise. The CWRU rig's seeded bearings carry 12-40 dB more than its healthy
 one in the housing's band where their signal is Gaussian (docs/rigs.md).
 
+**It follows the load.** Where a load turns with the shaft, each bearing's pairs swing over the turn with the
+stiffness of its contacts (:mod:`bkabem_core.synth.rolling`, added on top of this stationary floor from the same
+seed).
+
 Source of the level: the force of a rolling contact on its roughness is the contact stiffness times the roughness
 displacement. Superfinished raceways and balls of deep-groove bearings have RMS roughness of order 0.02-0.1 um
 (Harris & Kotzalas, *Essential concepts of bearing technology*, 5th ed., ch. 23 on surface finish; ISO 15242-1
@@ -357,6 +361,17 @@ class BroadbandFloor:
         floor = BroadbandFloor.__new__(BroadbandFloor)
         floor.by_input, floor.pair_gains = self.by_input, self.pair_gains
         floor._seeded(self.path, self.density, seed, self.input_noise)
+        return floor
+
+    def pairs_only(self, mask) -> "BroadbandFloor":
+        """The part of this floor that force pairs ``mask`` (4 factors: 1 keeps a pair, 0 drops it) make: the same seed,
+        normals and grains, the other pairs and the input floor left out (:mod:`bkabem_core.synth.rolling` swings a
+        bearing's part)."""
+        m = np.asarray(mask, dtype=float)
+        floor = BroadbandFloor.__new__(BroadbandFloor)
+        floor.by_input = np.ascontiguousarray(self.by_input * m[:, None, None].astype(np.float32))
+        floor.pair_gains = self.pair_gains * m
+        floor._seeded(self.path, self.density, self.seed, 0.0)
         return floor
 
     @property

@@ -108,15 +108,14 @@ class RollingSwing:
 
     def __init__(self, floor: BroadbandFloor, gains: dict, bpfo_per_hz: float):
         self.gains = {b: np.asarray(g, dtype=float) for b, g in gains.items()}
+        if any(g.size != TURN_POINTS for g in self.gains.values()):
+            raise ValueError(f"RollingSwing: gain tables of {TURN_POINTS} shaft angles expected")
+        #: bearing -> float32 (TURN_POINTS + 1,) ``g - 1``, closed over the turn (the interpolation's table)
+        self._tables = {b: (np.append(g, g[0]) - 1.0).astype(np.float32) for b, g in self.gains.items()}
         self.bpfo_per_hz = float(bpfo_per_hz)
-        self.parts = {}
-        for b in self.gains:
-            mask = np.array([1.0 if name == b else 0.0 for name in BEARINGS for _ in range(2)])
-            part = BroadbandFloor.__new__(BroadbandFloor)
-            part.by_input = np.ascontiguousarray(floor.by_input * mask[:, None, None].astype(np.float32))
-            part.pair_gains = floor.pair_gains * mask
-            part._seeded(floor.path, floor.density, floor.seed, 0.0)
-            self.parts[b] = part
+        #: bearing -> its force pairs' part of the floor (the same seed)
+        self.parts = {b: floor.pairs_only([1.0 if name == b else 0.0 for name in BEARINGS for _ in range(2)])
+                      for b in self.gains}
 
     @classmethod
     def of_plan(cls, model, floor: BroadbandFloor | None, bpfo_per_hz: float) -> "RollingSwing | None":
@@ -133,7 +132,7 @@ class RollingSwing:
     def reseeded(self, seed: int) -> "RollingSwing":
         """The same swing over the floor of another seed."""
         out = RollingSwing.__new__(RollingSwing)
-        out.gains, out.bpfo_per_hz = self.gains, self.bpfo_per_hz
+        out.gains, out.bpfo_per_hz, out._tables = self.gains, self.bpfo_per_hz, self._tables
         out.parts = {b: p.reseeded(seed) for b, p in self.parts.items()}
         return out
 
@@ -147,19 +146,31 @@ class RollingSwing:
         return np.mod((u0 + du) / self.bpfo_per_hz, 1.0)
 
     def gain_minus_one(self, bearing: str, turns: np.ndarray) -> np.ndarray:
-        """``g(theta) - 1`` of ``bearing`` at shaft angles ``turns`` [turns], periodic linear interpolation."""
-        g = self.gains[bearing]
-        n = g.size
-        pos = turns * n
-        k = np.floor(pos).astype(np.int64) % n
-        s = pos - np.floor(pos)
-        return g[k] + (g[(k + 1) % n] - g[k]) * s - 1.0
+        """(len(turns),) float32 ``g(theta) - 1`` of ``bearing`` at shaft angles ``turns`` [turns, in [0, 1)]:
+        periodic linear interpolation in the gain table."""
+        return self._interpolate(self._tables[bearing], *self._cells(turns))
+
+    def _cells(self, turns: np.ndarray) -> tuple:
+        """(cell index, float32 fraction in it) of shaft angles ``turns`` in the gain tables."""
+        pos = turns * TURN_POINTS
+        k = np.minimum(pos.astype(np.int64), TURN_POINTS - 1)  # turns in [0, 1); 1.0 itself from a rounding
+        return k, (pos - k).astype(np.float32)
+
+    @staticmethod
+    def _interpolate(table: np.ndarray, k: np.ndarray, frac: np.ndarray) -> np.ndarray:
+        out = table[k]
+        out += (table[k + 1] - out) * frac
+        return out
 
     def block(self, a, b, lo: int, hi: int, sample_rate_hz: float) -> np.ndarray:
         """(hi - lo, C) float32: the swinging part of the floor over samples [lo, hi) of the segment a-b."""
-        turns = self.shaft_turns(a, b, lo, hi, sample_rate_hz)
+        cells = self._cells(self.shaft_turns(a, b, lo, hi, sample_rate_hz))
         out = None
         for name, part in self.parts.items():
-            x = part.render(lo, hi - lo) * self.gain_minus_one(name, turns).astype(np.float32)[:, None]
-            out = x.copy() if out is None else out + x
+            x = part.render(lo, hi - lo)                        # a view of the part's buffer, reused next call
+            x *= self._interpolate(self._tables[name], *cells)[:, None]
+            if out is None:
+                out = x.copy()
+            else:
+                out += x
         return out

@@ -321,10 +321,11 @@ class _BoundTones:
         if not self.cols.size:
             return
         n = np.arange(n0, n0 + out.shape[0], dtype=np.float64)
-        tone = np.zeros((out.shape[0], self.cols.size))
-        for k in range(self.cycles.size):
-            turns = np.mod(self.cycles[k] * n, 1.0)                 # exact per sample: n is an integer < 2^53
-            tone += self.amp[k] * np.cos(2.0 * math.pi * turns[:, None] + self.phase[k][None, :])
+        # exact per sample: n is an integer < 2^53; each tone's cos and sin once, the channels' phases by the angle
+        # sum, cos(a + p) = cos a cos p - sin a sin p: one (n, 2K) x (2K, C) product
+        a = 2.0 * math.pi * np.mod(np.outer(n, self.cycles), 1.0)
+        weights = np.concatenate([self.amp[:, None] * np.cos(self.phase), -self.amp[:, None] * np.sin(self.phase)])
+        tone = np.concatenate([np.cos(a), np.sin(a)], axis=1) @ weights
         out[:, self.cols] += tone.astype(out.dtype)
 
 

@@ -367,10 +367,27 @@ def test_shaft_orders_of_a_record_without_a_race_pit_read_a_rolling_noise_that_f
     noise = rng.standard_normal(t.size)
     follows = levels(noise * np.sqrt(1.0 + 0.5 * np.cos(2 * np.pi * fr * t)), fs, fr, EFFECTIVE_6205, "healthy")
     steady = levels(noise, fs, fr, EFFECTIVE_6205, "ball")
-    assert set(follows) == set(steady) == {"orders", "turn"}
+    assert set(follows) == set(steady) == {"orders", "turn", "x1_clipped"}
     assert follows["orders"][0] >= 15.0 and max(steady["orders"]) < 10.0, (follows, steady)
     # the band's power over the turn: 1.5 : 0.5 = 3 for the modulated noise (less its bins' scatter), ~1 steady
     assert 2.4 < follows["turn"] < 3.3 and steady["turn"] < 1.25, (follows["turn"], steady["turn"])
+
+def test_the_clipped_1x_keeps_a_swinging_noise_and_drops_the_beat_of_lines_one_shaft_order_apart():
+    """bench/shaft_orders.py's 1x with the lines clipped away: a noise whose power follows the shaft (1 + 0.3 cos)
+    keeps its 1x; a stationary noise under two tones one shaft order apart in the band (each ~30 dB over the noise in
+    its bin) has a strong 1x from their beat, and none once they are clipped."""
+    from shaft_orders import levels
+
+    rng = np.random.default_rng(11)
+    fs, fr = 12000.0, 29.93
+    t = np.arange(int(10 * fs)) / fs
+    noise = rng.standard_normal(t.size)
+    swing = levels(noise * np.sqrt(1.0 + 0.3 * np.cos(2 * np.pi * fr * t)), fs, fr, EFFECTIVE_6205, "healthy")
+    tones = 0.2 * (np.cos(2 * np.pi * 100 * fr * t) + np.cos(2 * np.pi * 101 * fr * t))
+    beat = levels(noise + tones, fs, fr, EFFECTIVE_6205, "healthy")
+    assert swing["orders"][0] >= 12.0 and swing["x1_clipped"] >= swing["orders"][0] - 3.0, swing
+    assert beat["orders"][0] >= 15.0 and beat["x1_clipped"] < 8.0, beat
+
 
 def test_a_noise_that_follows_the_contacts_swings_with_the_turning_load_only(tmp_path):
     """bench/shaft_orders.py's estimate of a rolling noise that follows the contacts' stiffness (power ~ sum Q^(2/3))
