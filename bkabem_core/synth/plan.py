@@ -158,6 +158,7 @@ class Plan:
             "input_noise_m_s2_per_sqrt_hz": self.input_noise,
             **({"ball_track": self.track.to_dict()} if self.track is not None else {}),
             **({"strikes": self.strikes.to_dict()} if self.strikes is not None else {}),
+            **({"floor_swing": self.rolling.to_dict()} if self.rolling is not None else {}),
             "line_coefficients": self.lines.coefficients.tolist(),
             "line_bearings": self.model.phases.line_bearings(self.lines.coefficients),
             "line_multipliers": self.lines.nu.tolist(),

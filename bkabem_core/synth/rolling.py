@@ -125,6 +125,16 @@ class RollingSwing:
         gains = swing_gains(model)
         return cls(floor, gains, bpfo_per_hz) if gains else None
 
+    def to_dict(self) -> dict:
+        """The ground truth's ``floor_swing``: per swinging bearing, its floor's power over the turn, largest over
+        smallest [-], and the shaft angle [deg] of the largest (the stream's shaft angle)."""
+        out = {}
+        for b, g in self.gains.items():
+            p = g * g
+            out[b] = {"power_swing": float(p.max() / p.min()),
+                      "strongest_at_shaft_angle_deg": float(360.0 * int(np.argmax(p)) / p.size)}
+        return {"law": "power ~ sum of ball loads^(2/3) (Hertzian contact stiffness)", "bearings": out}
+
     @property
     def seed(self) -> int:
         return next(iter(self.parts.values())).seed

@@ -120,3 +120,13 @@ def test_gains_keep_the_mean_power_and_only_where_a_load_turns(rig, cached_model
     # the overhung coupling loads the far bearing against the near one: their swings are opposite
     assert abs((np.argmax(g["de"]) - np.argmax(g["nde"])) % g["de"].size - g["de"].size // 2) <= 1
     assert swing_gains(cached_model(Case.load("motor_6010_healthy"))) == {}
+
+
+def test_the_ground_truth_says_how_much_the_floor_swings(rig, cached_model):
+    truth = Synthesizer(rig, sample_rate_hz=FS, seed=1, features=False).ground_truth()["floor_swing"]
+    g = swing_gains(rig)
+    assert truth["bearings"]["de"]["power_swing"] == pytest.approx(np.max(g["de"] ** 2) / np.min(g["de"] ** 2))
+    assert 1.1 < truth["bearings"]["de"]["power_swing"] < 1.3 and truth["bearings"]["nde"]["power_swing"] < 1.1
+    healthy = cached_model(Case.load("motor_6010_healthy"))
+    assert "floor_swing" not in Synthesizer(healthy, sample_rate_hz=25600.0, seed=1, features=False).ground_truth()
+
