@@ -353,7 +353,7 @@ def differences(rows: list[dict], twin: str) -> list[str]:
             "(`bench/impact_spread.py`). What it does not have yet, each measured there: the structure's response "
             "below 2 kHz (the line above: no mode of the twin's housings lies there, and the rig's race strikes "
             "carry more there, relative to 2-4 kHz, than the twin's); the lines below 2 kHz that "
-            "come back from record to record (a BPFI family of the drive-end bearing, 360 Hz, shaft orders); the "
+            "come back from record to record (a BPFI family of the drive-end bearing, shaft orders); the "
             "strength of a race pit's strikes, which on the rig hardly depends on the pit's size (7-21 mil) while "
             "the twin's follows its pit's drop, so that over the seeded bearing's floor the twin's 7 mil strikes "
             "are 11-22 dB too weak and its 14 mil outer-race strikes too strong; the race records' shaft orders "
