@@ -130,3 +130,17 @@ def test_the_ground_truth_says_how_much_the_floor_swings(rig, cached_model):
     healthy = cached_model(Case.load("motor_6010_healthy"))
     assert "floor_swing" not in Synthesizer(healthy, sample_rate_hz=25600.0, seed=1, features=False).ground_truth()
 
+
+
+def test_a_bearings_part_of_the_floor_is_its_share_of_the_same_noise(rig):
+    """The parts the swing multiplies are the stationary floor's own noise split by bearing: the same seed, normals
+    and grains, so the DE part plus the NDE part is the floor (the rig without its input floor), to the int16 steps
+    each is stored at."""
+    floor = Synthesizer(rig, sample_rate_hz=FS, seed=4, features=False, quantities=["acceleration"])._plan.floor
+    de, nde = floor.pairs_only([1, 1, 0, 0]), floor.pairs_only([0, 0, 1, 1])
+    whole = floor.render(1000, 6000).copy()
+    parts = de.render(1000, 6000).copy() + nde.render(1000, 6000)
+    steps = floor.scale + de.scale + nde.scale                     # one rounding each, per channel
+    assert np.all(np.abs(whole - parts) <= steps[None, :]), np.max(np.abs(whole - parts) / steps[None, :])
+    assert np.std(de.render(0, 6000)) > 0.1 * np.std(whole) and np.std(nde.render(0, 6000)) > 0.0
+    assert not np.allclose(de.render(0, 6000), nde.render(0, 6000))
