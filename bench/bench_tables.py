@@ -389,7 +389,7 @@ def read_suite(d, _args):
 
 def read_validate_real(d, _args):
     s = d["summary"]
-    case = f"{s['records']} CWRU drive-end records against the twin `{d['twin']}` ({d['seeds']} seed)"
+    case = f"{s['records']} CWRU drive-end records against the twin `{d['twin']}` ({d['seeds']} seed{'s' if d['seeds'] != 1 else ''})"
     out = [row(case, f"records with the twin's {what} (DE)", s[f"{key}_fraction"], "{:.2f}", "",
                ge(0.8, ">= 0.80"), note=f"{s[f'{key}_met']} of {s[f'{key}_of']}")
            for key, what in (("rms", "RMS within a factor 2 of the measurement"),
