@@ -137,25 +137,21 @@ def turn_profile(x: np.ndarray, fs: float, fr: float, bins: int = TURN_BINS) -> 
 
 
 def contact_swing(twin_case: str = "cwru_rig", location: str = "de", n: int = TURN_BINS) -> dict:
-    """How much a rolling noise that follows the contacts' stiffness would swing over the turn in the twin: its
+    """How much the twin's rolling noise, which follows the contacts' stiffness, swings over the turn: its
     ``location`` bearing under its static radial load, axial preload and the load that turns with the shaft
-    (``Machine`` sites: ``radial_load_n``, ``axial_load_n``, ``rotating_load_n``), at ``n`` shaft angles. Roughness
+    (``Machine`` sites: ``radial_load_n``, ``axial_load_n``, ``rotating_load_n``), at ``n`` shaft angles, by the
+    synthesiser's own law (:func:`bkabem_core.synth.rolling.contact_power`). Roughness
     and waviness excite each loaded contact through its stiffness, ``dQ/d delta = 1.5 K^(2/3) Q^(1/3)`` for a
     Hertzian point contact, so independent contacts give a noise power ``~ sum_i Q_i^(2/3)``. Returns the loads
     [N] and ``swing``, that sum's largest over its smallest [-]."""
     from bkabem_core.fe.machine import Machine
     from bkabem_core.model.case import Case
+    from bkabem_core.synth.rolling import contact_power
 
     site = Machine(Case.load(twin_case), mesh=None).sites[location]
-    w, r = np.asarray(site.radial_load_n, dtype=float), complex(site.rotating_load_n)
-    power = []
-    for th in np.arange(n) * 2.0 * np.pi / n:
-        turn = r * np.exp(1j * th)
-        q = np.asarray(site.bearing.state(w[0] + turn.real, w[1] + turn.imag,
-                                          axial_load_n=float(site.axial_load_n)).ball_loads_n)
-        power.append(np.sum(np.clip(q, 0.0, None) ** (2.0 / 3.0)))
-    return {"weight_n": float(np.hypot(*w)), "preload_n": float(site.axial_load_n), "turning_n": abs(r),
-            "swing": float(max(power) / min(power))}
+    power = contact_power(site, n)                      # the twin's own law (bkabem_core/synth/rolling.py)
+    return {"weight_n": float(np.hypot(*site.radial_load_n)), "preload_n": float(site.axial_load_n),
+            "turning_n": abs(complex(site.rotating_load_n)), "swing": float(power.max() / power.min())}
 
 
 def swinging_noise(swing: float, seconds: float, fr: float, seeds: int = 4, fs: float = FS) -> dict:

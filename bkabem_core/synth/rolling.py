@@ -38,10 +38,12 @@ Units: newtons, radians (turns where said), amplitude gains [-].
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
+from bkabem_core.bearing.deep_groove import Bearing
 from bkabem_core.model.vocabulary import BEARINGS
 from bkabem_core.synth.floor import BroadbandFloor
 
@@ -54,6 +56,9 @@ CAGE_POINTS = 8
 def contact_power(site, n: int = TURN_POINTS, cage_points: int = CAGE_POINTS) -> np.ndarray:
     """(n,) ``P(theta)`` [N^(2/3)] of a bearing site (module docstring) at shaft angles ``2 pi k / n``.
 
+    It depends on the bearing's geometry and loads alone (the static equilibrium and ball loads without the
+    defects), so the models of one machine (a data set's defects, a scenario's states) share one computation.
+
     Parameters
     ----------
     site : BearingSite
@@ -63,21 +68,28 @@ def contact_power(site, n: int = TURN_POINTS, cage_points: int = CAGE_POINTS) ->
     cage_points : int
         Cage positions within one ball pitch.
     """
-    bearing = site.bearing
     w = np.asarray(site.radial_load_n, dtype=float)
-    r = complex(site.rotating_load_n)
-    pitch = 2.0 * math.pi / bearing.geometry.n_balls
+    return np.array(_contact_power(site.bearing.geometry, float(w[0]), float(w[1]), float(site.axial_load_n),
+                                   complex(site.rotating_load_n), int(n), int(cage_points)))
+
+
+@functools.lru_cache(maxsize=32)
+def _contact_power(geometry, load_x_n: float, load_y_n: float, axial_load_n: float, turning_n: complex, n: int,
+                   cage_points: int) -> tuple:
+    """:func:`contact_power` of a defect-free bearing of ``geometry`` under these loads [N], as a tuple."""
+    bearing = Bearing(geometry)
+    pitch = 2.0 * math.pi / geometry.n_balls
     cages = np.arange(cage_points) * (pitch / cage_points)
-    out = np.empty(n)
+    out = []
     for k in range(n):
-        turn = r * complex(math.cos(2.0 * math.pi * k / n), math.sin(2.0 * math.pi * k / n))
-        e = bearing.state(w[0] + turn.real, w[1] + turn.imag, axial_load_n=float(site.axial_load_n)).displacement_m
+        turn = turning_n * complex(math.cos(2.0 * math.pi * k / n), math.sin(2.0 * math.pi * k / n))
+        e = bearing.state(load_x_n + turn.real, load_y_n + turn.imag, axial_load_n=axial_load_n).displacement_m
         p = 0.0
         for c in cages:
             q = np.asarray(bearing.ball_loads_n(e[0], e[1], float(c), 0.0, with_dent=False, e_z_m=e[2]))
             p += float(np.sum(np.clip(q, 0.0, None) ** (2.0 / 3.0)))
-        out[k] = p / cage_points
-    return out
+        out.append(p / cage_points)
+    return tuple(out)
 
 
 def swing_gains(model, n: int = TURN_POINTS) -> dict:
@@ -154,11 +166,6 @@ class RollingSwing:
         du = self.bpfo_per_hz / sample_rate_hz * (a.f * xi + 0.5 * (b.f - a.f) * xi * xi / span)
         u0 = math.fmod(float(a.u_int), self.bpfo_per_hz) + a.u_frac
         return np.mod((u0 + du) / self.bpfo_per_hz, 1.0)
-
-    def gain_minus_one(self, bearing: str, turns: np.ndarray) -> np.ndarray:
-        """(len(turns),) float32 ``g(theta) - 1`` of ``bearing`` at shaft angles ``turns`` [turns, in [0, 1)]:
-        periodic linear interpolation in the gain table."""
-        return self._interpolate(self._tables[bearing], *self._cells(turns))
 
     def _cells(self, turns: np.ndarray) -> tuple:
         """(cell index, float32 fraction in it) of shaft angles ``turns`` in the gain tables."""

@@ -131,7 +131,6 @@ def test_the_ground_truth_says_how_much_the_floor_swings(rig, cached_model):
     assert "floor_swing" not in Synthesizer(healthy, sample_rate_hz=25600.0, seed=1, features=False).ground_truth()
 
 
-
 def test_a_bearings_part_of_the_floor_is_its_share_of_the_same_noise(rig):
     """The parts the swing multiplies are the stationary floor's own noise split by bearing: the same seed, normals
     and grains, so the DE part plus the NDE part is the floor (the rig without its input floor), to the int16 steps
