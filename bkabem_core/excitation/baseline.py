@@ -17,8 +17,8 @@ pattern on the FE model with its own line (:mod:`bkabem_core.excitation.lines`),
     the coupling's radial stiffness times the offset.
 ``coupling_force_n``, ``coupling_phase_deg`` (optional, 0 = off)
     The running-speed force of the coupling to the driven machine: the radial force a flexible coupling exerts
-    when its halves run out or sit offset (the coupling's radial stiffness times the eccentricity it takes up),
-    rotating with the shaft at ``misalignment_node``; speed-independent. Besides its 1x line through the FE, it
+    when its hub runs out (the coupling's radial stiffness times the eccentricity that turns with the shaft; a
+    parallel offset alone gives a force that stands still), rotating with the shaft at ``misalignment_node``; speed-independent. Besides its 1x line through the FE, it
     is a load that turns with the shaft in each bearing (:meth:`bkabem_core.fe.machine.Machine._turning_loads`:
     each bearing's share from the statics of the two-bearing rotor): with the light static loads of small machines
     it swings the load zone once per turn and modulates every ball's contact, so the bearing's lines gain

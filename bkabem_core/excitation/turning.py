@@ -31,51 +31,66 @@ __all__ = ["turning_lines", "TURNING_BASE_SAMPLES", "NEGLIGIBLE_M"]
 def turning_lines(bearing: Bearing, load, turning_load_n: complex, axial_load_n: float, n_fast: int, n_slow: int,
                    film_m: float, rates) -> LineSet:
     """Lines of the bearing's races and their defects (every kind but the ball's) under a load that turns with the
-    shaft, on a 2-torus whose slow angle is the shaft angle ``b = theta_shaft`` (where the turning load points)
-    and whose fast angle is the ball-set position: relative to the outer race ``a = z theta_cage`` (healthy races,
-    outer-race defects), or relative to the shaft ``a = z (theta_shaft - theta_cage)`` when an inner-race defect
-    turns with the shaft (its lines need it fast; an outer-race defect in the same bearing would not be resolved
-    then, and is refused). Every grid point is solved (batched Newton); the pure shaft orders are dropped (the FE
-    carries the turning force as a line of its own), and lines below ``NEGLIGIBLE_M`` (round-off of a nearly
-    uniform bearing) too."""
-    z = bearing.geometry.n_balls
+    shaft, each part on a 2-torus whose slow angle is the shaft angle ``b = theta_shaft`` (where the turning load
+    points) and whose fast angle is the ball-set position along which that part is narrow:
+
+    * the races without defects, relative to the outer race ``a = z theta_cage``, on a coarse grid of it (their
+      path is smooth along the ball passage);
+    * what the outer-race defects add to them, on the same torus, solved where a ball meets one;
+    * what the inner-race defects add to the bearing with its outer-race defects, relative to the shaft
+      ``a = z (theta_shaft - theta_cage)`` (they turn with it), solved where a ball meets one: the path with every
+      defect less the path without the inner-race ones, both under the same loads, so that a ball in an outer-race
+      pit while another meets an inner-race one is in this difference.
+
+    This is how the moving kinds add to the rest of a bearing under a static load too
+    (:func:`~bkabem_core.excitation.quasi_static.quasi_static_excitation`); no single 2-torus resolves an inner-race
+    and an outer-race defect together, each being narrow along its own ball-set position. Every grid point is
+    solved (batched Newton). The pure shaft orders of the races without defects are dropped: their 1x is the
+    bearing's deflection under the turning force, which the FE carries as a line of its own. The defects' own
+    shaft orders (a pit's effect on the path changes as the turning load sweeps past it) are kept. Lines below
+    ``NEGLIGIBLE_M`` (round-off of a nearly uniform bearing) are dropped."""
+    g = bearing.geometry
+    z = g.n_balls
     slow = n_slow if n_slow > 0 else max(64, 1 << math.ceil(math.log2(8 * z)))
     if n_fast % slow:
         raise ValueError(f"samples: {n_fast} per ball pass must be a multiple of the {slow} slow samples")
-    kinds = {d.race for d in bearing.defects if d.race != "ball"}
-    race = Bearing(bearing.geometry, defects=[d for d in bearing.defects if d.race in kinds])
-    if "inner" in kinds:
-        if len(kinds) > 1:
-            raise ValueError("a load that turns with the shaft and both an inner-race and another race defect in one "
-                             "bearing: not resolved on one 2-torus")
-        grid = defect_kind("inner").torus(z, n_fast, slow)
-        phase_map, cage, shaft = grid.phase_map, grid.cage, grid.shaft
-    else:
-        i, j = np.meshgrid(np.arange(n_fast), np.arange(slow), indexing="ij")
-        phase_map = np.array([[0, z, 0, 0], [1, 0, 0, 0]])
-        cage, shaft = TWO_PI * i / (n_fast * z), TWO_PI * j / slow
-    # the races without defects: smooth along the ball-set position, solved on a coarse grid of it
-    coarse = min(n_fast, TURNING_BASE_SAMPLES)
-    step = n_fast // coarse
-    healthy = Bearing(bearing.geometry)
+    healthy = Bearing(g)
+    outer = Bearing(g, defects=[d for d in bearing.defects if d.race not in ("ball", "inner")])
+    full = Bearing(g, defects=[d for d in bearing.defects if d.race != "ball"])
+    i, j = np.meshgrid(np.arange(n_fast), np.arange(slow), indexing="ij")
+    phase_map = np.array([[0, z, 0, 0], [1, 0, 0, 0]])
+    cage, shaft = TWO_PI * i / (n_fast * z), TWO_PI * j / slow
+    step = n_fast // min(n_fast, TURNING_BASE_SAMPLES)
     base, _, _ = quasi_static_path_m(healthy, load, axial_load_n, cage[::step], film_m,
                                      shaft_angles_rad=shaft[::step], turning_load_n=turning_load_n)
-    parts = [lines_from_grid(base[..., ::-1], phase_map, rates, DIRECTIONS)]      # (vertical, horizontal)
-    if race.defects:
-        # what the defects add: nonzero only where a ball meets one, solved there on the fine grid
-        beta = race.ball_angles_rad(cage)
-        touched = np.any(race.defect_set.drop_m(beta, shaft, np.zeros_like(shaft)) > 0.0, axis=-1)
-        diff = np.zeros(cage.shape + (2,))
-        if touched.any():
-            with_d, _, _ = quasi_static_path_m(race, load, axial_load_n, cage[touched], film_m,
-                                               shaft_angles_rad=shaft[touched], turning_load_n=turning_load_n)
-            without, _, _ = quasi_static_path_m(healthy, load, axial_load_n, cage[touched], film_m,
-                                                shaft_angles_rad=shaft[touched], turning_load_n=turning_load_n)
-            diff[touched] = with_d - without
-        parts.append(lines_from_grid(diff[..., ::-1], phase_map, rates, DIRECTIONS))
+    base_lines = lines_from_grid(base[..., ::-1], phase_map, rates, DIRECTIONS)      # (vertical, horizontal)
+    parts = [base_lines.subset(~(base_lines.coefficients[:, 1:] == 0).all(axis=1))]
+    if outer.defects:
+        parts.append(_difference(outer, healthy, outer, load, turning_load_n, axial_load_n, cage, shaft, phase_map,
+                                 film_m, rates))
+    if len(full.defects) > len(outer.defects):
+        grid = defect_kind("inner").torus(z, n_fast, slow)
+        inner = Bearing(g, defects=[d for d in full.defects if d.race == "inner"])
+        parts.append(_difference(full, outer, inner, load, turning_load_n, axial_load_n, grid.cage, grid.shaft,
+                                 grid.phase_map, film_m, rates))
     out = union(parts)
-    keep = ~(out.coefficients[:, 1:] == 0).all(axis=1) & (np.abs(out.amplitude).max(axis=1) >= NEGLIGIBLE_M)
-    return out.subset(keep)
+    return out.subset(np.abs(out.amplitude).max(axis=1) >= NEGLIGIBLE_M)
+
+
+def _difference(with_d: Bearing, without: Bearing, meets: Bearing, load, turning_load_n: complex,
+                axial_load_n: float, cage, shaft, phase_map, film_m: float, rates) -> LineSet:
+    """Lines of ``path(with_d) - path(without)`` under the same loads on the grid ``cage``, ``shaft`` [rad] of a
+    2-torus (``phase_map``): zero but where a ball meets a defect of ``meets``, solved there."""
+    touched = np.any(meets.defect_set.drop_m(meets.ball_angles_rad(cage), shaft, np.zeros_like(shaft)) > 0.0,
+                     axis=-1)
+    diff = np.zeros(cage.shape + (2,))
+    if touched.any():
+        a, _, _ = quasi_static_path_m(with_d, load, axial_load_n, cage[touched], film_m,
+                                      shaft_angles_rad=shaft[touched], turning_load_n=turning_load_n)
+        b, _, _ = quasi_static_path_m(without, load, axial_load_n, cage[touched], film_m,
+                                      shaft_angles_rad=shaft[touched], turning_load_n=turning_load_n)
+        diff[touched] = a - b
+    return lines_from_grid(diff[..., ::-1], phase_map, rates, DIRECTIONS)
 
 
 #: Samples per ball pass of a healthy bearing's path under a turning load (it is smooth along the ball passage).

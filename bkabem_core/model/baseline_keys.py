@@ -44,19 +44,13 @@ def baseline_problem(raw: dict) -> tuple[str, str] | None:
     or None.
 
     The coupling force turns a load in the bearings: the quasi-static bearing model carries it and the 4-DOF model
-    does not; it is solved on one 2-torus per bearing, which cannot resolve an inner-race defect (turning with the
-    shaft) together with an outer-race one (standing still) in the same bearing.
+    does not.
     """
     baseline = raw["baseline"]
     if baseline.get("coupling_force_n", 0.0) > 0.0:
         if raw["excitation"]["method"] == "four_dof":
             return ("baseline.coupling_force_n", "the load it turns in the bearings needs excitation.method = "
                     "'quasi_static' ('four_dof' has no load that turns with the shaft)")
-        for b in ("de", "nde"):
-            races = {d.get("race") for d in raw["defects"] if d.get("bearing") == b} - {"ball"}
-            if "inner" in races and len(races) > 1:
-                return ("baseline.coupling_force_n", f"a load turning with the shaft and, in the {b} bearing, an "
-                        f"inner-race defect with a defect of another race are not solved together (one 2-torus)")
     harmonics, forces = baseline.get("electrical_harmonics", []), baseline.get("electrical_harmonic_forces_n", [])
     if len(harmonics) != len(forces):
         return ("baseline.electrical_harmonic_forces_n", f"must have one force per electrical harmonic "

@@ -529,8 +529,9 @@ def _stiffness_tori(site, load_n: float, n_fast: int, n_slow: int, excitation=No
 def _turning_terms(sites, n_fast: int, n_shaft: int = 32):
     """The load that turns with the shaft (:meth:`bkabem_core.fe.machine.Machine._turning_loads`) in the ball
     forces, or None if no bearing has one: ``(shift, load)`` in HertzPair order. ``shift`` (K, 4) [m]: shaft
-    harmonics 1..K of each bearing's quasi-static path averaged over the ball-set position (its races' defects
-    included), the pure shaft orders the excitation leaves to the FE's coupling line; they are part of every
+    harmonics 1..K of the quasi-static path of each bearing without its defects, averaged over the ball-set
+    position: the pure shaft orders the excitation leaves to the FE's coupling line (a defect's own shaft orders
+    are lines of the excitation, :func:`~bkabem_core.excitation.turning.turning_lines`); they are part of every
     ball's displacement, ``u = U + 2 Re sum_k shift_k exp(i k theta_shaft)``. ``load`` (4,) complex [N]: the ball
     forces balance ``-(W + (Re, Im)(R exp(i theta_shaft)))``, so the reference force turns too. With both, the
     quasi-static path gives ``Phi_0 = K_b U_0`` as without a turning load. The stiffness modulation ``dK`` keeps
@@ -545,7 +546,7 @@ def _turning_terms(sites, n_fast: int, n_shaft: int = 32):
             continue
         b = s.bearing
         z = b.geometry.n_balls
-        races = Bearing(b.geometry, defects=[d for d in b.defects if d.race != "ball"])
+        races = Bearing(b.geometry)
         cage, shaft = np.meshgrid(TWO_PI / z * np.arange(n_fast) / n_fast, TWO_PI * np.arange(n_shaft) / n_shaft,
                                   indexing="ij")
         path, _, _ = quasi_static_path_m(races, s.radial_load_n, s.axial_load_n, cage, shaft_angles_rad=shaft,

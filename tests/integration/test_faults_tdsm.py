@@ -104,3 +104,40 @@ def test_tdsm_carries_the_coupling_force_as_bkabem_does():
                 assert abs(r.tdsm[i, li, 0]) > 0.01 * carrier
                 assert abs(db(r.plain, i, li)) < 1.0, (k, s, li)
                 assert abs(db(r.improved, i, li)) < 0.3, (k, s, li)
+
+
+def test_tdsm_agrees_for_an_inner_and_an_outer_race_dent_in_one_bearing_under_a_turning_load():
+    """Both dents in the DE bearing of the outer-race machine with a 30 N coupling force: BKA-BEM solves the sound
+    bearing and its outer-race dent on the torus of the ball-set position relative to the outer race, and adds what
+    the inner-race dent changes on the torus of the ball-set position relative to the shaft; the TDSM integrates the
+    whole bearing. At 30 Hz with lines to 20 x BPFO, a 1 s record (0.3 s does not resolve the 1789 lines: a 2x line
+    sits 1.8 Hz from a BPFI sideband) is explained by the lines, and the five largest resolvable lines of every
+    location and direction agree with plain BKA-BEM within 2 dB and with the improved method within 0.4 dB. The
+    inner dent's own 2x (its effect on the path as the turning load sweeps past it) is among the DE rotor's largest
+    horizontal lines. Measured here: residual <= 0.1 %, plain <= 0.99 dB (displacement) and 1.73 dB (acceleration),
+    improved <= 0.30 dB, the 2x: plain +0.5 dB, improved +0.03 dB."""
+    from importlib import resources
+
+    from bkabem_core.reference.validation import validate_lines
+    from bkabem_core.solve.harmonic import BkaBem
+    from bkabem_core.solve.improved import HillCorrection
+
+    text = resources.files("bkabem_core.embedded.cases").joinpath("motor_6010_outer.toml").read_text()
+    inner = ('[[defects]]\nbearing = "de"\nrace = "inner"\nlength_m = 2.0e-3\ndepth_m = 50.0e-6\nangle_deg = 0.0\n'
+             'edge = "ball"\nedge_fraction = 0.1\n\n')
+    i = text.index("[baseline]")
+    case = Case.from_toml(text[:i] + inner + text[i:], "two_dents.toml").with_overrides({
+        "excitation.max_order": 20, "baseline.coupling_force_n": 30.0, "baseline.unbalance_grade_mm_s": 0.0})
+    plain = BkaBem(case)
+    hill = HillCorrection(plain)
+    r = validate_lines(case, 30.0, duration_s=1.0, settle_s=0.5, plain=plain, improved=hill)
+    assert r.residual_fraction.max() < 0.005, r.residual_fraction
+    sep = 1.0
+    assert r.max_error_db(min_separation_hz=sep).max() < 2.0
+    assert r.max_error_db("acceleration", min_separation_hz=sep).max() < 2.0
+    assert r.max_error_db(which="improved", min_separation_hz=sep).max() < 0.4
+    assert r.max_error_db("acceleration", which="improved", min_separation_hz=sep).max() < 0.4
+    i2 = plain.lines.keys().index((2, 0, 0, 0, 0, 0))
+    assert i2 in r.largest(0, 1, min_separation_hz=sep)
+    for x, tol in ((r.plain, 1.0), (r.improved, 0.2)):
+        assert abs(20 * np.log10(abs(x[i2, 0, 1]) / abs(r.tdsm[i2, 0, 1]))) < tol
