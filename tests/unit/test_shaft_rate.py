@@ -116,20 +116,7 @@ def _frozen_load_path(bearing, load_n: float, turning_n: complex, axial_n: float
     a = 2 * np.pi * np.arange(n_fast) / n_fast
     b = 2 * np.pi * np.arange(n_shaft) / n_shaft
     cage, shaft = np.meshgrid(a / z, b, indexing="ij")
-    turn = turning_n * np.exp(1j * shaft)
-    wx, wy = turn.real, -load_n + turn.imag
-    ex, ey = np.full(cage.shape, e_static[0]), np.full(cage.shape, e_static[1])
-    for _ in range(200):
-        fx, fy, (kxx, kxy, kyy) = bearing.forces_n(ex, ey, cage, with_stiffness=True, e_z_m=e_static[2],
-                                                   shaft_angle_rad=shaft)
-        rx, ry = fx + wx, fy + wy
-        det = kxx * kyy - kxy * kxy
-        sx, sy = (kyy * rx - kxy * ry) / det, (kxx * ry - kxy * rx) / det
-        step = np.minimum(1.0, 2e-6 / np.maximum(np.hypot(sx, sy), 1e-300))
-        ex, ey = ex + sx * step, ey + sy * step
-        if np.max(np.hypot(sx, sy)) < 1e-16:
-            break
-    return np.stack([ex, ey], axis=-1), a, b
+    return _frozen_path_on(bearing, load_n, turning_n, axial_n, e_static, cage, shaft), a, b
 
 
 def test_turning_load_gives_sidebands_at_bpfo_plus_minus_1x(coupled):
@@ -327,7 +314,8 @@ _INNER_PIT = ('\n[[defects]]\nbearing = "de"\nrace = "inner"\nlength_m = 1.0e-3\
 
 
 def _frozen_path_on(bearing, load_n: float, turning_n: complex, axial_n: float, e_static, cage, shaft):
-    """``_frozen_load_path`` on any grid of cage and shaft angles [rad] (same shapes): e (..., 2: x, y) [m]."""
+    """The frozen-load equilibrium (``_frozen_load_path``) at any cage and shaft angles [rad] (same shapes):
+    e (..., 2: x, y) [m]."""
     turn = turning_n * np.exp(1j * shaft)
     wx, wy = turn.real, -load_n + turn.imag
     ex, ey = np.full(cage.shape, e_static[0]), np.full(cage.shape, e_static[1])
