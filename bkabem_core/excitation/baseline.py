@@ -18,12 +18,13 @@ pattern on the FE model with its own line (:mod:`bkabem_core.excitation.lines`),
 ``coupling_force_n``, ``coupling_phase_deg`` (optional, 0 = off)
     The running-speed force of the coupling to the driven machine: the radial force a flexible coupling exerts
     when its hub runs out (the coupling's radial stiffness times the eccentricity that turns with the shaft; a
-    parallel offset alone gives a force that stands still), rotating with the shaft at ``misalignment_node``; speed-independent. Besides its 1x line through the FE, it
-    is a load that turns with the shaft in each bearing (:meth:`bkabem_core.fe.machine.Machine._turning_loads`:
-    each bearing's share from the statics of the two-bearing rotor): with the light static loads of small machines
-    it swings the load zone once per turn and modulates every ball's contact, so the bearing's lines gain
-    sidebands at the shaft frequency and a healthy bearing gains its ball passage relative to the turning load, at
-    BPFI (McFadden & Smith 1984; Randall & Antoni 2011, section 2).
+    parallel offset alone gives a force that stands still), rotating with the shaft at ``misalignment_node``;
+    speed-independent. Besides its 1x line through the FE, it is a load that turns with the shaft in each bearing
+    (:meth:`bkabem_core.fe.machine.Machine._turning_loads`: each bearing's share from the statics of the
+    two-bearing rotor): with the light static loads of small machines it swings the load zone once per turn and
+    modulates every ball's contact, so the bearing's lines gain sidebands at the shaft frequency and a healthy
+    bearing gains its ball passage relative to the turning load, at BPFI (McFadden & Smith 1984; Randall & Antoni
+    2011, section 2).
 ``looseness_force_n``, ``looseness_orders`` (optional, 0 = off; the orders are needed when the force is not 0)
     A loose fit (a bearing in its housing, an end shield on the frame, the machine on its base) takes up its play
     once per turn: the force through it jumps at one shaft angle instead of varying smoothly, which puts a comb of
