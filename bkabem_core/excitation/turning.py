@@ -55,8 +55,8 @@ def turning_lines(bearing: Bearing, load, turning_load_n: complex, axial_load_n:
     if n_fast % slow:
         raise ValueError(f"samples: {n_fast} per ball pass must be a multiple of the {slow} slow samples")
     healthy = Bearing(g)
-    outer = Bearing(g, defects=[d for d in bearing.defects if d.race not in ("ball", "inner")])
-    full = Bearing(g, defects=[d for d in bearing.defects if d.race != "ball"])
+    outer = Bearing(g, defects=[d for d in bearing.defects if defect_kind(d.race).periodic])
+    inner = [d for d in bearing.defects if d.race == "inner"]
     i, j = np.meshgrid(np.arange(n_fast), np.arange(slow), indexing="ij")
     phase_map = np.array([[0, z, 0, 0], [1, 0, 0, 0]])
     cage, shaft = TWO_PI * i / (n_fast * z), TWO_PI * j / slow
@@ -68,11 +68,11 @@ def turning_lines(bearing: Bearing, load, turning_load_n: complex, axial_load_n:
     if outer.defects:
         parts.append(_difference(outer, healthy, outer, load, turning_load_n, axial_load_n, cage, shaft, phase_map,
                                  film_m, rates))
-    if len(full.defects) > len(outer.defects):
+    if inner:
         grid = defect_kind("inner").torus(z, n_fast, slow)
-        inner = Bearing(g, defects=[d for d in full.defects if d.race == "inner"])
-        parts.append(_difference(full, outer, inner, load, turning_load_n, axial_load_n, grid.cage, grid.shaft,
-                                 grid.phase_map, film_m, rates))
+        full = Bearing(g, defects=[d for d in bearing.defects if defect_kind(d.race).periodic or d.race == "inner"])
+        parts.append(_difference(full, outer, Bearing(g, defects=inner), load, turning_load_n, axial_load_n,
+                                 grid.cage, grid.shaft, grid.phase_map, film_m, rates))
     out = union(parts)
     return out.subset(np.abs(out.amplitude).max(axis=1) >= NEGLIGIBLE_M)
 

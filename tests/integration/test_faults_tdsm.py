@@ -116,17 +116,16 @@ def test_tdsm_agrees_for_an_inner_and_an_outer_race_dent_in_one_bearing_under_a_
     inner dent's own 2x (its effect on the path as the turning load sweeps past it) is among the DE rotor's largest
     horizontal lines. Measured here: residual <= 0.1 %, plain <= 0.99 dB (displacement) and 1.73 dB (acceleration),
     improved <= 0.30 dB, the 2x: plain +0.5 dB, improved +0.03 dB."""
-    from importlib import resources
+    from case_files import embedded_text
 
     from bkabem_core.reference.validation import validate_lines
     from bkabem_core.solve.harmonic import BkaBem
     from bkabem_core.solve.improved import HillCorrection
 
-    text = resources.files("bkabem_core.embedded.cases").joinpath("motor_6010_outer.toml").read_text()
     inner = ('[[defects]]\nbearing = "de"\nrace = "inner"\nlength_m = 2.0e-3\ndepth_m = 50.0e-6\nangle_deg = 0.0\n'
-             'edge = "ball"\nedge_fraction = 0.1\n\n')
-    i = text.index("[baseline]")
-    case = Case.from_toml(text[:i] + inner + text[i:], "two_dents.toml").with_overrides({
+             'edge = "ball"\nedge_fraction = 0.1\n\n[baseline]')
+    text = embedded_text("motor_6010_outer").replace("[baseline]", inner, 1)
+    case = Case.from_toml(text, "two_dents.toml").with_overrides({
         "excitation.max_order": 20, "baseline.coupling_force_n": 30.0, "baseline.unbalance_grade_mm_s": 0.0})
     plain = BkaBem(case)
     hill = HillCorrection(plain)

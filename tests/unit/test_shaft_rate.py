@@ -10,10 +10,10 @@ Hilbert, |.|^2, FFT) and the Fourier series of a sawtooth.
 from __future__ import annotations
 
 import math
-from importlib import resources
 
 import numpy as np
 import pytest
+from case_files import embedded_text
 from scipy import signal
 
 from bkabem_core.bearing.deep_groove import Bearing
@@ -276,7 +276,7 @@ def test_looseness_and_electrical_lines_through_the_fe(loose):
 
 # --------------------------------------------------------------------------- bad values
 def _with_baseline(extra: str, method: str | None = None) -> str:
-    text = resources.files("bkabem_core.embedded.cases").joinpath("motor_6010_outer.toml").read_text()
+    text = embedded_text("motor_6010_outer")
     text = text.replace("[baseline]", "[baseline]\n" + extra, 1)
     if method is not None:
         text = text.replace('method = "quasi_static"', f'method = "{method}"', 1)
