@@ -95,48 +95,48 @@ class ConditionPanels:
     def _log(self, loc: str, x: np.ndarray, fs: float, names: list[str], stamp: int, speed_rad_s: float) -> None:
         """The panels of bearing ``loc`` from one full window ``x`` (channels, samples) [m/s^2] at ``stamp`` [ns]."""
         lg = self.logger
-        rr = lg._rr
+        rr = lg.rr
         L = loc.upper()
-        colors = [lg._color(ch, c) for c, ch in enumerate(names)]
+        colors = [lg.color(ch, c) for c, ch in enumerate(names)]
         ws = condition.window_spectrum(x, fs)
         iso = condition.iso_velocity_rms(x, fs, ws=ws)
         kurt = condition.kurtosis(x)
         crest = condition.crest_factor(x)
         band = lg.envelope_band_hz or condition.default_envelope_band(fs)
-        lines = lg._lines_at(speed_rad_s, loc)
+        lines = lg.lines_at(speed_rad_s, loc)
         f_top = self._envelope_range(lines, band, loc)
         f, env = condition.envelope_spectrum(x, fs, band, f_top, ws=ws)
         limits = condition.ISO_ZONE_SETS[lg.iso_zones]
-        lg._at(stamp)
+        lg.at(stamp)
         p = f"/{loc}/iso_velocity"
-        lg._series(p, [f"{L} {ch} [mm/s]" for ch in names], colors, widths=[2.0] * len(names))
-        lg._scalars(p, iso, stamp, batch=False)
-        lg._series(f"{p}/zones", [f"zone {z} limit {v:g} mm/s" for z, v in zip(("A/B", "B/C", "C/D"), limits)],
-                   ZONE_COLORS, widths=[1.0] * 3)
-        lg._scalars(f"{p}/zones", limits, stamp, batch=False)
+        lg.series(p, [f"{L} {ch} [mm/s]" for ch in names], colors, widths=[2.0] * len(names))
+        lg.scalars(p, iso, stamp, batch=False)
+        lg.series(f"{p}/zones", [f"zone {z} limit {v:g} mm/s" for z, v in zip(("A/B", "B/C", "C/D"), limits)],
+                  ZONE_COLORS, widths=[1.0] * 3)
+        lg.scalars(f"{p}/zones", limits, stamp, batch=False)
         p = f"/{loc}/trend/impulsiveness"
-        lg._series(p, [f"kurtosis {ch}" for ch in names] + [f"crest factor {ch}" for ch in names],
-                   colors + [lg._color(ch, c, light=True) for c, ch in enumerate(names)])
-        lg._scalars(p, np.concatenate([kurt, crest]), stamp, batch=False)
+        lg.series(p, [f"kurtosis {ch}" for ch in names] + [f"crest factor {ch}" for ch in names],
+                  colors + [lg.color(ch, c, light=True) for c, ch in enumerate(names)])
+        lg.scalars(p, np.concatenate([kurt, crest]), stamp, batch=False)
         fg, eg, group = _peak_hold(f, env, ENVELOPE_BARS)
         dfg = fg[1] - fg[0] if fg.size > 1 else 1.0
         nch = max(len(names), 1)
         for c, ch in enumerate(names):
-            lg._bars(f"/{loc}/envelope/{ch}", eg[c], fg + (c - (nch - 1) / 2) * dfg / nch,
-                     np.full(fg.size, 0.9 * dfg / nch, dtype=np.float32), colors[c])
+            lg.bars(f"/{loc}/envelope/{ch}", eg[c], fg + (c - (nch - 1) / 2) * dfg / nch,
+                    np.full(fg.size, 0.9 * dfg / nch, dtype=np.float32), colors[c])
         top = float(env.max()) if env.size else 0.0
-        lg._log_markers(f"/{loc}/envelope/markers", lines, f_top, top, loc)
-        h = lg._health.setdefault(loc, {})
+        lg.log_markers(f"/{loc}/envelope/markers", lines, f_top, top, loc)
+        h = lg.health.setdefault(loc, {})
         h.update(iso=iso, zone=[condition.iso_zone(v, limits) for v in iso], kurt=kurt, crest=crest,
                  rms=np.sqrt(np.mean(x * x, axis=1, dtype=np.float64)), peak=np.max(np.abs(x), axis=1).astype(np.float64),
                  names=names,
                  band=band, window_s=x.shape[1] / fs, env_df=(f[1] - f[0]) if f.size > 1 else 0.0, env_group=group,
-                 finding=health.envelope_finding(f, env, lines, names, loc, lg._defects,
-                                                 {b: lg._lines_at(speed_rad_s, b) for b in lg._bearing_lines}),
+                 finding=health.envelope_finding(f, env, lines, names, loc, lg.defects,
+                                                 {b: lg.lines_at(speed_rad_s, b) for b in lg.bearing_lines}),
                  speed_hz=speed_rad_s / (2 * math.pi), lines=lines)
-        text = health.health_text(loc, lg._health.get(loc, {}), lg._defects,
-                                  lg._bearing_lines.get(loc, lg._lines), lg.iso_zones, lg.condition_window_s,
-                                  lg._truth, marked=lg._defects_with_lines_of(loc))
+        text = health.health_text(loc, lg.health.get(loc, {}), lg.defects,
+                                  lg.lines_of(loc), lg.iso_zones, lg.condition_window_s,
+                                  lg.truth, marked=lg.defects_with_lines_of(loc))
         lg.rec.log(f"/{loc}/health", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
 
     def _envelope_range(self, lines: dict[str, float], band: tuple[float, float], loc: str) -> float:
@@ -145,7 +145,7 @@ class ConditionPanels:
         cap = (band[1] - band[0]) / 2
         if not lines or not max(lines.values()) > 0:
             return min(500.0, cap)
-        excited = [lines[d.line] for d in self.logger._defects_with_lines_of(loc) if d.line in lines] or \
+        excited = [lines[d.line] for d in self.logger.defects_with_lines_of(loc) if d.line in lines] or \
             [lines.get("BPFO", 0.0)]
         want = max(3.5 * max(excited), 1.15 * max(lines.values()))
         return float(min(cap, 50.0 * math.ceil(want / 50.0)))

@@ -137,6 +137,19 @@ class RerunLogger(RecordingRows):
         turn it on).
 
     Without ``save_path`` and ``connect_url`` the data is kept in memory (tests).
+
+    Attributes
+    ----------
+    defects : list of bkabem_core.analysis.fault_lines.Defect
+        The run's defects, from the last fault-frequency message.
+    truth : bkabem_core.analysis.fault_lines.Truth or None
+        That message's ground truth.
+    bearing_lines : dict
+        ``location -> {line name: frequency [Hz]}`` from that message, at its shaft speed (:meth:`lines_at` scales
+        them to another).
+    health : dict
+        ``location -> facts`` the health panel shows (the last spectrum's, the last condition window's), filled by
+        the spectra here and by :class:`~bkabem_ros.viewer.rerun_condition.ConditionPanels`.
     """
 
     def __init__(self, app_id: str = "bkabem", recording_id: str | None = None, save_path=None,
@@ -187,34 +200,40 @@ class RerunLogger(RecordingRows):
         # the run's fault-frequency lines at the speed `_lines_speed` [rad/s] (the DE bearing's, and each bearing's),
         # and its defects
         self._lines: dict[str, float] = {}
-        self._bearing_lines: dict[str, dict[str, float]] = {}
+        self.bearing_lines: dict[str, dict[str, float]] = {}
         self._lines_speed = 0.0
-        self._defects: list[fault_lines.Defect] = []
-        self._truth: fault_lines.Truth | None = None
+        self.defects: list[fault_lines.Defect] = []
+        self.truth: fault_lines.Truth | None = None
         self._truth_paths: dict[str, fault_lines.Defect] = {}     # ground-truth trend: path -> defect, once seen
         self._truth_keys: dict[tuple, str] = {}                   # (bearing, kind, ball, name) -> its trend path
         self._truth_names: dict[str, str] = {}                    # trend path -> series name
-        self._health: dict[str, dict] = {}
+        self.health: dict[str, dict] = {}
         self._offsets: dict[tuple[int, float], np.ndarray] = {}
         self._condition = ConditionPanels(self)      # the condition window and its panels, per bearing
 
     # ---------------------------------------------------------------- style and the run's lines
     @staticmethod
-    def _color(channel: str, c: int, light: bool = False):
+    def color(channel: str, c: int, light: bool = False):
         table = _LIGHT_COLORS if light else _CHANNEL_COLORS
         return table.get(channel, _FALLBACK_COLORS[c % len(_FALLBACK_COLORS)])
 
-    def _lines_at(self, speed_rad_s: float, loc: str) -> dict[str, float]:
+    def lines_at(self, speed_rad_s: float, loc: str) -> dict[str, float]:
         """The fault-frequency lines of bearing ``loc`` scaled to ``speed_rad_s`` (they are kinematic:
         proportional to the shaft speed), from the last fault-frequency message."""
-        lines = self._bearing_lines.get(loc, self._lines)
+        lines = self.lines_of(loc)
         if not lines or not self._lines_speed > 0:
             return dict(lines)
         r = speed_rad_s / self._lines_speed
         return {k: v * r for k, v in lines.items()}
 
-    def _defects_with_lines_of(self, loc: str) -> list:
-        return fault_lines.defects_with_lines_of(self._defects, self._bearing_lines, loc)
+    def lines_of(self, loc: str) -> dict[str, float]:
+        """The fault-frequency lines of bearing ``loc`` [Hz] as the last fault-frequency message gave them (the DE
+        bearing's where the message names no bearing of its own)."""
+        return self.bearing_lines.get(loc, self._lines)
+
+    def defects_with_lines_of(self, loc: str) -> list:
+        """The run's defects whose lines are marked in bearing ``loc``'s panels."""
+        return fault_lines.defects_with_lines_of(self.defects, self.bearing_lines, loc)
 
     # ---------------------------------------------------------------- waveforms
     def log_waveform(self, msg) -> None:
@@ -229,7 +248,7 @@ class RerunLogger(RecordingRows):
         unit, factor = _display(q, msg.unit)
         stamp = msgs.stamp_to_ns(msg.header)
         names = list(msg.channel_names) or [f"ch{c}" for c in range(a.shape[0])]
-        colors = [self._color(ch, c) for c, ch in enumerate(names)]
+        colors = [self.color(ch, c) for c, ch in enumerate(names)]
         L = loc.upper()
         with self._lock:
             rel = self._rel_ns(stamp)
@@ -240,24 +259,24 @@ class RerunLogger(RecordingRows):
             # (n, channels) float32 in the display unit: the message's own precision
             x = np.ascontiguousarray(a.T) if factor == 1.0 else np.ascontiguousarray(a.T * np.float32(factor))
             path = f"/{loc}/{q}"
-            self._series(path, [f"{L} {ch} [{unit}]" for ch in names], colors, minmax=True)
+            self.series(path, [f"{L} {ch} [{unit}]" for ch in names], colors, minmax=True)
             self._samples(path, rel + offs, x, float(msg.sample_rate))
             hi = a.max(axis=1).astype(np.float64) * factor
             lo = a.min(axis=1).astype(np.float64) * factor
             if q == "displacement":
                 tr = f"/{loc}/trend/{q}"
-                self._series(tr, [f"{ch} peak-to-peak [{unit}]" for ch in names], colors)
-                self._scalars(tr, hi - lo, stamp)
+                self.series(tr, [f"{ch} peak-to-peak [{unit}]" for ch in names], colors)
+                self.scalars(tr, hi - lo, stamp)
             else:                       # the whole-run overview: block min/max and RMS
                 ov = f"/{loc}/overview/{q}"
                 # a channel's max and min share one name: the viewer gives them one legend entry (6 entries did not
                 # fit the row's height, the last ones were cut)
-                self._series(ov, [f"{ch} min/max [{unit}]" for ch in names for _m in ("max", "min")],
-                             [self._color(ch, c, light=True) for c, ch in enumerate(names) for _ in range(2)],
-                             widths=[1.0] * 2 * len(names))
-                self._scalars(ov, np.column_stack([hi, lo]).reshape(-1), stamp)
-                self._series(f"{ov}/rms", [f"{ch} RMS [{unit}]" for ch in names], colors, widths=[2.5] * len(names))
-                self._scalars(f"{ov}/rms", np.sqrt(np.einsum("ij,ij->i", a, a, dtype=np.float64) / n) * factor, stamp)
+                self.series(ov, [f"{ch} min/max [{unit}]" for ch in names for _m in ("max", "min")],
+                            [self.color(ch, c, light=True) for c, ch in enumerate(names) for _ in range(2)],
+                            widths=[1.0] * 2 * len(names))
+                self.scalars(ov, np.column_stack([hi, lo]).reshape(-1), stamp)
+                self.series(f"{ov}/rms", [f"{ch} RMS [{unit}]" for ch in names], colors, widths=[2.5] * len(names))
+                self.scalars(f"{ov}/rms", np.sqrt(np.einsum("ij,ij->i", a, a, dtype=np.float64) / n) * factor, stamp)
             self.samples_logged += a.size
             if self._speed_stream is None:
                 self._speed_stream = (loc, q)
@@ -286,7 +305,7 @@ class RerunLogger(RecordingRows):
         names = list(msg.channel_names) or [f"ch{c}" for c in range(amp.shape[0])]
         nz = k > 0
         bpfo = float(np.median(f[nz] / k[nz])) if np.any(nz) else 0.0
-        lines = self._lines_at(float(msg.shaft_speed), loc) or ({"BPFO": bpfo} if bpfo > 0 else {})
+        lines = self.lines_at(float(msg.shaft_speed), loc) or ({"BPFO": bpfo} if bpfo > 0 else {})
         static = amp[:, ~nz].sum(axis=1) * factor if np.any(~nz) else np.zeros(amp.shape[0])
         fl, al = f[nz], amp[:, nz] * factor
         if al.size:
@@ -295,16 +314,16 @@ class RerunLogger(RecordingRows):
             fl, al = fl[keep], al[:, keep]
         width = _bar_width(fl, bpfo)
         with self._lock:
-            self._at(stamp)
+            self.at(stamp)
             for c, ch in enumerate(names):
                 # every line at its own frequency; the channels' bars nested (each next one narrower), so that
                 # each shows and none is drawn off its line
-                self._bars(f"/{loc}/spectrum/{q}/{ch}", al[c], fl,
-                           np.full(fl.size, width / (1 + c), dtype=np.float32), self._color(ch, c))
+                self.bars(f"/{loc}/spectrum/{q}/{ch}", al[c], fl,
+                          np.full(fl.size, width / (1 + c), dtype=np.float32), self.color(ch, c))
             f_top = float(fl[-1]) + width if fl.size else 0.0
-            self._log_markers(f"/{loc}/spectrum/{q}/markers", lines, f_top, float(al.max()) if al.size else 0.0,
-                              loc)
-            h = self._health.setdefault(loc, {})
+            self.log_markers(f"/{loc}/spectrum/{q}/markers", lines, f_top, float(al.max()) if al.size else 0.0,
+                             loc)
+            h = self.health.setdefault(loc, {})
             h.setdefault("spectra", {})[q] = {
                 "unit": unit, "static": static, "names": names, "bpfo": bpfo,
                 "orders": (int(k[nz].min()), int(k[nz].max())) if np.any(nz) else (0, 0),
@@ -312,12 +331,12 @@ class RerunLogger(RecordingRows):
                 "shaft_hz": float(msg.shaft_speed) / (2 * math.pi)}
         return True
 
-    def _log_markers(self, prefix: str, lines: dict[str, float], f_max: float, top: float, loc: str) -> None:
+    def log_markers(self, prefix: str, lines: dict[str, float], f_max: float, top: float, loc: str) -> None:
         """One bar-chart entity per fault-frequency line of bearing ``loc`` under ``prefix``: bars at the
         marked harmonics up to ``f_max`` [Hz] (the harmonics of the lines the defects of bearings with
         these lines excite), below the zero line (``MARKER_DEPTH`` x ``top`` deep, so they never cover
         the spectrum's lines)."""
-        defects = self._defects_with_lines_of(loc)
+        defects = self.defects_with_lines_of(loc)
         plan = fault_lines.marker_plan(lines, defects, f_max) if f_max > 0 and top > 0 else []
         by_line: dict[str, list[float]] = {}
         for m in plan:
@@ -335,8 +354,8 @@ class RerunLogger(RecordingRows):
             if old is None and not freqs:
                 continue
             self._markers[path] = (freqs, height if freqs else -1.0)
-            self._bars(path, np.full(len(freqs), height), np.asarray(freqs, dtype=np.float64),
-                       np.full(len(freqs), width, dtype=np.float32), fault_lines.LINE_COLORS[name])
+            self.bars(path, np.full(len(freqs), height), np.asarray(freqs, dtype=np.float64),
+                      np.full(len(freqs), width, dtype=np.float32), fault_lines.LINE_COLORS[name])
 
     # ---------------------------------------------------------------- speed, faults, health
     def log_speed(self, stamp_ns: int, speed_rad_s: float, *, source: str = "speed") -> None:
@@ -345,9 +364,9 @@ class RerunLogger(RecordingRows):
         path = "/speed/shaft_hz" if source == "speed" else f"/speed/shaft_hz_{source}"
         label = "shaft speed [Hz]" if source == "speed" else f"shaft speed used by the {source}s [Hz]"
         with self._lock:
-            self._series(path, [label], [_SPEED_COLOR if source == "speed" else _SPEED_WAVEFORM_COLOR],
-                         widths=[2.0 if source == "speed" else 1.0])
-            self._scalars(path, [speed_rad_s / (2 * math.pi)], stamp_ns)
+            self.series(path, [label], [_SPEED_COLOR if source == "speed" else _SPEED_WAVEFORM_COLOR],
+                        widths=[2.0 if source == "speed" else 1.0])
+            self.scalars(path, [speed_rad_s / (2 * math.pi)], stamp_ns)
 
     def log_fault_frequencies(self, msg) -> None:
         """``BearingFaultFrequencies``: the lines (1x, FTF, BPFO, BPFI, BSF, 2xBSF [Hz]) in the
@@ -358,18 +377,18 @@ class RerunLogger(RecordingRows):
         truth = fault_lines.truth_from_message(msg)
         stamp = msgs.stamp_to_ns(msg.header)
         with self._lock:
-            self._series("/fault_frequencies", [f"{name} [Hz]" for name in fault_lines.LINES],
-                         [fault_lines.LINE_COLORS[name] for name in fault_lines.LINES])
-            self._scalars("/fault_frequencies", [lines[name] for name in fault_lines.LINES], stamp, batch=False)
+            self.series("/fault_frequencies", [f"{name} [Hz]" for name in fault_lines.LINES],
+                        [fault_lines.LINE_COLORS[name] for name in fault_lines.LINES])
+            self.scalars("/fault_frequencies", [lines[name] for name in fault_lines.LINES], stamp, batch=False)
             if per.get("nde", lines) != lines:            # another bearing at the NDE: its own lines
-                self._series("/fault_frequencies/nde", [f"NDE {name} [Hz]" for name in fault_lines.LINES],
-                             [fault_lines.LINE_COLORS[name] for name in fault_lines.LINES], widths=[1.0] * 6)
-                self._scalars("/fault_frequencies/nde", [per["nde"][name] for name in fault_lines.LINES], stamp,
-                              batch=False)
+                self.series("/fault_frequencies/nde", [f"NDE {name} [Hz]" for name in fault_lines.LINES],
+                            [fault_lines.LINE_COLORS[name] for name in fault_lines.LINES], widths=[1.0] * 6)
+                self.scalars("/fault_frequencies/nde", [per["nde"][name] for name in fault_lines.LINES], stamp,
+                             batch=False)
             self._lines, self._lines_speed = lines, float(msg.shaft_speed)
-            self._bearing_lines = per
-            self._defects = list(truth.defects)
-            self._truth = truth
+            self.bearing_lines = per
+            self.defects = list(truth.defects)
+            self.truth = truth
             self._log_truth_trend(truth, stamp)
 
     def _log_truth_trend(self, truth: "fault_lines.Truth", stamp: int) -> None:
@@ -385,15 +404,15 @@ class RerunLogger(RecordingRows):
             seen.setdefault(path, d)
         for path, d in seen.items():
             cur = now.get(path)
-            self._series(path, [self._truth_names[path]],
-                         [fault_lines.LINE_COLORS[d.line]], widths=[2.0])
-            self._scalars(path, [cur.depth_m * 1e6 if cur is not None else 0.0], stamp)
+            self.series(path, [self._truth_names[path]],
+                        [fault_lines.LINE_COLORS[d.line]], widths=[2.0])
+            self.scalars(path, [cur.depth_m * 1e6 if cur is not None else 0.0], stamp)
         for loc in ("de", "nde"):           # a bearing without a defect (yet): a 0 line says so, not an empty plot
             if any(path.startswith(f"/{loc}/trend/ground_truth/") for path in seen):
                 continue
             path = f"/{loc}/trend/ground_truth/no_defect"
-            self._series(path, ["no defect in this bearing [µm]"], [NO_DEFECT_COLOR], widths=[2.0])
-            self._scalars(path, [0.0], stamp)
+            self.series(path, ["no defect in this bearing [µm]"], [NO_DEFECT_COLOR], widths=[2.0])
+            self.scalars(path, [0.0], stamp)
 
     def _truth_path(self, d: "fault_lines.Defect") -> str:
         """The ground-truth trend entity of a defect, fixed for the run at its first sight: named by bearing and place
@@ -421,8 +440,8 @@ class RerunLogger(RecordingRows):
         with self._lock:
             for name, value in features.items():
                 path = f"/{location}/features/{name}"
-                self._series(path, [f"{location.upper()} {name}"], [_FALLBACK_COLORS[0]])
-                self._scalars(path, [float(value)], stamp_ns, batch=False)
+                self.series(path, [f"{location.upper()} {name}"], [_FALLBACK_COLORS[0]])
+                self.scalars(path, [float(value)], stamp_ns, batch=False)
 
     def log_message(self, topic: str, type_name, msg, stamp_ns: int | None = None) -> bool:
         """Dispatch by type: waveform, spectrum, fault frequencies; ``std_msgs/Float64`` on a

@@ -43,7 +43,7 @@ class RecordingRows:
     """
 
     def __init__(self, rec, rr):
-        self._rr = rr
+        self.rr = rr
         self.rec = rec
         self.t0_ns: int | None = None
         self._static_done: set[str] = set()
@@ -57,10 +57,10 @@ class RecordingRows:
             self.t0_ns = int(stamp_ns)
         return int(stamp_ns) - self.t0_ns
 
-    def _at(self, stamp_ns: int) -> None:
+    def at(self, stamp_ns: int) -> None:
         self.rec.set_time(TIMELINE, duration=np.timedelta64(self._rel_ns(stamp_ns), "ns"))
 
-    def _series(self, path: str, names, colors, *, minmax: bool = False, widths=None) -> None:
+    def series(self, path: str, names, colors, *, minmax: bool = False, widths=None) -> None:
         """Static series style of ``path``: one name and colour per scalar of its rows."""
         if path in self._static_done:
             return
@@ -69,17 +69,17 @@ class RecordingRows:
             kwargs["aggregation_policy"] = "minmax"
         if widths is not None:
             kwargs["widths"] = list(widths)
-        self.rec.log(path, self._rr.SeriesLines(**kwargs), static=True)
+        self.rec.log(path, self.rr.SeriesLines(**kwargs), static=True)
         self._static_done.add(path)
 
-    def _scalars(self, path: str, values, stamp_ns: int, *, batch: bool = True) -> None:
+    def scalars(self, path: str, values, stamp_ns: int, *, batch: bool = True) -> None:
         """One row of scalars at ``stamp_ns``. With ``batch`` (streams of 10-50 rows per second:
         block trends, speed) rows are collected per entity and sent as one column chunk per
         ``SCALAR_BATCH_S`` of sample time (one ``rr.log`` per row costs ~0.1 ms; the viewer sees
         those trends that much later); rare rows are logged at once."""
         if not batch:
-            self._at(stamp_ns)
-            self.rec.log(path, self._rr.Scalars(np.asarray(values, dtype=np.float64)))
+            self.at(stamp_ns)
+            self.rec.log(path, self.rr.Scalars(np.asarray(values, dtype=np.float64)))
             return
         rel = self._rel_ns(stamp_ns)
         buf = self._rows.get(path)
@@ -94,7 +94,7 @@ class RecordingRows:
         times, rows = self._rows.pop(path, ([], []))
         if not times:
             return
-        rr = self._rr
+        rr = self.rr
         self.rec.send_columns(path, indexes=[rr.TimeColumn(TIMELINE, duration=np.asarray(times, dtype="timedelta64[ns]"))],
                               columns=rr.Scalars.columns(scalars=np.vstack(rows)))
 
@@ -120,7 +120,7 @@ class RecordingRows:
             return
         import pyarrow as pa  # noqa: PLC0415  (comes with rerun-sdk)
 
-        rr = self._rr
+        rr = self.rr
         t = np.concatenate(buf["t"]) if len(buf["t"]) > 1 else buf["t"][0]
         x = np.concatenate(buf["x"]) if len(buf["x"]) > 1 else buf["x"][0]
         # float32, the message's own precision, in a component of our own (Rerun's Scalars are
@@ -140,11 +140,11 @@ class RecordingRows:
             for path in list(self._rows):
                 self._send_rows(path)
 
-    def _bars(self, path: str, values, abscissa, widths, color) -> None:
+    def bars(self, path: str, values, abscissa, widths, color) -> None:
         """Log a bar chart at the current time: nothing if it is the one logged last, and
         abscissa, widths and colour only when they changed (latest-at keeps them; converting
         each costs ~0.3-0.5 ms)."""
-        rr = self._rr
+        rr = self.rr
         abscissa = np.asarray(abscissa, dtype=np.float64)
         widths = np.asarray(widths, dtype=np.float32)
         values = np.asarray(values, dtype=np.float64)
