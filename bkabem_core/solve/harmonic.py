@@ -285,6 +285,12 @@ class BkaBem:
         bearing).
     bpfo_per_hz : float
         The DE bearing's BPFO per shaft Hz: the unit of ``orders``.
+    speed_locked_index : ndarray of int
+        The lines whose frequency is proportional to the shaft speed (``lines.speed_locked``): their response is
+        the line modes' pole-residue sum.
+    fixed_frequency_index : ndarray of int
+        The other lines (the supply's: a fixed part in Hz), each solved at its own frequency
+        (:meth:`fixed_frequency_lines`).
     preparation_time_s : dict
         Wall time of each preparation stage [s].
     """
@@ -370,8 +376,8 @@ class BkaBem:
             f0[j] = kb * self.bearing_lines[b].dc[DIRECTIONS.index(d)]
         self._speed_power = everything.speed_power.astype(float)
         self._locked = everything.speed_locked
-        self._locked_idx = np.flatnonzero(self._locked)
-        self._fixed_idx = np.flatnonzero(~self._locked)
+        self.speed_locked_index = np.flatnonzero(self._locked)
+        self.fixed_frequency_index = np.flatnonzero(~self._locked)
         # DC (static) response at the outputs
         self._dc = np.linalg.solve(self.rotor.K, p @ f0)[self._out_dofs]
         t3 = time.perf_counter()
@@ -388,7 +394,7 @@ class BkaBem:
             if reuse and like._basis is not None and like.input_names == self.input_names:
                 self._basis = like._basis
                 if like._line_modes is not None:            # the speed-locked lines only, as line_modes makes them
-                    locked = self.multipliers[self._locked_idx]
+                    locked = self.multipliers[self.speed_locked_index]
                     pos = {float(v): i for i, v in enumerate(like._line_modes.multipliers)}
                     rows = [pos.get(float(v)) for v in locked]
                     if all(r is not None for r in rows):
@@ -501,8 +507,8 @@ class BkaBem:
     def line_modes(self) -> LineModes:
         """The reduced model diagonalised along every speed-locked line (made on first use; ~1 s for 50)."""
         if self._line_modes is None:
-            check_line_modes(self.case, self._locked_idx.size, self.basis.size)
-            self._line_modes = LineModes(self.basis, self.multipliers[self._locked_idx])
+            check_line_modes(self.case, self.speed_locked_index.size, self.basis.size)
+            self._line_modes = LineModes(self.basis, self.multipliers[self.speed_locked_index])
         return self._line_modes
 
     def response(self, speeds_hz) -> np.ndarray:
@@ -516,10 +522,10 @@ class BkaBem:
         form = self.order_modal_form()
         out = np.empty((n_s, n_k, len(LOCATIONS) * len(DIRECTIONS)), complex)
         for i, f in enumerate(speeds_hz):
-            if self._locked_idx.size:
-                out[i, self._locked_idx] = form(f)
-            if self._fixed_idx.size:
-                out[i, self._fixed_idx] = self._fixed_lines(f)
+            if self.speed_locked_index.size:
+                out[i, self.speed_locked_index] = form(f)
+            if self.fixed_frequency_index.size:
+                out[i, self.fixed_frequency_index] = self.fixed_frequency_lines(f)
         self._apply_speed_power(out, speeds_hz)
         return out.reshape(n_s, n_k, len(LOCATIONS), len(DIRECTIONS))
 
@@ -529,10 +535,10 @@ class BkaBem:
             fac = np.power.outer(np.asarray(speeds_hz, dtype=float), self._speed_power)
             out *= fac.reshape(fac.shape + (1,) * (out.ndim - 2))
 
-    def _fixed_lines(self, speed_hz: float) -> np.ndarray:
+    def fixed_frequency_lines(self, speed_hz: float) -> np.ndarray:
         """The lines whose frequency does not follow the speed (the electrical line), (K_fixed, 8) [m]: one dense
         solve of the reduced model each (the gyroscopic term changes with speed, so they have no fixed pencil)."""
-        idx = self._fixed_idx
+        idx = self.fixed_frequency_index
         w = TWO_PI * (self.lines.multipliers[idx] * speed_hz + self.lines.fixed_hz[idx])
         big = np.full(idx.size, TWO_PI * speed_hz)
         f = self._force_a[idx] + 1j * w[:, None] * self._force_b[idx]
@@ -595,7 +601,7 @@ class BkaBem:
         key = _combination_key(combination)
         form = self._modal_forms.get(key)
         if form is None:
-            li = self._locked_idx
+            li = self.speed_locked_index
             form = self._modal_forms[key] = OrderModalForm(self.line_modes, self._force_a[li], self._force_b[li],
                                                            combination, orders=self.orders[li])
         return form

@@ -253,7 +253,7 @@ class _LatticeHill:
         rows = np.flatnonzero(lines.speed_locked & (np.abs(amp).max(axis=1) > 0.0))   # the bearing lines
         self._rows = rows                                                # model line indices
         self._base_rows = np.flatnonzero(np.abs(model._force_a[rows, 4:]).max(axis=1, initial=0.0) > 0.0)
-        pos = {int(j): i for i, j in enumerate(model._locked_idx)}
+        pos = {int(j): i for i, j in enumerate(model.speed_locked_index)}
         self._modes_rows = np.array([pos[int(j)] for j in rows], dtype=int)
         c = lines.coefficients[rows]
         n_k = rows.size
@@ -371,7 +371,7 @@ class _LatticeHill:
         if self._base_rows.size:                         # a baseline force on a bearing line (e.g. 2x misalignment)
             j = self._base_rows
             h_all = m.line_modes.receptance(f, self._modes_rows[j])                           # (J, 8, P)
-            fb = m._force_a[self._rows[j], 4:] * f ** m._speed_power[self._rows[j], None]
+            fb = m._force_a[self._rows[j], 4:] * f ** m.lines.speed_power[self._rows[j], None]
             disp[self._rows[j]] += np.einsum("kup,kp->ku", h_all[:, :, 4:], fb)
         dc = (h[2 * n_k] @ (phi1[2 * n_k] + self._kb * self._u_s)).real.reshape(4, 2)
         return Spectrum(speed_hz=f, orders=m.orders.copy(), frequency_hz=m.frequency_hz(f),

@@ -406,8 +406,8 @@ class LineSpectrum:
         self._cells = None
         #: why the speed cells were refused (their check's error), or None
         self.failed: str | None = None
-        self._speed_scaled = bool(np.any(model._speed_power != 0.0))
-        li, fi = model._locked_idx, model._fixed_idx
+        self._speed_scaled = bool(np.any(model.lines.speed_power != 0.0))
+        li, fi = model.speed_locked_index, model.fixed_frequency_index
         #: the cells hold every line, in order (then their array is the spectrum itself)
         self._cells_are_all = not fi.size and li.size == len(model.lines) and (li.size == 0 or li[-1] == li.size - 1)
 
@@ -438,7 +438,7 @@ class LineSpectrum:
         m = self.model
         exact = self.exact(f)
         mine = np.array(exact, copy=True)
-        mine[m._locked_idx] = cells(f) * (f ** m._speed_power[m._locked_idx])[:, None]
+        mine[m.speed_locked_index] = cells(f) * (f ** m.lines.speed_power[m.speed_locked_index])[:, None]
         return float(np.max(np.abs(mine - exact).max(axis=0) / np.maximum(np.abs(exact).max(axis=0), 1e-300)))
 
     def raw(self, speed_hz: float):
@@ -454,10 +454,10 @@ class LineSpectrum:
             x = cells(f)
         else:
             x = np.empty((len(m.lines), self.combination.shape[0]), complex)
-            x[m._locked_idx] = cells(f)
-            if m._fixed_idx.size:
-                x[m._fixed_idx] = m._fixed_lines(f) @ self.combination.T
-        return x, (f ** m._speed_power if self._speed_scaled else None)
+            x[m.speed_locked_index] = cells(f)
+            if m.fixed_frequency_index.size:
+                x[m.fixed_frequency_index] = m.fixed_frequency_lines(f) @ self.combination.T
+        return x, (f ** m.lines.speed_power if self._speed_scaled else None)
 
     def __call__(self, speed_hz: float) -> np.ndarray:
         """(L, U) combinations [m] of every line of the model at ``speed_hz`` [Hz], speed powers applied."""

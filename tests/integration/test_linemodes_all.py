@@ -16,7 +16,7 @@ def test_line_modes_of_every_inner_race_line_match_the_complex_decomposition():
     """All 893 lines of the inner-race machine (multipliers 1-931), receptances within TOL at every speed up to
     the maximum."""
     m = BkaBem(Case.load("motor_6010_inner"), solver="block")
-    nu = m.multipliers[m._locked_idx]
+    nu = m.multipliers[m.speed_locked_index]
     fast = LineModes(m.basis, nu)
     assert fast.stats["method"] == "real+anchors" and fast.stats["refined"] > 0.6 * nu.size
     ref = LineModes(m.basis, nu, method="complex")
@@ -28,7 +28,7 @@ def test_line_modes_of_the_inner_race_lines_match_the_complex_decomposition(faul
     the complex state matrix of each line, receptances within TOL at every speed up to the maximum, on the refined
     lines farthest from their anchors and every tenth line (all lines of a fresh model: the test above)."""
     m = fault_library["inner"]
-    nu = m.multipliers[m._locked_idx]
+    nu = m.multipliers[m.speed_locked_index]
     fast = LineModes(m.basis, nu)              # afresh: the library model's own was extended from another's
     assert fast.stats["method"] == "real+anchors"
     assert fast.stats["refined"] > 0.6 * nu.size                 # the refinement is what is being tested
@@ -41,7 +41,7 @@ def test_line_modes_of_the_ball_lines_match_the_complex_decomposition(fault_libr
     """The ball machine's 1813 lines (FTF-spaced sidebands: groups of up to 60 lines per anchor): the refined
     lines farthest from their anchors and every tenth line, within TOL."""
     m = fault_library["ball"]
-    nu = m.multipliers[m._locked_idx]
+    nu = m.multipliers[m.speed_locked_index]
     fast = LineModes(m.basis, nu)
     pick = hardest_lines(nu)
     ref = LineModes(m.basis, nu[pick], method="complex")

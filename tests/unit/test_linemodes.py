@@ -36,7 +36,7 @@ def test_a_refinement_too_far_from_its_anchor_falls_back_to_the_exact_decomposit
     """Groups 20 times too wide: some lines do not converge from their anchor; they are decomposed exactly and
     become the next anchors, and every line is still right."""
     m = fault_library["inner"]
-    nu = np.sort(m.multipliers[m._locked_idx])[::12]
+    nu = np.sort(m.multipliers[m.speed_locked_index])[::12]
     fast = LineModes(m.basis, nu, group_width=1.0, group_width_abs=0.04, max_sweeps=6)
     assert fast.stats["fallbacks"] > 0 and fast.stats["refined"] > 0
     ref = LineModes(m.basis, nu, method="complex")
