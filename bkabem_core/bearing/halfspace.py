@@ -25,7 +25,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import fft
 
 __all__ = ["HalfSpaceGrid", "ContactSolution", "ContactDomainError", "combined_modulus_pa"]
 
@@ -90,6 +89,9 @@ class HalfSpaceGrid:
         self.dx_m, self.dy_m = float(dx_m), float(dy_m)
         self.cell_area_m2 = self.dx_m * self.dy_m
         self._shape = (2 * self.nx, 2 * self.ny)
+        # here, not at import: only a round pit's contact needs it
+        from scipy import fft
+
         self._kernel_hat = fft.rfft2(self._influence(combined_modulus_pa))
 
     def _influence(self, e_star: float) -> np.ndarray:
@@ -107,6 +109,8 @@ class HalfSpaceGrid:
 
     def displacement_m(self, pressure_pa: np.ndarray) -> np.ndarray:
         """Combined elastic displacement of the two surfaces [m] at the cell centres under ``pressure_pa``."""
+        from scipy import fft
+
         u = fft.irfft2(fft.rfft2(pressure_pa, self._shape) * self._kernel_hat, self._shape)
         return u[:self.nx, :self.ny]
 

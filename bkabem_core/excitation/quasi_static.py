@@ -34,7 +34,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import odeint
 
 from bkabem_core.bearing.deep_groove import TWO_PI, Bearing
 from bkabem_core.bearing.defects.registry import kind as defect_kind
@@ -681,7 +680,10 @@ class FourDofModel:
         y0, _ = self.static_state()
         atol = np.r_[np.full(4, p.atol_m), np.full(4, p.atol_m * 1e3)]
         # LSODA through odeint: the same integrator as solve_ivp(method="LSODA"), but its Fortran driver steps
-        # without a Python round trip per step (about 2x faster here); output by its own interpolation.
+        # without a Python round trip per step (about 2x faster here); output by its own interpolation. Imported
+        # here: only the paper's 4-DOF model integrates, and scipy.integrate is slow to import.
+        from scipy.integrate import odeint
+
         y, info = odeint(self.rhs, y0, np.r_[0.0, t_eval], Dfun=self.jacobian, tfirst=True, rtol=p.rtol,
                          atol=atol, hmax=self.max_step_s(), mxstep=10_000_000, full_output=True)
         if info["message"] != "Integration successful.":

@@ -2,6 +2,7 @@
 
 - ``bkabem_core`` imports nothing above itself (no bkabem_ros, rclpy, mcap, rerun);
 - the core commands never import rclpy (checked in a real ``bkabem`` process through ``sys.modules``);
+- a command imports the slow parts of scipy (interpolate, optimize, integrate) only where it uses them;
 - the error contract: bad input one line + exit 2, an unexpected exception one line with the ``--debug``
   hint + exit 1, ``--debug`` (before or after the command name) shows the traceback.
 """
@@ -66,6 +67,37 @@ def test_core_commands_never_import_rclpy(args, tmp_path):
     heavy = [ln for ln in p.stderr.splitlines() if ln.startswith("HEAVY")]
     assert heavy == ["HEAVY "], (p.returncode, p.stderr[-2000:])
     assert p.returncode in (0, 2)
+
+
+_SLOW_SCIPY = ("scipy.interpolate", "scipy.integrate", "scipy.optimize")
+_PROBE_SCIPY = _PROBE.replace("{'rclpy', 'rerun', 'mcap', 'bkabem_msgs', 'std_msgs', 'rosbags'}",
+                              "set(" + repr(_SLOW_SCIPY) + ")").replace("m.split('.')[0] for m", "m for m")
+
+_ROUND_PIT = ('[[defects]]\nbearing = "de"\nrace = "outer"\nshape = "round_pit"\nlength_m = 0.000533\n'
+              'depth_m = 0.000279\nedge = "ball"\nedge_fraction = 0.1\nclock = 6\n\n[case]')
+
+
+@pytest.mark.parametrize("args, wanted", [
+    (["replay", str(REPO / "recordings" / "example_runup.mcap"), "--info"], []),
+    (["spectrum", "--speed-hz", "20", "--json"], []),
+    (["spectrum", "--speed-hz", "20", "--json", "--case", "{tmp}/pit.toml"], ["scipy.interpolate"]),
+], ids=["replay --info", "spectrum", "spectrum of a round pit"])
+def test_commands_import_the_slow_parts_of_scipy_only_where_they_use_them(args, wanted, tmp_path):
+    """scipy.interpolate (which brings scipy.optimize) and scipy.integrate take about half a second of a process's
+    start: only a round pit's contact (its profile table) and the 4-DOF model's integration use them, so a command
+    that does neither does not import them. The round pit's case shows that the probe can tell."""
+    from case_files import embedded_text
+
+    (tmp_path / "pit.toml").write_text(embedded_text("cwru_rig").replace("defects = []", "", 1)
+                                       .replace("[case]", _ROUND_PIT, 1))
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    p = subprocess.run([sys.executable, "-c", _PROBE_SCIPY, *argv], capture_output=True, text=True, timeout=300,
+                       cwd=tmp_path)
+    loaded = [ln for ln in p.stderr.splitlines() if ln.startswith("HEAVY")]
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert len(loaded) == 1 and [m for m in wanted if m not in loaded[0]] == [], loaded
+    if not wanted:
+        assert loaded == ["HEAVY "], loaded
 
 
 def test_ros_command_module_imports_rclpy_only_when_it_runs():

@@ -54,8 +54,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import fft
-from scipy.interpolate import PchipInterpolator
 
 from bkabem_core.bearing.defects.profiles import ContactGeometry
 from bkabem_core.bearing.halfspace import ContactDomainError, HalfSpaceGrid, combined_modulus_pa
@@ -257,6 +255,9 @@ def _reach_m(pit: PitContact, arcs_m: np.ndarray, margin_m: float) -> tuple[floa
 def _solve_profile(pit: PitContact, dx: float, dy: float, half_x: float, half_y: float, steps: np.ndarray):
     """The half-space profile on a grid of these half-widths [m], the ball's contact at ``steps`` cells from the
     pit's centre."""
+    # here, not at import: most runs never solve a pit, and every process starts faster without it
+    from scipy import fft
+
     rho = pit.radius_m
     half_y = min(half_y, 0.95 * pit.ball_radius_m)
     nx, ny = 2 * math.ceil(half_x / dx), 2 * math.ceil(half_y / dy)
@@ -285,6 +286,9 @@ def _solve_profile(pit: PitContact, dx: float, dy: float, half_x: float, half_y:
 def _tabulate(support_m: float, arc_m: np.ndarray, drop_m: np.ndarray) -> PitProfile:
     """A monotone table (PCHIP through the drops at the arcs, the last one at the support) of 513 points over
     [0, support]."""
+    # here, not at import (scipy.interpolate pulls in scipy.optimize)
+    from scipy.interpolate import PchipInterpolator
+
     s = np.asarray(arc_m, dtype=float)
     h = np.asarray(drop_m, dtype=float)
     if s[-1] < support_m:
