@@ -38,6 +38,8 @@ class RecordingRows:
     Attributes
     ----------
     rec : rerun.RecordingStream
+    rr : module
+        The ``rerun`` module, for the archetypes a caller logs itself.
     t0_ns : int or None
         The first stamp seen [ns]: time 0 of the timeline.
     """
@@ -58,6 +60,8 @@ class RecordingRows:
         return int(stamp_ns) - self.t0_ns
 
     def at(self, stamp_ns: int) -> None:
+        """Set the recording's time to ``stamp_ns`` [ns] (on the timeline: since :attr:`t0_ns`) for what is logged
+        next."""
         self.rec.set_time(TIMELINE, duration=np.timedelta64(self._rel_ns(stamp_ns), "ns"))
 
     def series(self, path: str, names, colors, *, minmax: bool = False, widths=None) -> None:
