@@ -66,7 +66,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "depth_m": ("float", _NONNEG),
         "angle_deg": ("float", ("range", -360.0, 360.0)),
         "edge": ("str", ("in", set(EDGE_PROFILES))),
-        "edge_fraction": ("float", ("range", 0.0, 1.0)),
+        "edge_fraction": ("float", ("range", 0.0, 1.0)),    # optional: edge = "cubic" only
         **{k.name: k.schema for k in own_keys()},           # the keys only some kinds have (a ball defect's ball)
         "shape": ("str", ("in", set(SHAPES))), "clock": ("int", ("range", 1, 12)),  # optional (docs/faults.md 3a)
     },
@@ -151,7 +151,9 @@ _OPTIONAL = {"baseline": BASELINE_OPTIONAL, "bearings.*": OPTIONAL + ("applied_r
              "operating": LOAD_KEYS, "measurement": tuple(SCHEMA["measurement"])}
 #: keys of a [[defects]] table that only some kinds have: key -> the kinds that need it; keys any table may leave out
 _KIND_KEYS = {key.name: tuple(k.name for k in kinds_with(key.name)) for key in own_keys()}
-_DEFECT_OPTIONAL = ("shape", "clock")        # a slot, as before; angle_deg instead of the clock
+#: keys any [[defects]] table may leave out: a slot, as before; angle_deg instead of the clock; edge_fraction, which
+#: only edge = "cubic" uses (as a scenario's defect, default :attr:`Dent.edge_fraction`)
+_DEFECT_OPTIONAL = ("shape", "clock", "edge_fraction")
 BEARING_NAMES = BEARINGS
 
 
@@ -603,7 +605,7 @@ class Case:
                 continue
             k = kind(d["race"])
             out.append(Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]), shape=d.get("shape", SHAPES[0]),
-                            angle_rad=math.radians(k.table_angle_deg(d)), edge_fraction=float(d["edge_fraction"]),
+                            angle_rad=math.radians(k.table_angle_deg(d)), edge_fraction=float(d.get("edge_fraction", Dent.edge_fraction)),
                             bearing=d["bearing"], race=d["race"], edge=d["edge"], **k.dent_fields(d)))
         return out
 

@@ -83,6 +83,31 @@ def test_bad_case_values_name_the_key(tmp_path, text_fn, key, reason):
     assert "\n" not in str(info.value)
 
 
+def test_edge_fraction_may_be_left_out_and_a_bad_one_is_named(tmp_path):
+    """``edge_fraction`` sets the width of a ``"cubic"`` edge only: a [[defects]] table may leave it out (0.1, as a
+    scenario's defect does), and then has the lines of a table that gives 0.1; a value out of range is refused with
+    its key."""
+    p = tmp_path / "no_edge_fraction.toml"
+    p.write_text(_sub(r"^edge_fraction = .*\n", ""))
+    assert Case.load(p).dent().edge_fraction == 0.1
+    for edge in ("ball", "cubic"):
+        given, left_out = (Case.from_toml(_sub(r'^edge = "ball"', f'edge = "{edge}"').replace(
+            "edge_fraction = 0.1 ", cut, 1), "c.toml") for cut in ("edge_fraction = 0.1 ", "#"))
+        wider = Case.from_toml(_sub(r'^edge = "ball"', f'edge = "{edge}"').replace("edge_fraction = 0.1 ",
+                                                                                   "edge_fraction = 0.5 ", 1), "c.toml")
+        assert "edge_fraction" not in left_out.raw["defects"][0] and left_out.dent().edge_fraction == 0.1
+        assert left_out.dent().edge == edge
+        beta = np.linspace(-np.pi, np.pi, 20001)[:, None]                 # ~200 points over the 2 mm dent
+        zero = np.zeros_like(beta)
+        drop = [c.bearing("de").defect_set.drop_m(beta, zero, zero) for c in (given, left_out, wider)]
+        assert drop[0].max() > 0 and np.array_equal(drop[0], drop[1])
+        assert np.array_equal(drop[0], drop[2]) == (edge == "ball")     # a wider edge shows on a "cubic" one
+    p.write_text(_sub(r"^edge_fraction = 0.1", "edge_fraction = 2.0"))
+    with pytest.raises(CaseError) as info:
+        Case.load(p)
+    assert info.value.key == "defects[0].edge_fraction" and "\n" not in str(info.value)
+
+
 def test_unknown_embedded_case_and_missing_file():
     with pytest.raises(CaseError, match="no embedded case"):
         Case.load("no_such_machine")
