@@ -74,7 +74,7 @@ _PROBE_SCIPY = _PROBE.replace("{'rclpy', 'rerun', 'mcap', 'bkabem_msgs', 'std_ms
                               "set(" + repr(_SLOW_SCIPY) + ")").replace("m.split('.')[0] for m", "m for m")
 
 _ROUND_PIT = ('[[defects]]\nbearing = "de"\nrace = "outer"\nshape = "round_pit"\nlength_m = 0.000533\n'
-              'depth_m = 0.000279\nedge = "ball"\nedge_fraction = 0.1\nclock = 6\n\n[case]')
+              'depth_m = 0.000279\nedge = "ball"\nclock = 6\n\n[case]')      # the keys docs/rigs.md lists
 
 
 @pytest.mark.parametrize("args, wanted", [
