@@ -92,6 +92,7 @@ class HalfSpaceGrid:
         # here, not at import: only a round pit's contact needs it
         from scipy import fft
 
+        self._fft = fft
         self._kernel_hat = fft.rfft2(self._influence(combined_modulus_pa))
 
     def _influence(self, e_star: float) -> np.ndarray:
@@ -109,8 +110,7 @@ class HalfSpaceGrid:
 
     def displacement_m(self, pressure_pa: np.ndarray) -> np.ndarray:
         """Combined elastic displacement of the two surfaces [m] at the cell centres under ``pressure_pa``."""
-        from scipy import fft
-
+        fft = self._fft
         u = fft.irfft2(fft.rfft2(pressure_pa, self._shape) * self._kernel_hat, self._shape)
         return u[:self.nx, :self.ny]
 

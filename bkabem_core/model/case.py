@@ -605,7 +605,8 @@ class Case:
                 continue
             k = kind(d["race"])
             out.append(Dent(length_m=float(d["length_m"]), depth_m=float(d["depth_m"]), shape=d.get("shape", SHAPES[0]),
-                            angle_rad=math.radians(k.table_angle_deg(d)), edge_fraction=float(d.get("edge_fraction", Dent.edge_fraction)),
+                            angle_rad=math.radians(k.table_angle_deg(d)),
+                            edge_fraction=float(d.get("edge_fraction", Dent.edge_fraction)),
                             bearing=d["bearing"], race=d["race"], edge=d["edge"], **k.dent_fields(d)))
         return out
 

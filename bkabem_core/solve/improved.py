@@ -546,10 +546,10 @@ def _turning_terms(sites, n_fast: int, n_shaft: int = 32):
             continue
         b = s.bearing
         z = b.geometry.n_balls
-        races = Bearing(b.geometry)
+        sound = Bearing(b.geometry)                      # its defects' shaft orders are excitation lines
         cage, shaft = np.meshgrid(TWO_PI / z * np.arange(n_fast) / n_fast, TWO_PI * np.arange(n_shaft) / n_shaft,
                                   indexing="ij")
-        path, _, _ = quasi_static_path_m(races, s.radial_load_n, s.axial_load_n, cage, shaft_angles_rad=shaft,
+        path, _, _ = quasi_static_path_m(sound, s.radial_load_n, s.axial_load_n, cage, shaft_angles_rad=shaft,
                                          turning_load_n=r)
         harmonics = np.fft.fft(path.mean(axis=0), axis=0) / n_shaft                     # (n_shaft, 2: x, y)
         shift[:, 2 * bi:2 * bi + 2] = harmonics[1:n_shaft // 2]
