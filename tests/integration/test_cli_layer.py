@@ -40,15 +40,21 @@ def test_core_imports_nothing_above_itself():
     assert not (REPO / "bkabem_core" / "cli.py").exists()
 
 
-_PROBE = ("import sys\n"
-          "from bkabem_ros.cli.main import main\n"
-          "try:\n"
-          "    rc = main(sys.argv[1:])\n"
-          "finally:\n"
-          "    heavy = sorted({m.split('.')[0] for m in sys.modules} & {'rclpy', 'rerun', 'mcap', 'bkabem_msgs',"
-          " 'std_msgs', 'rosbags'})\n"
-          "    sys.stderr.write('HEAVY ' + ','.join(heavy) + '\\n')\n"
-          "sys.exit(rc)\n")
+def _probe(watched: tuple[str, ...], packages: bool) -> str:
+    """A ``python -c`` program: ``bkabem ARGS`` in it, then ``HEAVY`` and those of ``watched`` it has imported (as
+    top-level packages, or as the modules named) on a line of stderr."""
+    name = "m.split('.')[0]" if packages else "m"
+    return ("import sys\n"
+            "from bkabem_ros.cli.main import main\n"
+            "try:\n"
+            "    rc = main(sys.argv[1:])\n"
+            "finally:\n"
+            f"    heavy = sorted({{{name} for m in sys.modules}} & {set(watched)!r})\n"
+            "    sys.stderr.write('HEAVY ' + ','.join(heavy) + '\\n')\n"
+            "sys.exit(rc)\n")
+
+
+_PROBE = _probe(("rclpy", "rerun", "mcap", "bkabem_msgs", "std_msgs", "rosbags"), packages=True)
 
 
 @pytest.mark.parametrize("args", [
@@ -70,8 +76,7 @@ def test_core_commands_never_import_rclpy(args, tmp_path):
 
 
 _SLOW_SCIPY = ("scipy.interpolate", "scipy.integrate", "scipy.optimize")
-_PROBE_SCIPY = _PROBE.replace("{'rclpy', 'rerun', 'mcap', 'bkabem_msgs', 'std_msgs', 'rosbags'}",
-                              "set(" + repr(_SLOW_SCIPY) + ")").replace("m.split('.')[0] for m", "m for m")
+_PROBE_SCIPY = _probe(_SLOW_SCIPY, packages=False)
 
 _ROUND_PIT = ('[[defects]]\nbearing = "de"\nrace = "outer"\nshape = "round_pit"\nlength_m = 0.000533\n'
               'depth_m = 0.000279\nedge = "ball"\nclock = 6\n\n[case]')      # the keys docs/rigs.md lists
