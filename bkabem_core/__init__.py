@@ -16,6 +16,8 @@ The packages follow the pipeline, each standing on the ones before it::
     kernels     the C kernels of the solvers and the synthesiser
     embedded    the cases, scenarios and data-set specs shipped with bkabem
 
+(``PIPELINE``: the packages from ``bearing`` to ``analysis`` in that order.)
+
 The names most users need::
 
     Case            -- a validated machine case (model)
@@ -33,7 +35,12 @@ bkabem_core is plain numpy/scipy (with small C kernels built at install time); i
 
 from bkabem_core._face import lazy_face
 
-__all__ = ["Case", "Machine", "BkaBem", "HillCorrection", "Synthesizer", "Scenario", "ScenarioRun", "DatasetSpec", "render_dataset"]
+#: The packages in the pipeline's order: each imports only the ones before it (``kernels`` serves ``synth``;
+#: ``embedded`` is data every package may read).
+PIPELINE = ("bearing", "model", "excitation", "fe", "solve", "reference", "synth", "scenario", "dataset", "analysis")
+
+__all__ = ["PIPELINE", "Case", "Machine", "BkaBem", "HillCorrection", "Synthesizer", "Scenario", "ScenarioRun",
+           "DatasetSpec", "render_dataset"]
 
 __getattr__, __dir__ = lazy_face(__name__, {
     "Case": "model.case",

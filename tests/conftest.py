@@ -10,9 +10,12 @@ import hashlib
 import os
 import pickle
 import signal
+import weakref
 from pathlib import Path
 
 import pytest
+
+from bkabem_core import PIPELINE
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -60,23 +63,69 @@ def four_dof_excitation(machine):
 #: from (:func:`_library_key`)
 LIBRARY_CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache"
 
+#: What a cached object's content can come from, for an object whose maker is not known: all of bkabem_core
+WHOLE_LIBRARY = PIPELINE[-1]
+
 
 @functools.cache
-def _library_key() -> str:
-    """The fault library's cache key: a hash of every file of ``bkabem_core`` its models could depend on (the code,
-    the embedded cases and bearings, the kernels' sources and built modules) and of the Python, numpy and scipy
-    versions. Any change to one of them makes a new library; nothing else can change it."""
+def _library_key(floor: str) -> str:
+    """The cache key of an object made by the code of ``bkabem_core`` up to the package ``floor`` of the pipeline
+    (``bkabem_core.PIPELINE``; a package imports only the ones before it, tests/unit/test_layout.py holds that): a
+    hash of every file of those packages, of what any package may read (the embedded cases and bearings, the
+    kernels' sources and built modules, the top-level modules) and of the Python, numpy and scipy versions. A
+    change to one of them makes new objects; a change above ``floor`` (a synthesiser's, a data set's) cannot
+    change what the code below it makes, and keeps them."""
     import sys
 
     import numpy
     import scipy
 
     root = Path(__file__).resolve().parents[1] / "bkabem_core"
-    h = hashlib.sha256(f"{sys.version}|{numpy.__version__}|{scipy.__version__}".encode())
+    below = set(PIPELINE[:PIPELINE.index(floor) + 1]) | {"embedded", "kernels"}
+    h = hashlib.sha256(f"{floor}|{sys.version}|{numpy.__version__}|{scipy.__version__}".encode())
     for f in sorted(root.rglob("*")):
-        if f.is_file() and f.suffix in (".py", ".toml", ".csv", ".json", ".c", ".h", ".so"):
-            h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes())
+        rel = f.relative_to(root)
+        if f.is_file() and f.suffix in (".py", ".toml", ".csv", ".json", ".c", ".h", ".so") and \
+                (len(rel.parts) == 1 or rel.parts[0] in below):
+            h.update(str(rel).encode() + b"\0" + f.read_bytes())
     return h.hexdigest()[:20]
+
+
+#: id -> (a weak reference to the object, the floor its content comes from) of the objects :func:`_cached` returned
+_FLOORS: dict[int, tuple[weakref.ref, str]] = {}
+
+
+def _floor_of(obj) -> str:
+    """The pipeline package up to which the code that made ``obj`` reaches (:data:`WHOLE_LIBRARY` when unknown)."""
+    kept = _FLOORS.get(id(obj))
+    return kept[1] if kept is not None and kept[0]() is obj else WHOLE_LIBRARY
+
+
+def _cached(name: str, make, floor: str = WHOLE_LIBRARY):
+    """The object ``make()`` returns, pickled once into ``build/test-cache/<floor>-<key>-<name>.pickle`` and
+    unpickled from there by every later caller, run or worker, while the key of ``floor`` (:func:`_library_key`:
+    the code up to that package made it) holds (under a lock: one maker, the others wait asleep). Pickles of the
+    same floor under another key are removed when a new one is written."""
+    LIBRARY_CACHE.mkdir(parents=True, exist_ok=True)
+    key = _library_key(floor)
+    path = LIBRARY_CACHE / f"{floor}-{key}-{name}.pickle"
+    with open(LIBRARY_CACHE / "cache.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            if not path.exists():
+                part = path.with_name(path.name + f".{os.getpid()}")
+                part.write_bytes(pickle.dumps(make(), protocol=pickle.HIGHEST_PROTOCOL))
+                os.replace(part, path)
+                for old in LIBRARY_CACHE.glob("*.pickle*"):
+                    if not old.name.startswith(f"{floor}-{key}-") and (
+                            old.name.startswith(f"{floor}-") or old.name.split("-")[0] not in PIPELINE):
+                        old.unlink(missing_ok=True)
+            obj = pickle.loads(path.read_bytes())
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+    for part in obj.values() if isinstance(obj, dict) else obj if isinstance(obj, list) else (obj,):
+        _FLOORS[id(part)] = (weakref.ref(part), floor)
+    return obj
 
 
 def _make_fault_library() -> dict:
@@ -89,28 +138,6 @@ def _make_fault_library() -> dict:
     return {k: pool.get(Case.load(f"motor_6010_{k}")) for k in ("healthy", "inner", "ball", "outer")}
 
 
-def _cached(name: str, make):
-    """The object ``make()`` returns, pickled once into ``build/test-cache/<library key>-<name>.pickle`` and
-    unpickled from there by every later caller, run or worker, while the library key holds (under a lock: one
-    maker, the others wait asleep). Pickles of other keys are removed when a new one is written."""
-    LIBRARY_CACHE.mkdir(parents=True, exist_ok=True)
-    key = _library_key()
-    path = LIBRARY_CACHE / f"{key}-{name}.pickle"
-    with open(LIBRARY_CACHE / "cache.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        try:
-            if not path.exists():
-                part = path.with_name(path.name + f".{os.getpid()}")
-                part.write_bytes(pickle.dumps(make(), protocol=pickle.HIGHEST_PROTOCOL))
-                os.replace(part, path)
-                for old in LIBRARY_CACHE.glob("*.pickle*"):
-                    if not old.name.startswith(key + "-"):
-                        old.unlink(missing_ok=True)
-            return pickle.loads(path.read_bytes())
-        finally:
-            fcntl.flock(lock, fcntl.LOCK_UN)
-
-
 @pytest.fixture(scope="session")
 def fault_library():
     """The fault library's models, one per kind (``motor_6010_<kind>``): kind -> BkaBem. They share one machine,
@@ -120,20 +147,46 @@ def fault_library():
     tier, any worker) unpickles it while nothing it is made from has changed. Every worker, the maker too, uses the
     unpickled copy: the same models, bit for bit, whichever run or worker made them (the pickle is the one the
     model helper process sends, bkabem_core.scenario.models)."""
-    return _cached("fault_library", _make_fault_library)
+    return _cached("fault_library", _make_fault_library, floor="scenario")
 
 
 @pytest.fixture(scope="session")
 def cached_model():
-    """``cached_model(case, like=None)``: ``BkaBem(case, like=like)``, made once for as long as the code does not
-    change (:func:`_cached`, keyed by the case's hash and ``like``'s). For a test that needs a model of a case as
-    its input; a test of how models are made calls BkaBem itself."""
+    """``cached_model(case, like=None)``: ``BkaBem(case, like=like)``, made once for as long as the code that makes
+    it does not change (:func:`_cached`, keyed by the case's hash and ``like``'s): the packages up to ``solve``, or
+    up to those that made ``like`` (a fault-library model: ``scenario``; one of unknown making: all of them). For
+    a test that needs a model of a case as its input; a test of how models are made calls BkaBem itself."""
     from bkabem_core.solve.harmonic import BkaBem
 
     def get(case, like=None):
         like_hash = "" if like is None else like.case.case_hash
         name = hashlib.sha256(f"{case.name}|{case.source}|{case.case_hash}|{like_hash}".encode()).hexdigest()[:20]
-        return _cached(f"model-{name}", lambda: BkaBem(case, like=like))
+        floor = "solve" if like is None else max("solve", _floor_of(like), key=PIPELINE.index)
+        return _cached(f"model-{name}", lambda: BkaBem(case, like=like), floor=floor)
+
+    return get
+
+
+@pytest.fixture(scope="session")
+def cached_pool():
+    """``cached_pool(*scenarios)``: a scenario's model pool (bkabem_core.scenario.models) already holding the model
+    of every state of ``scenarios``, made by one pool in that order (each like the one before, as a run makes
+    them), once for as long as the code up to ``scenario`` does not change (:func:`_cached`). For a test of what a
+    run does with its models; a test of how a pool makes them uses a ModelPool of its own."""
+    from bkabem_core.scenario.models import ModelPool
+
+    def get(*scenarios, size: int = 64) -> ModelPool:
+        cases = [state.case for sc in scenarios for state in sc.states]
+        name = hashlib.sha256("|".join(c.case_hash for c in cases).encode()).hexdigest()[:20]
+
+        def make():
+            pool = ModelPool(size=len(cases))
+            return [pool.get(c) for c in cases]
+
+        pool = ModelPool(size=size)
+        for model in _cached(f"pool-{name}", make, floor="scenario"):
+            pool.put(model)
+        return pool
 
     return get
 

@@ -137,13 +137,13 @@ def test_union_of_line_sets_keeps_speed_powers_apart():
 REF = Path(__file__).resolve().parents[1] / "fixtures" / "outer_race_main_a6a1bf7.npz"
 
 
-def test_identity_with_the_outer_race_results_of_main():
+def test_identity_with_the_outer_race_results_of_main(model):
     """The embedded case through the new line machinery reproduces main's BKA-BEM (commit a6a1bf7, before the
     fault library): same orders, the same excitation bit for bit, the same response at three speeds to the
     round-off of the reduced model's factorisation (the basis made plane by plane and the line pencils in their
     real form, issue 12: 1e-10 of each channel's largest; the reduced model itself is 1e-6 from the full FE)."""
     ref = np.load(REF)
-    m = BkaBem(Case.load())
+    m = model                                   # BkaBem(Case.load()), made once (tests/conftest.py)
     assert np.array_equal(m.orders, ref["orders"]) and m.is_order_set
     # the same excitation to the Newton tolerance of its path (1e-15 m, excitation.path): numpy's sums and linear
     # algebra differ from release to release in the last bits, and the iteration stops at another point within it
@@ -353,13 +353,13 @@ def test_set_model_swaps_between_any_line_sets(models):
     assert spec[b - 2:b + 3].max() == pytest.approx(a[j], rel=0.02)
 
 
-def test_misalignment_and_electrical_lines():
+def test_misalignment_and_electrical_lines(cached_model):
     """2x misalignment at the coupling node and the 2 x line frequency magnetic pull on the core: their lines,
     the electrical one at 100 Hz whatever the speed (solved per speed: no fixed pencil), both against a dense
     solve of the full FE with the forces written here."""
     case = Case.load("motor_6010_healthy").with_overrides({"baseline.misalignment_force_n": 40.0,
                                                            "baseline.electrical_force_n": 25.0})
-    m = BkaBem(case)
+    m = cached_model(case)
     keys = m.lines.keys()
     i2, ie = keys.index((2, 0, 0, 0, 0, 0)), keys.index((0, 0, 0, 0, 0, 2))
     rot = m.rotor
@@ -393,7 +393,7 @@ def test_misalignment_and_electrical_lines():
     assert spec[b - 2:b + 3].max() == pytest.approx(abs(ls[1]["amplitude"][ie, 0]), rel=0.02)
 
 
-def test_like_reuses_the_machine_for_a_growing_defect(models):
+def test_like_reuses_the_machine_for_a_growing_defect(models, cached_model):
     """A deeper inner-race dent (a scenario's growth step) built ``like=`` the existing model: the FE, basis and
     the decompositions of the lines both share are reused (new lines, if any, decomposed), and the spectrum is the one
     of a model built from scratch."""
@@ -403,7 +403,7 @@ def test_like_reuses_the_machine_for_a_growing_defect(models):
     t0 = time.perf_counter()
     grown = BkaBem(case, like=base)
     t_like = time.perf_counter() - t0
-    fresh = BkaBem(case)
+    fresh = cached_model(case)                  # BkaBem(case), made once
     assert grown._basis is base._basis
     assert grown.lines.keys() == fresh.lines.keys()
     x, y = grown.response([23.0])[0], fresh.response([23.0])[0]
@@ -413,10 +413,10 @@ def test_like_reuses_the_machine_for_a_growing_defect(models):
     assert t_like < fresh.preparation_time_s["total"]
 
 
-def test_line_modes_extended_reuses_and_adds():
+def test_line_modes_extended_reuses_and_adds(model):
     from bkabem_core.fe.modal import LineModes
 
-    basis = BkaBem(Case.load()).basis
+    basis = model.basis
     lm = LineModes(basis, np.array([1.0, 2.5, 7.0]))
     ext = lm.extended(np.array([7.0, 0.43, 1.0]))
     ref = LineModes(basis, np.array([7.0, 0.43, 1.0]))

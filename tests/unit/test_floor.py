@@ -16,7 +16,6 @@ from scipy import signal
 
 from bkabem_core.model.case import Case
 from bkabem_core.model.vocabulary import DIRECTIONS, LOCATIONS
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth.synthesizer import Synthesizer
 
 FS = 51200.0
@@ -244,7 +243,7 @@ def test_the_frames_kernels_equal_their_numpy_fallbacks(healthy, monkeypatch):
     assert scale[2] == 1.0 and not q[:, :, 2].any() and np.abs(q[:, :, :2]).max() == 32767
 
 
-def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last(monkeypatch):
+def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last(monkeypatch, cached_model):
     """The floor transfer (4-8 MB, ~80-150 ms) depends on the machine's standstill structure, not on its defects:
     the healthy and the inner-race model of one machine get the very same transfer (the second one makes none), a
     machine of another structure its own; the process keeps a structure's transfers only while one of its models
@@ -255,9 +254,9 @@ def test_the_shared_transfer_serves_a_machines_models_and_goes_with_the_last(mon
 
     kw = dict(sample_rate_hz=20480.0, chunk_s=0.1, seed=3, features=False, broadband_floor=True,
               quantities=["acceleration"])                  # a rate no other test's transfer has
-    healthy, inner = BkaBem(Case.load("motor_6010_healthy")), BkaBem(Case.load("motor_6010_inner"))
+    healthy, inner = cached_model(Case.load("motor_6010_healthy")), cached_model(Case.load("motor_6010_inner"))
     machine = Case.load("electric_motor_6010").with_overrides({"baseline.broadband_force_n_per_sqrt_hz": 0.01})
-    other, other2 = BkaBem(machine), BkaBem(machine)
+    other, other2 = cached_model(machine), cached_model(machine)        # two objects of one structure
     key, okey = FloorTransfer.structure_key(healthy), FloorTransfer.structure_key(other)
     assert FloorTransfer.structure_key(inner) == key != okey == FloorTransfer.structure_key(other2)
     made = []

@@ -150,7 +150,7 @@ def test_spectrum_fields_and_units(model):
     assert set(d["fault_frequencies_hz"]) == {"ftf", "bpfo", "bpfi", "bsf"}
 
 
-def test_response_scales_with_dent_depth_until_the_ball_loses_contact(case, model):
+def test_response_scales_with_dent_depth_until_the_ball_loses_contact(case, model, cached_model):
     """A dent shallower than the ball's Hertz deflection (~6 um under the DE load) lowers the response; a deeper one
     unloads the ball completely, so 20 um and 50 um give nearly the same low orders (the entry ramp still differs).
     A model made `like` another of the same FE reuses its modal basis and line modes: the same numbers as a fresh
@@ -160,7 +160,7 @@ def test_response_scales_with_dent_depth_until_the_ball_loses_contact(case, mode
     shallow = BkaBem(shallow_case, like=model)
     t_like = time.perf_counter() - t0
     assert shallow.basis is model.basis
-    fresh = BkaBem(shallow_case)
+    fresh = cached_model(shallow_case)
     ref = fresh.spectrum(25.0).displacement
     np.testing.assert_allclose(shallow.spectrum(25.0).displacement, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
     assert t_like < 0.5 * fresh.preparation_time_s["total"]

@@ -56,18 +56,18 @@ def test_a_basis_without_planes_takes_the_complex_form(model):
         assert np.abs(a - b).max() <= 1e-8 * np.abs(b).max()
 
 
-def test_a_model_made_like_another_with_a_supply_line_reuses_the_speed_locked_line_modes():
+def test_a_model_made_like_another_with_a_supply_line_reuses_the_speed_locked_line_modes(cached_model):
     """A supply line (``electrical_harmonics``) has a fixed frequency and no line mode; a model made like one whose
     line modes exist takes the speed-locked lines only, and its spectrum is the one of a model made from scratch."""
     from bkabem_core.model.case import Case
     from bkabem_core.solve.harmonic import BkaBem
 
     extra = {"baseline.electrical_harmonics": [6.0], "baseline.electrical_harmonic_forces_n": [5.0]}
-    healthy = BkaBem(Case.load("motor_6010_healthy").with_overrides(extra))
+    healthy = cached_model(Case.load("motor_6010_healthy").with_overrides(extra))
     assert healthy.line_modes.multipliers.size < len(healthy.multipliers)      # the supply line has none
     faulty = Case.load("motor_6010_inner").with_overrides(extra)
     like = BkaBem(faulty, like=healthy)
-    fresh = BkaBem(faulty)
+    fresh = cached_model(faulty)
     a, b = like.spectrum(20.0), fresh.spectrum(20.0)
     np.testing.assert_allclose(a.frequency_hz, b.frequency_hz)
     scale = np.max(np.abs(b.displacement))

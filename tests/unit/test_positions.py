@@ -74,7 +74,7 @@ def test_each_position_takes_its_catalogue_bearing(two):
     assert not two.same_bearings and two.bearing_damping_n_s_m("nde") == 550.0
 
 
-def test_a_schema_3_file_loads_to_the_same_numbers():
+def test_a_schema_3_file_loads_to_the_same_numbers(cached_model):
     """The v3 file of the embedded machine (one [bearing] for both positions) migrates to both positions with every
     key: the same bearings, the same identity, and the same lines and spectra, bit for bit."""
     old, new = Case.load(FIXTURES / "electric_motor_6010_v3.toml"), Case.load()
@@ -83,7 +83,7 @@ def test_a_schema_3_file_loads_to_the_same_numbers():
         assert old.bearing_geometry(b) == new.bearing_geometry(b)
         assert old.bearing_damping_n_s_m(b) == new.bearing_damping_n_s_m(b)
     assert old.case_hash == new.case_hash
-    a, b = BkaBem(old), BkaBem(new)
+    a, b = cached_model(old), cached_model(new)
     assert a.phases.shared and not a.lines.coefficients[:, 3:5].any()
     for name in ("coefficients", "amplitude", "dc", "multipliers"):
         assert np.array_equal(getattr(a.lines, name), getattr(b.lines, name)), name

@@ -44,10 +44,8 @@ def _with(case: Case, load_n: float | None, **excitation) -> Case:
     return Case.from_dict(raw, "test")
 
 
-def test_the_test_bearing_has_mfpts_fault_frequencies(rig):
-    from bkabem_core.solve.harmonic import BkaBem
-
-    mult = BkaBem(rig).bearing_multipliers["de"]
+def test_the_test_bearing_has_mfpts_fault_frequencies(rig, cached_model):
+    mult = cached_model(rig).bearing_multipliers["de"]
     for k, hz in MFPT_AT_25_HZ.items():
         assert abs(25.0 * getattr(mult, k) / hz - 1.0) < 0.005, (k, 25.0 * getattr(mult, k), hz)   # 0.5 %
     assert rig.applied_radial_load_n("de") == pytest.approx(270 * LBF_N, rel=1e-3)      # the baseline records' load

@@ -17,7 +17,6 @@ from scenario_files import parse as _toml
 
 from bkabem_core.fe.machine import Machine
 from bkabem_core.model.case import Case
-from bkabem_core.scenario.models import ModelPool
 from bkabem_core.scenario.run import InlineModels, ScenarioClock, ScenarioDriver, ScenarioRun
 from bkabem_core.scenario.timeline import MAX_STATES, Scenario, ScenarioError, embedded_scenarios
 from bkabem_core.synth.synthesizer import Synthesizer
@@ -35,6 +34,12 @@ GROWTH = scenario_toml(
                     depth_m=[20e-6, 40e-6])])
 
 
+#: an inner-race dent appearing in the NDE bearing at 0.4 s, at a constant speed
+INNER = scenario_toml("test_growth", duration_s=6.0, size_step=0.25, labels={"purpose": "test"},
+                      speed=([0.0, 3.0, 6.0], [25.0, 25.0, 25.0]),
+                      defects=[defect("nde_inner", "nde", "inner", time_s=[0.4], length_m=[1.0e-3], depth_m=[30e-6])])
+
+
 # --------------------------------------------------------------------------- fixtures
 @pytest.fixture(scope="module")
 def growth():
@@ -42,8 +47,9 @@ def growth():
 
 
 @pytest.fixture(scope="module")
-def pool():
-    return ModelPool(size=64)
+def pool(growth, cached_pool):
+    """A pool holding the models of every state of the scenarios run here (made once: tests/conftest.py)."""
+    return cached_pool(growth, Scenario.from_toml(INNER, "inner.toml"))
 
 
 @pytest.fixture(scope="module")
@@ -253,11 +259,7 @@ def test_at_constant_speed_the_change_is_exactly_a_blend_of_the_two_streams(pool
 def test_continuity_when_an_inner_race_dent_is_added(pool):
     """An inner-race dent (another line set: BPFI with shaft-order sidebands, ~350 lines) appears in the NDE bearing:
     the same continuity as for a growing dent (at a constant speed: exactly the blend of the two streams)."""
-    text = scenario_toml("test_growth", duration_s=6.0, size_step=0.25, labels={"purpose": "test"},
-                         speed=([0.0, 3.0, 6.0], [25.0, 25.0, 25.0]),
-                         defects=[defect("nde_inner", "nde", "inner", time_s=[0.4], length_m=[1.0e-3],
-                                         depth_m=[30e-6])])
-    sc = Scenario.from_toml(text, "inner.toml")
+    sc = Scenario.from_toml(INNER, "inner.toml")
     opts = dict(slip=0.01, seed=5, band_limit="taper", features=False)
     run = ScenarioRun(sc, sample_rate_hz=FS, chunk_s=CHUNK, pool=pool, **opts)
     got = [(np.array(ch.samples, dtype=np.float64), gt) for ch, gt in run.chunks(0.8)]

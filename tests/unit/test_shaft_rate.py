@@ -21,7 +21,6 @@ from bkabem_core.excitation.baseline import baseline_forces
 from bkabem_core.excitation.quasi_static import quasi_static_excitation
 from bkabem_core.fe.machine import Machine
 from bkabem_core.model.case import Case, CaseError
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth.synthesizer import Synthesizer
 
 COUPLING_N = 30.0
@@ -193,14 +192,14 @@ def test_coupling_force_puts_1x_into_the_squared_envelope(coupled, fault_library
     assert with_force > 20.0, with_force
 
 
-def test_zero_coupling_force_is_the_case_without_the_key(fault_library):
+def test_zero_coupling_force_is_the_case_without_the_key(fault_library, cached_model):
     """Backward compatibility: the new keys at 0 (and no electrical harmonics) give the same lines and the same
     spectrum, bit for bit, as a case without them."""
     plain = fault_library["outer"]
     case = plain.case.with_overrides({"baseline.coupling_force_n": 0.0, "baseline.coupling_phase_deg": 0.0,
                                       "baseline.looseness_force_n": 0.0, "baseline.electrical_harmonics": [],
                                       "baseline.electrical_harmonic_forces_n": []})
-    zero = BkaBem(case)
+    zero = cached_model(case)
     assert zero.lines.keys() == plain.lines.keys()
     speeds = [9.0, 25.0, 41.0]
     assert np.array_equal(zero.response(speeds), plain.response(speeds))

@@ -13,7 +13,6 @@ import pytest
 
 from bkabem_core.fe.machine import Machine
 from bkabem_core.model.case import Case, CaseError
-from bkabem_core.solve.harmonic import BkaBem
 from bkabem_core.synth.lines import LineSelection
 from bkabem_core.synth.profile import SynthError
 from bkabem_core.synth.strikes import StrikeSpread, load_loss, strike_gain, strike_key
@@ -185,7 +184,7 @@ def test_the_ground_truth_says_how_the_strikes_were_drawn(outer):
 
 
 # --------------------------------------------------------------------------- the case key
-def test_the_case_key_is_checked():
+def test_the_case_key_is_checked(cached_model):
     outer = Case.load("motor_6010_outer")
     assert outer.defects()[0].own == (("strike_spread", 1.0), ("roughness_db", 15.0))     # the library's: rougher
     assert outer.with_overrides({"defects.0.strike_spread": 0.5}).defects()[0].own == (("strike_spread", 0.5),
@@ -199,7 +198,7 @@ def test_the_case_key_is_checked():
     with pytest.raises(CaseError, match="only for race = 'outer' or 'inner'"):
         Case.from_dict(raw)
     with pytest.raises(SynthError, match="strikes"):
-        Synthesizer(BkaBem(outer), FS, strikes="yes")
+        Synthesizer(cached_model(outer), FS, strikes="yes")
 
 
 def test_a_data_set_varies_the_spread():
