@@ -8,8 +8,10 @@ help          ``bkabem --help``: what every command pays before it parses its ar
 import        ``python -c "from bkabem_core import Case, BkaBem, Synthesizer"``: the library's main names loaded
 excitation    ``bkabem excitation --json``: the embedded case's quasi-static excitation, end to end
 spectrum      ``bkabem spectrum --speed-hz 25 --json``: the model prepared and one spectrum, end to end
-unit tier     ``--unit-tier``: ``pytest -q -n auto --maxprocesses=4 --dist worksteal tests/unit`` once, as ``make unit``
-              (no processes, no DDS), with its pass / fail counts
+unit tier     ``--unit-tier``: ``pytest -q -n auto --maxprocesses=4 --dist worksteal tests/unit`` as ``make unit``
+              (no processes, no DDS), with its pass / fail counts, twice: with an empty model cache (the tests
+              make the fault library and the models they take as input: the run after a change to the physics,
+              as on a fresh clone) and then with that cache made (the run after any change above ``solve``)
 suite         ``--suite``: the three pytest runs of ``make test`` once (the unit tier, the integration tier but
               its ``serial`` tests on the same workers, then those alone), their wall times summed, with their counts
 
@@ -56,12 +58,13 @@ def timed(cmd: list[str], cwd: str, check_json: bool = False) -> float:
 UNIT_XDIST = ("-n", "auto", "--maxprocesses=4", "--dist", "worksteal")
 
 
-def pytest_run(cwd: Path, *paths: str, options: tuple = ()) -> dict:
-    """One run of pytest over ``paths`` (all tests if none) with ``options``: wall time and the counts pytest
-    reports."""
+def pytest_run(cwd: Path, *paths: str, options: tuple = (), env: dict | None = None) -> dict:
+    """One run of pytest over ``paths`` (all tests if none) with ``options`` and the variables ``env`` added:
+    wall time and the counts pytest reports."""
     t0 = time.perf_counter()
     r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *options, *paths], cwd=cwd,
-                       env=dict(os.environ, OPENBLAS_NUM_THREADS="1"), capture_output=True, text=True, timeout=7200)
+                       env=dict(os.environ, OPENBLAS_NUM_THREADS="1", **(env or {})), capture_output=True, text=True,
+                       timeout=7200)
     wall = time.perf_counter() - t0
     tail = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else ""
     counts = {k: int(n) for n, k in re.findall(r"(\d+) (passed|failed|errors?|skipped|deselected)", tail)}
@@ -110,10 +113,15 @@ def main(argv=None) -> int:
             res[name] = {"median_s": statistics.median(ts), "min_s": min(ts), "runs": len(ts)}
             print(f"{name:11s} median {statistics.median(ts):6.3f} s  (min {min(ts):.3f}, {len(ts)} runs)",
                   flush=True)
-    for key, wanted, plan in (("unit_tier", args.unit_tier, SUITE_RUNS[:1]), ("suite", args.suite, SUITE_RUNS)):
-        if wanted:
-            res[key] = u = pytest_runs(ROOT, plan)
-            print(f"{key:10s} {u['wall_s']:6.1f} s  exit {u['exit_code']}  {u['summary']}", flush=True)
+    if args.unit_tier:
+        with tempfile.TemporaryDirectory(prefix="bkabem_test_cache_") as cache:
+            for key in ("unit_tier_cold", "unit_tier"):           # models made, then taken from the cache
+                paths, options = SUITE_RUNS[0]
+                res[key] = u = pytest_run(ROOT, *paths, options=options, env={"BKABEM_TEST_CACHE": cache})
+                print(f"{key:14s} {u['wall_s']:6.1f} s  exit {u['exit_code']}  {u['summary']}", flush=True)
+    if args.suite:
+        res["suite"] = u = pytest_runs(ROOT, SUITE_RUNS)
+        print(f"suite      {u['wall_s']:6.1f} s  exit {u['exit_code']}  {u['summary']}", flush=True)
     res["load"].append(os.getloadavg()[0])
     if args.json:
         Path(args.json).write_text(json.dumps(res, indent=1))

@@ -60,8 +60,10 @@ def four_dof_excitation(machine):
 
 
 #: Where the fault library and the cached models are kept between runs, under a key of everything they are made
-#: from (:func:`_library_key`)
-LIBRARY_CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache"
+#: from (:func:`_library_key`): ``build/test-cache``, or the folder ``BKABEM_TEST_CACHE`` names (bench/bench_startup.py
+#: times the unit tier with an empty one)
+LIBRARY_CACHE = Path(os.environ.get("BKABEM_TEST_CACHE") or
+                     Path(__file__).resolve().parents[1] / "build" / "test-cache")
 
 #: What a cached object's content can come from, for an object whose maker is not known: all of bkabem_core
 WHOLE_LIBRARY = PIPELINE[-1]
@@ -123,8 +125,9 @@ def _cached(name: str, make, floor: str = WHOLE_LIBRARY):
             obj = pickle.loads(path.read_bytes())
         finally:
             fcntl.flock(lock, fcntl.LOCK_UN)
-    for part in obj.values() if isinstance(obj, dict) else obj if isinstance(obj, list) else (obj,):
-        _FLOORS[id(part)] = (weakref.ref(part), floor)
+    for part in obj.values() if isinstance(obj, dict) else obj if isinstance(obj, (list, tuple)) else (obj,):
+        if hasattr(type(part), "__weakref__"):                     # (the models; what a model may be made like)
+            _FLOORS[id(part)] = (weakref.ref(part), floor)
     return obj
 
 
@@ -187,6 +190,33 @@ def cached_pool():
         for model in _cached(f"pool-{name}", make, floor="scenario"):
             pool.put(model)
         return pool
+
+    return get
+
+
+@pytest.fixture(scope="session")
+def kind_validation():
+    """``kind_validation(kind)``: the TDSM of the fault library's ``kind`` machine (``motor_6010_<kind>``, its
+    lines to 50 x BPFO, which the reference's record resolves; no machine baseline) at 30 Hz, 0.3 s recorded after
+    0.5 s of settling, fitted at the lines and compared with plain BKA-BEM and the improved method
+    (bkabem_core.reference.validation.validate_lines): (plain model, improved method, LineValidation). Made once
+    for as long as the code up to ``reference`` does not change (:func:`_cached`): tests/integration/
+    test_faults_tdsm.py holds the plain method to it, tests/integration/test_hill.py the improved one."""
+    from bkabem_core.model.case import Case
+    from bkabem_core.reference.validation import validate_lines
+    from bkabem_core.solve.harmonic import BkaBem
+    from bkabem_core.solve.improved import HillCorrection
+
+    def get(kind: str):
+        case = Case.load(f"motor_6010_{kind}").with_overrides({"excitation.max_order": 50})
+
+        def make():
+            plain = BkaBem(case, baseline=False)
+            improved = HillCorrection(plain)
+            return plain, improved, validate_lines(case, 30.0, duration_s=0.3, settle_s=0.5, plain=plain,
+                                                   improved=improved)
+
+        return _cached(f"kind-validation-{kind}", make, floor="reference")
 
     return get
 

@@ -115,17 +115,14 @@ def test_auto_picks_the_method_and_orders_refuses_other_sets():
 
 
 @pytest.mark.parametrize("kind", ["inner", "ball"])
-def test_improved_method_agrees_with_the_tdsm_for_every_kind(kind):
+def test_improved_method_agrees_with_the_tdsm_for_every_kind(kind_validation, kind):
     """30 Hz, the TDSM record (0.5 s settled, 0.3 s) fitted at the line frequencies: the improved method's five
     largest lines of every location and direction within 0.5 dB, displacement and acceleration, and closer than
     the plain method's worst (measured, 2 s settled: inner <= 0.17 dB against plain 1.9 dB; ball <= 0.12 dB
-    against 3.1 dB). The lattice is converged: twice its points change the lines by < 0.02 dB."""
-    from bkabem_core.reference.validation import validate_lines
-
-    case = Case.load(f"motor_6010_{kind}").with_overrides({"excitation.max_order": 50})   # the TDSM-validated set
-    model = BkaBem(case, baseline=False)                                                    # (test_faults_tdsm.py)
-    hill = HillCorrection(model)
-    r = validate_lines(case, 30.0, duration_s=0.3, settle_s=0.5, plain=model, improved=hill)
+    against 3.1 dB). The lattice is converged: twice its points change the lines by < 0.02 dB. The TDSM run, its
+    lines to 50 x BPFO, is the one test_faults_tdsm.py holds the plain method to (``kind_validation``,
+    tests/conftest.py)."""
+    model, hill, r = kind_validation(kind)
     for q in ("displacement", "acceleration"):
         imp, plain = r.max_error_db(q, "improved"), r.max_error_db(q)
         assert imp.max() < 0.5, (q, imp)
