@@ -577,6 +577,37 @@ class LineValidation:
                     for q, sfx in (("displacement", ""), ("acceleration", "_acceleration"))})}
 
 
+#: Largest condition number of the Gram matrix ``A^T A`` for which :func:`_fit_lines` solves the normal equations:
+#: their solution is then within ~1e-8 of the least-squares one (relative), far below a line's error in dB
+GRAM_CONDITION_MAX = 1e8
+
+
+def _fit_lines(a: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Least-squares coefficients ``c`` of ``a c ~ y`` for a record ``y`` (N, C) and the columns ``a`` (N, P) of the
+    lines' cosines and sines.
+
+    When the record resolves every line (the Gram matrix ``a^T a`` is well conditioned, at most
+    :data:`GRAM_CONDITION_MAX`: lines further apart than ~1 / duration) the normal equations are solved by Cholesky;
+    forming ``a^T a`` is one matrix product, several times faster than a factorisation of ``a`` and with the same
+    solution to ~1e-8 relative. Otherwise (lines closer than the record resolves) numpy's SVD least squares gives
+    the minimum-norm split of the lines it cannot tell apart, as before.
+    """
+    import scipy.linalg
+    from scipy.linalg import lapack
+
+    gram = a.T @ a
+    try:
+        factor = scipy.linalg.cho_factor(gram, check_finite=False)
+    except np.linalg.LinAlgError:                       # not positive definite: lines the record cannot tell apart
+        factor = None
+    if factor is not None:
+        rcond, info = lapack.dpocon(factor[0], np.abs(gram).sum(axis=0).max(), uplo="L" if factor[1] else "U")
+        if info == 0 and rcond * GRAM_CONDITION_MAX >= 1.0:
+            return scipy.linalg.cho_solve(factor, a.T @ y, check_finite=False)
+    coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+    return coef
+
+
 def validate_lines(case: Case, speed_hz: float = DEFAULT_SPEED_HZ, duration_s: float = 0.3, settle_s: float = 0.5,
                    decimate: int = 4, plain: BkaBem | None = None, progress: bool = False,
                    improved: HillCorrection | None = None) -> LineValidation:
@@ -609,7 +640,7 @@ def validate_lines(case: Case, speed_hz: float = DEFAULT_SPEED_HZ, duration_s: f
     f = model.frequency_hz(speed_hz)
     ph = 2 * np.pi * np.outer(t, f)
     a = np.hstack([np.ones((t.size, 1)), np.cos(ph), -np.sin(ph)])
-    coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+    coef = _fit_lines(a, y)
     amp = (coef[1:1 + f.size] + 1j * coef[1 + f.size:]).reshape(f.size, len(LOCATIONS), len(DIRECTIONS))
     resid = y - a @ coef
     dyn = y - y.mean(axis=0)

@@ -149,11 +149,12 @@ def _verdict(model: BkaBem, floor: bool = True) -> dict:
 
 
 @pytest.fixture(scope="module")
-def machines(cached_model):
-    """The outer- and inner-race machines with their lines to the band limit (max_order = 0: every line above
-    the threshold; the FE is converged to half the case's top sample rate)."""
-    return {kind: cached_model(Case.load(f"motor_6010_{kind}").with_overrides({"excitation.max_order": 0}))
-            for kind in ("outer", "inner")}
+def machines(fault_library):
+    """The fault library's outer- and inner-race machines: their lines to the band limit (max_order = 0: every
+    line above the threshold; the FE is converged to half the case's top sample rate)."""
+    out = {kind: fault_library[kind] for kind in ("outer", "inner")}
+    assert all(m.case.raw["excitation"]["max_order"] == 0 for m in out.values())
+    return out
 
 
 @pytest.mark.parametrize("kind", ["outer", "inner"])

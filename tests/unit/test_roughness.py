@@ -30,9 +30,10 @@ def _sound(case: Case) -> Case:
 
 
 @pytest.fixture(scope="module")
-def ball(cached_model):
-    """The fault library's ball defect without the key: a bearing as rough as the case's floor."""
-    return cached_model(_sound(Case.load("motor_6010_ball")))
+def ball(cached_model, fault_library):
+    """The fault library's ball defect without the key: a bearing as rough as the case's floor (made like the
+    library's: the same lines)."""
+    return cached_model(_sound(Case.load("motor_6010_ball")), like=fault_library["ball"])
 
 
 def _synth(model, seed=7):
