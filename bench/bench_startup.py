@@ -114,9 +114,9 @@ def main(argv=None) -> int:
             print(f"{name:11s} median {statistics.median(ts):6.3f} s  (min {min(ts):.3f}, {len(ts)} runs)",
                   flush=True)
     if args.unit_tier:
+        paths, options = SUITE_RUNS[0]
         with tempfile.TemporaryDirectory(prefix="bkabem_test_cache_") as cache:
             for key in ("unit_tier_cold", "unit_tier"):           # models made, then taken from the cache
-                paths, options = SUITE_RUNS[0]
                 res[key] = u = pytest_run(ROOT, *paths, options=options, env={"BKABEM_TEST_CACHE": cache})
                 print(f"{key:14s} {u['wall_s']:6.1f} s  exit {u['exit_code']}  {u['summary']}", flush=True)
     if args.suite:

@@ -592,18 +592,16 @@ def _fit_lines(a: np.ndarray, y: np.ndarray) -> np.ndarray:
     solution to ~1e-8 relative. Otherwise (lines closer than the record resolves) numpy's SVD least squares gives
     the minimum-norm split of the lines it cannot tell apart, as before.
     """
-    import scipy.linalg
-    from scipy.linalg import lapack
+    from scipy.linalg import cho_factor, cho_solve, lapack
 
     gram = a.T @ a
     try:
-        factor = scipy.linalg.cho_factor(gram, check_finite=False)
-    except np.linalg.LinAlgError:                       # not positive definite: lines the record cannot tell apart
-        factor = None
-    if factor is not None:
+        factor = cho_factor(gram, check_finite=False)
         rcond, info = lapack.dpocon(factor[0], np.abs(gram).sum(axis=0).max(), uplo="L" if factor[1] else "U")
-        if info == 0 and rcond * GRAM_CONDITION_MAX >= 1.0:
-            return scipy.linalg.cho_solve(factor, a.T @ y, check_finite=False)
+    except np.linalg.LinAlgError:                       # not positive definite: lines the record cannot tell apart
+        rcond, info = 0.0, 1
+    if info == 0 and rcond * GRAM_CONDITION_MAX >= 1.0:
+        return cho_solve(factor, a.T @ y, check_finite=False)
     coef, *_ = np.linalg.lstsq(a, y, rcond=None)
     return coef
 
